@@ -1,0 +1,19 @@
+"""Regenerate the committed starter-motor set: assets/motors/{train,test}/."""
+
+from __future__ import annotations
+
+from vprobot.motors import generate_motors
+from vprobot.paths import MOTORS_DIR
+
+# (split, count, seed); the paper's 100 motors are `--count 100 --seed 0`, so train is a prefix.
+SPLITS = [("train", 20, 0), ("test", 5, 1)]
+
+
+def main() -> None:
+    """Write every split, replacing files of the same name."""
+    for split, count, seed in SPLITS:
+        generate_motors(count, seed, MOTORS_DIR / split)
+
+
+if __name__ == "__main__":
+    main()

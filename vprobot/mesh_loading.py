@@ -1,0 +1,145 @@
+"""Load a user-supplied object mesh (STL / OBJ / PLY, ...) as a repaired, centred mesh in metres."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+# Anything outside this is almost surely in the wrong unit rather than a real inspection object.
+MIN_EXTENT_M = 0.01
+MAX_EXTENT_M = 5.0
+
+_FORMATS = "a mesh file trimesh can read (e.g. STL, OBJ, PLY)"
+
+
+@dataclass(frozen=True)
+class LoadedMesh:
+    """A mesh ready for the scene.
+
+    Attributes:
+        mesh: The repaired mesh in metres, its bounding box centred at the origin.
+        offset: What was subtracted: ``mesh.vertices == file_vertices * scale - offset``.
+        scale: Factor from file units to metres.
+        path: The source file.
+        mesh_hash: sha256 of the file bytes and the scale, to recognise the same object.
+        repairs: What repairing changed, plus a "warning: ..." entry if it is still open.
+    """
+
+    mesh: trimesh.Trimesh
+    offset: np.ndarray
+    scale: float
+    path: Path
+    mesh_hash: str
+    repairs: list[str]
+
+
+def _read_mesh(path: Path) -> trimesh.Trimesh:
+    try:
+        # process=False keeps the file as is, so the repairs below can report what they did.
+        loaded = trimesh.load(path, process=False)
+    except Exception as exc:
+        raise ValueError(f"cannot read {path} as a mesh ({exc}); expected {_FORMATS}") from exc
+    if isinstance(loaded, trimesh.Scene):
+        loaded = loaded.to_mesh()
+    if not isinstance(loaded, trimesh.Trimesh):
+        raise ValueError(
+            f"{path} holds a {type(loaded).__name__}, not a triangle mesh; expected {_FORMATS}"
+        )
+    return loaded
+
+
+def _repair(mesh: trimesh.Trimesh) -> list[str]:
+    """Fix what trimesh can in place and describe each change."""
+    repairs = []
+
+    def record(what: str, count: int) -> None:
+        if count:
+            repairs.append(f"{what}: {count}")
+
+    before = len(mesh.vertices)
+    mesh.merge_vertices()
+    record("merged duplicate vertices", before - len(mesh.vertices))
+    keep = mesh.nondegenerate_faces()
+    mesh.update_faces(keep)
+    record("removed degenerate faces", int((~keep).sum()))
+    before = len(mesh.faces)
+    mesh.update_faces(mesh.unique_faces())
+    record("removed duplicate faces", before - len(mesh.faces))
+    before = len(mesh.vertices)
+    mesh.remove_unreferenced_vertices()
+    record("removed unreferenced vertices", before - len(mesh.vertices))
+    if len(mesh.faces) and not mesh.is_watertight:
+        before = len(mesh.faces)
+        trimesh.repair.fill_holes(mesh)
+        record("filled holes, faces added", len(mesh.faces) - before)
+    if len(mesh.faces):
+        before = mesh.faces.copy()
+        trimesh.repair.fix_normals(mesh, multibody=True)
+        record("fixed winding / normals of faces", int((mesh.faces != before).any(axis=1).sum()))
+        if not mesh.is_watertight:
+            open_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
+            repairs.append(
+                f"warning: mesh is not watertight after repair ({open_edges} open edges);"
+                " ray casts work but volume and inside tests are unreliable"
+            )
+    return repairs
+
+
+def _unit_hint(extent: float, scale: float) -> str:
+    """Suggest the scale that brings an out-of-range extent to a plausible object size."""
+    if extent > MAX_EXTENT_M:
+        for unit, factor in (("millimetres", 1e-3), ("centimetres", 1e-2), ("inches", 0.0254)):
+            if 0.05 <= extent * factor <= 2.0:
+                return f"looks like {unit}: use scale={scale * factor:g}"
+    factor = 10.0 ** round(math.log10(0.2 / extent))
+    return (
+        f"set the scale option to convert the file units to metres, e.g. scale={scale * factor:g}"
+    )
+
+
+def load_mesh(path: str | Path, scale: float = 1.0) -> LoadedMesh:
+    """Load, repair, scale to metres and centre a mesh file.
+
+    Args:
+        path: STL, OBJ, PLY or any other mesh file trimesh reads; a scene is merged into one mesh.
+        scale: Factor from file units to metres, e.g. 0.001 for a file in millimetres.
+
+    Returns:
+        The loaded mesh with its offset, scale, hash and repair notes.
+
+    Raises:
+        FileNotFoundError: if the file does not exist.
+        ValueError: if scale is not a positive finite number, the file is unreadable or not a
+            mesh, has no faces, or its scaled extent is outside 0.01 .. 5 m.
+    """
+    path = Path(path)
+    if not (math.isfinite(scale) and scale > 0):
+        raise ValueError(f"scale for {path} must be a positive finite number, got {scale!r}")
+    if not path.is_file():
+        raise FileNotFoundError(f"mesh file not found: {path}; expected {_FORMATS}")
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"cannot read {path} ({exc}); expected {_FORMATS}") from exc
+    mesh = _read_mesh(path)
+    mesh.apply_scale(scale)
+    repairs = _repair(mesh)
+    if len(mesh.faces) == 0:
+        raise ValueError(f"{path} contains no (non-degenerate) faces; expected {_FORMATS}")
+
+    extent = float(mesh.extents.max())
+    if not MIN_EXTENT_M <= extent <= MAX_EXTENT_M:
+        raise ValueError(
+            f"{path}: largest side is {extent:.4g} m with scale={scale:g}, outside the allowed"
+            f" {MIN_EXTENT_M:g} .. {MAX_EXTENT_M:g} m; {_unit_hint(extent, scale)}"
+        )
+
+    offset = mesh.bounds.mean(axis=0)
+    mesh.apply_translation(-offset)
+    mesh_hash = hashlib.sha256(data + f"|scale={scale!r}".encode()).hexdigest()
+    return LoadedMesh(mesh, offset, float(scale), path, mesh_hash, repairs)

@@ -1,0 +1,6 @@
+"""Seeded, parametric synthetic starter motors (SPEC section 11)."""
+
+from vprobot.motors.generator import build_motor, generate_motors, motor_rng
+from vprobot.motors.parameters import MotorParameters, sample_parameters
+
+__all__ = ["MotorParameters", "build_motor", "generate_motors", "motor_rng", "sample_parameters"]
