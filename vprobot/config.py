@@ -1,0 +1,230 @@
+"""Typed configuration: YAML files in `configs/` validated into frozen dataclasses.
+
+Every section is a dataclass whose field names carry their units where they could be ambiguous
+(`_m` metres, `_deg` degrees, `_rad` radians, `_s` seconds). Loading is strict: an unknown key,
+a value of the wrong type or length, or a value outside its allowed set is a `ConfigError` that
+names the key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+from vprobot.paths import CONFIGS_DIR
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+class ConfigError(ValueError):
+    """A configuration file or mapping does not match the schema."""
+
+
+@dataclasses.dataclass(frozen=True)
+class CellConfig:
+    """The inspection cell: which robot, where its base is, where the motor sits.
+
+    Attributes:
+        robot: Robot folder name under `assets/robots/` (`ur5`, `ur10`).
+        robot_base_position_m: Position of the robot base in the world (a stand fills the gap
+            down to the floor).
+        robot_base_yaw_deg: Rotation of the robot base about the world z axis.
+        object_center_m: Where the centre of the motor's bounding box is placed (world frame).
+            The fixture plate is raised to meet the underside of whatever object is placed.
+    """
+
+    robot: str = "ur10"
+    robot_base_position_m: Vec3 = (0.0, 0.0, 0.5)
+    robot_base_yaw_deg: float = 0.0
+    object_center_m: Vec3 = (0.45, 0.0, 0.75)
+
+
+@dataclasses.dataclass(frozen=True)
+class SensorConfig:
+    """The 3D sensor (paper Table 4) and how it is mounted on the flange.
+
+    Attributes:
+        resolution: Rays along image x and y.
+        fov_deg: Full opening angles along image x and y.
+        near_m: Hits closer than this are dropped.
+        far_m: Hits farther than this are dropped.
+        working_distance_m: Optimal distance to the object's centre.
+        mount_position_m: Optical centre in the flange frame (`tool0`).
+        mount_quaternion_wxyz: Sensor frame orientation in the flange frame.
+    """
+
+    resolution: tuple[int, int] = (430, 300)
+    fov_deg: tuple[float, float] = (27.0, 25.0)
+    near_m: float = 0.30
+    far_m: float = 0.50
+    working_distance_m: float = 0.47
+    mount_position_m: Vec3 = (0.0, 0.0, 0.09)
+    mount_quaternion_wxyz: Quat = (1.0, 0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if min(self.resolution) < 1:
+            raise ConfigError(f"sensor.resolution must be positive, got {self.resolution}")
+        if not all(0.0 < angle < 180.0 for angle in self.fov_deg):
+            raise ConfigError(f"sensor.fov_deg must lie in (0, 180), got {self.fov_deg}")
+        if not 0.0 <= self.near_m < self.far_m:
+            raise ConfigError(
+                f"sensor needs 0 <= near_m < far_m, got near_m={self.near_m}, far_m={self.far_m}"
+            )
+
+
+@dataclasses.dataclass(frozen=True)
+class KinematicsConfig:
+    """Inverse kinematics, collision and path settings.
+
+    Attributes:
+        position_tolerance_m: IK converged when the sensor is this close to the target.
+        orientation_tolerance_deg: ... and its orientation (or viewing axis) this close.
+        max_iterations: Iterations of one IK attempt.
+        restarts: Extra IK attempts from other seeds when the warm start fails.
+        max_step_rad: Largest joint change of one IK iteration (a trust region).
+        damping: Levenberg-Marquardt damping of the IK least squares.
+        path_max_joint_step_rad: Joint-space paths are collision-checked at this resolution.
+        roll: `free` leaves the rotation about the optical axis to the IK; `fixed` demands it.
+        seed: Seed of the restart configurations (deterministic verdicts).
+    """
+
+    position_tolerance_m: float = 0.001
+    orientation_tolerance_deg: float = 0.5
+    max_iterations: int = 60
+    restarts: int = 4
+    max_step_rad: float = 0.5
+    damping: float = 1e-3
+    path_max_joint_step_rad: float = 0.05
+    roll: Literal["free", "fixed"] = "free"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        positive = {
+            "position_tolerance_m": self.position_tolerance_m,
+            "orientation_tolerance_deg": self.orientation_tolerance_deg,
+            "max_iterations": self.max_iterations,
+            "max_step_rad": self.max_step_rad,
+            "path_max_joint_step_rad": self.path_max_joint_step_rad,
+        }
+        for name, value in positive.items():
+            if not value > 0:
+                raise ConfigError(f"kinematics.{name} must be > 0, got {value}")
+        if self.restarts < 0 or self.damping < 0:
+            raise ConfigError(
+                f"kinematics.restarts and damping must be >= 0, got {self.restarts}, "
+                f"{self.damping}"
+            )
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """The whole vprobot configuration."""
+
+    cell: CellConfig = dataclasses.field(default_factory=CellConfig)
+    sensor: SensorConfig = dataclasses.field(default_factory=SensorConfig)
+    kinematics: KinematicsConfig = dataclasses.field(default_factory=KinematicsConfig)
+
+
+def _convert(value: Any, annotation: Any, key: str) -> Any:
+    """Validate `value` against a type annotation and convert it (lists become tuples)."""
+    origin = typing.get_origin(annotation)
+    if dataclasses.is_dataclass(annotation):
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{key} must be a mapping, got {value!r}")
+        return from_mapping(annotation, value, key)
+    if origin is Literal:
+        allowed = typing.get_args(annotation)
+        if value not in allowed:
+            raise ConfigError(f"{key} must be one of {list(allowed)}, got {value!r}")
+        return value
+    if origin is tuple:
+        item_types = typing.get_args(annotation)
+        if not isinstance(value, list | tuple) or len(value) != len(item_types):
+            raise ConfigError(f"{key} must be a list of {len(item_types)} values, got {value!r}")
+        return tuple(
+            _convert(item, item_type, f"{key}[{index}]")
+            for index, (item, item_type) in enumerate(zip(value, item_types, strict=True))
+        )
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in typing.get_args(annotation):
+            return None
+        (inner,) = [arg for arg in typing.get_args(annotation) if arg is not type(None)]
+        return _convert(value, inner, key)
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{key} must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{key} must be finite, got {value!r}")
+        return float(value)
+    if annotation is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{key} must be an integer, got {value!r}")
+        return value
+    if annotation is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{key} must be true or false, got {value!r}")
+        return value
+    if annotation is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{key} must be a string, got {value!r}")
+        return value
+    raise TypeError(f"unsupported annotation {annotation!r} for {key}")
+
+
+def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
+    """Build dataclass `cls` from a mapping, rejecting unknown keys.
+
+    Args:
+        cls: A dataclass type of this module.
+        data: Keys and values; missing keys take their defaults.
+        key: Dotted prefix for error messages.
+
+    Raises:
+        ConfigError: On unknown keys, wrong types or invalid values.
+    """
+    hints = typing.get_type_hints(cls)
+    fields = {field.name for field in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - fields)
+    if unknown:
+        where = f"section '{key}'" if key else "the top level"
+        raise ConfigError(
+            f"unknown key {unknown[0]!r} in {where}; allowed keys: {', '.join(sorted(fields))}"
+        )
+    prefix = f"{key}." if key else ""
+    values = {name: _convert(value, hints[name], prefix + name) for name, value in data.items()}
+    return cls(**values)
+
+
+def replace(config: Config, section: str, **changes: Any) -> Config:
+    """Return a copy of `config` with fields of one section changed (validated)."""
+    current = dataclasses.asdict(getattr(config, section))
+    current.update(changes)
+    return dataclasses.replace(config, **{section: from_mapping(type(getattr(config, section)),
+                                                                current, section)})
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Load a YAML config; `None` gives `configs/default.yaml`.
+
+    Raises:
+        FileNotFoundError: If the file does not exist.
+        ConfigError: If it does not match the schema.
+    """
+    path = Path(path) if path is not None else CONFIGS_DIR / "default.yaml"
+    if not path.is_file():
+        raise FileNotFoundError(f"config file not found: {path}")
+    data = yaml.safe_load(path.read_text()) or {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{path}: the top level must be a mapping of sections")
+    try:
+        return from_mapping(Config, data)
+    except ConfigError as error:
+        raise ConfigError(f"{path}: {error}") from None

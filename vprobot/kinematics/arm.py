@@ -1,0 +1,194 @@
+"""The robot arm of a cell: forward kinematics, reachability of views, collisions, travel."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Literal
+
+import numpy as np
+
+from vprobot.config import KinematicsConfig
+from vprobot.geometry import Pose
+from vprobot.kinematics.collision import CollisionChecker
+from vprobot.kinematics.forward import ForwardKinematics
+from vprobot.kinematics.ik import IKAttempt, IKSolver, SensorTarget, random_configuration
+from vprobot.kinematics.path import first_collision, joint_path
+from vprobot.kinematics.travel import (
+    TravelCost,
+    joint_path_length,
+    joint_time,
+    paper_travel,
+    polyline_length,
+)
+from vprobot.scene import Cell
+
+FailureReason = Literal["did_not_converge", "joint_limits", "collision", "path_collision"]
+FAILURE_REASONS: tuple[FailureReason, ...] = (
+    "did_not_converge", "joint_limits", "collision", "path_collision"
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class ReachResult:
+    """Whether and how the robot reaches a requested sensor pose from its current configuration.
+
+    Attributes:
+        reachable: IK converged within the joint limits to a collision-free configuration that a
+            collision-free joint-space path connects to the start.
+        q: The configuration reached; for a failure, the best attempt's final configuration
+            (never to be executed).
+        reason: None on success, otherwise the furthest stage a failing attempt got to:
+            `did_not_converge`, `joint_limits`, `collision` (at the goal) or `path_collision`.
+        iterations: IK iterations over all attempts.
+        attempts: IK attempts made (1 + restarts used).
+        position_error_m: Residual position error of the reported `q`.
+        orientation_error_deg: Residual orientation error of the reported `q`.
+        path: The collision-free joint-space path (n, dof) on success, else None.
+    """
+
+    reachable: bool
+    q: np.ndarray
+    reason: FailureReason | None
+    iterations: int
+    attempts: int
+    position_error_m: float
+    orientation_error_deg: float
+    path: np.ndarray | None = None
+
+
+class RobotArm:
+    """Kinematics of the cell's robot: FK, IK with restarts, collision and path checks, travel.
+
+    Args:
+        cell: The compiled cell.
+        settings: IK and path settings; the cell's config when omitted.
+    """
+
+    def __init__(self, cell: Cell, settings: KinematicsConfig | None = None):
+        self.cell = cell
+        self.settings = settings if settings is not None else cell.config.kinematics
+        self.joints = cell.joints
+        self.forward = ForwardKinematics(cell)
+        self.collisions = CollisionChecker(self.forward)
+        self.ik = IKSolver(cell, self.settings)
+        self.reach_radius_m = self._reach_radius()
+        self.shoulder_position = self.forward.data.xpos[cell.model.body("shoulder_link").id].copy()
+        self.restart_seeds = self._restart_seeds()
+        self._seed_azimuths = np.array([self._azimuth(self.fk(q).position)
+                                        for q in self.restart_seeds])
+
+    def _restart_seeds(self) -> list[np.ndarray]:
+        """Home first, then collision-free random configurations from the configured seed."""
+        rng = np.random.default_rng(self.settings.seed)
+        seeds = [self.joints.home.copy()]
+        while len(seeds) < self.settings.restarts:
+            q = random_configuration(rng, self.joints.lower, self.joints.upper)
+            if not self.collisions.in_collision(q):
+                seeds.append(q)
+        return seeds[: self.settings.restarts]
+
+    def _azimuth(self, point: np.ndarray) -> float:
+        """Angle of `point` about the base's vertical axis (the pan joint)."""
+        local = self.cell.robot_base.inverse().rotation @ (point - self.shoulder_position)
+        return float(np.arctan2(local[1], local[0]))
+
+    def _aimed_seeds(self, target_position: np.ndarray) -> np.ndarray:
+        """The restart seeds turned about the pan joint so that each faces the target."""
+        seeds = np.array(self.restart_seeds)
+        turn = self._azimuth(target_position) - self._seed_azimuths
+        seeds[:, 0] += np.angle(np.exp(1j * turn))
+        return np.clip(seeds, self.joints.lower, self.joints.upper)
+
+    def _reach_radius(self) -> float:
+        """Upper bound of the sensor's distance from the shoulder: the sum of the link offsets."""
+        model = self.cell.model
+        body = self.cell.sensor_body_id
+        shoulder = model.body("shoulder_link").id
+        radius = float(np.linalg.norm(model.site_pos[self.cell.sensor_site_id]))
+        while body != shoulder:
+            radius += float(np.linalg.norm(model.body_pos[body]))
+            body = model.body_parentid[body]
+        return radius
+
+    def place_object(self, rotation: np.ndarray) -> Pose:
+        """Place the object (and fixture) for collision checks; returns the object pose."""
+        return self.cell.place_object(self.forward.data, rotation)
+
+    def fk(self, q: np.ndarray) -> Pose:
+        """Sensor pose in the world at configuration `q`."""
+        return self.forward.sensor_pose(q)
+
+    def in_collision(self, q: np.ndarray) -> bool:
+        return self.collisions.in_collision(self.joints.check(q))
+
+    def path(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
+        """The sampled joint-space path between two configurations."""
+        return joint_path(self.joints.check(q_from, "q_from"), self.joints.check(q_to, "q_to"),
+                          self.settings.path_max_joint_step_rad)
+
+    def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
+        return first_collision(self.collisions, self.path(q_from, q_to)) is None
+
+    def reach(self, target: SensorTarget, q_from: np.ndarray) -> ReachResult:
+        """Find a feasible configuration for `target`, starting the IK from `q_from`.
+
+        The first attempt is warm-started from `q_from`, so the nearest branch (shortest travel)
+        wins; only if it fails are the restart seeds tried, up to `settings.restarts`.
+
+        Raises:
+            ValueError: If `q_from` is not a finite configuration of the right size.
+        """
+        q_from = self.joints.check(q_from, "q_from")
+        distance = np.linalg.norm(target.pose.position - self.shoulder_position)
+        if distance > self.reach_radius_m:
+            return ReachResult(False, q_from.copy(), "did_not_converge", 0, 0, float(distance),
+                               float("nan"))
+        failures: list[tuple[int, IKAttempt]] = []
+        iterations = 0
+        for attempt_index, seed in enumerate([q_from, *self._aimed_seeds(target.pose.position)]):
+            attempt = self.ik.solve(target, seed)
+            iterations += attempt.iterations
+            if not attempt.converged:
+                failures.append((0 if not attempt.at_joint_limit else 1, attempt))
+                continue
+            if not self.joints.within_limits(attempt.q) or self.collisions.in_collision(attempt.q):
+                failures.append((2, attempt))
+                continue
+            path = self.path(q_from, attempt.q)
+            if first_collision(self.collisions, path) is not None:
+                failures.append((3, attempt))
+                continue
+            return self._result(attempt, None, iterations, attempt_index + 1, path)
+        stage, attempt = max(failures, key=lambda item: item[0])
+        return self._result(attempt, FAILURE_REASONS[stage], iterations, len(failures), None)
+
+    @staticmethod
+    def _result(attempt: IKAttempt, reason: FailureReason | None, iterations: int,
+                attempts: int, path: np.ndarray | None) -> ReachResult:
+        return ReachResult(
+            reachable=reason is None,
+            q=attempt.q,
+            reason=reason,
+            iterations=iterations,
+            attempts=attempts,
+            position_error_m=attempt.position_error_m,
+            orientation_error_deg=float(np.rad2deg(attempt.orientation_error_rad)),
+            path=path,
+        )
+
+    def travel(self, q_from: np.ndarray, q_to: np.ndarray, center: np.ndarray) -> TravelCost:
+        """All travel costs of the joint-space move `q_from` -> `q_to`.
+
+        Args:
+            q_from: Start configuration.
+            q_to: End configuration.
+            center: Object centre for the paper's spherical approximation.
+        """
+        path = self.path(q_from, q_to)
+        positions = self.forward.sensor_positions(path)
+        return TravelCost(
+            joint_time=joint_time(path[0], path[-1], self.joints.velocity_limits),
+            joint_path=joint_path_length(path[0], path[-1]),
+            cartesian=polyline_length(positions),
+            paper=paper_travel(positions[0], positions[-1], np.asarray(center, dtype=float)),
+        )
