@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
-import itertools
 import shutil
 import tempfile
 import xml.etree.ElementTree as ET
@@ -48,7 +47,8 @@ HOME_QPOS = (0.0, -1.9, 1.9, -1.57, -1.57, 0.0)
 def example_robot_data_dir() -> Path:
     """Return the installed example-robot-data `ur_description` folder."""
     dist = importlib.metadata.distribution("example-robot-data")
-    path = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots/ur_description")))
+    relative = "cmeel.prefix/share/example-robot-data/robots/ur_description"
+    path = Path(str(dist.locate_file(relative)))
     if not path.is_dir():
         raise FileNotFoundError(f"example-robot-data's ur_description not found at {path}")
     return path

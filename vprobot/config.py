@@ -99,7 +99,7 @@ class KinematicsConfig:
     position_tolerance_m: float = 0.001
     orientation_tolerance_deg: float = 0.5
     max_iterations: int = 60
-    restarts: int = 4
+    restarts: int = 8
     max_step_rad: float = 0.5
     damping: float = 1e-3
     path_max_joint_step_rad: float = 0.05

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import mujoco
 import numpy as np
@@ -72,7 +73,8 @@ def rotation_angle(rotation_a: np.ndarray, rotation_b: np.ndarray) -> float:
 
 def axis_angle(axis_a: np.ndarray, axis_b: np.ndarray) -> float:
     """Angle (rad) between two unit vectors."""
-    return float(np.arccos(np.clip(np.dot(axis_a, axis_b), -1.0, 1.0)))
+    # Scalar math: this runs in every IK iteration, where numpy's per-call overhead shows.
+    return math.acos(max(-1.0, min(1.0, float(axis_a @ axis_b))))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -63,7 +63,8 @@ class Cell:
         spec = mujoco.MjSpec.from_file(str(scene_path(config.cell.robot)))
         base = spec.body("base_link")
         base.pos = list(config.cell.robot_base_position_m)
-        base.quat = list(matrix_to_quat(rotation_about_z(np.deg2rad(config.cell.robot_base_yaw_deg))))
+        yaw = rotation_about_z(np.deg2rad(config.cell.robot_base_yaw_deg))
+        base.quat = list(matrix_to_quat(yaw))
         if config.cell.robot_base_position_m[2] > 0.0:
             self._add_robot_stand(base, config.cell.robot_base_position_m[2])
         sensor = spec.body("sensor_body")
@@ -115,15 +116,21 @@ class Cell:
     def _index_model(self) -> None:
         model = self.model
         self.robot = self.config.cell.robot
-        joint_ids = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
-        self.qpos_ids = np.array([model.jnt_qposadr[j] for j in joint_ids])
+        hinge = mujoco.mjtJoint.mjJNT_HINGE
+        joint_ids = [j for j in range(model.njnt) if model.jnt_type[j] == hinge]
+        # The object and fixture are mocap bodies: the robot's joints are the whole of qpos,
+        # which lets kinematics write qpos wholesale.
+        if model.nq != len(joint_ids):
+            raise ValueError(f"expected only the robot's {len(joint_ids)} hinge joints in qpos, "
+                             f"found nq={model.nq}")
+        self.qpos_ids = np.arange(model.nq)
         velocity_limits = model.numeric("joint_velocity_limits").data.copy()
         self.joints = JointSpace(
             names=tuple(model.joint(j).name for j in joint_ids),
             lower=model.jnt_range[joint_ids, 0].copy(),
             upper=model.jnt_range[joint_ids, 1].copy(),
             velocity_limits=velocity_limits,
-            home=model.key("home").qpos[self.qpos_ids].copy(),
+            home=model.key("home").qpos.copy(),
         )
         self.sensor_site_id = model.site("sensor").id
         self.sensor_body_id = model.body("sensor_body").id
@@ -167,7 +174,7 @@ class Cell:
     def make_data(self) -> mujoco.MjData:
         """A fresh MjData at `home` with the object placed upright at the configured centre."""
         data = mujoco.MjData(self.model)
-        data.qpos[self.qpos_ids] = self.joints.home
+        data.qpos[:] = self.joints.home
         self.place_object(data, np.eye(3))
         return data
 

@@ -11,7 +11,13 @@ from vprobot.config import KinematicsConfig
 from vprobot.geometry import Pose
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
-from vprobot.kinematics.ik import IKAttempt, IKSolver, SensorTarget, random_configuration
+from vprobot.kinematics.ik import (
+    IKAttempt,
+    IKSolver,
+    SensorTarget,
+    random_configuration,
+    residuals,
+)
 from vprobot.kinematics.path import first_collision, joint_path
 from vprobot.kinematics.travel import (
     TravelCost,
@@ -23,6 +29,10 @@ from vprobot.kinematics.travel import (
 from vprobot.scene import Cell
 
 FailureReason = Literal["did_not_converge", "joint_limits", "collision", "path_collision"]
+ROLL_TURNS = (np.pi / 2, -np.pi / 2, np.pi)
+MAX_ROLL_VARIANTS = 2
+"""Converged but colliding attempts whose roll variants are tried (each adds ROLL_TURNS)."""
+
 FAILURE_REASONS: tuple[FailureReason, ...] = (
     "did_not_converge", "joint_limits", "collision", "path_collision"
 )
@@ -94,7 +104,7 @@ class RobotArm:
 
     def _aimed_seeds(self, target_position: np.ndarray) -> np.ndarray:
         """The restart seeds turned about the pan joint so that each faces the target."""
-        seeds = np.array(self.restart_seeds)
+        seeds = np.array(self.restart_seeds).reshape(-1, self.joints.dof)
         turn = self._azimuth(target_position) - self._seed_azimuths
         seeds[:, 0] += np.angle(np.exp(1j * turn))
         return np.clip(seeds, self.joints.lower, self.joints.upper)
@@ -133,7 +143,9 @@ class RobotArm:
         """Find a feasible configuration for `target`, starting the IK from `q_from`.
 
         The first attempt is warm-started from `q_from`, so the nearest branch (shortest travel)
-        wins; only if it fails are the restart seeds tried, up to `settings.restarts`.
+        wins; only if it fails are the restart seeds tried, up to `settings.restarts`. For
+        roll-free targets, an attempt that converges into a collision is also retried with the
+        sensor turned about its axis (the first MAX_ROLL_VARIANTS such attempts).
 
         Raises:
             ValueError: If `q_from` is not a finite configuration of the right size.
@@ -141,24 +153,31 @@ class RobotArm:
         q_from = self.joints.check(q_from, "q_from")
         distance = np.linalg.norm(target.pose.position - self.shoulder_position)
         if distance > self.reach_radius_m:
-            return ReachResult(False, q_from.copy(), "did_not_converge", 0, 0, float(distance),
-                               float("nan"))
+            position_error, orientation_error = residuals(self.fk(q_from), target)
+            return ReachResult(False, q_from.copy(), "did_not_converge", 0, 0, position_error,
+                               float(np.rad2deg(orientation_error)))
         failures: list[tuple[int, IKAttempt]] = []
         iterations = 0
-        for attempt_index, seed in enumerate([q_from, *self._aimed_seeds(target.pose.position)]):
-            attempt = self.ik.solve(target, seed)
+        seeds = [q_from, *self._aimed_seeds(target.pose.position)]
+        rolled = 0
+        while seeds:
+            attempt = self.ik.solve(target, seeds.pop(0))
             iterations += attempt.iterations
             if not attempt.converged:
                 failures.append((0 if not attempt.at_joint_limit else 1, attempt))
                 continue
             if not self.joints.within_limits(attempt.q) or self.collisions.in_collision(attempt.q):
                 failures.append((2, attempt))
-                continue
-            path = self.path(q_from, attempt.q)
-            if first_collision(self.collisions, path) is not None:
+            else:
+                path = self.path(q_from, attempt.q)
+                if first_collision(self.collisions, path) is None:
+                    return self._result(attempt, None, iterations, len(failures) + 1, path)
                 failures.append((3, attempt))
-                continue
-            return self._result(attempt, None, iterations, attempt_index + 1, path)
+            if target.roll_free and rolled < MAX_ROLL_VARIANTS:
+                # The same view with the sensor turned about its axis often clears the collision:
+                # the last joint turns the sensor about (nearly) its optical axis.
+                rolled += 1
+                seeds.extend(attempt.q + np.eye(self.joints.dof)[-1] * turn for turn in ROLL_TURNS)
         stage, attempt = max(failures, key=lambda item: item[0])
         return self._result(attempt, FAILURE_REASONS[stage], iterations, len(failures), None)
 

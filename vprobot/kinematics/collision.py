@@ -34,9 +34,9 @@ class CollisionChecker:
     def in_collision(self, q: np.ndarray) -> bool:
         """Whether configuration `q` puts any robot geom into contact."""
         self._collide(q)
-        return any(
-            contact.dist < -self.margin_m for contact in self.data.contact[: self.data.ncon]
-        )
+        count = self.data.ncon
+        # The struct-array view is orders of magnitude faster than iterating MjContact objects.
+        return count > 0 and bool((self.data.contact.dist[:count] < -self.margin_m).any())
 
     def colliding_pairs(self, q: np.ndarray) -> list[tuple[str, str]]:
         """Names of the bodies in contact at `q` (for messages and debugging)."""

@@ -24,7 +24,7 @@ class ForwardKinematics:
 
     def set_configuration(self, q: np.ndarray) -> None:
         """Move the robot to `q` and update all frames."""
-        self.data.qpos[self.cell.qpos_ids] = q
+        self.data.qpos[:] = q
         mujoco.mj_kinematics(self.cell.model, self.data)
 
     def sensor_pose(self, q: np.ndarray) -> Pose:

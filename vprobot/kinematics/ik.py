@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import mink
 import numpy as np
@@ -24,10 +25,12 @@ class SensorTarget:
         pose: Position and orientation of the sensor frame (+z viewing direction).
         roll_free: Leave the rotation about the viewing axis to the IK (only the position and
             the viewing direction are demanded).
+        look_at_point: For look-at targets, the point the viewing axis must pass through.
     """
 
     pose: Pose
     roll_free: bool
+    look_at_point: np.ndarray | None = None
 
     @classmethod
     def look_at(cls, position: np.ndarray, look_at_point: np.ndarray) -> SensorTarget:
@@ -36,7 +39,16 @@ class SensorTarget:
         Raises:
             ValueError: If an input is not a finite 3-vector or both points coincide.
         """
-        return cls(Pose.look_at(position, look_at_point), roll_free=True)
+        pose = Pose.look_at(position, look_at_point)
+        return cls(pose, roll_free=True, look_at_point=np.asarray(look_at_point, dtype=float))
+
+    def orientation_tolerance(self, tolerance_rad: float, position_tolerance_m: float) -> float:
+        """Angular tolerance; for look-at targets tight enough that the viewing axis misses the
+        point by at most `position_tolerance_m`."""
+        if self.look_at_point is None:
+            return tolerance_rad
+        distance = float(np.linalg.norm(self.look_at_point - self.pose.position))
+        return min(tolerance_rad, float(np.arctan(position_tolerance_m / distance)))
 
     @classmethod
     def full_pose(cls, position: np.ndarray, quat_wxyz: np.ndarray) -> SensorTarget:
@@ -53,8 +65,9 @@ class IKAttempt:
         converged: Both residuals are within the tolerances.
         iterations: Iterations used.
         position_error_m: Distance of the sensor from the target position.
-        orientation_error_rad: Angle between the viewing axes (roll free) or of the whole
-            relative rotation (roll fixed).
+        orientation_error_rad: Angle between the viewing axis and the direction to the look-at
+            point (look-at), between the viewing axes (roll free) or of the whole relative
+            rotation (roll fixed).
         at_joint_limit: Some joint ended on its limit.
     """
 
@@ -68,7 +81,10 @@ class IKAttempt:
 
 def residuals(pose: Pose, target: SensorTarget) -> tuple[float, float]:
     """Position (m) and orientation (rad) errors of `pose` against `target`."""
-    position_error = float(np.linalg.norm(pose.position - target.pose.position))
+    position_error = math.dist(pose.position, target.pose.position)
+    if target.look_at_point is not None:
+        direction = target.look_at_point - pose.position
+        return position_error, axis_angle(pose.view_axis, direction / math.hypot(*direction))
     if target.roll_free:
         return position_error, axis_angle(pose.view_axis, target.pose.view_axis)
     return position_error, rotation_angle(pose.rotation, target.pose.rotation)
@@ -134,6 +150,8 @@ class IKSolver:
                 mink.SO3.from_matrix(target.pose.rotation), target.pose.position
             )
         )
+        orientation_tolerance = target.orientation_tolerance(self.orientation_tolerance,
+                                                             self.position_tolerance)
         q = q_start.copy()
         self.configuration.update(q)
         best, best_iteration = np.inf, 0
@@ -141,13 +159,14 @@ class IKSolver:
         for iteration in range(self.settings.max_iterations + 1):
             position_error, orientation_error = residuals(self._current_pose(), target)
             if (position_error <= self.position_tolerance
-                    and orientation_error <= self.orientation_tolerance):
+                    and orientation_error <= orientation_tolerance):
                 return self._attempt(q, q_start, True, iteration, position_error, orientation_error)
             error = (position_error / self.position_tolerance
-                     + orientation_error / self.orientation_tolerance)
+                     + orientation_error / orientation_tolerance)
             if error < STALL_FACTOR * best:
                 best, best_iteration = error, iteration
-            elif iteration - best_iteration >= STALL_WINDOW or iteration == self.settings.max_iterations:
+            elif (iteration - best_iteration >= STALL_WINDOW
+                  or iteration == self.settings.max_iterations):
                 break
             jacobian, weighted_error, mu = self.task.compute_qp_residual(self.configuration)
             hessian = jacobian.T @ jacobian + (self.settings.damping + mu) * self._eye
@@ -162,7 +181,7 @@ class IKSolver:
     def _attempt(self, q: np.ndarray, q_start: np.ndarray, converged: bool, iterations: int,
                  position_error: float, orientation_error: float) -> IKAttempt:
         joints = self.cell.joints
-        at_limit = bool(np.any(np.isclose(q, joints.lower) | np.isclose(q, joints.upper)))
+        at_limit = bool(((q <= joints.lower + 1e-9) | (q >= joints.upper - 1e-9)).any())
         if converged:
             q = wrap_toward(q, q_start, joints.lower, joints.upper)
         return IKAttempt(

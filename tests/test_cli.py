@@ -1,0 +1,75 @@
+"""The `vprobot` command line: reach verdicts, plan JSON, clear errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vprobot.cli import main
+from vprobot.config import Config
+from vprobot.kinematics import RobotArm
+from vprobot.scene import Cell
+
+
+def test_reach_writes_the_plan_json(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "view.json"
+    code = main(["reach", "--position", "0.45", "-0.47", "0.75", "--look-at", "0.45", "0", "0.75",
+                 "--json", str(out)])
+    assert code == 0
+    assert "REACHABLE" in capsys.readouterr().out
+    plan = json.loads(out.read_text())
+    robot = plan["robot"]
+    assert robot["name"] == "ur10"
+    assert robot["sensor_mount"]["parent"] == "tool0"
+    assert len(robot["joint_names"]) == 6
+    (view,) = plan["views"]
+    assert view["reachable"] is True and view["reason"] is None
+    # The exported joints reproduce the exported sensor pose (independent FK).
+    arm = RobotArm(Cell(Config()))
+    pose = arm.fk(np.array(view["joints"]))
+    np.testing.assert_allclose(pose.position, view["position"], atol=1e-6)
+    assert np.linalg.norm(pose.position - [0.45, -0.47, 0.75]) <= 1e-3
+
+
+def test_unreachable_view_is_reported(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "far.json"
+    code = main(["reach", "--position", "2.5", "0", "0.75", "--look-at", "3", "0", "0.75",
+                 "--robot", "ur5", "--json", str(out)])
+    assert code == 1
+    assert "UNREACHABLE (did_not_converge)" in capsys.readouterr().out
+    (view,) = json.loads(out.read_text())["views"]
+    assert view == {**view, "reachable": False, "reason": "did_not_converge", "joints": None}
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["reach", "--position", "nan", "0", "0", "--look-at", "1", "0", "0"], "finite"),
+        (["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0", "--from-joints", "0"],
+         "shape"),
+        (["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0", "--config", "no.yaml"],
+         "no.yaml"),
+    ],
+)
+def test_bad_input_is_a_clear_error(argv: list[str], message: str,
+                                    capsys: pytest.CaptureFixture) -> None:
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_bad_output_path_leaves_nothing(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "missing" / "view.json"
+    code = main(["reach", "--position", "0.45", "-0.47", "0.75", "--look-at", "0.45", "0", "0.75",
+                 "--json", str(out)])
+    assert code == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert not out.parent.exists()
+
+
+def test_unknown_robot_is_rejected_by_the_parser(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit):
+        main(["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0", "--robot", "kuka"])
+    assert "invalid choice: 'kuka'" in capsys.readouterr().err

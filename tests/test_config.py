@@ -1,0 +1,64 @@
+"""Config files load into typed dataclasses; bad keys and values are named in the error."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from vprobot.config import Config, ConfigError, from_mapping, load_config, replace
+from vprobot.paths import CONFIGS_DIR
+
+
+@pytest.mark.parametrize("path", sorted(CONFIGS_DIR.glob("*.yaml")), ids=lambda p: p.name)
+def test_bundled_configs_load(path: Path) -> None:
+    assert isinstance(load_config(path), Config)
+
+
+def test_default_file_matches_the_dataclass_defaults() -> None:
+    assert load_config() == Config()
+
+
+def test_unknown_key_names_key_and_allowed_keys() -> None:
+    with pytest.raises(ConfigError, match=r"unknown key 'robt' in section 'cell'.*robot"):
+        from_mapping(Config, {"cell": {"robt": "ur5"}})
+    with pytest.raises(ConfigError, match=r"unknown key 'sensors' in the top level.*sensor"):
+        from_mapping(Config, {"sensors": {}})
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"sensor": {"resolution": [430]}}, r"sensor.resolution must be a list of 2 values"),
+        ({"sensor": {"near_m": "far"}}, r"sensor.near_m must be a number"),
+        ({"sensor": {"near_m": 0.6}}, r"near_m < far_m"),
+        ({"kinematics": {"roll": "loose"}}, r"kinematics.roll must be one of \['free', 'fixed'\]"),
+        ({"kinematics": {"restarts": 1.5}}, r"kinematics.restarts must be an integer"),
+        ({"kinematics": {"max_step_rad": -1.0}}, r"kinematics.max_step_rad must be > 0"),
+        ({"cell": {"object_center_m": [0.0, 0.0, float("nan")]}}, r"must be finite"),
+        ({"cell": "ur5"}, r"cell must be a mapping"),
+    ],
+)
+def test_bad_values_are_named(data: dict, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        from_mapping(Config, data)
+
+
+def test_load_errors(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match=r"missing\.yaml"):
+        load_config(tmp_path / "missing.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("cell:\n  robot: ur5\n  speed: 3\n")
+    with pytest.raises(ConfigError, match=r"bad\.yaml: unknown key 'speed'"):
+        load_config(bad)
+    listed = tmp_path / "list.yaml"
+    listed.write_text("- 1\n- 2\n")
+    with pytest.raises(ConfigError, match=r"mapping"):
+        load_config(listed)
+
+
+def test_replace_validates() -> None:
+    config = replace(Config(), "cell", robot="ur5")
+    assert config.cell.robot == "ur5"
+    with pytest.raises(ConfigError, match="unknown key"):
+        replace(Config(), "cell", colour="red")

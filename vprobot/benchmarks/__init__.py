@@ -1,0 +1,1 @@
+"""Benchmarks of vprobot's speed and quality targets (`vprobot benchmark ...`)."""

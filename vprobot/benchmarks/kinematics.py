@@ -1,0 +1,129 @@
+"""Kinematics benchmark: IK speed and success, unreachable verdicts, view-sphere reachability."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from vprobot.config import Config
+from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.mesh_loading import load_mesh
+from vprobot.paths import DEFAULT_MOTOR
+from vprobot.scene import Cell
+from vprobot.viewsphere import sphere_directions
+
+VIEW_SPHERE_CANDIDATES = 900
+VIEW_SPHERE_MAX_POLAR_DEG = 120.0  # from the top down to 30 degrees below the equator
+
+
+def default_cell(config: Config, robot: str | None = None) -> Cell:
+    """The configured cell holding the bundled default motor, optionally with another robot."""
+    if robot is not None:
+        config = dataclasses.replace(config, cell=dataclasses.replace(config.cell, robot=robot))
+    return Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
+
+
+def view_sphere_targets(cell: Cell, count: int = VIEW_SPHERE_CANDIDATES) -> list[SensorTarget]:
+    """Look-at targets spread evenly at the working distance around the object centre."""
+    directions = sphere_directions(count, np.deg2rad(VIEW_SPHERE_MAX_POLAR_DEG))
+    distance = cell.config.sensor.working_distance_m
+    center = cell.object_center
+    return [SensorTarget.look_at(center + distance * d, center) for d in directions]
+
+
+def view_sphere_survey(arm: RobotArm, targets: Sequence[SensorTarget],
+                       progress: bool = True, label: str = "") -> dict[str, Any]:
+    """Reach every target from home; fraction reachable, failure reasons and verdict times."""
+    reasons: dict[str, int] = {}
+    reachable, reachable_ms, unreachable_ms = [], [], []
+    for target in tqdm(targets, desc=f"view sphere {label}", disable=not progress, leave=False):
+        start = time.perf_counter()
+        result = arm.reach(target, arm.joints.home)
+        elapsed = (time.perf_counter() - start) * 1e3
+        reachable.append(result.reachable)
+        (reachable_ms if result.reachable else unreachable_ms).append(elapsed)
+        key = "reachable" if result.reachable else str(result.reason)
+        reasons[key] = reasons.get(key, 0) + 1
+    return {
+        "fraction": len(reachable_ms) / len(targets),
+        "reachable": reachable,
+        "reasons": reasons,
+        "reachable_ms": reachable_ms,
+        "unreachable_ms": unreachable_ms,
+    }
+
+
+def _random_reachable_targets(arm: RobotArm, count: int, seed: int) -> list[SensorTarget]:
+    """Sensor poses of random collision-free configurations (reachable by construction)."""
+    rng = np.random.default_rng(seed)
+    roll_free = arm.settings.roll == "free"
+    targets = []
+    while len(targets) < count:
+        q = rng.uniform(np.maximum(arm.joints.lower, -np.pi), np.minimum(arm.joints.upper, np.pi))
+        if not arm.in_collision(q):
+            targets.append(SensorTarget(arm.fk(q), roll_free=roll_free))
+    return targets
+
+
+def run_kinematics_benchmark(
+    config: Config,
+    robots: Sequence[str] = ("ur5", "ur10"),
+    samples: int = 200,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Measure the kinematics targets of the cell described by `config`.
+
+    Returns:
+        `ik_reachable_median_ms` / `_p95_ms` (reach verdicts from home on fk of random
+        collision-free configurations), `ik_success_rate` (IK converged on those),
+        `unreachable_verdict_median_ms` (view-sphere candidates found unreachable with the
+        default robot), `out_of_reach_verdict_median_ms` (targets 2-3 m away),
+        `view_sphere_reachable` (robot -> fraction of the 900 candidates) and `default_robot`.
+    """
+    default_robot = config.cell.robot
+    arm = RobotArm(default_cell(config))
+    ik_ms, converged = [], 0
+    for target in tqdm(_random_reachable_targets(arm, samples, seed=11), desc="IK",
+                       disable=not progress, leave=False):
+        start = time.perf_counter()
+        result = arm.reach(target, arm.joints.home)
+        ik_ms.append((time.perf_counter() - start) * 1e3)
+        converged += result.reason not in ("did_not_converge", "joint_limits")
+
+    rng = np.random.default_rng(12)
+    far_ms = []
+    for _ in range(samples):
+        direction = rng.normal(size=3)
+        direction *= rng.uniform(2.0, 3.0) / np.linalg.norm(direction)
+        position = arm.shoulder_position + direction
+        start = time.perf_counter()
+        arm.reach(SensorTarget.look_at(position, arm.cell.object_center), arm.joints.home)
+        far_ms.append((time.perf_counter() - start) * 1e3)
+
+    surveys = {}
+    for robot in robots:
+        robot_arm = arm if robot == default_robot else RobotArm(default_cell(config, robot))
+        surveys[robot] = view_sphere_survey(robot_arm, view_sphere_targets(robot_arm.cell),
+                                            progress, robot)
+    default_survey = surveys.get(default_robot) or view_sphere_survey(
+        arm, view_sphere_targets(arm.cell), progress, default_robot
+    )
+    return {
+        "default_robot": default_robot,
+        "ik_reachable_median_ms": float(np.median(ik_ms)),
+        "ik_reachable_p95_ms": float(np.percentile(ik_ms, 95)),
+        "ik_success_rate": converged / samples,
+        "unreachable_verdict_median_ms": float(np.median(default_survey["unreachable_ms"]))
+        if default_survey["unreachable_ms"] else None,
+        "out_of_reach_verdict_median_ms": float(np.median(far_ms)),
+        "view_sphere_reachable_verdict_median_ms": float(np.median(default_survey["reachable_ms"])),
+        "view_sphere_reachable": {robot: survey["fraction"] for robot, survey in surveys.items()},
+        "view_sphere_failures": {robot: survey["reasons"] for robot, survey in surveys.items()},
+        "samples": samples,
+        "view_sphere_candidates": VIEW_SPHERE_CANDIDATES,
+    }

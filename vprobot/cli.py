@@ -1,0 +1,173 @@
+"""The `vprobot` command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vprobot.config import Config, ConfigError, load_config, replace
+from vprobot.robots import available_robots
+
+
+def _config(args: argparse.Namespace) -> Config:
+    """The config file (or the default), with `--robot` applied when given."""
+    config = load_config(args.config)
+    if getattr(args, "robot", None):
+        config = replace(config, "cell", robot=args.robot)
+    return config
+
+
+def _write_json(path: str | None, document: dict[str, Any]) -> None:
+    if path:
+        from vprobot.plan_export import write_json
+
+        print(f"wrote {write_json(path, document)}")
+
+
+def command_reach(args: argparse.Namespace) -> int:
+    """Answer "can the cell reach this view?" and optionally write the plan JSON."""
+    from vprobot.geometry import Pose
+    from vprobot.kinematics import RobotArm, SensorTarget
+    from vprobot.plan_export import PlannedView, plan_document
+    from vprobot.scene import Cell
+
+    target = SensorTarget.look_at(args.position, args.look_at)
+    cell = Cell(_config(args))
+    arm = RobotArm(cell)
+    q_from = cell.joints.home if args.from_joints is None else cell.joints.check(args.from_joints)
+    result = arm.reach(target, q_from)
+    verdict = "REACHABLE" if result.reachable else f"UNREACHABLE ({result.reason})"
+    print(f"robot {cell.robot}: sensor at {np.round(target.pose.position, 4).tolist()} looking at "
+          f"{np.round(args.look_at, 4).tolist()}: {verdict}")
+    print(f"  IK: {result.attempts} attempt(s), {result.iterations} iterations, residual "
+          f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
+    view = PlannedView(pose=target.pose, joints=None, reachable=False, reason=result.reason)
+    if result.reachable:
+        travel = arm.travel(q_from, result.q, cell.object_center)
+        print(f"  joints [rad]: {np.round(result.q, 4).tolist()}")
+        print(f"  travel from start: {travel.joint_time:.3f} s joint time, "
+              f"{travel.joint_path:.3f} rad joint path, {travel.cartesian:.3f} m sensor path")
+        reached: Pose = arm.fk(result.q)
+        view = PlannedView(pose=reached, joints=result.q, reachable=True, travel=travel)
+    _write_json(args.json, plan_document(cell, [view]))
+    return 0 if result.reachable else 1
+
+
+def command_cell(args: argparse.Namespace) -> int:
+    """Report how much of the view sphere around the motor the robot reaches."""
+    from vprobot.benchmarks.kinematics import default_cell, view_sphere_survey, view_sphere_targets
+    from vprobot.kinematics import RobotArm
+
+    config = _config(args)
+    cell = default_cell(config)
+    arm = RobotArm(cell)
+    targets = view_sphere_targets(cell, args.candidates)
+    survey = view_sphere_survey(arm, targets, progress=True, label=cell.robot)
+    heights = np.array([t.pose.position[2] - cell.object_center[2] for t in targets])
+    polar = np.degrees(np.arccos(np.clip(heights / config.sensor.working_distance_m, -1, 1)))
+    reachable = np.array(survey["reachable"])
+    print(f"cell: {cell.robot} base at {list(config.cell.robot_base_position_m)} m, motor centre "
+          f"at {list(config.cell.object_center_m)} m, views at "
+          f"{config.sensor.working_distance_m} m looking at the centre")
+    print("polar angle from the top   candidates   reachable")
+    for low in range(0, 120, 15):
+        band = (polar >= low) & (polar < low + 15)
+        if band.any():
+            print(f"  {low:3d}-{low + 15:3d} deg             {band.sum():5d}     "
+                  f"{reachable[band].mean():7.1%}")
+    print(f"all                          {len(targets):5d}     {survey['fraction']:7.1%}")
+    print(f"failures: {survey['reasons']}")
+    _write_json(args.json, {"robot": cell.robot, "fraction": survey["fraction"],
+                            "reasons": survey["reasons"]})
+    return 0
+
+
+def command_benchmark(args: argparse.Namespace) -> int:
+    config = _config(args)
+    if args.suite == "kinematics":
+        from vprobot.benchmarks.kinematics import run_kinematics_benchmark
+
+        results = run_kinematics_benchmark(config, samples=args.samples)
+    else:
+        raise ValueError(f"unknown benchmark {args.suite!r}")
+    width = max(len(key) for key in results)
+    for key, value in results.items():
+        shown = f"{value:.3f}" if isinstance(value, float) else json.dumps(value)
+        print(f"{key:<{width}}  {shown}")
+    _write_json(args.json, results)
+    return 0
+
+
+def command_motors_generate(args: argparse.Namespace) -> int:
+    from vprobot.motors import generate_motors
+
+    paths = generate_motors(args.count, args.seed, Path(args.out))
+    print(f"wrote {len(paths)} motors to {args.out}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="vprobot", description="Robot-guided visual inspection planning in MuJoCo."
+    )
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    def add(name: str, handler: Callable[[argparse.Namespace], int], help_text: str,
+            parent: Any = commands) -> argparse.ArgumentParser:
+        sub = parent.add_parser(name, help=help_text, description=help_text)
+        sub.set_defaults(handler=handler)
+        sub.add_argument("--config", help="YAML config (default: configs/default.yaml)")
+        return sub
+
+    def add_robot(sub: argparse.ArgumentParser) -> None:
+        sub.add_argument("--robot", choices=available_robots(),
+                         help="robot to use instead of the config's")
+
+    reach = add("reach", command_reach, "Can the cell reach this sensor view?")
+    add_robot(reach)
+    reach.add_argument("--position", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
+                       help="sensor position in the world (m)")
+    reach.add_argument("--look-at", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
+                       help="point the sensor looks at (m)")
+    reach.add_argument("--from-joints", type=float, nargs="+", metavar="Q",
+                       help="start configuration (rad); default: the home keyframe")
+    reach.add_argument("--json", help="write the plan JSON (SPEC section 12) here")
+
+    cell = add("cell", command_cell, "Reachability report of the cell's view sphere.")
+    add_robot(cell)
+    cell.add_argument("--candidates", type=int, default=900, help="view-sphere candidates")
+    cell.add_argument("--json", help="write the report as JSON here")
+
+    benchmark = add("benchmark", command_benchmark, "Measure the speed and quality targets.")
+    add_robot(benchmark)
+    benchmark.add_argument("suite", choices=["kinematics"])
+    benchmark.add_argument("--samples", type=int, default=200, help="random targets per measure")
+    benchmark.add_argument("--json", help="write the results as JSON here")
+
+    motors = commands.add_parser("motors", help="Synthetic starter motors.")
+    motor_commands = motors.add_subparsers(dest="motors_command", required=True)
+    generate = add("generate", command_motors_generate, "Generate seeded starter motors.",
+                   motor_commands)
+    generate.add_argument("--count", type=int, required=True)
+    generate.add_argument("--seed", type=int, default=0)
+    generate.add_argument("--out", required=True, help="output folder")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.handler(args)
+    except (ConfigError, ValueError, FileNotFoundError) as error:
+        print(f"vprobot {args.command}: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
