@@ -124,6 +124,99 @@ class KinematicsConfig:
             )
 
 
+ActionName = Literal[
+    "A_2S0R", "A_3S0R", "A_2S2R", "A_2S2R_lim", "A_3S2R", "A_3S2R_lim", "A_3C0R", "A_3C2R"
+]
+RewardName = Literal[
+    "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "R10", "R11", "R12", "R13", "R14"
+]
+TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper"]
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvConfig:
+    """The inspection environment (SPEC sections 6-8; paper Tables 1-4).
+
+    Attributes:
+        state: `s_cov` (acquired cloud, model-free) or `s_bin` (GT cloud + covered flag).
+        robot_state: Add the sensor pose and joints as a second observation entry.
+        action: Action variant of SPEC section 7.
+        position_mapping: `npk` (no prior knowledge: r in radius_range_m, x/y/z in
+            +-cartesian_range_m) or `wpk` (r = working distance, Cartesian points kept at
+            wpk_distance_range_m from the centre).
+        radius_range_m: npk radius range of the spherical actions.
+        cartesian_range_m: npk half-range of the Cartesian actions.
+        wpk_distance_range_m: wpk distance range of the Cartesian actions.
+        deviation_limit_deg: Largest deviation of the `_lim` actions from looking at the centre.
+        reward: Reward R1-R14 of SPEC section 8.
+        travel_cost: Which travel cost k_t the rewards use.
+        travel_cost_floor: Lower bound of k_t and k_cum in divisions.
+        unreachable_penalty: Added to the reward of an unreachable request.
+        unreachable: `skip` (robot stays, nothing acquired) or `nearest` (acquire from the
+            closest feasible pose the IK reached).
+        initial_view: `fixed` (initial_phi_rad, initial_theta_rad at the working distance) or
+            `random` (a random reachable view).
+        coverage_goal: Episodes terminate at this coverage.
+        max_acquisitions: Episodes are truncated after this many acquisitions (initial excluded).
+        goal_only_step_cap: Safety cap of the steps of R13/R14 episodes (which end at the goal).
+        object_yaw_range_deg: Object rotation about the vertical, uniform in +-this.
+        object_tilt_range_deg: Tilt about x or y, uniform in +-this.
+        motors: Bundled split to draw motors from (`train`, `test`) or `mesh` for one file.
+        mesh: Mesh file used when motors is `mesh`.
+        mesh_scale: Scale applied to that mesh file (e.g. 0.001 for millimetres).
+        resolution: Sensor resolution used in the environment; None keeps the sensor's.
+        state_scale_m: Object-frame coordinates are divided by this in observations.
+        state_points: Points in the state (paper: 2048).
+    """
+
+    state: Literal["s_cov", "s_bin"] = "s_cov"
+    robot_state: bool = False
+    action: ActionName = "A_3S2R_lim"
+    position_mapping: Literal["npk", "wpk"] = "npk"
+    radius_range_m: tuple[float, float] = (0.0, 1.0)
+    cartesian_range_m: float = 1.0
+    wpk_distance_range_m: tuple[float, float] = (0.20, 0.50)
+    deviation_limit_deg: float = 10.0
+    reward: RewardName = "R2"
+    travel_cost: TravelCostName = "joint_time"
+    travel_cost_floor: float = 1e-3
+    unreachable_penalty: float = 0.0
+    unreachable: Literal["skip", "nearest"] = "skip"
+    initial_view: Literal["fixed", "random"] = "fixed"
+    initial_phi_rad: float = 1.42
+    initial_theta_rad: float = 0.71
+    coverage_goal: float = 0.90
+    max_acquisitions: int = 10
+    goal_only_step_cap: int = 50
+    object_yaw_range_deg: float = 180.0
+    object_tilt_range_deg: float = 25.0
+    motors: Literal["train", "test", "mesh"] = "train"
+    mesh: str | None = None
+    mesh_scale: float = 1.0
+    resolution: tuple[int, int] | None = None
+    state_scale_m: float = 0.25
+    state_points: int = 2048
+
+    def __post_init__(self) -> None:
+        if self.motors == "mesh" and self.mesh is None:
+            raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
+        if not 0.0 < self.coverage_goal <= 1.0:
+            raise ConfigError(f"env.coverage_goal must lie in (0, 1], got {self.coverage_goal}")
+        for name in ("max_acquisitions", "goal_only_step_cap", "state_points"):
+            if getattr(self, name) < 1:
+                raise ConfigError(f"env.{name} must be >= 1, got {getattr(self, name)}")
+        for name in ("travel_cost_floor", "state_scale_m", "cartesian_range_m", "mesh_scale"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"env.{name} must be > 0, got {getattr(self, name)}")
+        low, high = self.wpk_distance_range_m
+        if not 0.0 < low <= high:
+            raise ConfigError(f"env.wpk_distance_range_m must satisfy 0 < low <= high, got "
+                              f"{self.wpk_distance_range_m}")
+        if not 0.0 <= self.radius_range_m[0] <= self.radius_range_m[1]:
+            raise ConfigError(f"env.radius_range_m must satisfy 0 <= low <= high, got "
+                              f"{self.radius_range_m}")
+
+
 @dataclasses.dataclass(frozen=True)
 class Config:
     """The whole vprobot configuration."""
@@ -131,6 +224,7 @@ class Config:
     cell: CellConfig = dataclasses.field(default_factory=CellConfig)
     sensor: SensorConfig = dataclasses.field(default_factory=SensorConfig)
     kinematics: KinematicsConfig = dataclasses.field(default_factory=KinematicsConfig)
+    env: EnvConfig = dataclasses.field(default_factory=EnvConfig)
 
 
 def _convert(value: Any, annotation: Any, key: str) -> Any:

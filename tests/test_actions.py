@@ -1,0 +1,98 @@
+"""Action mappings against hand-computed poses (SPEC section 7)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from vprobot.config import EnvConfig
+from vprobot.env.actions import ACTION_SIZES, ActionMapping
+
+R = 0.47
+
+
+def mapping(action: str, **changes: object) -> ActionMapping:
+    return ActionMapping(dataclasses.replace(EnvConfig(), action=action, **changes), R)
+
+
+def test_a2s0r_zero_looks_at_centre_from_phi_pi_theta_half_pi() -> None:
+    view = mapping("A_2S0R").view(np.zeros(2))
+    # phi = pi, theta = pi / 2 at 0.47 m: on the -x axis, level with the centre.
+    np.testing.assert_allclose(view.pose.position, [-R, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(view.pose.view_axis, [1.0, 0.0, 0.0], atol=1e-12)
+    assert view.looks_at_center
+
+
+def test_a2s0r_extremes() -> None:
+    top = mapping("A_2S0R").view(np.array([-1.0, -1.0]))  # theta = 0: straight above
+    np.testing.assert_allclose(top.pose.position, [0.0, 0.0, R], atol=1e-12)
+    np.testing.assert_allclose(top.pose.view_axis, [0.0, 0.0, -1.0], atol=1e-12)
+    side = mapping("A_2S0R").view(np.array([-0.5, 0.0]))  # phi = pi / 2
+    np.testing.assert_allclose(side.pose.position, [0.0, R, 0.0], atol=1e-12)
+
+
+def test_a3s0r_radius_npk_and_wpk() -> None:
+    near = mapping("A_3S0R").view(np.array([0.0, 0.0, -0.5]))  # r = 0.25 of [0, 1]
+    np.testing.assert_allclose(near.pose.position, [-0.25, 0.0, 0.0], atol=1e-12)
+    fixed = mapping("A_3S0R", position_mapping="wpk").view(np.array([0.0, 0.0, -0.5]))
+    np.testing.assert_allclose(fixed.pose.position, [-R, 0.0, 0.0], atol=1e-12)
+
+
+def test_absolute_euler_angles() -> None:
+    # alpha = pi / 2, beta = pi / 2: the viewing axis is (0, 1, 0), wherever the sensor is.
+    view = mapping("A_2S2R").view(np.array([0.0, 0.0, -0.5, 0.0]))
+    np.testing.assert_allclose(view.pose.view_axis, [0.0, 1.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(view.pose.position, [-R, 0.0, 0.0], atol=1e-12)
+    assert not view.looks_at_center
+    view = mapping("A_3S2R").view(np.array([0.0, 0.0, 1.0, -1.0, 1.0]))  # alpha 0, beta pi
+    np.testing.assert_allclose(view.pose.view_axis, [0.0, 0.0, -1.0], atol=1e-12)
+    np.testing.assert_allclose(view.pose.position, [-1.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_limited_deviation_from_look_at() -> None:
+    centred = mapping("A_2S2R_lim").view(np.zeros(4))
+    np.testing.assert_allclose(centred.pose.view_axis, [1.0, 0.0, 0.0], atol=1e-12)
+    for action in ([0, 0, 1.0, 0], [0, 0, 0, -1.0]):
+        turned = mapping("A_2S2R_lim").view(np.array(action, dtype=float))
+        angle = np.degrees(np.arccos(turned.pose.view_axis @ [1.0, 0.0, 0.0]))
+        assert angle == pytest.approx(10.0)
+    both = mapping("A_3S2R_lim").view(np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
+    angle = np.degrees(np.arccos(both.pose.view_axis @ [1.0, 0.0, 0.0]))
+    assert 10.0 < angle < 14.2
+
+
+def test_cartesian_npk_and_wpk() -> None:
+    view = mapping("A_3C0R").view(np.array([0.2, -0.3, 0.4]))
+    np.testing.assert_allclose(view.pose.position, [0.2, -0.3, 0.4])
+    np.testing.assert_allclose(view.pose.view_axis, -view.pose.position / np.linalg.norm(
+        view.pose.position))
+    close = mapping("A_3C0R", position_mapping="wpk").view(np.array([0.1, 0.0, 0.0]))
+    np.testing.assert_allclose(close.pose.position, [0.20, 0.0, 0.0])
+    far = mapping("A_3C0R", position_mapping="wpk").view(np.array([1.0, 1.0, 0.0]))
+    assert np.linalg.norm(far.pose.position) == pytest.approx(0.50)
+    aimed = mapping("A_3C2R").view(np.array([0.5, 0.0, 0.0, -0.5, 0.0]))
+    np.testing.assert_allclose(aimed.pose.view_axis, [0.0, 1.0, 0.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("name", list(ACTION_SIZES))
+def test_every_variant_gives_rotations(name: str) -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        pose = mapping(name).view(rng.uniform(-1, 1, ACTION_SIZES[name])).pose
+        np.testing.assert_allclose(pose.rotation.T @ pose.rotation, np.eye(3), atol=1e-12)
+        assert np.linalg.det(pose.rotation) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    ("action", "message"),
+    [
+        ([np.nan, 0.0, 0.0, 0.0, 0.0], "finite"),
+        ([0.0, 0.0, 0.0, 0.0], r"shape \(5,\)"),
+        ([0.0, 0.0, 1.5, 0.0, 0.0], r"\[-1, 1\]"),
+    ],
+)
+def test_bad_actions(action: list, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        mapping("A_3S2R_lim").view(np.array(action))

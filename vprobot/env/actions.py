@@ -1,0 +1,147 @@
+"""Action mappings: an action in [-1, 1]^n to a requested sensor pose (SPEC section 7).
+
+Spherical (phi azimuth, theta polar angle from +z, r) and Cartesian coordinates are in the
+object-centred frame: origin at the object's centre, axes parallel to the world's (z up).
+Absolute orientations are ZYZ Euler angles with the roll gamma = 0, R = Rz(alpha) Ry(beta):
+the viewing axis is then (sin b cos a, sin b sin a, cos b). The `_lim` variants look at the
+centre and deviate by d_alpha about the sensor's y axis (pan) and d_beta about its x axis (tilt).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from vprobot.config import ActionName, EnvConfig
+from vprobot.geometry import Pose, look_at_rotation, rotation_about_z
+
+ACTION_SIZES: dict[str, int] = {
+    "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,
+    "A_3S2R": 5, "A_3S2R_lim": 5, "A_3C0R": 3, "A_3C2R": 5,
+}
+
+
+def _unit(value: float, low: float, high: float) -> float:
+    """Map a in [-1, 1] linearly onto [low, high]."""
+    return low + (value + 1.0) / 2.0 * (high - low)
+
+
+def _rotation_about_y(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _rotation_about_x(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def euler_rotation(alpha: float, beta: float) -> np.ndarray:
+    """Sensor rotation of ZYZ Euler angles (alpha, beta, gamma=0)."""
+    return rotation_about_z(alpha) @ _rotation_about_y(beta)
+
+
+def spherical_position(phi: float, theta: float, radius: float) -> np.ndarray:
+    return radius * np.array(
+        [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class RequestedView:
+    """A requested sensor pose in the object-centred frame.
+
+    Attributes:
+        pose: Sensor position and orientation (object-centred, world-aligned axes).
+        looks_at_center: The viewing axis passes through the object's centre.
+    """
+
+    pose: Pose
+    looks_at_center: bool
+
+
+class ActionMapping:
+    """Maps actions of one variant onto requested views.
+
+    Args:
+        config: The environment config (variant, npk/wpk ranges, deviation limit).
+        working_distance_m: The sensor's optimal distance (the fixed radius).
+
+    Raises:
+        ValueError: If the action variant is unknown.
+    """
+
+    def __init__(self, config: EnvConfig, working_distance_m: float):
+        if config.action not in ACTION_SIZES:
+            raise ValueError(f"unknown action {config.action!r}; allowed: {list(ACTION_SIZES)}")
+        self.name: ActionName = config.action
+        self.size = ACTION_SIZES[config.action]
+        self.config = config
+        self.working_distance_m = working_distance_m
+        self.deviation_rad = np.deg2rad(config.deviation_limit_deg)
+
+    def check(self, action: np.ndarray) -> np.ndarray:
+        """Validate an action: shape (size,), finite, every component in [-1, 1].
+
+        Raises:
+            ValueError: Naming the bad shape or values and what is allowed.
+        """
+        array = np.asarray(action, dtype=float)
+        if array.shape != (self.size,):
+            raise ValueError(
+                f"action for {self.name} must have shape ({self.size},), got {array.shape}"
+            )
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f"action must be finite, got {array.tolist()}")
+        if np.any(np.abs(array) > 1.0 + 1e-6):
+            raise ValueError(f"action components must lie in [-1, 1], got {array.tolist()}")
+        return np.clip(array, -1.0, 1.0)
+
+    def _radius(self, value: float) -> float:
+        if self.config.position_mapping == "wpk":
+            return self.working_distance_m
+        return _unit(value, *self.config.radius_range_m)
+
+    def _cartesian(self, values: np.ndarray) -> np.ndarray:
+        if self.config.position_mapping == "npk":
+            return values * self.config.cartesian_range_m
+        low, high = self.config.wpk_distance_range_m
+        point = values * high
+        distance = np.linalg.norm(point)
+        # The centre itself has no direction: a zero action views from straight above.
+        direction = point / distance if distance > 1e-9 else np.array([0.0, 0.0, 1.0])
+        return direction * np.clip(distance, low, high)
+
+    def view(self, action: np.ndarray) -> RequestedView:
+        """The requested view of a (validated) action."""
+        a = self.check(action)
+        name = self.name
+        if name in ("A_3C0R", "A_3C2R"):
+            position = self._cartesian(a[:3])
+            angles = a[3:]
+        else:
+            phi = _unit(a[0], 0.0, 2.0 * np.pi)
+            theta = _unit(a[1], 0.0, np.pi)
+            with_radius = name.startswith("A_3S")
+            radius = self._radius(a[2]) if with_radius else self.working_distance_m
+            position = spherical_position(phi, theta, radius)
+            angles = a[3:] if with_radius else a[2:]
+        if name.endswith("0R"):
+            return self._look_at_center(position)
+        if name.endswith("_lim"):
+            looking = self._look_at_center(position)
+            pan = angles[0] * self.deviation_rad
+            tilt = angles[1] * self.deviation_rad
+            rotation = looking.pose.rotation @ _rotation_about_y(pan) @ _rotation_about_x(tilt)
+            return RequestedView(Pose(position, rotation), looks_at_center=False)
+        alpha = _unit(angles[0], 0.0, 2.0 * np.pi)
+        beta = _unit(angles[1], 0.0, np.pi)
+        return RequestedView(Pose(position, euler_rotation(alpha, beta)), looks_at_center=False)
+
+    @staticmethod
+    def _look_at_center(position: np.ndarray) -> RequestedView:
+        if np.linalg.norm(position) < 1e-9:
+            # At the centre there is nothing to look at: look down by convention.
+            return RequestedView(Pose(position, np.diag([1.0, -1.0, -1.0])), False)
+        return RequestedView(Pose(position, look_at_rotation(position, np.zeros(3))), True)
