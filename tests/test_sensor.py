@@ -1,0 +1,256 @@
+"""Tests of the ray-cast sensor against analytic references and brute-force MuJoCo ray casts."""
+
+from __future__ import annotations
+
+import types
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from vprobot.config import Config, SensorConfig
+from vprobot.geometry import Pose
+from vprobot.mesh_loading import load_mesh
+from vprobot.paths import MOTORS_DIR
+from vprobot.scene import Cell
+from vprobot.sensor import DepthSensor, ray_directions
+from vprobot.viewsphere import sphere_directions
+
+WIDE = SensorConfig(fov_deg=(40.0, 40.0), near_m=0.2, far_m=0.6)
+
+
+def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
+    asset = spec.add_mesh(name=name,
+                          uservert=np.asarray(mesh.vertices, np.float32).ravel().tolist(),
+                          userface=np.asarray(mesh.faces, np.int32).ravel().tolist())
+    asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+
+
+def make_scene(mesh: trimesh.Trimesh, boxes: tuple = (), mesh_boxes: tuple = ()
+               ) -> tuple[types.SimpleNamespace, mujoco.MjData]:
+    """A bare cell: the object at the origin, a free-floating sensor and optional plates.
+
+    `boxes` are primitive box geoms (cast by MuJoCo), `mesh_boxes` box-shaped mesh geoms
+    (scan converted), each as (centre, half sizes).
+    """
+    spec = mujoco.MjSpec()
+    sensor_body = spec.worldbody.add_body(name="sensor_body", mocap=True)
+    sensor_body.add_site(name="sensor")
+    _add_mesh(spec, "object_mesh", mesh)
+    spec.worldbody.add_body(name="object", mocap=True).add_geom(
+        name="object", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="object_mesh", group=1)
+    for index, (center, half) in enumerate(boxes):
+        spec.worldbody.add_geom(name=f"box{index}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                                pos=list(center), size=list(half), group=0)
+    for index, (center, half) in enumerate(mesh_boxes):
+        _add_mesh(spec, f"plate{index}", trimesh.creation.box(2.0 * np.asarray(half)))
+        spec.worldbody.add_geom(name=f"mesh_box{index}", type=mujoco.mjtGeom.mjGEOM_MESH,
+                                meshname=f"plate{index}", pos=list(center), group=2)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    scene = types.SimpleNamespace(
+        model=model, config=Config(), sensor_site_id=model.site("sensor").id,
+        sensor_body_id=model.body("sensor_body").id, object_body_id=model.body("object").id,
+        object_geom_ids=np.array([model.geom("object").id]))
+    return scene, data
+
+
+def _surface_area(sensor: DepthSensor, pose: Pose, points: np.ndarray, pixels: np.ndarray,
+                  normals: np.ndarray) -> float:
+    """Area of the surface behind the hit pixels: solid angle * distance^2 / cos(incidence)."""
+    pixel_tangents = 2 * np.tan(np.deg2rad(sensor.sensor.fov_deg) / 2) / sensor.resolution
+    directions = sensor.directions[pixels]
+    solid_angle = np.prod(pixel_tangents) * directions[:, 2] ** 3
+    distance = np.linalg.norm(points - pose.position, axis=1)
+    cosine = np.abs(np.einsum("ij,ij->i", directions @ pose.rotation.T, normals))
+    return float(np.sum(solid_angle * distance**2 / cosine))
+
+
+def test_ray_directions_are_an_even_row_major_grid() -> None:
+    sensor = SensorConfig(resolution=(43, 30))
+    directions = ray_directions(sensor)
+    assert directions.shape == (30 * 43, 3)
+    np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0)
+    tangents = directions[:, :2] / directions[:, 2:]
+    grid = tangents.reshape(30, 43, 2)
+    # +x is image right (columns), +y image down (rows); pixel centres of an even grid.
+    half_x, half_y = np.tan(np.deg2rad(13.5)), np.tan(np.deg2rad(12.5))
+    np.testing.assert_allclose(grid[0, :, 0], half_x * ((2 * np.arange(43) + 1) / 43 - 1))
+    np.testing.assert_allclose(grid[:, 0, 1], half_y * ((2 * np.arange(30) + 1) / 30 - 1))
+    assert np.all(np.diff(grid[:, :, 1], axis=0) > 0) and np.all(np.diff(grid[:, :, 0]) > 0)
+    assert ray_directions(sensor, resolution=(4, 3)).shape == (12, 3)
+
+
+@pytest.mark.parametrize("resolution", [(0, 10), (10,), (2.5, 3)])
+def test_bad_resolution_is_rejected(resolution: tuple) -> None:
+    with pytest.raises(ValueError, match="resolution"):
+        ray_directions(SensorConfig(), resolution=resolution)
+
+
+def test_bad_worker_count_is_rejected() -> None:
+    scene, _ = make_scene(trimesh.creation.box((0.1, 0.1, 0.1)))
+    with pytest.raises(ValueError, match="workers"):
+        DepthSensor(scene, WIDE, workers=0)
+
+
+def test_object_sharing_a_group_with_primitives_is_rejected() -> None:
+    scene, _ = make_scene(trimesh.creation.box((0.1, 0.1, 0.1)),
+                          boxes=[((0.0, 0.0, 1.0), (0.1, 0.1, 0.01))])
+    scene.model.geom_group[scene.model.geom("box0").id] = 1
+    with pytest.raises(ValueError, match="group"):
+        DepthSensor(scene, WIDE)
+
+
+@pytest.mark.parametrize(("radius", "distance"), [(0.1, 0.45), (0.08, 0.35)])
+def test_sphere_shows_the_spherical_cap(radius: float, distance: float) -> None:
+    scene, data = make_scene(trimesh.creation.icosphere(subdivisions=6, radius=radius))
+    sensor = DepthSensor(scene, WIDE, resolution=(300, 300))
+    # Slightly off the grid's symmetry so that no alignment of pixels and limb is favoured.
+    pose = Pose.look_at([0.0021, -0.0013, distance], [0.0, 0.0, 0.0])
+    distance = float(np.linalg.norm(pose.position))
+    acquisition = sensor.acquire_from_pose(data, pose)
+    points = acquisition.points_object
+    normals = points / np.linalg.norm(points, axis=1, keepdims=True)
+    np.testing.assert_allclose(np.linalg.norm(points, axis=1), radius, atol=radius * 2e-4)
+    # Every hit faces the sensor, and the visible cap reaches out to cos(polar) = R / D.
+    assert np.all(np.einsum("ij,ij->i", normals, pose.position - points) > 0)
+    polar = np.arccos(np.clip(normals @ (pose.position / distance), -1.0, 1.0)).max()
+    visible_fraction = (1.0 - np.cos(polar)) / 2.0
+    assert visible_fraction == pytest.approx((1.0 - radius / distance) / 2.0, abs=0.01)
+    # Every ray that meets the sphere (a pixel inside its silhouette) returns a point.
+    rays = sensor.directions @ pose.rotation.T
+    along = -rays @ pose.position
+    miss_distance = np.sqrt(np.maximum(pose.position @ pose.position - along**2, 0.0))
+    inside = np.flatnonzero(miss_distance < radius * 0.998)
+    assert np.isin(inside, acquisition.pixels).all()
+
+
+def test_cube_face_on_shows_one_face() -> None:
+    side = 0.1
+    scene, data = make_scene(trimesh.creation.box((side, side, side)))
+    sensor = DepthSensor(scene, resolution=(215, 150))
+    pose = Pose.look_at([0.003, -0.002, 0.45], [0.003, -0.002, 0.0])
+    acquisition = sensor.acquire_from_pose(data, pose)
+    points = acquisition.points_object
+    np.testing.assert_allclose(points[:, 2], side / 2, atol=1e-9)
+    normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+    area = _surface_area(sensor, pose, points, acquisition.pixels, normals)
+    assert area / (6 * side**2) == pytest.approx(1 / 6, abs=0.02)
+
+
+@pytest.mark.parametrize(("distance", "target"), [
+    (0.58, (0.0, 0.0, 0.0)),    # nearest surface 0.53 m: beyond far
+    (0.30, (0.0, 0.0, 0.0)),    # farthest visible surface < 0.30 m: nearer than near
+    (0.45, (0.0, 0.0, 0.9)),    # looking away from the object
+    (0.45, (3.0, 0.0, 0.45)),   # looking past it
+])
+def test_nothing_out_of_range_or_out_of_view(distance: float, target: tuple) -> None:
+    scene, data = make_scene(trimesh.creation.icosphere(subdivisions=3, radius=0.05))
+    sensor = DepthSensor(scene)
+    acquisition = sensor.acquire_from_pose(data, Pose.look_at([0.0, 0.0, distance], target))
+    assert len(acquisition) == 0
+    assert acquisition.points_world.shape == (0, 3)
+    assert acquisition.rays_cast == 430 * 300
+
+
+def test_only_hits_within_near_and_far_are_kept() -> None:
+    # A long bar along the viewing axis crosses both range limits.
+    scene, data = make_scene(trimesh.creation.box((0.05, 0.05, 0.4)))
+    sensor = DepthSensor(scene, resolution=(86, 60))
+    pose = Pose.look_at([0.2, 0.0, 0.4], [0.0, 0.0, 0.0])
+    acquisition = sensor.acquire_from_pose(data, pose)
+    distance = np.linalg.norm(acquisition.points_world - pose.position, axis=1)
+    assert len(acquisition) > 0
+    assert distance.min() >= 0.30 and distance.max() <= 0.50
+    assert distance.min() < 0.31 and distance.max() > 0.49
+
+
+@pytest.mark.parametrize("kind", ["primitive", "mesh"])
+def test_plate_over_half_the_frustum_removes_the_shadowed_points(kind: str) -> None:
+    box = trimesh.creation.box((0.1, 0.1, 0.1))
+    pose = Pose.look_at([0.002, 0.001, 0.45], [0.002, 0.001, 0.0])
+    # A plate at 0.2 m in front of the sensor covers the image's lower half (+y image down).
+    plate = ((0.0, -0.2, 0.25), (0.2, 0.2, 0.002))
+    plain_scene, plain_data = make_scene(box)
+    plates = {"boxes": [plate]} if kind == "primitive" else {"mesh_boxes": [plate]}
+    scene, data = make_scene(box, **plates)
+    resolution = (172, 120)
+    plain = DepthSensor(plain_scene, resolution=resolution).acquire_from_pose(plain_data, pose)
+    shadowed = DepthSensor(scene, resolution=resolution).acquire_from_pose(data, pose)
+    # Reference: a ray is shadowed iff it crosses the plate's top or bottom face inside the
+    # plate (a ray through a side face also leaves through the bottom).
+    rays = plain.points_world - pose.position
+    shadowed_rays = np.zeros(len(rays), dtype=bool)
+    for height in (0.252, 0.248):
+        crossing = pose.position + rays * ((height - pose.position[2]) / rays[:, 2])[:, None]
+        shadowed_rays |= (np.abs(crossing[:, 0]) <= 0.2) & (np.abs(crossing[:, 1] + 0.2) <= 0.2)
+    assert 0.3 < shadowed_rays.mean() < 0.7
+    np.testing.assert_array_equal(shadowed.pixels, plain.pixels[~shadowed_rays])
+    np.testing.assert_allclose(shadowed.points_world, plain.points_world[~shadowed_rays])
+
+
+@pytest.fixture(scope="module")
+def motor_cell() -> Cell:
+    return Cell(Config(), load_mesh(MOTORS_DIR / "test" / "motor_000.stl").mesh)
+
+
+@pytest.mark.parametrize("direction_index", [0, 15, 27, 31, 39])
+def test_matches_brute_force_mujoco_rays_in_the_cell(motor_cell: Cell,
+                                                     direction_index: int) -> None:
+    """Same points as one `mj_multiRay` over every ray of the frame, robot and fixture included.
+
+    The views cover a clear line of sight, the robot (at home) hiding the motor, and views from
+    below where the fixture plate and pedestal hide parts of it.
+    """
+    cell = motor_cell
+    data = cell.make_data()
+    sensor = DepthSensor(cell, resolution=(215, 150))
+    direction = sphere_directions(40)[direction_index]
+    pose = Pose.look_at(cell.object_center + 0.45 * direction,
+                        cell.object_center + [0.01, -0.02, 0.005])
+    acquisition = sensor.acquire_from_pose(data, pose)
+
+    rays = sensor.directions @ pose.rotation.T
+    count = len(rays)
+    geom_id, distance = np.empty(count, np.int32), np.empty(count)
+    mujoco.mj_multiRay(cell.model, data, pose.position, rays.ravel(), None, 1,
+                       cell.sensor_body_id, geom_id, distance, None, count, 10.0)
+    kept = (np.isin(geom_id, cell.object_geom_ids) & (distance >= 0.3) & (distance <= 0.5))
+    expected = np.flatnonzero(kept)
+    np.testing.assert_array_equal(acquisition.pixels, expected)
+    np.testing.assert_allclose(acquisition.points_world,
+                               pose.position + rays[expected] * distance[expected, None],
+                               atol=1e-9)
+
+
+def test_frames_of_the_points(motor_cell: Cell) -> None:
+    cell = motor_cell
+    data = cell.make_data()
+    angle = np.deg2rad(30.0)
+    rotation = np.array([[np.cos(angle), -np.sin(angle), 0.0],
+                         [np.sin(angle), np.cos(angle), 0.0], [0.0, 0.0, 1.0]])
+    cell.place_object(data, rotation)
+    pose = Pose.look_at(cell.object_center + [0.1, 0.3, 0.33], cell.object_center)
+    acquisition = DepthSensor(cell, resolution=(107, 75)).acquire_from_pose(data, pose)
+    assert len(acquisition) > 500
+    np.testing.assert_allclose(acquisition.points_object,
+                               acquisition.points_world - cell.object_center)
+    assert acquisition.sensor_pose is pose
+    np.testing.assert_allclose(acquisition.object_pose.rotation, rotation, atol=1e-9)
+    mesh = load_mesh(MOTORS_DIR / "test" / "motor_000.stl").mesh
+    _, gap, _ = trimesh.proximity.closest_point(mesh, acquisition.points_mesh)
+    # MuJoCo keeps float32 vertices; at grazing incidence their rounding moves a hit along its ray.
+    assert np.quantile(gap, 0.99) < 1e-7 and gap.max() < 1e-4
+
+
+def test_acquire_uses_the_sensor_site(motor_cell: Cell) -> None:
+    cell = motor_cell
+    data = cell.make_data()
+    sensor = DepthSensor(cell, resolution=(107, 75))
+    site = cell.sensor_site_id
+    pose = Pose(data.site_xpos[site].copy(), data.site_xmat[site].reshape(3, 3).copy())
+    from_site = sensor.acquire(data)
+    np.testing.assert_array_equal(from_site.sensor_pose.position, pose.position)
+    np.testing.assert_array_equal(from_site.pixels, sensor.acquire_from_pose(data, pose).pixels)

@@ -1,0 +1,471 @@
+"""The 3D sensor: a pinhole grid of rays cast from the `sensor` site into the cell (SPEC §4).
+
+Sensor frame, used throughout vprobot: +z is the viewing direction, +x is image right, +y is image
+down. Pixel (row i, column j) of a w x h frame looks along (u_j, v_i, 1), where u and v are the
+pixel centres of an even grid over ±tan(fov_x / 2) and ±tan(fov_y / 2); frames are row-major.
+Only a ray's first hit in the whole cell counts: it is kept when it lies on the object and its
+distance is within [near, far]; a ray that first meets the robot, the fixture or the floor is
+occluded. Rays start at the optical centre, on the front of the sensor housing, so the sensor
+body itself is excluded.
+
+How a frame is computed in milliseconds: MuJoCo's ray-mesh test walks the whole mesh BVH without
+pruning by the nearest hit found so far, which costs several microseconds for every ray that hits
+a motor (about 0.3 s for a frame). Because the rays form a pinhole grid, mesh hits are instead
+found by exact scan conversion of the triangles: per pixel row, a triangle covers the pixel
+centres that lie inside its three edge planes through the optical centre, and every pixel keeps
+its nearest triangle (a z-buffer). That is the ray-triangle intersection `mj_multiRay` computes,
+on the same float32 vertices, and the tests check that both give the same points. The object is
+scan converted first; the robot's meshes then only within the window of its in-range hits. The
+primitive geoms (fixture plate, pedestal, floor, robot stand) are left to `mujoco.mj_multiRay`,
+for the few rays whose segment to the object crosses their bounding boxes, on worker threads
+(MuJoCo releases the GIL; each thread has its own MjData).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from concurrent.futures import ThreadPoolExecutor
+
+import mujoco
+import numpy as np
+
+from vprobot.config import SensorConfig
+from vprobot.geometry import Pose
+from vprobot.scene import Cell
+
+# Pixel spans are widened by this much (in tan units, pixels are ~1e-3 wide) so that a pixel
+# centre lying exactly on an edge shared by two triangles is not lost to rounding.
+_SPAN_SLACK = 1e-12
+# Vertices closer than this to the image plane through the optical centre are not projected.
+_MIN_DEPTH = 1e-9
+# Fewer MuJoCo rays than this per thread are cast on one thread.
+_MIN_RAYS_PER_THREAD = 2000
+
+
+def _pixel_tangents(sensor: SensorConfig, resolution: tuple[int, int]) -> tuple[np.ndarray,
+                                                                                 np.ndarray]:
+    """Tangents of the pixel centres along image x (w,) and image y (h,)."""
+    (width, height), (fov_x, fov_y) = resolution, sensor.fov_deg
+    tan_x, tan_y = np.tan(np.deg2rad(fov_x) / 2.0), np.tan(np.deg2rad(fov_y) / 2.0)
+    u = tan_x * ((2.0 * np.arange(width) + 1.0) / width - 1.0)
+    v = tan_y * ((2.0 * np.arange(height) + 1.0) / height - 1.0)
+    return u, v
+
+
+def _check_resolution(resolution: tuple[int, int]) -> tuple[int, int]:
+    values = tuple(resolution)
+    if len(values) != 2 or not all(isinstance(n, int | np.integer) and n >= 1 for n in values):
+        raise ValueError(f"resolution must be two positive integers (width, height), got "
+                         f"{resolution!r}")
+    return int(values[0]), int(values[1])
+
+
+def ray_directions(sensor: SensorConfig, resolution: tuple[int, int] | None = None) -> np.ndarray:
+    """Unit ray directions (h * w, 3) in the sensor frame, row-major, one per pixel.
+
+    Args:
+        sensor: Opening angles (and the default resolution).
+        resolution: (width, height) in rays; the sensor's own when omitted.
+
+    Raises:
+        ValueError: If the resolution is not two positive integers.
+    """
+    resolution = _check_resolution(resolution if resolution is not None else sensor.resolution)
+    u, v = _pixel_tangents(sensor, resolution)
+    grid_u, grid_v = np.meshgrid(u, v)
+    directions = np.stack([grid_u, grid_v, np.ones_like(grid_u)], axis=-1).reshape(-1, 3)
+    return directions / np.linalg.norm(directions, axis=1, keepdims=True)
+
+
+@dataclasses.dataclass(frozen=True)
+class Acquisition:
+    """One frame of the sensor: the object points it measured.
+
+    Attributes:
+        points_world: Measured points (n, 3) in the world frame.
+        points_object: The same points relative to the object centre, axes parallel to the world.
+        pixels: Row-major pixel index (n,) of each point.
+        sensor_pose: Sensor frame in the world (+z viewing direction).
+        object_pose: Object (mesh) frame in the world when the frame was taken.
+        rays_cast: Rays of the frame (width * height).
+    """
+
+    points_world: np.ndarray
+    points_object: np.ndarray
+    pixels: np.ndarray
+    sensor_pose: Pose
+    object_pose: Pose
+    rays_cast: int
+
+    @property
+    def points_mesh(self) -> np.ndarray:
+        """The points in the object's mesh frame, where ground truth and coverage live."""
+        return self.points_object @ self.object_pose.rotation
+
+    def __len__(self) -> int:
+        return len(self.points_world)
+
+
+@dataclasses.dataclass(frozen=True)
+class _MeshGeom:
+    """A mesh geom's triangles as MuJoCo stores them: float32 vertices in the geom frame."""
+
+    geom_id: int
+    vertices: np.ndarray
+    faces: np.ndarray
+    radius: float
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, geom: int) -> _MeshGeom:
+        mesh = model.geom_dataid[geom]
+        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        first, nface = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
+        vertices = model.mesh_vert[start:start + count].astype(float)
+        return cls(int(geom), vertices, model.mesh_face[first:first + nface].astype(np.int64),
+                   float(np.linalg.norm(vertices, axis=1).max()))
+
+    def in_frame(self, data: mujoco.MjData, frame: Pose) -> np.ndarray:
+        """The vertices expressed in `frame` (a pose in the world)."""
+        rotation = frame.rotation.T @ data.geom_xmat[self.geom_id].reshape(3, 3)
+        offset = frame.rotation.T @ (data.geom_xpos[self.geom_id] - frame.position)
+        return self.vertices @ rotation.T + offset
+
+
+def _ray_visible(model: mujoco.MjModel, geom: int) -> bool:
+    """Whether MuJoCo's ray casts consider the geom at all (they skip transparent ones)."""
+    material = model.geom_matid[geom]
+    alpha = model.mat_rgba[material, 3] if material >= 0 else model.geom_rgba[geom, 3]
+    return bool(alpha != 0)
+
+
+class DepthSensor:
+    """Ray-cast 3D sensor of a cell: point clouds of the object from the `sensor` site.
+
+    Not thread-safe: one sensor serves one caller at a time (it owns buffers and MjData copies).
+
+    Args:
+        cell: The compiled cell. Its object geoms must be meshes, in geom groups that hold no
+            primitive geoms.
+        sensor: Opening angles and range; the cell's sensor config when omitted.
+        resolution: (width, height) in rays, e.g. a coarser frame for training; the sensor's
+            own when omitted. The opening angles stay the same.
+        workers: Threads for the MuJoCo ray casts.
+
+    Raises:
+        ValueError: If the resolution or worker count is invalid, an object geom is not a mesh,
+            or a primitive geom shares the object's geom group.
+    """
+
+    def __init__(self, cell: Cell, sensor: SensorConfig | None = None,
+                 resolution: tuple[int, int] | None = None, workers: int = 2):
+        self.sensor = sensor if sensor is not None else cell.config.sensor
+        self.resolution = _check_resolution(resolution if resolution is not None
+                                            else self.sensor.resolution)
+        if not (isinstance(workers, int) and workers >= 1):
+            raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        self.model = cell.model
+        self._site_id = cell.sensor_site_id
+        self._sensor_body_id = cell.sensor_body_id
+        self._object_body_id = cell.object_body_id
+        self._classify_geoms(np.asarray(cell.object_geom_ids, dtype=int))
+        self._u, self._v = _pixel_tangents(self.sensor, self.resolution)
+        self.directions = ray_directions(self.sensor, self.resolution)
+        # Distance along a ray per unit of z-depth.
+        self._ray_scale = 1.0 / self.directions[:, 2]
+        # Half-angle of the cone around +z that holds the whole frustum.
+        self._cone_angle = float(np.arctan(np.hypot(self._u[-1], self._v[-1])))
+        self._object_depth = np.empty(self.rays_per_frame)
+        self._occluder_depth = np.empty(self.rays_per_frame)
+        self._geomid = np.empty(self.rays_per_frame, dtype=np.int32)
+        self._distance = np.empty(self.rays_per_frame)
+        self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
+        self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
+
+    def _classify_geoms(self, object_geom_ids: np.ndarray) -> None:
+        """Split the cell's geoms into scan-converted meshes and geoms left to MuJoCo.
+
+        Meshes are scan converted where their whole geom group is meshes; every group that holds
+        a primitive (plane, box, cylinder, ...) is cast with `mj_multiRay` instead, which is fast
+        for primitives. The sensor body is left out: the rays start on its housing.
+        """
+        model = self.model
+        groups = np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)
+        considered = [g for g in range(model.ngeom)
+                      if model.geom_bodyid[g] != self._sensor_body_id and _ray_visible(model, g)]
+        is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+        primitive_groups = {int(groups[g]) for g in considered if not is_mesh[g]}
+        for geom in object_geom_ids:
+            if not is_mesh[geom]:
+                raise ValueError(f"object geom {geom} must be a mesh, got geom type "
+                                 f"{mujoco.mjtGeom(model.geom_type[geom]).name}")
+            if groups[geom] in primitive_groups:
+                raise ValueError(f"object geom {geom} is in geom group {groups[geom]}, which "
+                                 f"also holds primitive geoms; the object needs a group of "
+                                 f"meshes only")
+        self._object_meshes = [_MeshGeom.of(model, g) for g in object_geom_ids]
+        self._occluder_meshes = [
+            _MeshGeom.of(model, g) for g in considered
+            if groups[g] not in primitive_groups and g not in set(object_geom_ids.tolist())
+        ]
+        self._ray_geoms = np.array([g for g in considered if groups[g] in primitive_groups],
+                                   dtype=int)
+        self._geomgroup = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
+        self._geomgroup[sorted(primitive_groups)] = 1
+
+    @property
+    def rays_per_frame(self) -> int:
+        return self.resolution[0] * self.resolution[1]
+
+    def acquire(self, data: mujoco.MjData) -> Acquisition:
+        """Measure from the `sensor` site of `data` (kinematics already computed)."""
+        site = self._site_id
+        pose = Pose(data.site_xpos[site].copy(), data.site_xmat[site].reshape(3, 3).copy())
+        return self.acquire_from_pose(data, pose)
+
+    def acquire_from_pose(self, data: mujoco.MjData, pose: Pose) -> Acquisition:
+        """Measure from an arbitrary sensor pose in the cell state `data`.
+
+        The robot stays where `data` has it (it can occlude); the rays start at `pose`.
+        """
+        body = self._object_body_id
+        object_pose = Pose(data.xpos[body].copy(), data.xmat[body].reshape(3, 3).copy())
+        pixels = self._first_hits(self._object_meshes, data, pose, self._object_depth,
+                                  self.sensor.far_m)
+        distance = self._object_depth[pixels] * self._ray_scale[pixels]
+        in_range = (distance >= self.sensor.near_m) & (distance <= self.sensor.far_m)
+        pixels, distance = pixels[in_range], distance[in_range]
+        if len(pixels):
+            pixels, distance = self._unoccluded_by_meshes(data, pose, pixels, distance)
+        directions = self.directions[pixels] @ pose.rotation.T
+        points = pose.position + directions * distance[:, None]
+        if len(pixels):
+            visible = ~self._occluded_by_ray_geoms(data, pose.position, directions, distance,
+                                                   points)
+            pixels, points = pixels[visible], points[visible]
+        return Acquisition(points_world=points, points_object=points - object_pose.position,
+                           pixels=pixels, sensor_pose=pose, object_pose=object_pose,
+                           rays_cast=self.rays_per_frame)
+
+    def _in_view(self, mesh: _MeshGeom, data: mujoco.MjData, pose: Pose,
+                 max_distance: float) -> bool:
+        """Whether the mesh's bounding sphere meets the frustum's cone within `max_distance`."""
+        offset = data.geom_xpos[mesh.geom_id] - pose.position
+        distance = float(np.linalg.norm(offset))
+        if distance - mesh.radius > max_distance:
+            return False
+        if distance <= mesh.radius:
+            return True
+        off_axis = np.arccos(np.clip(offset @ pose.rotation[:, 2] / distance, -1.0, 1.0))
+        return bool(off_axis - np.arcsin(mesh.radius / distance) <= self._cone_angle)
+
+    def _first_hits(self, meshes: list[_MeshGeom], data: mujoco.MjData, pose: Pose,
+                    depth: np.ndarray, max_distance: float,
+                    window: tuple[slice, slice] | None = None) -> np.ndarray:
+        """Z-buffer the meshes into `depth`; return the pixels that have a hit.
+
+        Only hits that can lie within `max_distance` matter; `window` (rows, columns) limits
+        the scan to part of the frame.
+        """
+        depth.fill(np.inf)
+        rows, columns = window if window is not None else (slice(None), slice(None))
+        u, v = self._u[columns], self._v[rows]
+        row_offset, column_offset = rows.start or 0, columns.start or 0
+        for mesh in meshes:
+            if not self._in_view(mesh, data, pose, max_distance):
+                continue
+            row, column, z_depth = _scan_convert(mesh.in_frame(data, pose), mesh.faces, u, v,
+                                                 max_distance)
+            pixels = (row + row_offset) * self.resolution[0] + column + column_offset
+            np.minimum.at(depth, pixels, z_depth)
+        return np.flatnonzero(np.isfinite(depth))
+
+    def _unoccluded_by_meshes(self, data: mujoco.MjData, pose: Pose, pixels: np.ndarray,
+                              distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Drop the object hits that a scan-converted mesh (the robot) hides."""
+        width = self.resolution[0]
+        rows = pixels // width
+        columns = pixels - rows * width
+        window = (slice(int(rows[0]), int(rows[-1]) + 1),
+                  slice(int(columns.min()), int(columns.max()) + 1))
+        self._first_hits(self._occluder_meshes, data, pose, self._occluder_depth,
+                         float(distance.max()), window)
+        visible = self._occluder_depth[pixels] >= self._object_depth[pixels]
+        return pixels[visible], distance[visible]
+
+    def _occluded_by_ray_geoms(self, data: mujoco.MjData, origin: np.ndarray,
+                               directions: np.ndarray, distance: np.ndarray,
+                               points: np.ndarray) -> np.ndarray:
+        """Whether a primitive geom (fixture, floor, ...) hides each object hit.
+
+        Bounding boxes pick the few rays worth a MuJoCo cast.
+        """
+        may_meet = np.zeros(len(points), dtype=bool)
+        segments_lo = np.minimum(points.min(axis=0), origin)
+        segments_hi = np.maximum(points.max(axis=0), origin)
+        for geom in self._ray_geoms:
+            rotation = data.geom_xmat[geom].reshape(3, 3)
+            if self.model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_PLANE:
+                # MuJoCo's planes are one-sided: only rays from the front that pass through.
+                normal, offset = rotation[:, 2], data.geom_xpos[geom] @ rotation[:, 2]
+                if origin @ normal > offset:
+                    may_meet |= points @ normal < offset
+                continue
+            local_center, half = self.model.geom_aabb[geom, :3], self.model.geom_aabb[geom, 3:]
+            center = data.geom_xpos[geom] + rotation @ local_center
+            reach = np.abs(rotation) @ half
+            if np.any(center - reach > segments_hi) or np.any(center + reach < segments_lo):
+                continue
+            may_meet |= _segments_meet_box(rotation.T @ (origin - center), directions @ rotation,
+                                           distance, half)
+        candidates = np.flatnonzero(may_meet)
+        occluded = np.zeros(len(points), dtype=bool)
+        if len(candidates):
+            occluded[candidates] = self._cast(data, origin, directions[candidates],
+                                              distance[candidates])
+        return occluded
+
+    def _cast(self, data: mujoco.MjData, origin: np.ndarray, directions: np.ndarray,
+              distance: np.ndarray) -> np.ndarray:
+        """`mj_multiRay` against the primitive groups: whether each ray hits before `distance`."""
+        count = len(directions)
+        # Handing out work pays off only for many rays; most frames have a few near the fixture.
+        workers = min(len(self._worker_data), max(1, count // _MIN_RAYS_PER_THREAD))
+        bounds = np.linspace(0, count, workers + 1).astype(int)
+        directions = np.ascontiguousarray(directions)
+        cutoff = float(distance.max())
+
+        def cast(worker: int) -> None:
+            start, stop = bounds[worker], bounds[worker + 1]
+            worker_data = self._worker_data[worker]
+            # mj_multiRay reads only these frames; copying them is cheaper than kinematics.
+            worker_data.geom_xpos[:] = data.geom_xpos
+            worker_data.geom_xmat[:] = data.geom_xmat
+            worker_data.xipos[:] = data.xipos
+            mujoco.mj_multiRay(self.model, worker_data, origin, directions[start:stop].ravel(),
+                               self._geomgroup, 1, self._sensor_body_id,
+                               self._geomid[start:stop], self._distance[start:stop], None,
+                               stop - start, cutoff)
+
+        if workers == 1:
+            cast(0)
+        else:
+            list(self._pool.map(cast, range(workers)))
+        hit = self._distance[:count]
+        return (self._geomid[:count] >= 0) & (hit >= 0) & (hit < distance)
+
+
+def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.ndarray,
+                  max_depth: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact ray-triangle hits of a pinhole grid of rays through the origin.
+
+    Args:
+        vertices: Triangle vertices (n, 3) in the sensor frame.
+        faces: Vertex indices (m, 3).
+        u: Tangents of the pixel columns (image x / z), evenly spaced.
+        v: Tangents of the pixel rows (image y / z), evenly spaced.
+        max_depth: Triangles entirely deeper (z) than this are skipped.
+
+    Returns:
+        Row, column and z-depth of every (triangle, pixel) hit; a pixel can repeat.
+    """
+    # Small reductions are spelled out column by column: numpy's axis reductions over three
+    # elements are several times slower.
+    depth = vertices[:, 2]
+    safe_depth = np.where(depth > _MIN_DEPTH, depth, 1.0)
+    vertex_u, vertex_v = vertices[:, 0] / safe_depth, vertices[:, 1] / safe_depth
+    corner_depth = [depth[faces[:, k]] for k in range(3)]
+    corner_u = [vertex_u[faces[:, k]] for k in range(3)]
+    corner_v = [vertex_v[faces[:, k]] for k in range(3)]
+    nearest = np.minimum(np.minimum(corner_depth[0], corner_depth[1]), corner_depth[2])
+    farthest = np.maximum(np.maximum(corner_depth[0], corner_depth[1]), corner_depth[2])
+    # A triangle crossing the image plane projects without bounds: give it the whole frame.
+    in_front = nearest > _MIN_DEPTH
+    u_min = np.where(in_front, np.minimum(np.minimum(corner_u[0], corner_u[1]), corner_u[2]),
+                     -np.inf)
+    u_max = np.where(in_front, np.maximum(np.maximum(corner_u[0], corner_u[1]), corner_u[2]),
+                     np.inf)
+    v_min = np.where(in_front, np.minimum(np.minimum(corner_v[0], corner_v[1]), corner_v[2]),
+                     -np.inf)
+    v_max = np.where(in_front, np.maximum(np.maximum(corner_v[0], corner_v[1]), corner_v[2]),
+                     np.inf)
+    keep = np.flatnonzero((farthest > 0) & (nearest <= max_depth) & (u_max >= u[0])
+                          & (u_min <= u[-1]) & (v_max >= v[0]) & (v_min <= v[-1]))
+    faces = faces[keep]
+    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    # Edge planes through the optical centre: the ray along r = (u, v, 1) meets the triangle iff
+    # r . (b x c), r . (c x a) and r . (a x b) all have the sign of the triple product
+    # a . (b x c) (or are zero); then r is a non-negative combination of a, b and c.
+    edges = [np.cross(b, c), np.cross(c, a), np.cross(a, b)]
+    triple = np.einsum("ij,ij->i", a, edges[0])
+    orientation = np.sign(triple)[:, None]
+    edges = [np.ascontiguousarray((edge * orientation).T) for edge in edges]
+    normal = np.ascontiguousarray(np.cross(b - a, c - a).T)
+    plane = np.einsum("ji,ij->i", normal, a)
+
+    # One entry per (triangle, pixel row) within the triangle's v-range.
+    row_lo, row_hi = _index_range(v_min[keep], v_max[keep], v)
+    rows_per_face = np.where(triple != 0, np.maximum(row_hi - row_lo + 1, 0), 0)
+    face_of_row = np.repeat(np.arange(len(faces)), rows_per_face)
+    row = row_lo[face_of_row] + _ranks(rows_per_face, len(face_of_row))
+    row_v = v[row]
+    low = np.full(len(row), -np.inf)
+    high = np.full(len(row), np.inf)
+    feasible = np.ones(len(row), dtype=bool)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for edge in edges:
+            slope = edge[0][face_of_row]
+            intercept = edge[1][face_of_row] * row_v + edge[2][face_of_row]
+            crossing = -intercept / slope
+            low = np.where(slope > 0, np.maximum(low, crossing), low)
+            high = np.where(slope < 0, np.minimum(high, crossing), high)
+            feasible &= (slope != 0) | (intercept >= 0)
+    column_lo, column_hi = _index_range(low - _SPAN_SLACK, high + _SPAN_SLACK, u)
+    columns_per_row = np.where(feasible, np.maximum(column_hi - column_lo + 1, 0), 0)
+
+    # One entry per covered pixel: z-depth where the pixel's ray meets the triangle's plane.
+    entry = np.repeat(np.arange(len(row)), columns_per_row)
+    column = column_lo[entry] + _ranks(columns_per_row, len(entry))
+    face = face_of_row[entry]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        row_term = (normal[1][face_of_row] * row_v + normal[2][face_of_row])[entry]
+        z_depth = plane[face] / (normal[0][face] * u[column] + row_term)
+    valid = np.isfinite(z_depth) & (z_depth > 0)
+    return row[entry][valid], column[valid], z_depth[valid]
+
+
+def _segments_meet_box(origin: np.ndarray, directions: np.ndarray, length: np.ndarray,
+                       half: np.ndarray) -> np.ndarray:
+    """Slab test: whether origin + t * direction, 0 <= t <= length, meets the box |x| <= half."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inverse = 1.0 / directions
+        near = (-half - origin) * inverse
+        far = (half - origin) * inverse
+    entry = np.minimum(near, far)
+    leave = np.maximum(near, far)
+    # A zero direction component gives nan slabs; those mean "inside" only if the origin is.
+    inside = np.abs(origin) <= half
+    entry = np.where(np.isnan(entry), np.where(inside, -np.inf, np.inf), entry)
+    leave = np.where(np.isnan(leave), np.where(inside, np.inf, -np.inf), leave)
+    t_in = np.maximum(np.maximum(entry[:, 0], entry[:, 1]), np.maximum(entry[:, 2], 0.0))
+    t_out = np.minimum(np.minimum(leave[:, 0], leave[:, 1]), np.minimum(leave[:, 2], length))
+    return t_in <= t_out
+
+
+def _ranks(counts: np.ndarray, total: int) -> np.ndarray:
+    """0, 1, ..., counts[k] - 1 for every k, concatenated (length `total`)."""
+    starts = np.cumsum(counts) - counts
+    return np.arange(total) - np.repeat(starts, counts)
+
+
+def _index_range(low: np.ndarray, high: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray,
+                                                                                  np.ndarray]:
+    """First and last index of the evenly spaced `centres` within [low, high], per entry."""
+    if len(centres) == 1:
+        inside = (low <= centres[0]) & (high >= centres[0])
+        return np.zeros(len(low), dtype=np.int64), np.where(inside, 0, -1)
+    step = (centres[-1] - centres[0]) / (len(centres) - 1)
+    # Clamping first keeps unbounded ranges finite.
+    first = np.ceil((np.maximum(low, centres[0] - step) - centres[0]) / step - _SPAN_SLACK)
+    last = np.floor((np.minimum(high, centres[-1] + step) - centres[0]) / step + _SPAN_SLACK)
+    return (np.clip(first, 0, len(centres)).astype(np.int64),
+            np.clip(last, -1, len(centres) - 1).astype(np.int64))
