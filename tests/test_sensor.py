@@ -254,3 +254,18 @@ def test_acquire_uses_the_sensor_site(motor_cell: Cell) -> None:
     from_site = sensor.acquire(data)
     np.testing.assert_array_equal(from_site.sensor_pose.position, pose.position)
     np.testing.assert_array_equal(from_site.pixels, sensor.acquire_from_pose(data, pose).pixels)
+
+
+def test_groups_leave_geoms_out(motor_cell: Cell) -> None:
+    cell = motor_cell
+    data = cell.make_data()
+    # Behind the robot's shoulder (at home): the robot hides the motor unless it is left out.
+    direction = sphere_directions(40)[27]
+    pose = Pose.look_at(cell.object_center + 0.45 * direction,
+                        cell.object_center + [0.01, -0.02, 0.005])
+    with_robot = DepthSensor(cell, resolution=(107, 75)).acquire_from_pose(data, pose)
+    without_robot = DepthSensor(cell, resolution=(107, 75), groups=(0, 1)).acquire_from_pose(
+        data, pose)
+    assert len(with_robot) == 0 and len(without_robot) > 1000
+    with pytest.raises(ValueError, match="leave out the object"):
+        DepthSensor(cell, groups=(0, 2))

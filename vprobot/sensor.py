@@ -24,6 +24,7 @@ for the few rays whose segment to the object crosses their bounding boxes, on wo
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import mujoco
@@ -150,14 +151,17 @@ class DepthSensor:
         resolution: (width, height) in rays, e.g. a coarser frame for training; the sensor's
             own when omitted. The opening angles stay the same.
         workers: Threads for the MuJoCo ray casts.
+        groups: Geom groups the rays see, as MuJoCo's geomgroup; all when omitted. Leaving out
+            the robot's group (2) measures as if the robot were not there.
 
     Raises:
         ValueError: If the resolution or worker count is invalid, an object geom is not a mesh,
-            or a primitive geom shares the object's geom group.
+            a primitive geom shares the object's geom group, or `groups` leaves out the object.
     """
 
     def __init__(self, cell: Cell, sensor: SensorConfig | None = None,
-                 resolution: tuple[int, int] | None = None, workers: int = 2):
+                 resolution: tuple[int, int] | None = None, workers: int = 2,
+                 groups: Sequence[int] | None = None):
         self.sensor = sensor if sensor is not None else cell.config.sensor
         self.resolution = _check_resolution(resolution if resolution is not None
                                             else self.sensor.resolution)
@@ -167,7 +171,7 @@ class DepthSensor:
         self._site_id = cell.sensor_site_id
         self._sensor_body_id = cell.sensor_body_id
         self._object_body_id = cell.object_body_id
-        self._classify_geoms(np.asarray(cell.object_geom_ids, dtype=int))
+        self._classify_geoms(np.asarray(cell.object_geom_ids, dtype=int), groups)
         self._u, self._v = _pixel_tangents(self.sensor, self.resolution)
         self.directions = ray_directions(self.sensor, self.resolution)
         # Distance along a ray per unit of z-depth.
@@ -181,7 +185,8 @@ class DepthSensor:
         self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
 
-    def _classify_geoms(self, object_geom_ids: np.ndarray) -> None:
+    def _classify_geoms(self, object_geom_ids: np.ndarray,
+                        seen_groups: Sequence[int] | None) -> None:
         """Split the cell's geoms into scan-converted meshes and geoms left to MuJoCo.
 
         Meshes are scan converted where their whole geom group is meshes; every group that holds
@@ -190,14 +195,24 @@ class DepthSensor:
         """
         model = self.model
         groups = np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)
+        if seen_groups is None:
+            seen_groups = range(mujoco.mjNGROUP)
+        seen_groups = {int(group) for group in seen_groups}
+        if not seen_groups <= set(range(mujoco.mjNGROUP)):
+            raise ValueError(f"groups must lie in 0..{mujoco.mjNGROUP - 1}, got "
+                             f"{sorted(seen_groups)}")
         considered = [g for g in range(model.ngeom)
-                      if model.geom_bodyid[g] != self._sensor_body_id and _ray_visible(model, g)]
+                      if model.geom_bodyid[g] != self._sensor_body_id and _ray_visible(model, g)
+                      and groups[g] in seen_groups]
         is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
         primitive_groups = {int(groups[g]) for g in considered if not is_mesh[g]}
         for geom in object_geom_ids:
             if not is_mesh[geom]:
                 raise ValueError(f"object geom {geom} must be a mesh, got geom type "
                                  f"{mujoco.mjtGeom(model.geom_type[geom]).name}")
+            if groups[geom] not in seen_groups:
+                raise ValueError(f"groups {sorted(seen_groups)} leave out the object's geom "
+                                 f"group {groups[geom]}")
             if groups[geom] in primitive_groups:
                 raise ValueError(f"object geom {geom} is in geom group {groups[geom]}, which "
                                  f"also holds primitive geoms; the object needs a group of "
