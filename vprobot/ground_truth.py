@@ -58,7 +58,6 @@ _FINE_VOXELS = 400
 """The union of views is first thinned to voxels of 1/400 of the object's extent."""
 
 
-
 @dataclasses.dataclass(frozen=True)
 class GroundTruth:
     """The ground-truth cloud of one mesh.
