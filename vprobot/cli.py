@@ -94,6 +94,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.kinematics import run_kinematics_benchmark
 
         results = run_kinematics_benchmark(config, samples=args.samples)
+    elif args.suite == "sensor":
+        from vprobot.benchmarks.sensor import run_sensor_benchmark
+
+        results = run_sensor_benchmark(config)
     else:
         raise ValueError(f"unknown benchmark {args.suite!r}")
     width = max(len(key) for key in results)
@@ -146,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     benchmark = add("benchmark", command_benchmark, "Measure the speed and quality targets.")
     add_robot(benchmark)
-    benchmark.add_argument("suite", choices=["kinematics"])
+    benchmark.add_argument("suite", choices=["kinematics", "sensor"])
     benchmark.add_argument("--samples", type=int, default=200, help="random targets per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
 
