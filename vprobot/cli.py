@@ -94,6 +94,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.kinematics import run_kinematics_benchmark
 
         results = run_kinematics_benchmark(config, samples=args.samples)
+    elif args.suite == "env":
+        from vprobot.benchmarks.env import run_env_benchmark
+
+        results = run_env_benchmark(config, steps=args.samples)
     elif args.suite == "sensor":
         from vprobot.benchmarks.sensor import run_sensor_benchmark
 
@@ -150,8 +154,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     benchmark = add("benchmark", command_benchmark, "Measure the speed and quality targets.")
     add_robot(benchmark)
-    benchmark.add_argument("suite", choices=["kinematics", "sensor"])
-    benchmark.add_argument("--samples", type=int, default=200, help="random targets per measure")
+    benchmark.add_argument("suite", choices=["kinematics", "sensor", "env"])
+    benchmark.add_argument("--samples", type=int, default=200,
+                           help="random targets (kinematics) or steps (env) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
 
     motors = commands.add_parser("motors", help="Synthetic starter motors.")

@@ -1,0 +1,200 @@
+"""The gymnasium environment: API checkers, episode logic, rewards from info, vector envs."""
+
+from __future__ import annotations
+
+import pickle
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gymnasium_check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
+from vprobot.env import ENV_ID, InspectEnv
+from vprobot.env.rewards import DENSE, SPARSE
+from vprobot.paths import DEFAULT_MOTOR
+
+SMALL = {"motors": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}
+
+
+def make(**overrides: object) -> InspectEnv:
+    return InspectEnv(**{**SMALL, **overrides})
+
+
+def look_at_action(phi: float, theta: float) -> np.ndarray:
+    """A_2S0R action viewing from azimuth phi and polar angle theta."""
+    return np.array([phi / np.pi - 1.0, 2.0 * theta / np.pi - 1.0], dtype=np.float32)
+
+
+AROUND = [look_at_action(phi, theta) for phi, theta in [
+    (0.0, 1.2), (2.1, 1.2), (4.2, 1.2), (1.0, 0.4), (3.1, 1.9), (5.2, 1.9), (0.5, 1.9),
+    (3.6, 0.4), (1.6, 1.5), (4.7, 1.5),
+]]
+
+
+# Point clouds are (N, 3) by design; SB3 warns about any observation that is not 1-D or an image.
+@pytest.mark.filterwarnings("ignore:Your observation.*unconventional shape")
+@pytest.mark.parametrize(
+    ("state", "action", "robot_state"),
+    [("s_cov", "A_3S2R_lim", False), ("s_bin", "A_2S0R", False), ("s_cov", "A_3C2R", True),
+     ("s_bin", "A_2S2R_lim", True)],
+)
+def test_gymnasium_and_sb3_checkers(state: str, action: str, robot_state: bool) -> None:
+    env = make(state=state, action=action, robot_state=robot_state)
+    gymnasium_check_env(env, skip_render_check=True)
+    sb3_check_env(make(state=state, action=action, robot_state=robot_state), warn=True)
+
+
+def test_observations_are_object_centred_and_bounded() -> None:
+    env = make(state="s_bin", robot_state=True)
+    obs, info = env.reset(seed=3)
+    assert env.observation_space.contains(obs)
+    points = obs["points"]
+    assert points.shape == (2048, 4) and points.dtype == np.float32
+    # The GT, turned with the object, centred on it and scaled by the fixed state scale.
+    inspection = env.inspection
+    expected = inspection.scene.ground_truth.points @ inspection.object_pose.rotation.T / 0.25
+    np.testing.assert_allclose(points[:, :3], expected, atol=1e-6)
+    assert points[:, 3].mean() == pytest.approx(info["coverage"])
+
+
+def test_reset_places_the_robot_at_home_and_acquires_once() -> None:
+    env = make()
+    _, info = env.reset(seed=0)
+    assert info["acquisitions"] == 1 and info["reachable"]
+    assert 0.0 < info["coverage"] < 0.9
+    assert env.inspection.views[0].path[0] == pytest.approx(env.inspection.start_joints)
+
+
+def test_terminated_at_the_goal() -> None:
+    env = make(action="A_2S0R", coverage_goal=0.6)
+    env.reset(seed=1)
+    for action in AROUND:
+        _, _, terminated, truncated, info = env.step(action)
+        assert terminated == (info["coverage"] >= 0.6)
+        assert not truncated
+        if terminated:
+            break
+    assert terminated
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(AROUND[0])
+
+
+def test_real_goal_of_ninety_percent_is_reachable() -> None:
+    env = make(action="A_2S0R", resolution=(215, 150))
+    _, info = env.reset(seed=2)
+    for action in AROUND:
+        _, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    assert terminated and info["coverage"] >= 0.90
+
+
+def test_truncated_after_the_acquisition_limit() -> None:
+    env = make(action="A_2S2R", max_acquisitions=3)
+    env.reset(seed=0)
+    # Looking straight up from beside the motor: reachable or not, nothing new is seen.
+    away = np.array([0.0, 0.0, -1.0, -1.0], dtype=np.float32)
+    flags = [env.step(away)[2:4] for _ in range(3)]
+    assert flags == [(False, False), (False, False), (False, True)]
+
+
+def test_unreachable_request_keeps_joints_and_coverage() -> None:
+    env = make(action="A_3C0R")
+    _, before = env.reset(seed=0)
+    _, reward, _, _, info = env.step(np.ones(3, dtype=np.float32))  # 1.7 m from the motor
+    assert not info["reachable"]
+    assert info["reason"] in ("did_not_converge", "joint_limits", "collision", "path_collision")
+    np.testing.assert_array_equal(info["joints"], before["joints"])
+    assert info["coverage"] == before["coverage"] and info["delta_coverage"] == 0.0
+    assert info["travel_joint_time"] == 0.0
+    assert reward == -1.0  # R2 for no gain
+
+
+def test_same_seed_gives_the_identical_episode() -> None:
+    def run() -> list:
+        env = make()
+        obs, _ = env.reset(seed=42)
+        rng = np.random.default_rng(0)
+        trace = [obs]
+        for _ in range(4):
+            obs, reward, terminated, truncated, info = env.step(
+                rng.uniform(-1, 1, 5).astype(np.float32))
+            trace += [obs, reward, info["coverage"], info["joints"]]
+            if terminated or truncated:
+                break
+        return trace
+
+    for first, second in zip(run(), run(), strict=True):
+        np.testing.assert_array_equal(first, second)
+
+
+@pytest.mark.parametrize(
+    ("action", "message"),
+    [
+        (np.array([np.nan, 0, 0, 0, 0], dtype=np.float32), "finite"),
+        (np.array([0, 0, 0, 0, 2.0], dtype=np.float32), r"\[-1, 1\]"),
+        (np.zeros(3, dtype=np.float32), r"shape \(5,\)"),
+    ],
+)
+def test_bad_actions_are_clear_errors(action: np.ndarray, message: str) -> None:
+    env = make()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        env.step(action)
+
+
+def test_bad_configuration_is_a_clear_error() -> None:
+    with pytest.raises(ValueError, match="unknown key 'colour'"):
+        make(colour="red")
+    with pytest.raises(ValueError, match=r"env\.reward must be one of"):
+        make(reward="R99")
+    with pytest.raises(FileNotFoundError, match=r"nowhere\.stl"):
+        make(mesh="nowhere.stl")
+
+
+@pytest.mark.parametrize("reward", DENSE + SPARSE)
+def test_random_agent_runs_to_the_end_with_every_reward(reward: str) -> None:
+    env = make(reward=reward, goal_only_step_cap=4, travel_cost="cartesian")
+    env.reset(seed=5)
+    floor = env.config.env.travel_cost_floor
+    done, steps = False, 0
+    while not done:
+        _, value, terminated, truncated, info = env.step(env.action_space.sample())
+        done, steps = terminated or truncated, steps + 1
+        assert np.isfinite(value)
+        delta, travel = info["delta_coverage"], max(info["travel_cartesian"], floor)
+        if reward == "R5":
+            assert value == pytest.approx(delta / travel)
+        if reward == "R9" and not done:
+            assert value == 0.0
+    assert steps <= (4 if reward in ("R13", "R14") else 10)
+
+
+def test_registered_id_and_vector_envs() -> None:
+    env = gym.make(ENV_ID, **SMALL)
+    assert env.spec.id == ENV_ID
+    copy = pickle.loads(pickle.dumps(make()))
+    assert copy.observation_space.shape == (2048, 3)
+    for vec in (DummyVecEnv([lambda: make()] * 2),
+                SubprocVecEnv([lambda: make()] * 2, start_method="fork")):
+        observations = vec.reset()
+        assert observations.shape == (2, 2048, 3)
+        observations, rewards, _, infos = vec.step(
+            np.stack([vec.action_space.sample() for _ in range(2)]))
+        assert rewards.shape == (2,) and "coverage" in infos[0]
+        vec.close()
+    vector = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", **SMALL)
+    observations, _ = vector.reset(seed=0)
+    assert observations.shape == (2, 2048, 3)
+    vector.close()
+
+
+def test_render_returns_a_frame() -> None:
+    env = make(render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.shape == (480, 640, 3) and frame.std() > 10
+    env.close()

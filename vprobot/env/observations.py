@@ -1,0 +1,70 @@
+"""Observations of the inspection environment (SPEC section 6).
+
+Point coordinates are in the object-centred frame: origin at the object's centre, axes parallel
+to the world's (z up), so the episode's random rotation and tilt show in the state. They are
+divided by a fixed scale from the config (`env.state_scale_m`), not by a per-object min-max.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+
+from vprobot.config import EnvConfig
+from vprobot.geometry import Pose
+
+POINT_BOUND = 4.0
+"""Declared bound of the scaled point coordinates (points beyond are clipped)."""
+POSITION_BOUND = 8.0
+"""Declared bound of the scaled sensor position in the robot state."""
+ROBOT_STATE_SIZE = 3 + 6 + 6
+"""Sensor position, the sensor's x and z axes, and the joint angles / (2 pi)."""
+
+
+def points_space(config: EnvConfig) -> spaces.Box:
+    """`s_cov`: (N, 3) acquired cloud; `s_bin`: (N, 4) GT cloud with a covered column."""
+    columns = 3 if config.state == "s_cov" else 4
+    low = np.full((config.state_points, columns), -POINT_BOUND, dtype=np.float32)
+    high = np.full((config.state_points, columns), POINT_BOUND, dtype=np.float32)
+    if columns == 4:
+        low[:, 3], high[:, 3] = 0.0, 1.0
+    return spaces.Box(low, high, dtype=np.float32)
+
+
+def observation_space(config: EnvConfig) -> spaces.Space:
+    """A Box of points, or a Dict of points and robot state when `robot_state` is set."""
+    points = points_space(config)
+    if not config.robot_state:
+        return points
+    robot = spaces.Box(-POSITION_BOUND, POSITION_BOUND, (ROBOT_STATE_SIZE,), dtype=np.float32)
+    return spaces.Dict({"points": points, "robot": robot})
+
+
+def resample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
+    """Exactly `count` points: a random subset, or all points plus random duplicates.
+
+    An empty cloud becomes `count` points at the origin (the object's centre).
+    """
+    if len(points) == 0:
+        return np.zeros((count, points.shape[1]))
+    if len(points) >= count:
+        return points[rng.choice(len(points), count, replace=False)]
+    extra = rng.choice(len(points), count - len(points), replace=True)
+    return np.concatenate([points, points[extra]])
+
+
+def scaled(points_object: np.ndarray, config: EnvConfig) -> np.ndarray:
+    """Object-frame coordinates divided by the state scale, clipped to the declared bounds."""
+    return np.clip(points_object / config.state_scale_m, -POINT_BOUND, POINT_BOUND)
+
+
+def robot_state(sensor_pose: Pose, object_center: np.ndarray, joints: np.ndarray,
+                config: EnvConfig) -> np.ndarray:
+    """Sensor position (object-centred, scaled), its x and z axes, joints / (2 pi)."""
+    position = (sensor_pose.position - object_center) / config.state_scale_m
+    return np.concatenate([
+        np.clip(position, -POSITION_BOUND, POSITION_BOUND),
+        sensor_pose.rotation[:, 0],
+        sensor_pose.rotation[:, 2],
+        joints / (2.0 * np.pi),
+    ]).astype(np.float32)
