@@ -123,7 +123,6 @@ class Cell:
         if model.nq != len(joint_ids):
             raise ValueError(f"expected only the robot's {len(joint_ids)} hinge joints in qpos, "
                              f"found nq={model.nq}")
-        self.qpos_ids = np.arange(model.nq)
         velocity_limits = model.numeric("joint_velocity_limits").data.copy()
         self.joints = JointSpace(
             names=tuple(model.joint(j).name for j in joint_ids),

@@ -136,9 +136,6 @@ class RobotArm:
         return joint_path(self.joints.check(q_from, "q_from"), self.joints.check(q_to, "q_to"),
                           self.settings.path_max_joint_step_rad)
 
-    def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
-        return first_collision(self.collisions, self.path(q_from, q_to)) is None
-
     def reach(self, target: SensorTarget, q_from: np.ndarray) -> ReachResult:
         """Find a feasible configuration for `target`, starting the IK from `q_from`.
 
