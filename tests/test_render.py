@@ -1,0 +1,182 @@
+"""Offscreen rendering: frames, overlays, videos, summary stills, plan replay, output paths.
+
+The renderer makes its own OpenGL context from MUJOCO_GL (EGL by default), so these tests run
+headless whatever imported mujoco first.
+"""
+
+import dataclasses
+import json
+
+import imageio.v2 as imageio
+import numpy as np
+import pytest
+
+from vprobot.config import load_config
+from vprobot.episode import EpisodeRecord
+from vprobot.inspection import Inspection, MotorScene
+from vprobot.kinematics import SensorTarget
+from vprobot.paths import DEFAULT_MOTOR
+from vprobot.plan_export import PlannedView, plan_document, write_json
+from vprobot.render import EpisodeRenderer, render_episode
+from vprobot.render.output import VideoWriter
+from vprobot.render.overlay import OverlayStatus, draw_status, inset
+from vprobot.render.replay import episode_from_plan
+from vprobot.render.summary import render_summary
+from vprobot.render.timeline import TimingSettings, along_path, episode_timeline
+
+WIDTH, HEIGHT = 96, 72
+FAST = {"fps": 8.0, "hold_seconds": 0.25, "max_seconds_per_move": 0.5}
+
+
+@pytest.fixture(scope="module")
+def config():
+    return load_config()
+
+
+@pytest.fixture(scope="module")
+def scene(config):
+    return MotorScene.load(config, DEFAULT_MOTOR, resolution=(86, 60))
+
+
+def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    azimuth, elevation = np.deg2rad([azimuth_deg, elevation_deg])
+    return np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
+                     np.sin(elevation)])
+
+
+@pytest.fixture(scope="module")
+def record(scene) -> EpisodeRecord:
+    """Two reachable views, then a request far out of reach."""
+    inspection = Inspection(scene, np.eye(3))
+    center = inspection.center
+    for azimuth in (0.0, 70.0):
+        target = SensorTarget.look_at(center + 0.47 * _direction(azimuth, 35.0), center)
+        assert inspection.request(target).view.reachable
+    far = SensorTarget.look_at(center + 3.0 * _direction(180.0, 10.0), center)
+    assert not inspection.request(far).view.reachable
+    return inspection.record()
+
+
+def _acquisition_states(record, settings):
+    return [state for state in episode_timeline(record, settings)
+            if state.phase in ("acquire", "unreachable")]
+
+
+def test_frames_have_the_size_are_not_empty_and_differ_between_views(scene, record):
+    settings = TimingSettings(**FAST)
+    with EpisodeRenderer(scene, record, WIDTH, HEIGHT, sensor_panel="depth") as renderer:
+        first, second, unreachable = (renderer.frame(state)
+                                      for state in _acquisition_states(record, settings))
+    for frame in (first, second, unreachable):
+        assert frame.shape == (HEIGHT, WIDTH, 3) and frame.dtype == np.uint8
+        assert frame.std() > 10.0
+    assert np.abs(first.astype(int) - second.astype(int)).mean() > 2.0
+    # The unreachable request adds a red ghost frustum while the arm stays put.
+    assert np.any(second != unreachable)
+
+
+def test_the_arm_moves_along_the_path_between_views(record):
+    settings = TimingSettings(fps=30.0, max_seconds_per_move=10.0)
+    states = episode_timeline(record, settings)
+    moves = [state for state in states if state.phase == "move" and state.view == 1]
+    path = record.views[1].path
+    assert len(moves) > 2
+    np.testing.assert_allclose(moves[-1].joints, path[-1])
+    # Not a jump: every step is a small part of the whole move.
+    steps = np.linalg.norm(np.diff([state.joints for state in moves], axis=0), axis=1)
+    assert steps.max() < 0.5 * np.linalg.norm(path[-1] - path[0])
+    capped = TimingSettings(fps=30.0, max_seconds_per_move=0.1)
+    assert sum(state.phase == "move" and state.view == 1
+               for state in episode_timeline(record, capped)) == 3
+
+
+def test_along_path_interpolates_by_arc_length():
+    path = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 3.0]])
+    np.testing.assert_allclose(along_path(path, np.array([0.0, 0.25, 1.0])),
+                               [[0.0, 0.0], [1.0, 0.0], [1.0, 3.0]])
+
+
+def test_overlays_change_the_image():
+    frame = np.full((HEIGHT, WIDTH, 3), 90, dtype=np.uint8)
+    status = OverlayStatus(step=2, steps=3, caption="moving", coverage=0.42, joint_time_s=1.5,
+                           sensor_path_m=0.8, unreachable=((1, "joint_limits"),))
+    annotated = draw_status(frame, status)
+    assert annotated.shape == frame.shape and np.any(annotated != frame)
+    other = draw_status(frame, dataclasses.replace(status, coverage=0.9))
+    assert np.any(other != annotated)
+    panel = np.zeros((20, 30, 3), dtype=np.uint8)
+    assert np.any(inset(frame, panel, "sensor") != frame)
+
+
+def test_render_episode_writes_mp4_and_gif(scene, record, tmp_path):
+    video = render_episode(scene, record, tmp_path / "rollout.mp4", width=WIDTH, height=HEIGHT,
+                           sensor_panel="color", **FAST)
+    frames = imageio.mimread(video.path, memtest=False)
+    assert len(frames) == video.frames and frames[0].shape == (HEIGHT, WIDTH, 3)
+    gif = render_episode(scene, record, tmp_path / "rollout.gif", width=WIDTH, height=HEIGHT,
+                         sensor_panel=None, **FAST)
+    assert gif.path.stat().st_size > 0
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["rollout.gif", "rollout.mp4"]
+
+
+@pytest.mark.parametrize("video, still, message", [
+    ("missing/rollout.mp4", "missing/summary.png", "does not exist"),
+    ("rollout.avi", "summary.jpg", "unsupported suffix"),
+    ("folder.mp4", "folder.png", "is a folder"),
+])
+def test_bad_output_paths_are_refused(scene, record, tmp_path, video, still, message):
+    for folder in ("folder.mp4", "folder.png"):
+        (tmp_path / folder).mkdir()
+    with pytest.raises(ValueError, match=message):
+        render_episode(scene, record, tmp_path / video, width=WIDTH, height=HEIGHT, **FAST)
+    with pytest.raises(ValueError, match=message):
+        render_summary(scene, record, tmp_path / still)
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["folder.mp4", "folder.png"]
+
+
+def test_a_failed_video_leaves_nothing_behind(tmp_path):
+    with pytest.raises(ValueError, match="frame shape"), \
+            VideoWriter(tmp_path / "out.mp4", 10.0, 32, 24) as writer:
+        writer.append(np.zeros((24, 32, 3), dtype=np.uint8))
+        writer.append(np.zeros((10, 10, 3), dtype=np.uint8))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_odd_sizes_are_refused_for_mp4(scene, record, tmp_path):
+    with pytest.raises(ValueError, match="even frame size"):
+        render_episode(scene, record, tmp_path / "odd.mp4", width=95, height=72)
+
+
+def test_summary_png(scene, record, tmp_path):
+    path = render_summary(scene, record, tmp_path / "summary.png", width=160, height=120)
+    image = imageio.imread(path)
+    assert image.shape[:2] == (120, 160) and image.std() > 10.0
+
+
+def test_episode_from_plan_replays_the_views(config, scene, record, tmp_path):
+    views = [PlannedView(view.sensor_pose or view.requested,
+                         view.joints if view.reachable else None, view.reachable, view.reason,
+                         view.coverage, view.travel) for view in record.views]
+    document = plan_document(scene.cell, views, scene.object_block(record.object_pose),
+                             record.coverage)
+    plan = write_json(tmp_path / "plan.json", document)
+    replayed_scene, replayed = episode_from_plan(config, plan, resolution=(86, 60))
+    assert [view.reachable for view in replayed.views] == [True, True, False]
+    assert replayed.views[2].reason == record.views[2].reason
+    np.testing.assert_allclose([view.coverage for view in replayed.views],
+                               [view.coverage for view in record.views])
+    np.testing.assert_allclose(replayed.object_pose.position, record.object_pose.position,
+                               atol=1e-9)
+    assert replayed_scene.cell.robot == scene.cell.robot
+
+
+def test_episode_from_plan_names_what_is_wrong(config, tmp_path):
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps({"object": None, "views": []}))
+    with pytest.raises(ValueError, match="no object block"):
+        episode_from_plan(config, plan)
+    plan.write_text("{not json")
+    with pytest.raises(ValueError, match="cannot read plan"):
+        episode_from_plan(config, plan)
+    with pytest.raises(ValueError, match="does not exist"):
+        episode_from_plan(config, tmp_path / "missing.json")

@@ -1,0 +1,132 @@
+"""Output files of the renderer: checked up front, written atomically (no half-written files)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import imageio.v2 as imageio
+import numpy as np
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+IMAGE_SUFFIXES = (".png",)
+
+
+def check_output_path(path: str | Path, suffixes: tuple[str, ...]) -> Path:
+    """Return `path` if a file of an allowed type can be written there.
+
+    Raises:
+        ValueError: If `path` is a folder, its folder does not exist or its suffix is not one of
+            `suffixes`.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"output path {path} is a folder; give a file name such as "
+                         f"out{suffixes[0]}")
+    if path.suffix.lower() not in suffixes:
+        raise ValueError(f"output path {path} has the unsupported suffix {path.suffix!r}; "
+                         f"use one of {', '.join(suffixes)}")
+    if not path.parent.is_dir():
+        raise ValueError(f"output folder {path.parent} does not exist")
+    return path
+
+
+def _new_file_mode() -> int:
+    """Permissions a plainly created file would get (mkstemp's are owner-only)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+@contextlib.contextmanager
+def atomic_output(path: Path) -> Iterator[Path]:
+    """Yield a temporary file beside `path` that replaces `path` only if the block succeeds."""
+    # Same folder so that os.replace is an atomic rename; same suffix so writers pick the format.
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
+                                         suffix=path.suffix)
+    os.close(handle)
+    try:
+        yield Path(temporary)
+        os.chmod(temporary, _new_file_mode())
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+class VideoWriter:
+    """Frames to an MP4 (H.264 via imageio-ffmpeg) or an animated GIF, written atomically.
+
+    Use as a context manager; the file appears at `path` only when the block exits cleanly.
+
+    Args:
+        path: Output file, `.mp4` or `.gif`, in an existing folder.
+        fps: Frames per second.
+        width: Frame width in pixels (every frame must have this size).
+        height: Frame height in pixels.
+
+    Raises:
+        ValueError: For a bad path, a non-positive fps, or an odd size for MP4.
+    """
+
+    def __init__(self, path: str | Path, fps: float, width: int, height: int):
+        self.path = check_output_path(path, VIDEO_SUFFIXES)
+        if not fps > 0:
+            raise ValueError(f"fps must be positive, got {fps}")
+        self.is_gif = self.path.suffix.lower() == ".gif"
+        if not self.is_gif and (width % 2 or height % 2):
+            raise ValueError(f"MP4 (H.264, yuv420p) needs an even frame size, got "
+                             f"{width}x{height}")
+        self.fps, self.width, self.height = fps, width, height
+        self.frames = 0
+        self._stack = contextlib.ExitStack()
+        self._writer: Any = None
+
+    def __enter__(self) -> VideoWriter:
+        temporary = self._stack.enter_context(atomic_output(self.path))
+        if self.is_gif:
+            self._writer = imageio.get_writer(temporary, mode="I", duration=1000.0 / self.fps,
+                                              loop=0)
+        else:
+            # macro_block_size=2: keep the requested size instead of imageio's rescale to 16s.
+            self._writer = imageio.get_writer(temporary, fps=self.fps, codec="libx264",
+                                              quality=6, pixelformat="yuv420p",
+                                              macro_block_size=2, ffmpeg_log_level="error")
+        return self
+
+    def append(self, frame: np.ndarray) -> None:
+        """Add one RGB frame (height, width, 3) uint8.
+
+        Raises:
+            ValueError: If the frame does not have the writer's size.
+        """
+        if frame.shape != (self.height, self.width, 3):
+            raise ValueError(f"frame shape {frame.shape} differs from the video's "
+                             f"{(self.height, self.width, 3)}")
+        self._writer.append_data(frame)
+        self.frames += 1
+
+    def __exit__(self, exc_type: object, exc: BaseException | None, traceback: object) -> None:
+        try:
+            self._writer.close()
+        except BaseException as error:
+            # A failed close (e.g. the encoder died) must discard the file like any other error.
+            self._stack.__exit__(type(error), error, error.__traceback__)
+            raise
+        self._stack.__exit__(exc_type, exc, traceback)
+
+
+def write_png(path: str | Path, image: np.ndarray) -> Path:
+    """Write an RGB image as PNG atomically.
+
+    Raises:
+        ValueError: For a bad output path (see `check_output_path`).
+    """
+    path = check_output_path(path, IMAGE_SUFFIXES)
+    with atomic_output(path) as temporary:
+        imageio.imwrite(temporary, image)
+    return path

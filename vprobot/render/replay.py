@@ -1,0 +1,154 @@
+"""Turn an exported plan JSON (SPEC section 12) back into an episode that can be rendered.
+
+The plan fixes the cell (robot, base, sensor mount, sensor) and where the mesh file sits; the
+config supplies everything else (IK and path settings, ground-truth settings). Reachable views
+are driven to with their stored joints and acquired again, so coverage is recomputed rather than
+trusted; unreachable views become records in which the robot stays.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vprobot.config import Config, replace
+from vprobot.episode import EpisodeRecord, ViewRecord
+from vprobot.geometry import Pose, quat_to_matrix
+from vprobot.inspection import Inspection, MotorScene
+from vprobot.mesh_loading import load_mesh
+from vprobot.paths import REPO_ROOT
+
+YAW_TOLERANCE = 1e-6
+"""How far the plan's robot base may deviate from a pure rotation about z (the config has only
+a yaw)."""
+
+
+def _field(block: Any, key: str, where: str) -> Any:
+    if not isinstance(block, dict) or key not in block:
+        raise ValueError(f"plan has no {where}.{key}")
+    return block[key]
+
+
+def _vector(block: Any, key: str, size: int, where: str) -> np.ndarray:
+    value = np.asarray(_field(block, key, where), dtype=float)
+    if value.shape != (size,) or not np.all(np.isfinite(value)):
+        raise ValueError(f"plan {where}.{key} must be {size} finite numbers, got "
+                         f"{_field(block, key, where)!r}")
+    return value
+
+
+def read_plan(path: str | Path) -> dict[str, Any]:
+    """Load a plan JSON document.
+
+    Raises:
+        ValueError: If the file is missing, not JSON, or not a plan (no object or views).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"plan file {path} does not exist")
+    try:
+        document = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ValueError(f"cannot read plan {path}: {error}") from error
+    if not isinstance(document, dict) or not isinstance(document.get("views"), list):
+        raise ValueError(f"{path} is not a plan: expected an object with a 'views' list")
+    if document.get("object") is None:
+        raise ValueError(f"plan {path} has no object block (mesh and pose); nothing to render")
+    return document
+
+
+def _mesh_path(mesh: str, plan_path: Path) -> Path:
+    """The mesh file: as written, else relative to the plan's folder, else to the repository."""
+    candidates = [Path(mesh)]
+    if not Path(mesh).is_absolute():
+        candidates += [plan_path.parent / mesh, REPO_ROOT / mesh]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    raise ValueError(f"plan's object mesh {mesh} not found (also looked beside the plan and in "
+                     f"the repository)")
+
+
+def _base_yaw_deg(quaternion: np.ndarray) -> float:
+    rotation = quat_to_matrix(quaternion)
+    yaw = float(np.arctan2(rotation[1, 0], rotation[0, 0]))
+    c, s = np.cos(yaw), np.sin(yaw)
+    if np.max(np.abs(rotation - [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])) > YAW_TOLERANCE:
+        raise ValueError(f"plan robot.base_quaternion {quaternion.tolist()} is not a rotation "
+                         "about the vertical; the cell supports a base yaw only")
+    return float(np.rad2deg(yaw))
+
+
+def plan_config(config: Config, document: dict[str, Any], object_center: np.ndarray) -> Config:
+    """`config` with the cell and sensor the plan was made for."""
+    robot = _field(document, "robot", "")
+    mount = _field(robot, "sensor_mount", "robot")
+    config = replace(config, "cell", robot=str(_field(robot, "name", "robot")),
+                     robot_base_position_m=tuple(_vector(robot, "base_position", 3, "robot")),
+                     robot_base_yaw_deg=_base_yaw_deg(_vector(robot, "base_quaternion", 4,
+                                                              "robot")),
+                     object_center_m=tuple(float(x) for x in object_center))
+    sensor: dict[str, Any] = {
+        "mount_position_m": tuple(_vector(mount, "position", 3, "robot.sensor_mount")),
+        "mount_quaternion_wxyz": tuple(_vector(mount, "quaternion", 4, "robot.sensor_mount")),
+    }
+    block = document.get("sensor")
+    if block is not None:
+        near, far = _vector(block, "range", 2, "sensor")
+        sensor.update(resolution=tuple(int(x) for x in _vector(block, "resolution", 2, "sensor")),
+                      fov_deg=tuple(_vector(block, "fov_deg", 2, "sensor")),
+                      near_m=float(near), far_m=float(far))
+    return replace(config, "sensor", **sensor)
+
+
+def episode_from_plan(config: Config, plan_path: str | Path,
+                      resolution: tuple[int, int] | None = None
+                      ) -> tuple[MotorScene, EpisodeRecord]:
+    """Rebuild the scene of a plan JSON and replay its views.
+
+    Args:
+        config: Settings the plan does not fix (kinematics, ground truth).
+        plan_path: The plan (SPEC section 12), e.g. from `vprobot plan --json`.
+        resolution: Sensor resolution of the replayed acquisitions; the plan's when omitted.
+
+    Returns:
+        The motor scene and the episode, one view record per plan view, in order.
+
+    Raises:
+        ValueError: If the plan is unreadable or incomplete, its mesh is missing, or a view's
+            joints are invalid or collide on the way.
+    """
+    plan_path = Path(plan_path)
+    document = read_plan(plan_path)
+    block = document["object"]
+    mesh_path = _mesh_path(str(_field(block, "mesh", "object")), plan_path)
+    scale = float(block.get("scale", 1.0))
+    rotation = quat_to_matrix(_vector(block, "quaternion", 4, "object"))
+    # The block places the file's vertices; the cell places the centred mesh (see
+    # MotorScene.object_block), so the centre is the file origin moved by the centring offset.
+    offset = load_mesh(mesh_path, scale).offset
+    center = _vector(block, "position", 3, "object") + rotation @ offset
+    scene = MotorScene.load(plan_config(config, document, center), mesh_path, scale, resolution)
+    inspection = Inspection(scene, rotation)
+    views = []
+    for index, view in enumerate(document["views"]):
+        where = f"views[{index}]"
+        pose = Pose.from_quat(_vector(view, "position", 3, where),
+                              _vector(view, "quaternion", 4, where))
+        if _field(view, "reachable", where) and view.get("joints") is not None:
+            joints = _vector(view, "joints", scene.cell.joints.dof, where)
+            try:
+                views.append(inspection.replay(joints, requested=pose).view)
+            except ValueError as error:
+                raise ValueError(f"plan {where}: {error}") from error
+        else:
+            views.append(ViewRecord(requested=pose, reachable=False,
+                                    reason=view.get("reason") or "unreachable",
+                                    joints=inspection.q.copy(), path=None, sensor_pose=None,
+                                    points_world=np.zeros((0, 3)),
+                                    coverage=inspection.coverage))
+    return scene, dataclasses.replace(inspection.record(), views=views)

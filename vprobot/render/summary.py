@@ -1,0 +1,195 @@
+"""A still that sums up an inspection: which ground-truth points are covered, and from where.
+
+Left, the views: the object with its ground-truth points, the view poses as small numbered
+frusta and the sensor's track between them. Right, two close-ups of the object from opposite
+sides, where covered (green) and uncovered (red) points can be told apart.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from PIL import Image, ImageDraw
+
+from vprobot.episode import EpisodeRecord
+from vprobot.geometry import Pose
+from vprobot.inspection import MotorScene
+from vprobot.render.camera import aim_at_sphere, project
+from vprobot.render.markers import (
+    COVERED_RGBA,
+    FRUSTUM_SEGMENTS,
+    UNCOVERED_RGBA,
+    UNREACHABLE_RGBA,
+    add_frustum,
+    add_points,
+    add_segment,
+    view_rgba,
+)
+from vprobot.render.offscreen import OffscreenView, check_size
+from vprobot.render.output import check_output_path, write_png
+from vprobot.render.overlay import BOX_RGBA, TEXT_RGB, font
+from vprobot.render.video import cell_of
+from vprobot.scene import Cell
+
+OVERVIEW_FRACTION = 0.6
+"""Share of the width taken by the overview; the close-ups share the rest."""
+OVERVIEW_DIRECTION_DEG = (-150.0, -30.0)
+CLOSE_UP_DIRECTIONS_DEG = ((-150.0, -35.0), (30.0, 20.0))
+"""(azimuth, elevation) of the cameras: the close-ups look at opposite sides, from above and
+from below."""
+OVERVIEW_POINT_SIZE_M = 0.003
+CLOSE_UP_POINT_SIZE_M = 0.0025
+SMALL_FRUSTUM_M = 0.09
+"""Depth of the frusta drawn at the view poses: enough to show the direction."""
+TRACK_RGBA = np.array([1.0, 1.0, 1.0, 0.5], dtype=np.float32)
+FRAME_MARGIN = 1.1
+MIN_PANEL_PX = 16
+
+
+def _sensor_track(cell: Cell, record: EpisodeRecord) -> np.ndarray:
+    """Sensor positions (n, 3) along all of the episode's joint-space moves."""
+    data = cell.make_data()
+    positions = []
+    for view in record.views:
+        for q in view.path if view.path is not None else ():
+            data.qpos[:] = q
+            mujoco.mj_kinematics(cell.model, data)
+            positions.append(data.site_xpos[cell.sensor_site_id].copy())
+    return np.array(positions).reshape(-1, 3)
+
+
+def _view_poses(record: EpisodeRecord) -> list[Pose]:
+    """Where each view was taken from, or for an unreachable one, where it was requested."""
+    return [view.sensor_pose if view.sensor_pose is not None else view.requested
+            for view in record.views]
+
+
+def _object_only(view: OffscreenView, cell: Cell) -> None:
+    """Hide the robot (it would stand in front of the object) and the sites."""
+    # MuJoCo skips fully transparent geoms; the robot's geom group is not the only one it uses.
+    view.model.geom_rgba[cell.robot_geom_ids, 3] = 0.0
+    view.option.sitegroup[:] = 0
+
+
+def _draw_gt(scene: mujoco.MjvScene, record: EpisodeRecord, size_m: float) -> None:
+    covered = record.covered.astype(bool)
+    add_points(scene, record.gt_points_world[covered], COVERED_RGBA, size_m)
+    add_points(scene, record.gt_points_world[~covered], UNCOVERED_RGBA, size_m)
+
+
+def _overview(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int,
+              height: int) -> np.ndarray:
+    """The object, the numbered view frusta and the sensor's track."""
+    track = _sensor_track(cell, record)
+    poses = _view_poses(record)
+    geoms = len(record.gt_points_world) + len(track) + FRUSTUM_SEGMENTS * len(poses)
+    fov = cell.config.sensor.fov_deg
+    with OffscreenView(cell.model, width, height, fine=True, max_geom=geoms) as view:
+        _object_only(view, cell)
+        positions = np.array([pose.position for pose in poses] + [record.object_pose.position])
+        center = (positions.min(axis=0) + positions.max(axis=0)) / 2.0
+        radius = float(np.max(np.linalg.norm(positions - center, axis=1)))
+        aim_at_sphere(view.camera, view.model, center, FRAME_MARGIN * radius,
+                      *OVERVIEW_DIRECTION_DEG)
+
+        def draw(scene: mujoco.MjvScene) -> None:
+            _draw_gt(scene, record, OVERVIEW_POINT_SIZE_M)
+            for start, end in itertools.pairwise(track):
+                add_segment(scene, start, end, TRACK_RGBA, 1.5)
+            for index, (pose, view_record) in enumerate(zip(poses, record.views, strict=True)):
+                rgba = view_rgba(index) if view_record.reachable else UNREACHABLE_RGBA
+                add_frustum(scene, pose, fov, SMALL_FRUSTUM_M, rgba, 2.5)
+
+        view.update(data, draw)
+        image = view.rgb()
+        labels = project(view.scene, positions[:-1], width, height)
+    return _label_views(image, record, labels)
+
+
+def _close_ups(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int,
+               height: int) -> np.ndarray:
+    """The object from two opposite sides, stacked."""
+    radius = float(np.max(np.linalg.norm(cell.object_vertices, axis=1)))
+    images = []
+    with OffscreenView(cell.model, width, height // 2, fine=True,
+                       max_geom=len(record.gt_points_world)) as view:
+        _object_only(view, cell)
+        for azimuth, elevation in CLOSE_UP_DIRECTIONS_DEG:
+            aim_at_sphere(view.camera, view.model, record.object_pose.position,
+                          FRAME_MARGIN * radius, azimuth, elevation)
+            view.update(data, lambda scene: _draw_gt(scene, record, CLOSE_UP_POINT_SIZE_M))
+            images.append(view.rgb())
+    stacked = np.concatenate(images, axis=0)
+    # An odd height leaves one row for the close-ups to fill.
+    return np.pad(stacked, ((0, height - stacked.shape[0]), (0, 0), (0, 0)), mode="edge")
+
+
+def _label_views(image: np.ndarray, record: EpisodeRecord, labels: np.ndarray) -> np.ndarray:
+    canvas = Image.fromarray(image)
+    draw = ImageDraw.Draw(canvas)
+    size = max(10, image.shape[0] // 30)
+    for index, (x, y) in enumerate(labels):
+        if np.isfinite(x) and np.isfinite(y):
+            mark = "" if record.views[index].reachable else " x"
+            draw.text((x + 4, y - size), f"{index + 1}{mark}", font=font(size), fill=TEXT_RGB,
+                      stroke_width=2, stroke_fill=(0, 0, 0))
+    return np.asarray(canvas)
+
+
+def _caption(image: np.ndarray, record: EpisodeRecord) -> np.ndarray:
+    """The episode's totals across the top."""
+    covered = int(np.count_nonzero(record.covered))
+    reached = sum(view.reachable for view in record.views)
+    travel = record.travel
+    lines = [
+        f"coverage {100.0 * record.coverage:.1f} %: {covered} of {len(record.covered)} "
+        "ground-truth points covered (green), the rest not (red)",
+        f"{reached} of {len(record.views)} views reached (x: unreachable request); travel "
+        f"{travel.joint_time:.2f} s joint time, {travel.cartesian:.2f} m sensor path",
+    ]
+    canvas = Image.fromarray(image).convert("RGBA")
+    layer = Image.new("RGBA", canvas.size, (0, 0, 0, 0))
+    draw = ImageDraw.Draw(layer)
+    size = max(9, image.shape[0] // 40)
+    margin = max(2, size // 2)
+    draw.rectangle((0, 0, canvas.size[0], 2 * margin + len(lines) * (size + margin)),
+                   fill=BOX_RGBA)
+    for row, line in enumerate(lines):
+        draw.text((margin, margin + row * (size + margin)), line, font=font(size),
+                  fill=TEXT_RGB)
+    return np.asarray(Image.alpha_composite(canvas, layer).convert("RGB"))
+
+
+def render_summary(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str | Path,
+                   width: int = 1280, height: int = 720) -> Path:
+    """Write a PNG summing up an episode: coverage of the ground truth and the view poses.
+
+    Args:
+        scene: The motor scene (or cell) the episode ran in.
+        record: The episode.
+        out_png: `.png` file in an existing folder (written atomically).
+        width: Image width in pixels.
+        height: Image height in pixels.
+
+    Raises:
+        ValueError: For a bad output path, a size below 16 pixels per panel, or an episode
+            without views.
+    """
+    out_png = check_output_path(out_png, (".png",))
+    width, height = check_size(width, height)
+    overview_width = round(OVERVIEW_FRACTION * width)
+    if min(overview_width, width - overview_width, height // 2) < MIN_PANEL_PX:
+        raise ValueError(f"summary size {width}x{height} is too small for its three panels")
+    if not record.views:
+        raise ValueError("the episode has no views to summarise")
+    cell = cell_of(scene)
+    data = cell.make_data()
+    cell.place_object(data, record.object_pose.rotation)
+    image = np.concatenate([
+        _overview(cell, data, record, overview_width, height),
+        _close_ups(cell, data, record, width - overview_width, height),
+    ], axis=1)
+    return write_png(out_png, _caption(image, record))

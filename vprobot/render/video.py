@@ -1,0 +1,234 @@
+"""Rollout videos: the arm moving between views, frusta, acquired points and a status overlay."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from vprobot.episode import EpisodeRecord, ViewRecord
+from vprobot.inspection import MotorScene
+from vprobot.kinematics import TravelCost
+from vprobot.render.camera import aim_overview
+from vprobot.render.markers import (
+    FRUSTUM_SEGMENTS,
+    UNREACHABLE_RGBA,
+    add_frustum,
+    add_points,
+    subsample,
+    view_rgba,
+)
+from vprobot.render.offscreen import OffscreenView, check_size
+from vprobot.render.output import VideoWriter
+from vprobot.render.overlay import OverlayStatus, draw_status, inset
+from vprobot.render.panel import PanelMode, SensorPanel
+from vprobot.render.timeline import FrameState, TimingSettings, episode_timeline
+from vprobot.scene import Cell
+
+POINT_SIZE_M = 0.004
+TARGET_RGBA = np.array([1.0, 1.0, 1.0, 0.6], dtype=np.float32)
+FADED_ALPHA = 0.35
+PANEL_FRACTION = 0.32
+"""Width of the sensor panel as a fraction of the frame width."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RenderedVideo:
+    """A written video.
+
+    Attributes:
+        path: The file.
+        frames: Frames written.
+        duration_s: Length of the video.
+        rendered: Distinct frames rendered (holds are rendered once and repeated).
+    """
+
+    path: Path
+    frames: int
+    duration_s: float
+    rendered: int
+
+
+def cell_of(scene: MotorScene | Cell) -> Cell:
+    """The cell of a motor scene, or the cell itself."""
+    return scene.cell if isinstance(scene, MotorScene) else scene
+
+
+class EpisodeRenderer:
+    """Draws the frames of one episode in its cell.
+
+    Args:
+        scene: The motor scene (or its cell) the episode ran in.
+        record: The episode.
+        width: Frame width in pixels.
+        height: Frame height in pixels.
+        sensor_panel: Inset the sensor's own view (`color` or `depth`), or None.
+        points_per_view: Acquired points drawn per view (a random subset; drawing is per point).
+
+    Raises:
+        ValueError: For a bad size, panel mode or point count, or an episode with no views.
+    """
+
+    def __init__(self, scene: MotorScene | Cell, record: EpisodeRecord, width: int = 640,
+                 height: int = 480, sensor_panel: PanelMode | None = "color",
+                 points_per_view: int = 200):
+        width, height = check_size(width, height)
+        if points_per_view < 0:
+            raise ValueError(f"points_per_view must be >= 0, got {points_per_view}")
+        if not record.views:
+            raise ValueError("the episode has no views to render")
+        self.cell = cell_of(scene)
+        self.record = record
+        sensor = self.cell.config.sensor
+        self.fov_deg, self.far_m = sensor.fov_deg, sensor.far_m
+        self.data = self.cell.make_data()
+        self.cell.place_object(self.data, record.object_pose.rotation)
+        self.points = [subsample(view.points_world, points_per_view, seed=index)
+                       for index, view in enumerate(record.views)]
+        markers = sum(2 * FRUSTUM_SEGMENTS + len(points) for points in self.points)
+        self.view = OffscreenView(self.cell.model, width, height,
+                                  max_geom=markers + FRUSTUM_SEGMENTS)
+        aim_overview(self.view.camera, self.cell)
+        self.panel = (None if sensor_panel is None else
+                      SensorPanel(self.cell, max(8, int(PANEL_FRACTION * width)), sensor_panel))
+
+    def frame(self, state: FrameState) -> np.ndarray:
+        """The frame (height, width, 3) uint8 showing `state`."""
+        self.data.qpos[:] = state.joints
+        mujoco.mj_kinematics(self.cell.model, self.data)
+        self.view.update(self.data, lambda scene: self._draw_markers(scene, state))
+        frame = self.view.rgb()
+        if self.panel is not None:
+            frame = inset(frame, self.panel.render(self.data), f"sensor ({self.panel.mode})")
+        return draw_status(frame, self.status(state))
+
+    def _draw_markers(self, scene: mujoco.MjvScene, state: FrameState) -> None:
+        for index, view in enumerate(self.record.views[: state.shown]):
+            latest = index == state.shown - 1 and state.phase in ("acquire", "unreachable")
+            if not view.reachable:
+                add_frustum(scene, view.requested, self.fov_deg, self.far_m,
+                            UNREACHABLE_RGBA, 3.0 if latest else 1.5)
+            if view.sensor_pose is not None:
+                rgba = view_rgba(index, 1.0 if latest else FADED_ALPHA)
+                add_frustum(scene, view.sensor_pose, self.fov_deg, self.far_m,
+                            rgba, 3.0 if latest else 1.5)
+                add_points(scene, self.points[index], view_rgba(index), POINT_SIZE_M)
+        if state.phase == "move":
+            target = self.record.views[state.view].requested
+            add_frustum(scene, target, self.fov_deg, self.far_m, TARGET_RGBA, 1.0)
+
+    def status(self, state: FrameState) -> OverlayStatus:
+        """The overlay's text for `state`."""
+        views = self.record.views
+        done = views[: state.shown]
+        travel = sum((view.travel for view in done), TravelCost())
+        if state.phase == "move":
+            current = views[state.view].travel
+            travel = travel + TravelCost(*(state.progress * value
+                                           for value in current.as_dict().values()))
+        return OverlayStatus(
+            step=state.view + 1,
+            steps=len(views),
+            caption=self._caption(state),
+            coverage=done[-1].coverage if done else 0.0,
+            joint_time_s=travel.joint_time,
+            sensor_path_m=travel.cartesian,
+            unreachable=tuple((index + 1, view.reason or "unreachable")
+                              for index, view in enumerate(done) if not view.reachable),
+        )
+
+    def _caption(self, state: FrameState) -> str:
+        number = state.view + 1
+        if state.phase == "start":
+            return "start"
+        if state.phase == "move":
+            return f"moving to view {number}"
+        if state.phase == "unreachable":
+            return "unreachable"
+        if state.phase == "end":
+            return "done"
+        return f"acquired (+{100.0 * _gain(self.record.views, state.view):.1f} %)"
+
+    def frames(self, settings: TimingSettings) -> Iterator[tuple[np.ndarray, int]]:
+        """Each distinct frame of the episode with how many times it repeats."""
+        for state in episode_timeline(self.record, settings):
+            yield self.frame(state), state.repeat
+
+    def close(self) -> None:
+        """Free the OpenGL resources."""
+        self.view.close()
+        if self.panel is not None:
+            self.panel.close()
+
+    def __enter__(self) -> EpisodeRenderer:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+def _gain(views: list[ViewRecord], index: int) -> float:
+    """Coverage added by view `index`."""
+    before = views[index - 1].coverage if index > 0 else 0.0
+    return views[index].coverage - before
+
+
+def render_episode(
+    scene: MotorScene | Cell,
+    record: EpisodeRecord,
+    out_path: str | Path,
+    *,
+    width: int = 640,
+    height: int = 480,
+    fps: float = 30.0,
+    time_scale: float = 1.0,
+    max_seconds_per_move: float = 2.0,
+    hold_seconds: float = 0.6,
+    sensor_panel: PanelMode | None = "color",
+    points_per_view: int = 200,
+    progress: bool = False,
+) -> RenderedVideo:
+    """Render an episode to an MP4 (H.264) or, for a `.gif` path, an animated GIF.
+
+    The arm moves along each view's joint-space path, timed by the move's joint time times
+    `time_scale` (capped at `max_seconds_per_move`); each acquisition is held for
+    `hold_seconds` with its frustum and points, which stay (faded) afterwards. Unreachable
+    requests show as red frusta at the requested pose. The file is written atomically.
+
+    Args:
+        scene: The motor scene (or cell) the episode ran in.
+        record: The episode (`Inspection.record()`, or `episode_from_plan`).
+        out_path: `.mp4` or `.gif` file in an existing folder.
+        width: Frame width in pixels (even for MP4).
+        height: Frame height in pixels (even for MP4).
+        fps: Frames per second.
+        time_scale: Video seconds per second of robot joint time.
+        max_seconds_per_move: Cap on the video time of one move.
+        hold_seconds: Time each acquisition is shown.
+        sensor_panel: `color` or `depth` inset of the sensor's view, or None.
+        points_per_view: Acquired points drawn per view.
+        progress: Show a progress bar.
+
+    Raises:
+        ValueError: For a bad output path (missing folder, a folder, a suffix other than .mp4 or
+            .gif), size, timing or panel mode, or an episode without views.
+    """
+    settings = TimingSettings(fps=fps, time_scale=time_scale,
+                              max_seconds_per_move=max_seconds_per_move,
+                              hold_seconds=hold_seconds)
+    width, height = check_size(width, height)
+    writer = VideoWriter(out_path, fps, width, height)
+    total = sum(state.repeat for state in episode_timeline(record, settings))
+    rendered = 0
+    with EpisodeRenderer(scene, record, width, height, sensor_panel, points_per_view) as renderer, \
+            writer, tqdm(total=total, desc="frames", disable=not progress, leave=False) as bar:
+        for frame, repeat in renderer.frames(settings):
+            for _ in range(repeat):
+                writer.append(frame)
+            rendered += 1
+            bar.update(repeat)
+    return RenderedVideo(writer.path, writer.frames, writer.frames / fps, rendered)
