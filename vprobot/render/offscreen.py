@@ -55,7 +55,7 @@ class OffscreenView:
         fine: 4x multisampling and floor reflections (for stills); without them software
             OpenGL (Mesa llvmpipe) renders several times faster. Shadows stay off either way:
             MuJoCo's extra light passes add up on lines and wash the markers' colours out.
-        max_geom: Room for the model's geoms plus the extra geoms drawn per frame.
+        max_geom: Room for extra geoms drawn per frame, on top of the model's own.
 
     Raises:
         ValueError: For a size outside [1, 4096] or an unsupported MUJOCO_GL.
