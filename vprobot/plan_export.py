@@ -11,7 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from vprobot.episode import EpisodeRecord
 from vprobot.geometry import Pose
+from vprobot.inspection import MotorScene
 from vprobot.kinematics import TravelCost
 from vprobot.robots import FLANGE_FRAME
 from vprobot.scene import Cell
@@ -24,7 +26,8 @@ class PlannedView:
     Attributes:
         pose: Sensor pose in the world (reached pose when reachable, else the requested one).
         joints: Joint configuration reaching it (None when unreachable).
-        reachable: Whether the robot reaches it collision-free.
+        reachable: Whether the robot reaches it collision-free; None when no robot was involved
+            (a free-flying sensor).
         reason: Why not, when unreachable.
         coverage: Cumulative coverage after this view, when known.
         travel: Travel from the previous view, when known.
@@ -32,7 +35,7 @@ class PlannedView:
 
     pose: Pose
     joints: np.ndarray | None
-    reachable: bool
+    reachable: bool | None
     reason: str | None = None
     coverage: float | None = None
     travel: TravelCost | None = None
@@ -103,6 +106,45 @@ def plan_document(
         "views": [view.as_dict() for view in views],
         "coverage": coverage,
     }
+    return document
+
+
+def planned_views(record: EpisodeRecord, robot: bool = True) -> list[PlannedView]:
+    """The views of an episode as plan views.
+
+    A reached view carries the sensor pose it was acquired from and the joints that reach it; an
+    unreached one its requested pose and no joints. Without the robot (`robot=False`, a
+    free-flying sensor) views carry their pose only and `reachable` is None.
+    """
+    views = []
+    for view in record.views:
+        reached = robot and view.reachable
+        pose = view.sensor_pose if view.sensor_pose is not None else view.requested
+        views.append(PlannedView(
+            pose=pose,
+            joints=view.joints if reached else None,
+            reachable=view.reachable if robot else None,
+            reason=view.reason if robot else None,
+            coverage=view.coverage,
+            travel=view.travel,
+        ))
+    return views
+
+
+def episode_document(scene: MotorScene, record: EpisodeRecord, robot: bool = True,
+                     metadata: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The plan JSON of an episode: object placement, robot, sensor, views, final coverage.
+
+    Args:
+        scene: The motor scene the episode ran in.
+        record: The episode.
+        robot: Whether the robot reached the views (False: free-flying sensor).
+        metadata: Extra top-level entries (planner, mode, seed, ...).
+    """
+    document = plan_document(scene.cell, planned_views(record, robot),
+                             scene.object_block(record.object_pose), record.coverage)
+    document["start_joints"] = _floats(record.start_joints)
+    document.update(metadata or {})
     return document
 
 

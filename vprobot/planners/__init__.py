@@ -1,0 +1,55 @@
+"""View planners behind one interface: random agents, H_rec, B_SCP and a greedy oracle.
+
+`run` plays one episode of a planner on a motor (robot in the loop or free-flying sensor);
+`plan_motor` is the `vprobot plan` job: load a mesh, plan, and return the record, the plan JSON
+document and a summary.
+"""
+
+from vprobot.planners.base import Episode, Planner, PlanPlanner, ViewRequest
+from vprobot.planners.bscp import SetCoverPlanner, greedy_cover
+from vprobot.planners.candidates import CandidateViews, candidate_views
+from vprobot.planners.episode import RobotEpisode, episode_rng, object_rotation
+from vprobot.planners.free_flying import FreeFlyingEpisode
+from vprobot.planners.hrec import BoxFacesPlanner
+from vprobot.planners.oracle import OraclePlanner
+from vprobot.planners.ordering import order_requests, order_views
+from vprobot.planners.random_views import Random1Planner, Random2Planner
+from vprobot.planners.runner import (
+    PLANNER_NAMES,
+    EpisodeResult,
+    make_planner,
+    parse_planner,
+    plan_motor,
+    run,
+    run_episode,
+    summary,
+)
+
+__all__ = [
+    "PLANNER_NAMES",
+    "BoxFacesPlanner",
+    "CandidateViews",
+    "Episode",
+    "EpisodeResult",
+    "FreeFlyingEpisode",
+    "OraclePlanner",
+    "PlanPlanner",
+    "Planner",
+    "Random1Planner",
+    "Random2Planner",
+    "RobotEpisode",
+    "SetCoverPlanner",
+    "ViewRequest",
+    "candidate_views",
+    "episode_rng",
+    "greedy_cover",
+    "make_planner",
+    "object_rotation",
+    "order_requests",
+    "order_views",
+    "parse_planner",
+    "plan_motor",
+    "run",
+    "run_episode",
+    "summary",
+]

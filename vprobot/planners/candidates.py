@@ -1,0 +1,196 @@
+"""Candidate views of the model-based planners: the view sphere, its reachable part, visibility.
+
+The candidates are `count` positions spread evenly (Fibonacci lattice) over the sphere of the
+working distance around the object's centre, looking at the centre, from the top down to the
+polar angle of the ground-truth views (`ground_truth.MAX_POLAR_DEG`, 30 degrees below the
+equator): the surface that counts was defined from that cap, and lower views mostly see the
+fixture. The paper used 900 such positions (B_SCP).
+
+With the robot, every candidate is reached by the IK for the episode's object pose. The
+candidates are visited breadth-first over their neighbourhood graph, each IK warm-started from
+an already solved neighbour, so a reachable candidate converges in a few iterations and
+neighbours share an arm branch (short joint moves between them). The screening uses at most
+`SCREEN_RESTARTS` restarts: a candidate it misses is merely not offered. A candidate is usable
+when its configuration is within the limits and collision-free (the path to it is checked when
+a view is executed); it then acquires from the FK pose of that configuration, roll included.
+Without the robot every candidate is usable at its look-at pose.
+
+Visibility of the ground-truth points from every usable candidate comes from
+`VisibilityRenderer` (all candidates in a few numpy passes).
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import time
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from vprobot.coverage import EPSILON_PER_SPACING
+from vprobot.geometry import Pose
+from vprobot.ground_truth import MAX_POLAR_DEG
+from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.kinematics.path import first_collision
+from vprobot.planners.base import Episode, ViewRequest
+from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
+from vprobot.viewsphere import sphere_directions
+
+CANDIDATE_COUNT = 900
+SCREEN_RESTARTS = 2
+_NEIGHBOURS = 8
+
+
+@dataclasses.dataclass(frozen=True)
+class CandidateViews:
+    """The candidate views of one episode.
+
+    Attributes:
+        targets: Look-at targets at the working distance (world), one per candidate.
+        usable: Whether the candidate can be taken (reachable and collision-free with the robot).
+        poses: Sensor pose each usable candidate acquires from (None where not usable).
+        joints: Robot configuration of each candidate (count, dof); NaN rows where not usable or
+            without the robot.
+        reasons: Why a candidate is not usable (the IK's verdict), else None.
+        visibility: Which GT points each candidate sees (count, n_GT); all False where not usable.
+        reach_seconds: Time spent screening reachability.
+        visibility_seconds: Time spent on visibility.
+    """
+
+    targets: tuple[SensorTarget, ...]
+    usable: np.ndarray
+    poses: tuple[Pose | None, ...]
+    joints: np.ndarray
+    reasons: tuple[str | None, ...]
+    visibility: np.ndarray
+    reach_seconds: float
+    visibility_seconds: float
+
+    def __len__(self) -> int:
+        return len(self.targets)
+
+    def request(self, index: int) -> ViewRequest:
+        """The view request of a usable candidate.
+
+        Raises:
+            ValueError: If the candidate is not usable.
+        """
+        if not self.usable[index]:
+            raise ValueError(f"candidate {index} is not usable ({self.reasons[index]})")
+        joints = self.joints[index]
+        return ViewRequest(self.targets[index],
+                           None if np.isnan(joints).any() else joints.copy())
+
+    def gains(self, covered: np.ndarray) -> np.ndarray:
+        """GT points each candidate would add to the `covered` ones (count,)."""
+        return np.count_nonzero(self.visibility & ~np.asarray(covered, dtype=bool), axis=1)
+
+    def next_best(self, episode: Episode, taken: set[int]) -> int | None:
+        """The candidate outside `taken` adding the most to the episode's coverage.
+
+        With the robot, only candidates joined to the current configuration by a collision-free
+        straight joint-space path are offered (the others would fail when executed).
+
+        Returns:
+            The candidate, or None if none adds anything.
+        """
+        gains = self.gains(episode.covered)
+        gains[list(taken)] = 0
+        arm = episode.scene.arm
+        for index in np.argsort(-gains, kind="stable"):
+            if gains[index] == 0:
+                return None
+            if not episode.uses_robot or first_collision(
+                    arm.collisions, arm.path(episode.q, self.joints[index])) is None:
+                return int(index)
+        return None
+
+
+def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
+                    resolution: tuple[int, int] = DEFAULT_RESOLUTION) -> CandidateViews:
+    """Build the candidates of an episode: targets, reachability (robot) and visibility.
+
+    Args:
+        episode: The episode (its object pose; its robot when it uses one).
+        count: Candidate positions on the view sphere.
+        resolution: Grid of the visibility renderer.
+
+    Raises:
+        ValueError: If count < 1.
+    """
+    if count < 1:
+        raise ValueError(f"count must be >= 1, got {count}")
+    scene = episode.scene
+    center = episode.center
+    radius = scene.cell.config.sensor.working_distance_m
+    directions = sphere_directions(count, np.deg2rad(MAX_POLAR_DEG))
+    targets = tuple(SensorTarget.look_at(center + radius * d, center) for d in directions)
+    dof = scene.cell.joints.dof
+    start = time.perf_counter()
+    if episode.uses_robot:
+        joints, reasons = _screen_reachability(episode, directions, targets)
+        usable = ~np.isnan(joints).any(axis=1)
+        arm = scene.arm
+        poses = tuple(arm.fk(q) if ok else None for q, ok in zip(joints, usable, strict=True))
+    else:
+        joints = np.full((count, dof), np.nan)
+        reasons = (None,) * count
+        usable = np.ones(count, dtype=bool)
+        poses = tuple(target.pose for target in targets)
+    reach_seconds = time.perf_counter() - start
+
+    start = time.perf_counter()
+    ground_truth = scene.ground_truth
+    renderer = VisibilityRenderer(scene.mesh.mesh, scene.cell.config.sensor, resolution,
+                                  tolerance_m=EPSILON_PER_SPACING * ground_truth.spacing_m)
+    to_mesh = episode.object_pose.inverse()
+    indices = np.flatnonzero(usable)
+    visibility = np.zeros((count, len(ground_truth.points)), dtype=bool)
+    if len(indices):
+        visibility[indices] = renderer.visible([to_mesh.compose(poses[i]) for i in indices],
+                                               ground_truth.points)
+    return CandidateViews(targets=targets, usable=usable, poses=poses, joints=joints,
+                          reasons=reasons, visibility=visibility, reach_seconds=reach_seconds,
+                          visibility_seconds=time.perf_counter() - start)
+
+
+def _screen_reachability(episode: Episode, directions: np.ndarray,
+                         targets: tuple[SensorTarget, ...]) -> tuple[np.ndarray,
+                                                                    tuple[str | None, ...]]:
+    """IK of every candidate for the episode's object pose (see the module docstring).
+
+    Returns:
+        Configurations (count, dof) with NaN rows for unusable candidates, and the reasons.
+    """
+    scene = episode.scene
+    settings = scene.arm.settings
+    arm = RobotArm(scene.cell, dataclasses.replace(
+        settings, restarts=min(settings.restarts, SCREEN_RESTARTS)))
+    arm.place_object(episode.object_pose.rotation)
+    count = len(targets)
+    _, neighbours = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1, count))
+    neighbours = np.asarray(neighbours).reshape(count, -1)[:, 1:]
+    joints = np.full((count, arm.joints.dof), np.nan)
+    reasons: list[str | None] = [None] * count
+    visited = np.zeros(count, dtype=bool)
+    start_q = episode.q
+    for root in range(count):
+        if visited[root]:
+            continue
+        visited[root] = True
+        queue = collections.deque([root])
+        while queue:
+            index = queue.popleft()
+            solved = [n for n in neighbours[index] if not np.isnan(joints[n, 0])]
+            seed = joints[solved[0]] if solved else start_q
+            result = arm.reach(targets[index], seed)
+            if result.reachable:
+                joints[index] = result.q
+            else:
+                reasons[index] = result.reason
+            for neighbour in neighbours[index]:
+                if not visited[neighbour]:
+                    visited[neighbour] = True
+                    queue.append(neighbour)
+    return joints, tuple(reasons)

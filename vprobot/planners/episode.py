@@ -1,0 +1,77 @@
+"""Episodes with the robot in the loop, and the random object pose of an episode."""
+
+from __future__ import annotations
+
+import zlib
+from typing import ClassVar
+
+import numpy as np
+
+from vprobot.config import EnvConfig
+from vprobot.episode import EpisodeRecord, ViewRecord
+from vprobot.geometry import rotation_about_z
+from vprobot.inspection import Inspection, MotorScene
+from vprobot.planners.base import Episode, ViewRequest
+
+
+def object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
+    """A random episode pose of the object (SPEC section 3): turned about the vertical by
+    U[-yaw, yaw], then tilted by U[-tilt, tilt] about the world x or y axis (equally likely)."""
+    yaw = np.deg2rad(rng.uniform(-env.object_yaw_range_deg, env.object_yaw_range_deg))
+    tilt = np.deg2rad(rng.uniform(-env.object_tilt_range_deg, env.object_tilt_range_deg))
+    axis = np.eye(3)[rng.integers(2)]
+    # Rodrigues' formula for a rotation about a unit axis.
+    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]],
+                      [-axis[1], axis[0], 0.0]])
+    tilt_rotation = np.eye(3) + np.sin(tilt) * cross + (1.0 - np.cos(tilt)) * cross @ cross
+    return tilt_rotation @ rotation_about_z(yaw)
+
+
+def episode_rng(seed: int, scene: MotorScene) -> np.random.Generator:
+    """The random stream of one (motor, seed): the same pose for every planner and run."""
+    return np.random.default_rng([seed, zlib.crc32(scene.mesh.mesh_hash.encode())])
+
+
+class RobotEpisode(Episode):
+    """An episode in which the robot must reach every view (an `Inspection`).
+
+    Args:
+        scene: The motor scene.
+        rotation: The object's rotation for this episode.
+    """
+
+    uses_robot: ClassVar[bool] = True
+
+    def __init__(self, scene: MotorScene, rotation: np.ndarray):
+        self.scene = scene
+        self.inspection = Inspection(scene, rotation)
+        self.object_pose = self.inspection.object_pose
+
+    @property
+    def q(self) -> np.ndarray:
+        return self.inspection.q.copy()
+
+    @property
+    def covered(self) -> np.ndarray:
+        return self.inspection.tracker.covered
+
+    @property
+    def views(self) -> list[ViewRecord]:
+        return self.inspection.views
+
+    def execute(self, view: ViewRequest) -> ViewRecord:
+        """Drive to the view's known configuration, or let the IK reach it from here.
+
+        An unreachable request leaves the robot where it is and acquires nothing.
+        """
+        if view.joints is not None:
+            try:
+                return self.inspection.replay(view.joints, requested=view.target.pose).view
+            except ValueError:
+                # The straight joint-space path from here collides; the IK may find another
+                # configuration (its restarts) with a free path.
+                pass
+        return self.inspection.request(view.target, unreachable="skip").view
+
+    def record(self) -> EpisodeRecord:
+        return self.inspection.record()

@@ -1,0 +1,47 @@
+"""Greedy model-based next-best-view: an upper reference for next-best-view agents.
+
+Like the agents, the oracle starts from the environment's initial view and picks one view at a
+time from what has been measured so far; unlike them it knows the object model: it takes the
+usable candidate (`candidates`) that would add the most uncovered GT points, until the goal or
+the view budget. With the robot it only offers views the robot reaches.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vprobot.planners.base import Episode, Planner, ViewRequest
+from vprobot.planners.candidates import CANDIDATE_COUNT, CandidateViews, candidate_views
+from vprobot.planners.visibility import DEFAULT_RESOLUTION
+
+
+class OraclePlanner(Planner):
+    """Greedy next-best-view on the candidates' predicted visibility.
+
+    Args:
+        candidates: Candidate positions on the view sphere.
+        resolution: Grid of the visibility renderer.
+    """
+
+    name = "oracle"
+    initial_view = True
+
+    def __init__(self, candidates: int = CANDIDATE_COUNT,
+                 resolution: tuple[int, int] = DEFAULT_RESOLUTION):
+        self.candidate_count = candidates
+        self.resolution = resolution
+        self.candidates: CandidateViews | None = None
+        self._taken: set[int] = set()
+
+    def reset(self, episode: Episode, rng: np.random.Generator) -> None:
+        self.candidates = candidate_views(episode, self.candidate_count, self.resolution)
+        self._taken = set()
+
+    def next_view(self, episode: Episode) -> ViewRequest | None:
+        if self.candidates is None:
+            raise RuntimeError("call reset() before next_view()")
+        best = self.candidates.next_best(episode, self._taken)
+        if best is None:
+            return None
+        self._taken.add(best)
+        return self.candidates.request(best)

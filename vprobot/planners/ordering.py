@@ -1,0 +1,120 @@
+"""Order the views of a plan to keep travel short: nearest neighbour, then 2-opt.
+
+The views form an open path from a fixed start (the robot's current configuration). The cost
+matrix is any travel cost between nodes, e.g. `joint_time` between configurations; it need not
+be symmetric, because every move is scored on the whole path. A plan has a handful of views, so
+the O(n^3) passes of 2-opt are instantaneous. 2-opt starts from the cheaper of the given order
+and the nearest-neighbour order and only accepts improvements: the result is never longer than
+the order it was given.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+import numpy as np
+
+from vprobot.kinematics.path import first_collision
+from vprobot.kinematics.travel import joint_time, paper_travel
+from vprobot.planners.base import Episode, ViewRequest
+
+T = TypeVar("T")
+BLOCKED_PATH_S = 1000.0
+"""Extra cost of a move whose straight joint-space path collides: any order avoiding such moves
+is preferred."""
+
+
+def path_cost(cost: np.ndarray, start: int | None, order: Sequence[int]) -> float:
+    """Total cost of visiting `order` after `start` (None: the path begins at order[0])."""
+    nodes = ([start] if start is not None else []) + list(order)
+    return float(sum(cost[a, b] for a, b in itertools.pairwise(nodes)))
+
+
+def nearest_neighbour(cost: np.ndarray, start: int | None, nodes: Sequence[int]) -> list[int]:
+    """Greedy order: always move to the cheapest unvisited node (from nodes[0] without start)."""
+    remaining = list(nodes)
+    order: list[int] = []
+    current = start
+    while remaining:
+        pick = remaining[0] if current is None else min(remaining, key=lambda n: cost[current, n])
+        remaining.remove(pick)
+        order.append(pick)
+        current = pick
+    return order
+
+
+def two_opt(cost: np.ndarray, start: int | None, order: Sequence[int]) -> list[int]:
+    """Reverse segments of the path while that shortens it (first improvement)."""
+    best = list(order)
+    best_cost = path_cost(cost, start, best)
+    improved = True
+    while improved:
+        improved = False
+        for i in range(len(best) - 1):
+            for j in range(i + 1, len(best)):
+                candidate = best[:i] + best[i:j + 1][::-1] + best[j + 1:]
+                candidate_cost = path_cost(cost, start, candidate)
+                if candidate_cost < best_cost - 1e-12:
+                    best, best_cost, improved = candidate, candidate_cost, True
+    return best
+
+
+def order_views(cost: np.ndarray, start: int | None, nodes: Sequence[int]) -> list[int]:
+    """A short visiting order of `nodes` from `start`, never costlier than `nodes` as given.
+
+    Args:
+        cost: Square matrix of move costs between all node indices.
+        start: The fixed first node (not part of the result), or None for a free start.
+        nodes: The nodes to visit, in their given order.
+
+    Raises:
+        ValueError: If the matrix is not square or an index is outside it.
+    """
+    cost = np.asarray(cost, dtype=float)
+    if cost.ndim != 2 or cost.shape[0] != cost.shape[1]:
+        raise ValueError(f"cost must be a square matrix, got shape {cost.shape}")
+    indices = list(nodes) + ([start] if start is not None else [])
+    if any(not 0 <= index < len(cost) for index in indices):
+        raise ValueError(f"node indices must lie in 0..{len(cost) - 1}, got {indices}")
+    given = list(nodes)
+    greedy = nearest_neighbour(cost, start, given)
+    initial = min((given, greedy), key=lambda order: path_cost(cost, start, order))
+    return two_opt(cost, start, initial)
+
+
+def cost_matrix(items: Sequence[T], cost: Callable[[T, T], float]) -> np.ndarray:
+    """The cost of every move between two items, (n, n)."""
+    return np.array([[cost(a, b) for b in items] for a in items], dtype=float).reshape(
+        len(items), len(items))
+
+
+def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[ViewRequest]:
+    """Order a plan's views for short travel from the episode's current state.
+
+    With the robot, views with known configurations are ordered by `joint_time` from the current
+    configuration, a move whose straight joint-space path collides costing `BLOCKED_PATH_S`
+    more (executing it falls back to the IK); views without a configuration (the IK will be
+    asked when they are executed) follow in their given order. Without the robot, views are
+    ordered by the paper's travel approximation (arcs about the object's centre) from a free
+    start.
+    """
+    if episode.uses_robot:
+        known = [request for request in requests if request.joints is not None]
+        unknown = [request for request in requests if request.joints is None]
+        arm = episode.scene.arm
+        velocity = arm.joints.velocity_limits
+
+        def move(a: np.ndarray, b: np.ndarray) -> float:
+            free = first_collision(arm.collisions, arm.path(a, b)) is None
+            blocked = 0.0 if free else BLOCKED_PATH_S
+            return joint_time(a, b, velocity) + blocked
+
+        costs = cost_matrix([episode.q] + [request.joints for request in known], move)
+        order = order_views(costs, 0, range(1, len(known) + 1))
+        return [known[index - 1] for index in order] + unknown
+    center = episode.center
+    costs = cost_matrix([request.target.pose.position for request in requests],
+                        lambda a, b: paper_travel(a, b, center))
+    return [requests[index] for index in order_views(costs, None, range(len(requests)))]

@@ -1,0 +1,239 @@
+"""Which ground-truth points each of many sensor poses sees: a coarse z-buffer per pose.
+
+Model-based planners score hundreds of candidate views by the GT points each would measure. An
+acquisition per candidate costs milliseconds even at a coarse resolution (the sensor's per-frame
+work is per triangle); here all candidates are rendered together in a few large numpy passes.
+
+Per pose, the object's triangles are z-buffered at the pixel centres of a coarse pinhole grid with
+the sensor's opening angles: a pixel keeps the nearest triangle whose projection covers its
+centre (the same exact coverage test as the sensor's scan conversion, on projected 2D edges).
+A GT point p is visible when it lies in the frustum at a ray distance within [near, far] and is
+not hidden: its depth is at most `tolerance` behind the farthest of the four pixel centres
+around its projection. On a surface seen without occlusion the depth at p is at most that of
+the surrounding pixel centres (the depth is affine across a small planar patch), whereas an
+occluder in front covers all four; only a band of about a pixel along occluding edges is
+ambiguous. Triangles facing away from the sensor are culled when the mesh is watertight (a
+closed surface is always first met from its front). The fixture and the robot are not modelled:
+they hide little from the candidate views, and executed views are measured by the real sensor.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from vprobot.config import SensorConfig
+from vprobot.geometry import Pose
+from vprobot.sensor import ray_directions
+
+DEFAULT_RESOLUTION = (108, 75)
+"""A quarter of the full frame's rays per axis: pixels of about 2 mm at the working distance."""
+_CHUNK_PAIRS = 200_000
+"""Poses are rendered in chunks of about this many (pose, triangle) pairs: small enough for the
+working arrays to stay in cache and be reused between chunks (larger chunks are slower)."""
+_MIN_DEPTH = 1e-6
+
+
+class VisibilityRenderer:
+    """Renders a mesh from many sensor poses and tells which points each pose sees.
+
+    Args:
+        mesh: The object in its mesh frame (metres).
+        sensor: Opening angles and range.
+        resolution: (width, height) of the coarse grid.
+        tolerance_m: How far behind the visible surface a point may lie and still count.
+
+    Raises:
+        ValueError: If the mesh has no faces, the resolution is not two integers >= 2, or the
+            tolerance is not a positive length.
+    """
+
+    def __init__(self, mesh: trimesh.Trimesh, sensor: SensorConfig,
+                 resolution: tuple[int, int] = DEFAULT_RESOLUTION, tolerance_m: float = 0.002):
+        if len(mesh.faces) == 0:
+            raise ValueError("mesh has no faces: nothing to render")
+        if len(resolution) != 2 or not all(isinstance(n, int | np.integer) and n >= 2
+                                           for n in resolution):
+            raise ValueError(f"resolution must be two integers >= 2 (width, height), got "
+                             f"{resolution!r}")
+        if not (np.isfinite(tolerance_m) and tolerance_m > 0):
+            raise ValueError(f"tolerance_m must be a positive length, got {tolerance_m!r}")
+        self.vertices = np.asarray(mesh.vertices, dtype=float)
+        self.faces = np.asarray(mesh.faces, dtype=np.int64)
+        self.normals = np.asarray(mesh.face_normals, dtype=float)
+        self.cull_back_faces = bool(mesh.is_watertight and mesh.is_winding_consistent)
+        self._plane_offsets = np.einsum("fj,fj->f", self.normals, self.vertices[self.faces[:, 0]])
+        self.sensor = sensor
+        self.resolution = (int(resolution[0]), int(resolution[1]))
+        self.tolerance_m = float(tolerance_m)
+        # The sensor's own pixel grid: tangents of the pixel centres along image x and y.
+        directions = ray_directions(sensor, self.resolution)
+        width = self.resolution[0]
+        self.u = directions[:width, 0] / directions[:width, 2]
+        self.v = directions[::width, 1] / directions[::width, 2]
+        self._du = self.u[1] - self.u[0]
+        self._dv = self.v[1] - self.v[0]
+        self._half_tan = (np.tan(np.deg2rad(sensor.fov_deg[0]) / 2.0),
+                          np.tan(np.deg2rad(sensor.fov_deg[1]) / 2.0))
+
+    def visible(self, poses: list[Pose], points: np.ndarray) -> np.ndarray:
+        """Which points (n, 3) each pose sees; poses and points in the mesh frame.
+
+        Returns:
+            Boolean matrix (len(poses), n).
+        """
+        points = np.asarray(points, dtype=float)
+        result = np.zeros((len(poses), len(points)), dtype=bool)
+        chunk = max(1, _CHUNK_PAIRS // len(self.faces))
+        for start in range(0, len(poses), chunk):
+            batch = poses[start:start + chunk]
+            positions = np.array([pose.position for pose in batch])
+            rotations = np.array([pose.rotation for pose in batch])
+            depth = self.depth_maps(positions, rotations)
+            result[start:start + len(batch)] = self._points_visible(depth, positions, rotations,
+                                                                    points)
+        return result
+
+    def depth_maps(self, positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+        """Z-depth of the nearest triangle at every pixel centre, per pose (k, h, w); inf where
+        no triangle covers the centre."""
+        width, height = self.resolution
+        pose, cu, cv, inverse_depth = self._triangles(positions, rotations)
+        pair, row, column = self._covered_pixels(cu, cv)
+        # 1/z is affine across a triangle's projection, so the nearest hit has the largest 1/z.
+        nearness = (inverse_depth[0][pair] * self.u[column] + inverse_depth[1][pair] * self.v[row]
+                    + inverse_depth[2][pair])
+        valid = np.isfinite(nearness) & (nearness > 0)
+        index = (pose[pair] * height + row) * width + column
+        buffer = np.zeros(len(positions) * height * width)
+        np.maximum.at(buffer, index[valid], nearness[valid])
+        with np.errstate(divide="ignore"):
+            return (1.0 / buffer).reshape(len(positions), height, width)
+
+    def _triangles(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[
+            np.ndarray, list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+        """The (pose, triangle) pairs that can cover a pixel centre.
+
+        Returns:
+            Per pair: the pose index, the image-plane corners u and v (three arrays each) and
+            the coefficients (a, b, c) of 1/z = a u + b v + c.
+        """
+        # Vertices in every pose's sensor frame (rotation columns are the sensor axes), as flat
+        # coordinate arrays: numpy gathers single values much faster than rows of three.
+        local = np.matmul(self.vertices[None] - positions[:, None], rotations)
+        x, y, z = (np.ascontiguousarray(local[..., axis]).ravel() for axis in range(3))
+        pose, face = self._facing_pairs(positions)
+        vertex = pose[:, None] * len(self.vertices) + self.faces[face]
+        corner_z = [z[vertex[:, k]] for k in range(3)]
+        nearest = np.minimum(np.minimum(corner_z[0], corner_z[1]), corner_z[2])
+        keep = np.flatnonzero((nearest > _MIN_DEPTH) & (nearest <= self.sensor.far_m))
+        pose, vertex = pose[keep], vertex[keep]
+        corners = [np.column_stack([x[vertex[:, k]], y[vertex[:, k]], corner_z[k][keep]])
+                   for k in range(3)]
+        cu = [corner[:, 0] / corner[:, 2] for corner in corners]
+        cv = [corner[:, 1] / corner[:, 2] for corner in corners]
+        # Triangles between two pixel rows or columns, or outside the frame, cover no centre.
+        row_lo, row_hi = self._index_span(_min3(cv), _max3(cv), self.v)
+        column_lo, column_hi = self._index_span(_min3(cu), _max3(cu), self.u)
+        keep = np.flatnonzero((row_hi >= row_lo) & (column_hi >= column_lo))
+        corners = [corner[keep] for corner in corners]
+        # The plane n . x = n . a of the triangle meets the ray (u, v, 1) at 1/z = n . (u, v, 1)
+        # / n . a.
+        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        offset = np.einsum("pj,pj->p", normal, corners[0])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inverse_depth = [normal[:, axis] / offset for axis in range(3)]
+        return pose[keep], [c[keep] for c in cu], [c[keep] for c in cv], inverse_depth
+
+    def _covered_pixels(self, cu: list[np.ndarray],
+                        cv: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every (pair, row, column) whose pixel centre lies inside the pair's triangle."""
+        orientation = np.sign((cu[1] - cu[0]) * (cv[2] - cv[0]) - (cv[1] - cv[0]) * (cu[2] - cu[0]))
+        row_lo, row_hi = self._index_span(_min3(cv), _max3(cv), self.v)
+        rows_per = np.where(orientation != 0, np.maximum(row_hi - row_lo + 1, 0), 0)
+        entry = np.repeat(np.arange(len(rows_per)), rows_per)
+        row = row_lo[entry] + _ranks(rows_per)
+        row_v = self.v[row]
+        # Per edge a -> b, inside is alpha u + beta v + gamma >= 0 (oriented inward); on a pixel
+        # row each edge bounds u from one side.
+        low = np.full(len(row), -np.inf)
+        high = np.full(len(row), np.inf)
+        feasible = np.ones(len(row), dtype=bool)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for a, b in ((0, 1), (1, 2), (2, 0)):
+                alpha = -orientation * (cv[b] - cv[a])
+                beta = orientation * (cu[b] - cu[a])
+                gamma = -alpha * cu[a] - beta * cv[a]
+                slope = alpha[entry]
+                intercept = beta[entry] * row_v + gamma[entry]
+                crossing = -intercept / slope
+                low = np.where(slope > 0, np.maximum(low, crossing), low)
+                high = np.where(slope < 0, np.minimum(high, crossing), high)
+                feasible &= (slope != 0) | (intercept >= 0)
+        column_lo, column_hi = self._index_span(low, high, self.u)
+        columns_per = np.where(feasible, np.maximum(column_hi - column_lo + 1, 0), 0)
+        pixel = np.repeat(np.arange(len(row)), columns_per)
+        return entry[pixel], row[pixel], column_lo[pixel] + _ranks(columns_per)
+
+    @staticmethod
+    def _index_span(low: np.ndarray, high: np.ndarray,
+                    centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """First and last index of the evenly spaced `centres` within [low, high] (empty when
+        last < first)."""
+        step = centres[1] - centres[0]
+        with np.errstate(invalid="ignore"):
+            # Clamping first keeps unbounded spans finite.
+            first = np.ceil((np.maximum(low, centres[0] - step) - centres[0]) / step)
+            last = np.floor((np.minimum(high, centres[-1] + step) - centres[0]) / step)
+        return (first.clip(0, len(centres)).astype(np.int64),
+                last.clip(-1, len(centres) - 1).astype(np.int64))
+
+    def _facing_pairs(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(pose, face) index pairs of the triangles each pose can see the front of."""
+        if not self.cull_back_faces:
+            pose, face = np.indices((len(positions), len(self.faces)))
+            return pose.ravel(), face.ravel()
+        # The sensor lies on the outer side of the triangle's plane.
+        return np.nonzero(positions @ self.normals.T > self._plane_offsets[None])
+
+    def _points_visible(self, depth: np.ndarray, positions: np.ndarray, rotations: np.ndarray,
+                        points: np.ndarray) -> np.ndarray:
+        """The depth test of the module docstring for every (pose, point)."""
+        _, height, width = depth.shape
+        local = np.einsum("knj,kji->kni", points[None] - positions[:, None], rotations)
+        z = local[..., 2]
+        distance = np.linalg.norm(local, axis=2)
+        safe = np.where(z > _MIN_DEPTH, z, 1.0)
+        pu, pv = local[..., 0] / safe, local[..., 1] / safe
+        candidate = ((z > _MIN_DEPTH) & (np.abs(pu) <= self._half_tan[0])
+                     & (np.abs(pv) <= self._half_tan[1])
+                     & (distance >= self.sensor.near_m) & (distance <= self.sensor.far_m))
+        pose_index, point_index = np.nonzero(candidate)
+        column = (pu[pose_index, point_index] - self.u[0]) / self._du
+        row = (pv[pose_index, point_index] - self.v[0]) / self._dv
+        # Empty pixels support nothing: they count as infinitely near.
+        support = np.where(np.isfinite(depth), depth, -np.inf)
+        farthest = np.full(len(pose_index), -np.inf)
+        for row_step in (0, 1):
+            rows = np.clip(np.floor(row).astype(np.int64) + row_step, 0, height - 1)
+            for column_step in (0, 1):
+                columns = np.clip(np.floor(column).astype(np.int64) + column_step, 0, width - 1)
+                farthest = np.maximum(farthest, support[pose_index, rows, columns])
+        seen = z[pose_index, point_index] <= farthest + self.tolerance_m
+        visible = np.zeros(candidate.shape, dtype=bool)
+        visible[pose_index[seen], point_index[seen]] = True
+        return visible
+
+
+def _min3(values: list[np.ndarray]) -> np.ndarray:
+    return np.minimum(np.minimum(values[0], values[1]), values[2])
+
+
+def _max3(values: list[np.ndarray]) -> np.ndarray:
+    return np.maximum(np.maximum(values[0], values[1]), values[2])
+
+
+def _ranks(counts: np.ndarray) -> np.ndarray:
+    """0, 1, ..., counts[k] - 1 for every k, concatenated."""
+    starts = np.cumsum(counts) - counts
+    return np.arange(int(counts.sum())) - np.repeat(starts, counts)
