@@ -98,6 +98,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.env import run_env_benchmark
 
         results = run_env_benchmark(config, steps=args.samples)
+    elif args.suite == "render":
+        from vprobot.benchmarks.render import run_render_benchmark
+
+        results = run_render_benchmark(config)
     elif args.suite == "sensor":
         from vprobot.benchmarks.sensor import run_sensor_benchmark
 
@@ -154,7 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     benchmark = add("benchmark", command_benchmark, "Measure the speed and quality targets.")
     add_robot(benchmark)
-    benchmark.add_argument("suite", choices=["kinematics", "sensor", "env"])
+    benchmark.add_argument("suite", choices=["kinematics", "sensor", "env", "render"])
     benchmark.add_argument("--samples", type=int, default=200,
                            help="random targets (kinematics) or steps (env) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
