@@ -6,10 +6,11 @@ document and a summary.
 """
 
 from vprobot.planners.base import Episode, Planner, PlanPlanner, ViewRequest
-from vprobot.planners.bscp import SetCoverPlanner, greedy_cover
+from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import CandidateViews, candidate_views
 from vprobot.planners.episode import RobotEpisode, episode_rng, object_rotation
 from vprobot.planners.free_flying import FreeFlyingEpisode
+from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.hrec import BoxFacesPlanner
 from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.ordering import order_requests, order_views

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -19,6 +19,10 @@ from vprobot.episode import EpisodeRecord, ViewRecord
 from vprobot.geometry import Pose
 from vprobot.inspection import MotorScene
 from vprobot.kinematics import SensorTarget
+
+if TYPE_CHECKING:
+    # candidates builds on this module's interface.
+    from vprobot.planners.candidates import CandidateViews
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,6 +77,14 @@ class Episode(abc.ABC):
         """The views requested so far, in order."""
 
     @abc.abstractmethod
+    def preview(self, view: ViewRequest) -> np.ndarray:
+        """Which GT points the view alone would cover, simulated without executing it.
+
+        Raises:
+            ValueError: If the view cannot be simulated (with the robot: it needs joints).
+        """
+
+    @abc.abstractmethod
     def execute(self, view: ViewRequest) -> ViewRecord:
         """Move to the view if possible and acquire there; never acquires from an unreached pose."""
 
@@ -89,11 +101,13 @@ class Planner(abc.ABC):
         initial_view: Whether the episode starts with the environment's fixed initial view, as
             the next-best-view agents of the paper do (whole-plan baselines do not).
         stops_at_goal: Whether the runner stops at the coverage goal (a fixed plan runs out).
+        candidates: The candidate views a model-based planner chose from in its last episode.
     """
 
     name: ClassVar[str]
     initial_view: ClassVar[bool] = False
     stops_at_goal: bool = True
+    candidates: CandidateViews | None = None
 
     @abc.abstractmethod
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:

@@ -15,8 +15,9 @@ when its configuration is within the limits and collision-free (the path to it i
 a view is executed); it then acquires from the FK pose of that configuration, roll included.
 Without the robot every candidate is usable at its look-at pose.
 
-Visibility of the ground-truth points from every usable candidate comes from
-`VisibilityRenderer` (all candidates in a few numpy passes).
+Visibility of the ground-truth points from every usable candidate is predicted by
+`VisibilityRenderer` (all candidates in a few numpy passes); planners confirm the candidates they
+are about to take with a simulated acquisition (`measured`).
 """
 
 from __future__ import annotations
@@ -34,15 +35,22 @@ from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.path import first_collision
 from vprobot.planners.base import Episode, ViewRequest
+from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
 from vprobot.viewsphere import sphere_directions
 
 CANDIDATE_COUNT = 900
-SCREEN_RESTARTS = 2
+SCREEN_RESTARTS = 1
+"""IK restarts (home) of the screening: 8 find the same reachable candidates (781 of 900 on the
+default motor, one more on some) at twice the time, none misses about 3 %."""
+CONFIRMATIONS_PER_PICK = 6
+"""Simulated acquisitions per greedy pick at most. On the test motors (3 poses each), B_SCP,5
+covers 96.2 % with none, 97.9 % with 4, 98.4 % with 8 and 99.3 % unlimited, which takes 63
+acquisitions a plan on average and up to 150."""
 _NEIGHBOURS = 8
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass
 class CandidateViews:
     """The candidate views of one episode.
 
@@ -53,9 +61,10 @@ class CandidateViews:
         joints: Robot configuration of each candidate (count, dof); NaN rows where not usable or
             without the robot.
         reasons: Why a candidate is not usable (the IK's verdict), else None.
-        visibility: Which GT points each candidate sees (count, n_GT); all False where not usable.
+        visibility: Predicted visibility of the GT points (count, n_GT); all False where not
+            usable.
         reach_seconds: Time spent screening reachability.
-        visibility_seconds: Time spent on visibility.
+        visibility_seconds: Time spent predicting visibility.
     """
 
     targets: tuple[SensorTarget, ...]
@@ -66,6 +75,7 @@ class CandidateViews:
     visibility: np.ndarray
     reach_seconds: float
     visibility_seconds: float
+    _measured: dict[int, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -82,29 +92,42 @@ class CandidateViews:
         return ViewRequest(self.targets[index],
                            None if np.isnan(joints).any() else joints.copy())
 
-    def gains(self, covered: np.ndarray) -> np.ndarray:
-        """GT points each candidate would add to the `covered` ones (count,)."""
-        return np.count_nonzero(self.visibility & ~np.asarray(covered, dtype=bool), axis=1)
+    def measured(self, index: int, episode: Episode) -> np.ndarray:
+        """The GT points the candidate's acquisition covers, simulated by the episode (cached)."""
+        if index not in self._measured:
+            self._measured[index] = episode.preview(self.request(index))
+        return self._measured[index]
+
+    @property
+    def measured_count(self) -> int:
+        """Candidates whose acquisition was simulated."""
+        return len(self._measured)
+
+    def known_visibility(self) -> np.ndarray:
+        """The predicted visibility with the rows of simulated candidates replaced (a copy)."""
+        known = self.visibility.copy()
+        for index, row in self._measured.items():
+            known[index] = row
+        return known
 
     def next_best(self, episode: Episode, taken: set[int]) -> int | None:
-        """The candidate outside `taken` adding the most to the episode's coverage.
+        """The candidate outside `taken` adding the most to the episode's coverage (confirmed by
+        a simulated acquisition); None if none adds anything.
 
         With the robot, only candidates joined to the current configuration by a collision-free
         straight joint-space path are offered (the others would fail when executed).
-
-        Returns:
-            The candidate, or None if none adds anything.
         """
-        gains = self.gains(episode.covered)
-        gains[list(taken)] = 0
         arm = episode.scene.arm
-        for index in np.argsort(-gains, kind="stable"):
-            if gains[index] == 0:
-                return None
-            if not episode.uses_robot or first_collision(
-                    arm.collisions, arm.path(episode.q, self.joints[index])) is None:
-                return int(index)
-        return None
+        q = episode.q
+
+        def allowed(index: int) -> bool:
+            return index not in taken and (not episode.uses_robot or first_collision(
+                arm.collisions, arm.path(q, self.joints[index])) is None)
+
+        picks, _ = greedy_cover(self.known_visibility(), episode.covered, 1,
+                                confirm=lambda index: self.measured(index, episode),
+                                allowed=allowed, confirmations=CONFIRMATIONS_PER_PICK)
+        return picks[0] if picks else None
 
 
 def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,

@@ -8,10 +8,12 @@ from typing import ClassVar
 import numpy as np
 
 from vprobot.config import EnvConfig
+from vprobot.coverage import CoverageTracker
 from vprobot.episode import EpisodeRecord, ViewRecord
 from vprobot.geometry import rotation_about_z
 from vprobot.inspection import Inspection, MotorScene
 from vprobot.planners.base import Episode, ViewRequest
+from vprobot.sensor import Acquisition
 
 
 def object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
@@ -25,6 +27,13 @@ def object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
                       [-axis[1], axis[0], 0.0]])
     tilt_rotation = np.eye(3) + np.sin(tilt) * cross + (1.0 - np.cos(tilt)) * cross @ cross
     return tilt_rotation @ rotation_about_z(yaw)
+
+
+def preview_coverage(scratch: CoverageTracker, acquisition: Acquisition) -> np.ndarray:
+    """The GT points one acquisition covers, matched on a scratch tracker."""
+    scratch.reset()
+    scratch.update(acquisition.points_mesh)
+    return scratch.covered
 
 
 def episode_rng(seed: int, scene: MotorScene) -> np.random.Generator:
@@ -46,6 +55,7 @@ class RobotEpisode(Episode):
         self.scene = scene
         self.inspection = Inspection(scene, rotation)
         self.object_pose = self.inspection.object_pose
+        self._scratch = CoverageTracker.from_ground_truth(scene.ground_truth)
 
     @property
     def q(self) -> np.ndarray:
@@ -58,6 +68,14 @@ class RobotEpisode(Episode):
     @property
     def views(self) -> list[ViewRecord]:
         return self.inspection.views
+
+    def preview(self, view: ViewRequest) -> np.ndarray:
+        """Acquire from the view's configuration (the arm occluding as it would) and match."""
+        if view.joints is None:
+            raise ValueError("a robot view can only be previewed from its joints")
+        forward = self.scene.arm.forward
+        forward.set_configuration(view.joints)
+        return preview_coverage(self._scratch, self.scene.sensor.acquire(forward.data))
 
     def execute(self, view: ViewRequest) -> ViewRecord:
         """Drive to the view's known configuration, or let the IK reach it from here.

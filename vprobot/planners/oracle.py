@@ -2,8 +2,9 @@
 
 Like the agents, the oracle starts from the environment's initial view and picks one view at a
 time from what has been measured so far; unlike them it knows the object model: it takes the
-usable candidate (`candidates`) that would add the most uncovered GT points, until the goal or
-the view budget. With the robot it only offers views the robot reaches.
+usable candidate (`candidates`) that adds the most uncovered GT points (predicted, then
+confirmed by a simulated acquisition), until the goal or the view budget. With the robot it
+only offers views the robot reaches from where it is.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.planners.base import Episode, Planner, ViewRequest
-from vprobot.planners.candidates import CANDIDATE_COUNT, CandidateViews, candidate_views
+from vprobot.planners.candidates import CANDIDATE_COUNT, candidate_views
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 
@@ -19,18 +20,17 @@ class OraclePlanner(Planner):
     """Greedy next-best-view on the candidates' predicted visibility.
 
     Args:
-        candidates: Candidate positions on the view sphere.
+        candidate_count: Candidate positions on the view sphere.
         resolution: Grid of the visibility renderer.
     """
 
     name = "oracle"
     initial_view = True
 
-    def __init__(self, candidates: int = CANDIDATE_COUNT,
+    def __init__(self, candidate_count: int = CANDIDATE_COUNT,
                  resolution: tuple[int, int] = DEFAULT_RESOLUTION):
-        self.candidate_count = candidates
+        self.candidate_count = candidate_count
         self.resolution = resolution
-        self.candidates: CandidateViews | None = None
         self._taken: set[int] = set()
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:

@@ -19,6 +19,7 @@ from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
 from vprobot.planners.base import Episode, Planner, ViewRequest
 from vprobot.planners.bscp import SetCoverPlanner
+from vprobot.planners.candidates import CandidateViews
 from vprobot.planners.episode import RobotEpisode, episode_rng, object_rotation
 from vprobot.planners.free_flying import FreeFlyingEpisode
 from vprobot.planners.hrec import BoxFacesPlanner
@@ -27,7 +28,7 @@ from vprobot.planners.random_views import Random1Planner, Random2Planner
 
 PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle")
 Mode = Literal["robot", "free"]
-_SPEC = re.compile(r"^(?P<name>[a-z]+?)(?P<views>\d+)?$")
+_FIXED_BSCP = re.compile(r"^bscp(\d+)$")
 
 
 def make_planner(name: str, config: Config, views: int | None = None) -> Planner:
@@ -56,12 +57,13 @@ def parse_planner(spec: str) -> tuple[str, int | None]:
     Raises:
         ValueError: If the spec names no planner.
     """
-    match = _SPEC.match(spec)
-    if match is None or match["name"] not in PLANNER_NAMES or (
-            match["views"] is not None and match["name"] != "bscp"):
+    if spec in PLANNER_NAMES:
+        return spec, None
+    match = _FIXED_BSCP.match(spec)
+    if match is None or int(match[1]) < 1:
         raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(PLANNER_NAMES)}, or "
                          f"bscp<N> for B_SCP with N views (e.g. bscp5)")
-    return match["name"], int(match["views"]) if match["views"] is not None else None
+    return "bscp", int(match[1])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,6 +79,7 @@ class EpisodeResult:
         goal: The coverage goal.
         plan_seconds: Time spent inside the planner (reset and next-view calls).
         episode_seconds: Wall time of the whole episode (planning and executing views).
+        candidates: The candidate views of a model-based planner (bscp, oracle), else None.
     """
 
     planner: str
@@ -87,6 +90,7 @@ class EpisodeResult:
     goal: float
     plan_seconds: float
     episode_seconds: float
+    candidates: CandidateViews | None = None
 
     @property
     def coverage(self) -> float:
@@ -176,7 +180,8 @@ def run(config: Config, scene: MotorScene, planner: str, seed: int, mode: Mode =
     return EpisodeResult(planner=planner if views is None else f"{planner}{views}", mode=mode,
                          mesh=str(scene.mesh.path), seed=seed, record=record,
                          goal=config.env.coverage_goal, plan_seconds=planning,
-                         episode_seconds=time.perf_counter() - start)
+                         episode_seconds=time.perf_counter() - start,
+                         candidates=chosen.candidates)
 
 
 def summary(result: EpisodeResult, config: Config) -> str:
@@ -201,6 +206,12 @@ def summary(result: EpisodeResult, config: Config) -> str:
     else:
         lines.append(f"  travel {travel.paper:.2f} m (paper approximation)")
     lines.append(f"  planning {result.plan_seconds:.2f} s, episode {result.episode_seconds:.2f} s")
+    candidates = result.candidates
+    if candidates is not None:
+        reach = (f", {int(candidates.usable.sum())} reachable (screened in "
+                 f"{candidates.reach_seconds:.2f} s)" if result.mode == "robot" else "")
+        lines.append(f"  candidates {len(candidates)}{reach}, visibility of the GT points "
+                     f"{candidates.visibility_seconds:.2f} s")
     lines.append("  view  coverage  joint time  reached")
     for index, view in enumerate(record.views, start=1):
         if result.mode == "free":

@@ -1,0 +1,122 @@
+"""Planner benchmark: B_SCP speed with the robot in the loop, coverage next to the paper's Table 9.
+
+Per test motor and seed (one random object pose each), it runs B_SCP until the coverage goal with
+the robot in the loop (planning time includes the reachability of all 900 candidates), B_SCP,4
+and B_SCP,5 with the free-flying sensor, and H_rec in both modes.
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from vprobot.config import Config
+from vprobot.evaluation import PAPER_TABLE_9, test_motors
+from vprobot.inspection import MotorScene
+from vprobot.planners.runner import EpisodeResult, Mode, run
+
+RUNS: tuple[tuple[str, str, int | None, Mode], ...] = (
+    ("bscp_robot", "bscp", None, "robot"),
+    ("bscp_free", "bscp", None, "free"),
+    ("bscp4_free", "bscp", 4, "free"),
+    ("bscp5_free", "bscp", 5, "free"),
+    ("hrec_free", "hrec", None, "free"),
+    ("hrec_robot", "hrec", None, "robot"),
+)
+"""(key, planner, fixed views, mode) of every benchmarked run."""
+
+
+def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None = None,
+                           seeds: Sequence[int] = (0, 1), progress: bool = True) -> dict[str, Any]:
+    """Measure the planner targets on the test motors.
+
+    Args:
+        config: The configuration.
+        motors: Mesh files; the bundled test motors when None.
+        seeds: Seeds of the object poses (one episode per motor, seed and run).
+        progress: Show a progress bar.
+
+    Returns:
+        `bscp_plan_s_median` / `_max` (B_SCP until the goal with the robot: planning time,
+        including the reachability of all candidates), `bscp_episode_s_median` (planning and
+        executing), `bscp_reach_s_median`, `bscp_visibility_s_median`,
+        `bscp_candidates_reachable_pct`, `bscp_robot_coverage_pct`, `bscp_robot_views`,
+        `bscp_free_coverage_pct`, `bscp4_free_coverage_pct`, `bscp5_free_coverage_pct`,
+        `hrec_free_coverage_pct`, `hrec_robot_coverage_pct`, `hrec_robot_reachable_pct`,
+        `episodes` (per run) and the paper's figures (`paper_*`).
+
+    Raises:
+        ValueError: If there are no motors or seeds.
+    """
+    paths = [Path(path) for path in motors] if motors is not None else test_motors()
+    if not paths or not seeds:
+        raise ValueError("the planner benchmark needs at least one motor and one seed")
+    results: dict[str, list[EpisodeResult]] = {key: [] for key, *_ in RUNS}
+    with tqdm(total=len(paths) * len(seeds) * len(RUNS), desc="planners",
+              disable=not progress) as bar:
+        for path in paths:
+            scene = MotorScene.load(config, path)
+            for seed in seeds:
+                for key, planner, views, mode in RUNS:
+                    results[key].append(run(config, scene, planner, seed, mode, views))
+                    bar.update()
+
+    def coverage_pct(key: str) -> float:
+        return 100.0 * statistics.fmean(result.coverage for result in results[key])
+
+    bscp = results["bscp_robot"]
+    candidates = [result.candidates for result in bscp if result.candidates is not None]
+    paper = {name: (coverage, seconds) for name, coverage, _, seconds in PAPER_TABLE_9}
+    return {
+        "bscp_plan_s_median": statistics.median(result.plan_seconds for result in bscp),
+        "bscp_plan_s_max": max(result.plan_seconds for result in bscp),
+        "bscp_episode_s_median": statistics.median(result.episode_seconds for result in bscp),
+        "bscp_reach_s_median": statistics.median(c.reach_seconds for c in candidates),
+        "bscp_visibility_s_median": statistics.median(c.visibility_seconds for c in candidates),
+        "bscp_candidates_reachable_pct": 100.0 * statistics.fmean(
+            float(c.usable.mean()) for c in candidates),
+        "bscp_robot_coverage_pct": coverage_pct("bscp_robot"),
+        "bscp_robot_views": statistics.fmean(result.acquisitions for result in bscp),
+        "bscp_free_coverage_pct": coverage_pct("bscp_free"),
+        "bscp_free_views": statistics.fmean(r.acquisitions for r in results["bscp_free"]),
+        "bscp4_free_coverage_pct": coverage_pct("bscp4_free"),
+        "bscp5_free_coverage_pct": coverage_pct("bscp5_free"),
+        "hrec_free_coverage_pct": coverage_pct("hrec_free"),
+        "hrec_robot_coverage_pct": coverage_pct("hrec_robot"),
+        "hrec_robot_reachable_pct": 100.0 * statistics.fmean(
+            result.reachability for result in results["hrec_robot"]),
+        "episodes": len(bscp),
+        "paper_bscp4_coverage_pct": paper["B_SCP,4"][0],
+        "paper_bscp5_coverage_pct": paper["B_SCP,5"][0],
+        "paper_hrec_coverage_pct": paper["H_rec"][0],
+        "paper_bscp_plan_s": paper["B_SCP,5"][1],
+    }
+
+
+def print_table(results: dict[str, Any]) -> None:
+    """Print ours next to the paper's Table 9 (coverage %, views, planning time)."""
+    rows = [
+        ("B_SCP,4", "free", results["bscp4_free_coverage_pct"], "4",
+         results["paper_bscp4_coverage_pct"]),
+        ("B_SCP,5", "free", results["bscp5_free_coverage_pct"], "5",
+         results["paper_bscp5_coverage_pct"]),
+        ("B_SCP (90 %)", "free", results["bscp_free_coverage_pct"],
+         f"{results['bscp_free_views']:.2f}", None),
+        ("B_SCP (90 %)", "robot", results["bscp_robot_coverage_pct"],
+         f"{results['bscp_robot_views']:.2f}", None),
+        ("H_rec", "free", results["hrec_free_coverage_pct"], "6",
+         results["paper_hrec_coverage_pct"]),
+        ("H_rec", "robot", results["hrec_robot_coverage_pct"],
+         f"6 ({results['hrec_robot_reachable_pct']:.0f} % reachable)", None),
+    ]
+    print(f"{'planner':<14}{'mode':<7}{'coverage %':>11}  {'paper %':>8}  views")
+    for name, mode, coverage, views, paper in rows:
+        shown = f"{paper:8.2f}" if paper is not None else f"{'-':>8}"
+        print(f"{name:<14}{mode:<7}{coverage:11.2f}  {shown}  {views}")
+    print(f"B_SCP with the robot: {results['bscp_plan_s_median']:.2f} s per plan (median; max "
+          f"{results['bscp_plan_s_max']:.2f} s; paper, free-flying: "
+          f"{results['paper_bscp_plan_s']:.0f} s)")
