@@ -75,7 +75,8 @@ class CandidateViews:
     visibility: np.ndarray
     reach_seconds: float
     visibility_seconds: float
-    _measured: dict[int, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
+    _measured: dict[int, np.ndarray] = dataclasses.field(default_factory=dict, init=False,
+                                                         repr=False)
 
     def __len__(self) -> int:
         return len(self.targets)

@@ -31,8 +31,8 @@ def greedy_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         confirm: The exact row of a candidate; called at most once per candidate, before it
             is picked.
         allowed: Whether a candidate may be picked at all; asked before confirming it.
-        confirmations: Most rows confirmed per pick; once spent, the pick is the best confirmed
-            row (None: no limit).
+        confirmations: Rows confirmed per pick before settling for the best confirmed row (None:
+            no limit; confirming goes on while no confirmed row adds anything).
 
     Returns:
         The picked rows and the points each added. Without `confirm` the gains are
@@ -60,7 +60,10 @@ def greedy_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         added = np.count_nonzero(rows & ~covered, axis=1)
         added[excluded] = 0
         if confirmations is not None and spent >= confirmations:
-            added[~confirmed] = 0
+            # Budget spent: the best confirmed row, unless none of them adds anything.
+            confirmed_added = np.where(confirmed, added, 0)
+            if confirmed_added.max() > 0:
+                added = confirmed_added
         best = int(np.argmax(added))
         if added[best] == 0:
             break

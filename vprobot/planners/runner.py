@@ -212,14 +212,17 @@ def summary(result: EpisodeResult, config: Config) -> str:
                  f"{candidates.reach_seconds:.2f} s)" if result.mode == "robot" else "")
         lines.append(f"  candidates {len(candidates)}{reach}, visibility of the GT points "
                      f"{candidates.visibility_seconds:.2f} s")
-    lines.append("  view  coverage  joint time  reached")
+    if result.mode == "robot":
+        lines.append("  view  coverage  joint time  reached")
+    else:
+        lines.append("  view  coverage  paper travel")
     for index, view in enumerate(record.views, start=1):
-        if result.mode == "free":
-            state = "free-flying"
-        else:
+        if result.mode == "robot":
             state = "yes" if view.reachable else f"no ({view.reason})"
-        lines.append(f"  {index:4d}  {view.coverage:8.1%}  {view.travel.joint_time:8.2f} s  "
-                     f"{state}")
+            lines.append(f"  {index:4d}  {view.coverage:8.1%}  {view.travel.joint_time:8.2f} s  "
+                         f"{state}")
+        else:
+            lines.append(f"  {index:4d}  {view.coverage:8.1%}  {view.travel.paper:10.2f} m")
     return "\n".join(lines)
 
 

@@ -19,6 +19,8 @@ they hide little from the candidate views, and executed views are measured by th
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import trimesh
 
@@ -35,6 +37,27 @@ _CHUNK_PAIRS = 200_000
 """Poses are rendered in chunks of about this many (pose, triangle) pairs: small enough for the
 working arrays to stay in cache and be reused between chunks (larger chunks are slower)."""
 _MIN_DEPTH = 1e-6
+
+
+@dataclasses.dataclass(frozen=True)
+class _Triangles:
+    """(pose, triangle) pairs projected into their pose's image plane.
+
+    Attributes:
+        pose: Pose index of each pair.
+        u: Image-plane x tangents of the three corners (three arrays).
+        v: Image-plane y tangents of the three corners (three arrays).
+        inverse_depth: Coefficients (a, b, c) of 1/z = a u + b v + c across the triangle.
+        row_lo: First pixel row within the triangle's v-range.
+        row_hi: Last pixel row within it.
+    """
+
+    pose: np.ndarray
+    u: list[np.ndarray]
+    v: list[np.ndarray]
+    inverse_depth: tuple[np.ndarray, ...]
+    row_lo: np.ndarray
+    row_hi: np.ndarray
 
 
 class VisibilityRenderer:
@@ -101,61 +124,61 @@ class VisibilityRenderer:
         """Z-depth of the nearest triangle at every pixel centre, per pose (k, h, w); inf where
         no triangle covers the centre."""
         width, height = self.resolution
-        pose, cu, cv, inverse_depth = self._triangles(positions, rotations)
-        pair, row, column = self._covered_pixels(cu, cv)
+        triangles = self._triangles(positions, rotations)
+        pair, row, column = self._covered_pixels(triangles)
         # 1/z is affine across a triangle's projection, so the nearest hit has the largest 1/z.
-        nearness = (inverse_depth[0][pair] * self.u[column] + inverse_depth[1][pair] * self.v[row]
-                    + inverse_depth[2][pair])
+        a, b, c = triangles.inverse_depth
+        nearness = a[pair] * self.u[column] + b[pair] * self.v[row] + c[pair]
         valid = np.isfinite(nearness) & (nearness > 0)
-        index = (pose[pair] * height + row) * width + column
+        index = (triangles.pose[pair] * height + row) * width + column
         buffer = np.zeros(len(positions) * height * width)
         np.maximum.at(buffer, index[valid], nearness[valid])
         with np.errstate(divide="ignore"):
             return (1.0 / buffer).reshape(len(positions), height, width)
 
-    def _triangles(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[
-            np.ndarray, list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
-        """The (pose, triangle) pairs that can cover a pixel centre.
-
-        Returns:
-            Per pair: the pose index, the image-plane corners u and v (three arrays each) and
-            the coefficients (a, b, c) of 1/z = a u + b v + c.
-        """
+    def _triangles(self, positions: np.ndarray, rotations: np.ndarray) -> _Triangles:
+        """The (pose, triangle) pairs that can cover a pixel centre."""
         # Vertices in every pose's sensor frame (rotation columns are the sensor axes), as flat
-        # coordinate arrays: numpy gathers single values much faster than rows of three.
+        # coordinate arrays: numpy gathers single values, and works on columns, much faster
+        # than on rows of three.
         local = np.matmul(self.vertices[None] - positions[:, None], rotations)
         x, y, z = (np.ascontiguousarray(local[..., axis]).ravel() for axis in range(3))
         pose, face = self._facing_pairs(positions)
         vertex = pose[:, None] * len(self.vertices) + self.faces[face]
         corner_z = [z[vertex[:, k]] for k in range(3)]
-        nearest = np.minimum(np.minimum(corner_z[0], corner_z[1]), corner_z[2])
-        keep = np.flatnonzero((nearest > _MIN_DEPTH) & (nearest <= self.sensor.far_m))
+        keep = np.flatnonzero((_min3(corner_z) > _MIN_DEPTH)
+                              & (_min3(corner_z) <= self.sensor.far_m))
         pose, vertex = pose[keep], vertex[keep]
-        corners = [np.column_stack([x[vertex[:, k]], y[vertex[:, k]], corner_z[k][keep]])
-                   for k in range(3)]
-        cu = [corner[:, 0] / corner[:, 2] for corner in corners]
-        cv = [corner[:, 1] / corner[:, 2] for corner in corners]
+        corner_x = [x[vertex[:, k]] for k in range(3)]
+        corner_y = [y[vertex[:, k]] for k in range(3)]
+        corner_z = [depth[keep] for depth in corner_z]
+        cu = [corner_x[k] / corner_z[k] for k in range(3)]
+        cv = [corner_y[k] / corner_z[k] for k in range(3)]
         # Triangles between two pixel rows or columns, or outside the frame, cover no centre.
         row_lo, row_hi = self._index_span(_min3(cv), _max3(cv), self.v)
         column_lo, column_hi = self._index_span(_min3(cu), _max3(cu), self.u)
         keep = np.flatnonzero((row_hi >= row_lo) & (column_hi >= column_lo))
-        corners = [corner[keep] for corner in corners]
-        # The plane n . x = n . a of the triangle meets the ray (u, v, 1) at 1/z = n . (u, v, 1)
-        # / n . a.
-        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
-        offset = np.einsum("pj,pj->p", normal, corners[0])
+        ax, ay, az = (corner[0][keep] for corner in (corner_x, corner_y, corner_z))
+        e1 = [corner[1][keep] - corner[0][keep] for corner in (corner_x, corner_y, corner_z)]
+        e2 = [corner[2][keep] - corner[0][keep] for corner in (corner_x, corner_y, corner_z)]
+        # The triangle's plane n . p = n . a meets the ray (u, v, 1) at 1/z = n . (u, v, 1) /
+        # n . a, with n = e1 x e2.
+        normal = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                  e1[0] * e2[1] - e1[1] * e2[0])
+        offset = normal[0] * ax + normal[1] * ay + normal[2] * az
         with np.errstate(divide="ignore", invalid="ignore"):
-            inverse_depth = [normal[:, axis] / offset for axis in range(3)]
-        return pose[keep], [c[keep] for c in cu], [c[keep] for c in cv], inverse_depth
+            inverse_depth = tuple(component / offset for component in normal)
+        return _Triangles(pose[keep], [c[keep] for c in cu], [c[keep] for c in cv],
+                          inverse_depth, row_lo[keep], row_hi[keep])
 
-    def _covered_pixels(self, cu: list[np.ndarray],
-                        cv: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _covered_pixels(self, triangles: _Triangles) -> tuple[np.ndarray, np.ndarray,
+                                                             np.ndarray]:
         """Every (pair, row, column) whose pixel centre lies inside the pair's triangle."""
+        cu, cv = triangles.u, triangles.v
         orientation = np.sign((cu[1] - cu[0]) * (cv[2] - cv[0]) - (cv[1] - cv[0]) * (cu[2] - cu[0]))
-        row_lo, row_hi = self._index_span(_min3(cv), _max3(cv), self.v)
-        rows_per = np.where(orientation != 0, np.maximum(row_hi - row_lo + 1, 0), 0)
+        rows_per = np.where(orientation != 0, triangles.row_hi - triangles.row_lo + 1, 0)
         entry = np.repeat(np.arange(len(rows_per)), rows_per)
-        row = row_lo[entry] + _ranks(rows_per)
+        row = triangles.row_lo[entry] + _ranks(rows_per)
         row_v = self.v[row]
         # Per edge a -> b, inside is alpha u + beta v + gamma >= 0 (oriented inward); on a pixel
         # row each edge bounds u from one side.
@@ -203,17 +226,16 @@ class VisibilityRenderer:
                         points: np.ndarray) -> np.ndarray:
         """The depth test of the module docstring for every (pose, point)."""
         _, height, width = depth.shape
-        local = np.einsum("knj,kji->kni", points[None] - positions[:, None], rotations)
-        z = local[..., 2]
-        distance = np.linalg.norm(local, axis=2)
-        safe = np.where(z > _MIN_DEPTH, z, 1.0)
-        pu, pv = local[..., 0] / safe, local[..., 1] / safe
-        candidate = ((z > _MIN_DEPTH) & (np.abs(pu) <= self._half_tan[0])
-                     & (np.abs(pv) <= self._half_tan[1])
+        local = np.matmul(points[None] - positions[:, None], rotations)
+        x, y, z = local[..., 0], local[..., 1], local[..., 2]
+        distance = np.sqrt(x * x + y * y + z * z)
+        candidate = ((z > _MIN_DEPTH) & (np.abs(x) <= self._half_tan[0] * z)
+                     & (np.abs(y) <= self._half_tan[1] * z)
                      & (distance >= self.sensor.near_m) & (distance <= self.sensor.far_m))
         pose_index, point_index = np.nonzero(candidate)
-        column = (pu[pose_index, point_index] - self.u[0]) / self._du
-        row = (pv[pose_index, point_index] - self.v[0]) / self._dv
+        z = z[pose_index, point_index]
+        column = (x[pose_index, point_index] / z - self.u[0]) / self._du
+        row = (y[pose_index, point_index] / z - self.v[0]) / self._dv
         # Empty pixels support nothing: they count as infinitely near.
         support = np.where(np.isfinite(depth), depth, -np.inf)
         farthest = np.full(len(pose_index), -np.inf)
@@ -222,7 +244,7 @@ class VisibilityRenderer:
             for column_step in (0, 1):
                 columns = np.clip(np.floor(column).astype(np.int64) + column_step, 0, width - 1)
                 farthest = np.maximum(farthest, support[pose_index, rows, columns])
-        seen = z[pose_index, point_index] <= farthest + self.tolerance_m
+        seen = z <= farthest + self.tolerance_m
         visible = np.zeros(candidate.shape, dtype=bool)
         visible[pose_index[seen], point_index[seen]] = True
         return visible
