@@ -6,10 +6,10 @@ view lies on the line from the box centre through a face centre, at the working 
 the box centre, and looks at the object's centre (action A_3C0R): six views, whatever they
 cover. (Placing the sensor at the working distance from the face itself would leave only the
 first 3 cm behind the face within the sensor's far bound of 0.50 m: about 45 % coverage on the
-bundled motors instead of the paper's 97 %.) With the robot, each
-view is first reached from the current configuration; the reachable ones are ordered for short
-joint travel and the others follow, so that executing them reports them unreachable (the IK
-gets one more chance from wherever the robot then is).
+bundled motors instead of the paper's 97 %.) With the robot, each view is first reached from
+the current configuration; the reachable ones are ordered for short joint travel and the others
+follow, so that executing them reports them unreachable (the IK gets one more chance from
+wherever the robot then is).
 """
 
 from __future__ import annotations
