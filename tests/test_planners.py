@@ -13,7 +13,7 @@ import trimesh
 from vprobot.config import Config
 from vprobot.coverage import CoverageTracker
 from vprobot.geometry import Pose, rotation_angle
-from vprobot.inspection import MotorScene
+from vprobot.inspection import MotorScene, random_object_rotation
 from vprobot.kinematics import RobotArm, SensorTarget, TravelCost
 from vprobot.kinematics.travel import joint_time
 from vprobot.paths import DEFAULT_MOTOR
@@ -30,7 +30,6 @@ from vprobot.planners import (
     episode_rng,
     greedy_cover,
     make_planner,
-    object_rotation,
     order_views,
     parse_planner,
     plan_motor,
@@ -60,7 +59,7 @@ def episode_of(scene: MotorScene, seed: int, robot: bool) -> tuple[RobotEpisode
                                                                   | FreeFlyingEpisode,
                                                                   np.random.Generator]:
     rng = episode_rng(seed, scene)
-    rotation = object_rotation(CONFIG.env, rng)
+    rotation = random_object_rotation(CONFIG.env, rng)
     return (RobotEpisode if robot else FreeFlyingEpisode)(scene, rotation), rng
 
 

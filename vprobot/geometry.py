@@ -65,6 +65,13 @@ def look_at_rotation(position: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.column_stack([x_axis, y_axis, z_axis])
 
 
+def spherical_position(phi: float, theta: float, radius: float) -> np.ndarray:
+    """Point at azimuth `phi`, polar angle `theta` from +z and distance `radius`."""
+    return radius * np.array(
+        [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
+    )
+
+
 def rotation_angle(rotation_a: np.ndarray, rotation_b: np.ndarray) -> float:
     """Angle (rad) of the relative rotation between two rotation matrices."""
     cosine = (np.trace(rotation_a.T @ rotation_b) - 1.0) / 2.0

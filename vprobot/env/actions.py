@@ -14,7 +14,7 @@ import dataclasses
 import numpy as np
 
 from vprobot.config import ActionName, EnvConfig
-from vprobot.geometry import Pose, look_at_rotation, rotation_about_z
+from vprobot.geometry import Pose, look_at_rotation, rotation_about_z, spherical_position
 
 ACTION_SIZES: dict[str, int] = {
     "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,
@@ -40,12 +40,6 @@ def _rotation_about_x(angle: float) -> np.ndarray:
 def euler_rotation(alpha: float, beta: float) -> np.ndarray:
     """Sensor rotation of ZYZ Euler angles (alpha, beta, gamma=0)."""
     return rotation_about_z(alpha) @ _rotation_about_y(beta)
-
-
-def spherical_position(phi: float, theta: float, radius: float) -> np.ndarray:
-    return radius * np.array(
-        [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
-    )
 
 
 @dataclasses.dataclass(frozen=True)

@@ -19,26 +19,24 @@ import gymnasium as gym
 import numpy as np
 
 from vprobot.config import Config, load_config, replace
-from vprobot.env.actions import ActionMapping, spherical_position
+from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space, resample, robot_state, scaled
 from vprobot.env.rewards import Reward, RewardTerms
 from vprobot.episode import EpisodeRecord
-from vprobot.geometry import Pose, rotation_about_z
-from vprobot.inspection import Inspection, MotorScene, StepOutcome
+from vprobot.geometry import Pose
+from vprobot.inspection import (
+    Inspection,
+    MotorScene,
+    StepOutcome,
+    initial_view_target,
+    random_object_rotation,
+)
 from vprobot.kinematics import TRAVEL_COSTS, SensorTarget, TravelCost
 from vprobot.paths import MOTORS_DIR
 from vprobot.viewsphere import sphere_directions
 
 RANDOM_INITIAL_TRIES = 50
 INITIAL_MAX_POLAR_RAD = np.deg2rad(120.0)
-
-
-def _rotation_about_axis(axis: int, angle: float) -> np.ndarray:
-    """Rotation about world x (axis 0) or y (axis 1)."""
-    c, s = np.cos(angle), np.sin(angle)
-    if axis == 0:
-        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
 def motor_files(config: Config) -> list[Path]:
@@ -115,18 +113,11 @@ class InspectEnv(gym.Env):
             self._scenes[path] = MotorScene.load(self.config, path, scale, env.resolution)
         return self._scenes[path]
 
-    def _object_rotation(self) -> np.ndarray:
-        env, rng = self.config.env, self.np_random
-        yaw = np.deg2rad(rng.uniform(-env.object_yaw_range_deg, env.object_yaw_range_deg))
-        tilt = np.deg2rad(rng.uniform(-env.object_tilt_range_deg, env.object_tilt_range_deg))
-        return _rotation_about_axis(int(rng.integers(2)), tilt) @ rotation_about_z(yaw)
-
     def _initial_targets(self, center: np.ndarray) -> list[SensorTarget]:
         """The fixed paper pose, or random look-at views drawn from np_random."""
         env, radius = self.config.env, self.config.sensor.working_distance_m
         if env.initial_view == "fixed":
-            offset = spherical_position(env.initial_phi_rad, env.initial_theta_rad, radius)
-            return [SensorTarget.look_at(center + offset, center)]
+            return [initial_view_target(self.config, center)]
         directions = sphere_directions(4 * RANDOM_INITIAL_TRIES, INITIAL_MAX_POLAR_RAD)
         chosen = self.np_random.choice(len(directions), RANDOM_INITIAL_TRIES, replace=False)
         return [SensorTarget.look_at(center + radius * directions[i], center) for i in chosen]
@@ -148,7 +139,8 @@ class InspectEnv(gym.Env):
         if not 0 <= index < len(self.motor_files):
             raise ValueError(f"options['motor'] must lie in 0..{len(self.motor_files) - 1}, "
                              f"got {index}")
-        self.inspection = Inspection(self.scene(self.motor_files[index]), self._object_rotation())
+        self.inspection = Inspection(self.scene(self.motor_files[index]),
+                                     random_object_rotation(self.config.env, self.np_random))
         for target in self._initial_targets(self.inspection.center):
             outcome = self.inspection.request(target)
             if outcome.view.reachable:

@@ -8,7 +8,7 @@ document and a summary.
 from vprobot.planners.base import Episode, Planner, PlanPlanner, ViewRequest
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import CandidateViews, candidate_views
-from vprobot.planners.episode import RobotEpisode, episode_rng, object_rotation
+from vprobot.planners.episode import RobotEpisode, episode_rng
 from vprobot.planners.free_flying import FreeFlyingEpisode
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.hrec import BoxFacesPlanner
@@ -45,7 +45,6 @@ __all__ = [
     "episode_rng",
     "greedy_cover",
     "make_planner",
-    "object_rotation",
     "order_requests",
     "order_views",
     "parse_planner",

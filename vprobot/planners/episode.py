@@ -1,4 +1,4 @@
-"""Episodes with the robot in the loop, and the random object pose of an episode."""
+"""Episodes with the robot in the loop."""
 
 from __future__ import annotations
 
@@ -7,26 +7,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from vprobot.config import EnvConfig
 from vprobot.coverage import CoverageTracker
 from vprobot.episode import EpisodeRecord, ViewRecord
-from vprobot.geometry import rotation_about_z
 from vprobot.inspection import Inspection, MotorScene
 from vprobot.planners.base import Episode, ViewRequest
 from vprobot.sensor import Acquisition
-
-
-def object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
-    """A random episode pose of the object (SPEC section 3): turned about the vertical by
-    U[-yaw, yaw], then tilted by U[-tilt, tilt] about the world x or y axis (equally likely)."""
-    yaw = np.deg2rad(rng.uniform(-env.object_yaw_range_deg, env.object_yaw_range_deg))
-    tilt = np.deg2rad(rng.uniform(-env.object_tilt_range_deg, env.object_tilt_range_deg))
-    axis = np.eye(3)[rng.integers(2)]
-    # Rodrigues' formula for a rotation about a unit axis.
-    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]],
-                      [-axis[1], axis[0], 0.0]])
-    tilt_rotation = np.eye(3) + np.sin(tilt) * cross + (1.0 - np.cos(tilt)) * cross @ cross
-    return tilt_rotation @ rotation_about_z(yaw)
 
 
 def preview_coverage(scratch: CoverageTracker, acquisition: Acquisition) -> np.ndarray:

@@ -11,16 +11,15 @@ from typing import Any, Literal
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.env.actions import spherical_position
 from vprobot.episode import EpisodeRecord
-from vprobot.inspection import MotorScene
-from vprobot.kinematics import SensorTarget, TravelCost
+from vprobot.inspection import MotorScene, initial_view_target, random_object_rotation
+from vprobot.kinematics import TravelCost
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
 from vprobot.planners.base import Episode, Planner, ViewRequest
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import CandidateViews
-from vprobot.planners.episode import RobotEpisode, episode_rng, object_rotation
+from vprobot.planners.episode import RobotEpisode, episode_rng
 from vprobot.planners.free_flying import FreeFlyingEpisode
 from vprobot.planners.hrec import BoxFacesPlanner
 from vprobot.planners.oracle import OraclePlanner
@@ -122,14 +121,6 @@ class EpisodeResult:
         return self.record.travel
 
 
-def initial_view(config: Config, episode: Episode) -> ViewRequest:
-    """The environment's fixed initial view: (phi, theta) at the working distance, looking at
-    the centre."""
-    env, radius = config.env, config.sensor.working_distance_m
-    offset = spherical_position(env.initial_phi_rad, env.initial_theta_rad, radius)
-    return ViewRequest(SensorTarget.look_at(episode.center + offset, episode.center))
-
-
 def run_episode(planner: Planner, episode: Episode, config: Config,
                 rng: np.random.Generator) -> tuple[EpisodeRecord, float]:
     """Let `planner` choose views until it stops, the goal or the view budget is reached.
@@ -146,7 +137,7 @@ def run_episode(planner: Planner, episode: Episode, config: Config,
     planner.reset(episode, rng)
     planning += time.perf_counter() - start
     if planner.initial_view:
-        episode.execute(initial_view(config, episode))
+        episode.execute(ViewRequest(initial_view_target(config, episode.center)))
     first = len(episode.views)
     while True:
         if planner.stops_at_goal and (episode.coverage >= env.coverage_goal
@@ -171,7 +162,7 @@ def run(config: Config, scene: MotorScene, planner: str, seed: int, mode: Mode =
     if mode not in ("robot", "free"):
         raise ValueError(f"mode must be 'robot' or 'free', got {mode!r}")
     rng = episode_rng(seed, scene)
-    rotation = object_rotation(config.env, rng)
+    rotation = random_object_rotation(config.env, rng)
     episode = RobotEpisode(scene, rotation) if mode == "robot" else FreeFlyingEpisode(scene,
                                                                                       rotation)
     chosen = make_planner(planner, config, views)
