@@ -73,3 +73,34 @@ def test_unknown_robot_is_rejected_by_the_parser(capsys: pytest.CaptureFixture) 
     with pytest.raises(SystemExit):
         main(["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0", "--robot", "kuka"])
     assert "invalid choice: 'kuka'" in capsys.readouterr().err
+
+
+def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    plan, video = tmp_path / "plan.json", tmp_path / "rollout.gif"
+    code = main(["plan", "--out", str(plan), "--video", str(video), "--width", "96",
+                 "--height", "72"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "goal 90% reached" in out
+    document = json.loads(plan.read_text())
+    assert document["coverage"] >= 0.9
+    assert all(view["reachable"] for view in document["views"])
+    assert video.stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["plan", "--out", "/nonexistent/plan.json"], "folder /nonexistent does not exist"),
+        (["plan", "--out", "plan.json", "--mesh", "missing.stl"], "mesh file not found"),
+        (["plan", "--out", "plan.json", "--planner", "hrec", "--views", "3"], "bscp only"),
+        (["render", "--plan", "missing.json", "--out", "video.mp4"], "missing.json"),
+    ],
+)
+def test_planning_errors_are_clear(argv: list[str], message: str, tmp_path: Path,
+                                   monkeypatch: pytest.MonkeyPatch,
+                                   capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

@@ -126,12 +126,12 @@ def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: MotorScene) -> 
 
 
 @pytest.fixture(scope="module")
-def bscp_plan() -> tuple[object, dict, str]:
+def bscp_plan() -> tuple[object, object, dict, str]:
     return plan_motor(CONFIG, planner="bscp", seed=0)
 
 
 def test_exported_plan_reproduces_sensor_poses_by_fk(bscp_plan: tuple, tmp_path: Path) -> None:
-    _, document, text = bscp_plan
+    _, _, document, text = bscp_plan
     assert {"object", "robot", "sensor", "views", "coverage"} <= set(document)
     assert set(document["object"]) >= {"mesh", "position", "quaternion", "scale"}
     assert document["coverage"] >= CONFIG.env.coverage_goal
@@ -161,7 +161,7 @@ def _placed_file_bounds(document: dict) -> np.ndarray:
 
 
 def test_object_block_places_the_file_as_stored(bscp_plan: tuple, motor: MotorScene) -> None:
-    record, document, _ = bscp_plan
+    _, record, document, _ = bscp_plan
     world = motor.mesh.mesh.vertices @ record.object_pose.rotation.T + record.object_pose.position
     np.testing.assert_allclose(_placed_file_bounds(document),
                                [world.min(axis=0), world.max(axis=0)], atol=1e-6)
@@ -202,7 +202,7 @@ def test_no_planner_reports_an_unreachable_view_as_executed(name: str,
 
 
 def test_user_mesh_in_millimetres_plans(millimetre_cube: Path) -> None:
-    record, document, text = plan_motor(CONFIG, mesh_path=millimetre_cube, scale=0.001)
+    _, record, document, text = plan_motor(CONFIG, mesh_path=millimetre_cube, scale=0.001)
     assert document["object"]["scale"] == 0.001
     assert record.coverage >= CONFIG.env.coverage_goal
     assert all(view.reachable for view in record.views)

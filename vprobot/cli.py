@@ -88,6 +88,67 @@ def command_cell(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_plan(args: argparse.Namespace) -> int:
+    """Plan the inspection of a motor, write the plan JSON and optionally a video."""
+    from vprobot.plan_export import write_json
+    from vprobot.planners import plan_motor
+
+    _check_outputs(args)
+    scene, record, document, summary = plan_motor(_config(args), args.mesh, args.scale,
+                                                  args.planner, args.views, args.free, args.seed)
+    print(summary)
+    print(f"wrote {write_json(args.out, document)}")
+    _render_outputs(args, scene, record)
+    return 0
+
+
+def command_render(args: argparse.Namespace) -> int:
+    """Render an inspection (a plan JSON, or a planner's run) as a video."""
+    from vprobot.planners import plan_motor
+    from vprobot.render import episode_from_plan
+
+    _check_outputs(args)
+    config = _config(args)
+    if args.plan:
+        scene, record = episode_from_plan(config, args.plan)
+    else:
+        scene, record, _, summary = plan_motor(config, args.mesh, args.scale, args.planner,
+                                               args.views, False, args.seed)
+        print(summary)
+    _render_outputs(args, scene, record)
+    return 0
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Fail before the long work when an output folder does not exist."""
+    for option in ("out", "video", "summary"):
+        path = getattr(args, option, None)
+        if path and not Path(path).parent.is_dir():
+            raise ValueError(f"--{option}: folder {Path(path).parent} does not exist")
+
+
+def _render_outputs(args: argparse.Namespace, scene: Any, record: Any) -> None:
+    from vprobot.render import render_episode, render_summary
+
+    video = args.video if args.command == "plan" else args.out
+    if video:
+        rendered = render_episode(scene, record, video, width=args.width, height=args.height,
+                                  progress=True)
+        print(f"wrote {rendered.path} ({rendered.frames} frames, {rendered.duration_s:.1f} s)")
+    if args.summary:
+        print(f"wrote {render_summary(scene, record, args.summary)}")
+
+
+def command_evaluate(args: argparse.Namespace) -> int:
+    """Compare planners on motors x seeds; write evaluation.md and .csv."""
+    from vprobot.evaluation import evaluate
+
+    evaluate(_config(args), args.planners, args.motors, args.seeds, args.out, progress=True,
+             modes=args.modes)
+    print((Path(args.out) / "evaluation.md").read_text())
+    return 0
+
+
 def command_benchmark(args: argparse.Namespace) -> int:
     config = _config(args)
     if args.suite == "kinematics":
@@ -98,6 +159,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.env import run_env_benchmark
 
         results = run_env_benchmark(config, steps=args.samples)
+    elif args.suite == "planners":
+        from vprobot.benchmarks.planners import run_planners_benchmark
+
+        results = run_planners_benchmark(config)
     elif args.suite == "render":
         from vprobot.benchmarks.render import run_render_benchmark
 
@@ -156,9 +221,49 @@ def build_parser() -> argparse.ArgumentParser:
     cell.add_argument("--candidates", type=int, default=900, help="view-sphere candidates")
     cell.add_argument("--json", help="write the report as JSON here")
 
+    def add_planning(sub: argparse.ArgumentParser) -> None:
+        from vprobot.planners.runner import PLANNER_NAMES
+
+        add_robot(sub)
+        sub.add_argument("--mesh", help="mesh file (STL/OBJ/PLY); default: the bundled motor")
+        sub.add_argument("--scale", type=float, default=1.0,
+                         help="file units to metres, e.g. 0.001 for millimetres")
+        sub.add_argument("--planner", choices=PLANNER_NAMES, default="bscp")
+        sub.add_argument("--views", type=int,
+                         help="fixed number of views (bscp); default: until the coverage goal")
+        sub.add_argument("--seed", type=int, default=0, help="seed of the object pose")
+        sub.add_argument("--summary", help="also write a summary PNG here")
+        sub.add_argument("--width", type=int, default=640, help="video width (pixels)")
+        sub.add_argument("--height", type=int, default=480, help="video height (pixels)")
+
+    plan = add("plan", command_plan, "Plan the inspection of a motor and write the plan JSON.")
+    add_planning(plan)
+    plan.add_argument("--free", action="store_true",
+                      help="free-flying sensor without the robot (as in the paper)")
+    plan.add_argument("--out", required=True, help="plan JSON to write")
+    plan.add_argument("--video", help="also render the rollout to this .mp4 or .gif")
+
+    render = add("render", command_render,
+                 "Render an inspection (a plan JSON or a planner's run) as an MP4 or GIF.")
+    add_planning(render)
+    render.add_argument("--plan", help="plan JSON (SPEC section 12) to replay instead")
+    render.add_argument("--out", required=True, help="video to write (.mp4 or .gif)")
+
+    evaluation = add("evaluate", command_evaluate, "Compare planners on the test motors.")
+    add_robot(evaluation)
+    evaluation.add_argument("--planners", nargs="+", default=[
+        "random1", "random2", "hrec", "bscp", "bscp4", "bscp5", "oracle"],
+        help="planner names, or bscp<N> for B_SCP with N views")
+    evaluation.add_argument("--motors", nargs="+", help="mesh files; default: the test motors")
+    evaluation.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    evaluation.add_argument("--modes", nargs="+", choices=["robot", "free"],
+                            default=["robot", "free"])
+    evaluation.add_argument("--out", default="results", help="folder for the tables")
+
     benchmark = add("benchmark", command_benchmark, "Measure the speed and quality targets.")
     add_robot(benchmark)
-    benchmark.add_argument("suite", choices=["kinematics", "sensor", "env", "render"])
+    benchmark.add_argument("suite",
+                           choices=["kinematics", "sensor", "env", "planners", "render"])
     benchmark.add_argument("--samples", type=int, default=200,
                            help="random targets (kinematics) or steps (env) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")

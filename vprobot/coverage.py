@@ -139,17 +139,25 @@ class CoverageTracker:
         self.steps.append(step)
         return step
 
-    def _match(self, points: np.ndarray) -> np.ndarray:
-        """Indices of the uncovered GT points within ε of some point."""
-        uncovered = np.flatnonzero(~self._covered)
-        if len(points) == 0 or len(uncovered) == 0:
+    def match(self, points: np.ndarray) -> np.ndarray:
+        """Which GT points one cloud (mesh frame) covers on its own; the state is unchanged."""
+        covered = np.zeros(len(self.gt_points), dtype=bool)
+        covered[self._match(points, np.arange(len(self.gt_points)))] = True
+        return covered
+
+    def _match(self, points: np.ndarray, candidates: np.ndarray | None = None) -> np.ndarray:
+        """Indices of the candidate GT points (the uncovered ones by default) within ε of some
+        point."""
+        if candidates is None:
+            candidates = np.flatnonzero(~self._covered)
+        if len(points) == 0 or len(candidates) == 0:
             return np.zeros(0, dtype=np.int64)
         points = points[np.all((points >= self._near_low) & (points <= self._near_high), axis=1)]
         if len(points) == 0:
             return np.zeros(0, dtype=np.int64)
         tree = cKDTree(points, balanced_tree=False, compact_nodes=False)
-        distance, _ = tree.query(self.gt_points[uncovered], distance_upper_bound=self.epsilon)
-        return uncovered[distance <= self.epsilon]
+        distance, _ = tree.query(self.gt_points[candidates], distance_upper_bound=self.epsilon)
+        return candidates[distance <= self.epsilon]
 
     def _accumulate(self, points: np.ndarray) -> None:
         """Merge the points into the voxel sums behind P_cov."""

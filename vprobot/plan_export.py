@@ -164,6 +164,10 @@ def write_json(path: str | Path, document: dict[str, Any]) -> Path:
     try:
         with os.fdopen(handle, "w") as stream:
             stream.write(text + "\n")
+        # mkstemp creates owner-only files; a plan is an ordinary output file.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)

@@ -7,18 +7,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from vprobot.coverage import CoverageTracker
 from vprobot.episode import EpisodeRecord, ViewRecord
 from vprobot.inspection import Inspection, MotorScene
 from vprobot.planners.base import Episode, ViewRequest
-from vprobot.sensor import Acquisition
-
-
-def preview_coverage(scratch: CoverageTracker, acquisition: Acquisition) -> np.ndarray:
-    """The GT points one acquisition covers, matched on a scratch tracker."""
-    scratch.reset()
-    scratch.update(acquisition.points_mesh)
-    return scratch.covered
 
 
 def episode_rng(seed: int, scene: MotorScene) -> np.random.Generator:
@@ -40,7 +31,6 @@ class RobotEpisode(Episode):
         self.scene = scene
         self.inspection = Inspection(scene, rotation)
         self.object_pose = self.inspection.object_pose
-        self._scratch = CoverageTracker.from_ground_truth(scene.ground_truth)
 
     @property
     def q(self) -> np.ndarray:
@@ -60,7 +50,7 @@ class RobotEpisode(Episode):
             raise ValueError("a robot view can only be previewed from its joints")
         forward = self.scene.arm.forward
         forward.set_configuration(view.joints)
-        return preview_coverage(self._scratch, self.scene.sensor.acquire(forward.data))
+        return self.inspection.tracker.match(self.scene.sensor.acquire(forward.data).points_mesh)
 
     def execute(self, view: ViewRequest) -> ViewRecord:
         """Drive to the view's known configuration, or let the IK reach it from here.

@@ -20,7 +20,6 @@ from vprobot.inspection import MotorScene
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.travel import paper_travel
 from vprobot.planners.base import Episode, ViewRequest
-from vprobot.planners.episode import preview_coverage
 from vprobot.scene import GEOM_GROUP_OBJECT
 from vprobot.sensor import DepthSensor
 
@@ -45,7 +44,6 @@ class FreeFlyingEpisode(Episode):
         self._sensor = DepthSensor(scene.cell, resolution=scene.sensor.resolution,
                                    groups=(ENVIRONMENT_GROUP, GEOM_GROUP_OBJECT))
         self.tracker = CoverageTracker.from_ground_truth(scene.ground_truth)
-        self._scratch = CoverageTracker.from_ground_truth(scene.ground_truth)
         self._start = scene.cell.joints.home.copy()
         self._views: list[ViewRecord] = []
 
@@ -62,8 +60,8 @@ class FreeFlyingEpisode(Episode):
         return self._views
 
     def preview(self, view: ViewRequest) -> np.ndarray:
-        return preview_coverage(self._scratch,
-                                self._sensor.acquire_from_pose(self._data, view.target.pose))
+        return self.tracker.match(
+            self._sensor.acquire_from_pose(self._data, view.target.pose).points_mesh)
 
     def execute(self, view: ViewRequest) -> ViewRecord:
         pose = view.target.pose

@@ -219,7 +219,7 @@ def summary(result: EpisodeResult, config: Config) -> str:
 
 def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float = 1.0,
                planner: str = "bscp", views: int | None = None, free: bool = False,
-               seed: int = 0) -> tuple[EpisodeRecord, dict[str, Any], str]:
+               seed: int = 0) -> tuple[MotorScene, EpisodeRecord, dict[str, Any], str]:
     """Plan the inspection of one motor (`vprobot plan`).
 
     Args:
@@ -232,7 +232,8 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         seed: Seed of the object pose.
 
     Returns:
-        The episode record, the plan JSON document (SPEC section 12) and a summary text.
+        The motor scene (for rendering), the episode record, the plan JSON document (SPEC
+        section 12) and a summary text.
 
     Raises:
         FileNotFoundError, ValueError: For a missing or unusable mesh, an unknown planner, or
@@ -244,4 +245,4 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         "planner": result.planner, "mode": result.mode, "seed": seed,
         "goal": result.goal, "plan_seconds": result.plan_seconds,
     })
-    return result.record, document, summary(result, config)
+    return scene, result.record, document, summary(result, config)
