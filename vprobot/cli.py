@@ -149,8 +149,16 @@ def command_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_results(results: dict[str, Any]) -> None:
+    width = max(len(key) for key in results)
+    for key, value in results.items():
+        shown = f"{value:.3f}" if isinstance(value, float) else json.dumps(value)
+        print(f"{key:<{width}}  {shown}")
+
+
 def command_benchmark(args: argparse.Namespace) -> int:
     config = _config(args)
+    printer: Callable[[dict[str, Any]], None] = _print_results
     if args.suite == "kinematics":
         from vprobot.benchmarks.kinematics import run_kinematics_benchmark
 
@@ -160,23 +168,18 @@ def command_benchmark(args: argparse.Namespace) -> int:
 
         results = run_env_benchmark(config, steps=args.samples)
     elif args.suite == "planners":
-        from vprobot.benchmarks.planners import run_planners_benchmark
+        from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 
-        results = run_planners_benchmark(config)
+        results, printer = run_planners_benchmark(config), print_table
     elif args.suite == "render":
         from vprobot.benchmarks.render import run_render_benchmark
 
         results = run_render_benchmark(config)
-    elif args.suite == "sensor":
-        from vprobot.benchmarks.sensor import run_sensor_benchmark
-
-        results = run_sensor_benchmark(config)
     else:
-        raise ValueError(f"unknown benchmark {args.suite!r}")
-    width = max(len(key) for key in results)
-    for key, value in results.items():
-        shown = f"{value:.3f}" if isinstance(value, float) else json.dumps(value)
-        print(f"{key:<{width}}  {shown}")
+        from vprobot.benchmarks.sensor import print_table, run_sensor_benchmark
+
+        results, printer = run_sensor_benchmark(config), print_table
+    printer(results)
     _write_json(args.json, results)
     return 0
 

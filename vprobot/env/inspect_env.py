@@ -149,7 +149,6 @@ class InspectEnv(gym.Env):
             raise RuntimeError("no initial view is reachable; check the cell placement")
         self.steps = 0
         self._done = False
-        self.initial_coverage = self.inspection.coverage
         return self._observation(), self._info(outcome, None)
 
     def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:

@@ -99,11 +99,6 @@ class CandidateViews:
             self._measured[index] = episode.preview(self.request(index))
         return self._measured[index]
 
-    @property
-    def measured_count(self) -> int:
-        """Candidates whose acquisition was simulated."""
-        return len(self._measured)
-
     def known_visibility(self) -> np.ndarray:
         """The predicted visibility with the rows of simulated candidates replaced (a copy)."""
         known = self.visibility.copy()
