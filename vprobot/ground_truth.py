@@ -32,7 +32,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +39,7 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from vprobot.config import Config
+from vprobot.files import atomic_output
 from vprobot.geometry import Pose
 from vprobot.scene import Cell
 from vprobot.sensor import DepthSensor
@@ -264,13 +264,6 @@ def _read(path: Path) -> GroundTruth | None:
 def _write(path: Path, result: GroundTruth) -> None:
     """Store atomically: write a temporary file next to the target, then rename it."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, points=result.points, spacing_m=result.spacing_m,
-                     voxel_size_m=result.voxel_size_m, mesh_hash=result.mesh_hash,
-                     views=result.views)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as temporary, temporary.open("wb") as stream:
+        np.savez(stream, points=result.points, spacing_m=result.spacing_m,
+                 voxel_size_m=result.voxel_size_m, mesh_hash=result.mesh_hash, views=result.views)

@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from vprobot.episode import EpisodeRecord
+from vprobot.files import atomic_output
 from vprobot.geometry import Pose
 from vprobot.inspection import MotorScene
 from vprobot.kinematics import TravelCost
@@ -160,16 +159,6 @@ def write_json(path: str | Path, document: dict[str, Any]) -> Path:
     if not path.parent.is_dir():
         raise ValueError(f"output folder {path.parent} does not exist")
     text = json.dumps(document, indent=2, allow_nan=False)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(handle, "w") as stream:
-            stream.write(text + "\n")
-        # mkstemp creates owner-only files; a plan is an ordinary output file.
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as temporary:
+        temporary.write_text(text + "\n")
     return path

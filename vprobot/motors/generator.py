@@ -7,8 +7,6 @@ the +z side, units are metres and the axis-aligned bounding box is centred at th
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -18,6 +16,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 from tqdm import tqdm
 
+from vprobot.files import atomic_output
 from vprobot.motors.parameters import MotorParameters, sample_parameters
 
 # Facets around the axis: enough for smooth-looking housings at ~6k faces per motor.
@@ -277,15 +276,8 @@ def motor_rng(seed: int, index: int) -> np.random.Generator:
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
-    """Write via a temporary file in the same directory so readers never see a partial file."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as temporary:
+        temporary.write_bytes(data)
 
 
 def generate_motors(count: int, seed: int, out_dir: Path, progress: bool = True) -> list[Path]:
