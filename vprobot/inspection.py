@@ -16,7 +16,13 @@ import numpy as np
 from vprobot.config import Config, EnvConfig
 from vprobot.coverage import CoverageStep, CoverageTracker
 from vprobot.episode import EpisodeRecord, ViewRecord
-from vprobot.geometry import Pose, rotation_about_z, spherical_position
+from vprobot.geometry import (
+    Pose,
+    rotation_about_x,
+    rotation_about_y,
+    rotation_about_z,
+    spherical_position,
+)
 from vprobot.ground_truth import GroundTruth, ground_truth
 from vprobot.kinematics import ReachResult, RobotArm, SensorTarget, TravelCost
 from vprobot.kinematics.path import first_collision
@@ -27,20 +33,13 @@ from vprobot.sensor import DepthSensor
 UnreachablePolicy = Literal["skip", "nearest"]
 
 
-def _rotation_about_axis(axis: int, angle: float) -> np.ndarray:
-    """Rotation about world x (axis 0) or y (axis 1)."""
-    c, s = np.cos(angle), np.sin(angle)
-    if axis == 0:
-        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
 def random_object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
     """An episode's object rotation (SPEC section 3): about the vertical by U[-yaw, yaw], then
     tilted by U[-tilt, tilt] about the world x or y axis (equally likely), drawn in that order."""
     yaw = np.deg2rad(rng.uniform(-env.object_yaw_range_deg, env.object_yaw_range_deg))
     tilt = np.deg2rad(rng.uniform(-env.object_tilt_range_deg, env.object_tilt_range_deg))
-    return _rotation_about_axis(int(rng.integers(2)), tilt) @ rotation_about_z(yaw)
+    tilt_about = rotation_about_x if rng.integers(2) == 0 else rotation_about_y
+    return tilt_about(tilt) @ rotation_about_z(yaw)
 
 
 def initial_view_target(config: Config, center: np.ndarray) -> SensorTarget:

@@ -14,7 +14,14 @@ import dataclasses
 import numpy as np
 
 from vprobot.config import ActionName, EnvConfig
-from vprobot.geometry import Pose, look_at_rotation, rotation_about_z, spherical_position
+from vprobot.geometry import (
+    Pose,
+    look_at_rotation,
+    rotation_about_x,
+    rotation_about_y,
+    rotation_about_z,
+    spherical_position,
+)
 
 ACTION_SIZES: dict[str, int] = {
     "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,
@@ -27,19 +34,9 @@ def _unit(value: float, low: float, high: float) -> float:
     return low + (value + 1.0) / 2.0 * (high - low)
 
 
-def _rotation_about_y(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def _rotation_about_x(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
 def euler_rotation(alpha: float, beta: float) -> np.ndarray:
     """Sensor rotation of ZYZ Euler angles (alpha, beta, gamma=0)."""
-    return rotation_about_z(alpha) @ _rotation_about_y(beta)
+    return rotation_about_z(alpha) @ rotation_about_y(beta)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,7 +124,7 @@ class ActionMapping:
             looking = self._look_at_center(position)
             pan = angles[0] * self.deviation_rad
             tilt = angles[1] * self.deviation_rad
-            rotation = looking.pose.rotation @ _rotation_about_y(pan) @ _rotation_about_x(tilt)
+            rotation = looking.pose.rotation @ rotation_about_y(pan) @ rotation_about_x(tilt)
             return RequestedView(Pose(position, rotation), looks_at_center=False)
         alpha = _unit(angles[0], 0.0, 2.0 * np.pi)
         beta = _unit(angles[1], 0.0, np.pi)
