@@ -93,7 +93,7 @@ class InspectEnv(gym.Env):
                            else config.env.max_acquisitions)
         self._scenes: dict[Path, MotorScene] = {}
         self._renderer = None
-        self._renderer_model = None
+        self._renderer_cell = None
         self.inspection: Inspection | None = None
         self._done = True
 
@@ -240,19 +240,19 @@ class InspectEnv(gym.Env):
         """An RGB frame of the cell (`render_mode="rgb_array"`), else None."""
         if self.render_mode != "rgb_array" or self.inspection is None:
             return None
-        import mujoco
+        from vprobot.render.camera import aim_overview
+        from vprobot.render.offscreen import OffscreenView
 
-        scene = self.inspection.scene
-        if self._renderer is None or self._renderer_model is not scene.cell.model:
-            self._renderer = mujoco.Renderer(scene.cell.model, 480, 640)
-            self._renderer_model = scene.cell.model
-        camera = mujoco.MjvCamera()
-        camera.lookat[:] = self.inspection.center
-        camera.distance, camera.azimuth, camera.elevation = 2.2, 150.0, -25.0
-        data = scene.arm.forward.data
-        scene.arm.forward.set_configuration(self.inspection.q)
-        self._renderer.update_scene(data, camera)
-        return self._renderer.render()
+        cell = self.inspection.scene.cell
+        if self._renderer is None or self._renderer_cell is not cell:
+            self.close()
+            self._renderer = OffscreenView(cell.model, 640, 480)
+            self._renderer_cell = cell
+            aim_overview(self._renderer.camera, cell)
+        forward = self.inspection.scene.arm.forward
+        forward.set_configuration(self.inspection.q)
+        self._renderer.update(forward.data)
+        return self._renderer.rgb()
 
     def close(self) -> None:
         if self._renderer is not None:
