@@ -15,8 +15,8 @@ import time
 from pathlib import Path
 
 from vprobot.config import load_config
+from vprobot.episode import MotorScene
 from vprobot.geometry import rotation_about_z
-from vprobot.inspection import MotorScene
 from vprobot.paths import DEFAULT_MOTOR, REPO_ROOT
 from vprobot.render import render_episode
 from vprobot.render.demo import ring_inspection

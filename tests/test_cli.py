@@ -7,11 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.kinematics import RobotArm
-from vprobot.scene import Cell
 
 
 def test_reach_writes_the_plan_json(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
@@ -27,11 +26,15 @@ def test_reach_writes_the_plan_json(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert len(robot["joint_names"]) == 6
     (view,) = plan["views"]
     assert view["reachable"] is True and view["reason"] is None
-    # The exported joints reproduce the exported sensor pose (independent FK).
-    arm = RobotArm(Cell(Config()))
-    pose = arm.fk(np.array(view["joints"]))
-    np.testing.assert_allclose(pose.position, view["position"], atol=1e-6)
-    assert np.linalg.norm(pose.position - [0.45, -0.47, 0.75]) <= 1e-3
+    # The exported joints reproduce the exported sensor pose (independent FK: the published DH
+    # parameters, base and mount from the config).
+    pose = world_sensor(np.array(view["joints"]), Config())
+    assert np.linalg.norm(pose[:3, 3] - view["position"]) <= 1e-3
+    assert rotation_difference(pose[:3, :3], quaternion_matrix(view["quaternion"])) <= 1e-3
+    assert np.linalg.norm(pose[:3, 3] - [0.45, -0.47, 0.75]) <= 1e-3
+    # ... and it looks at the requested point.
+    offset = np.array([0.45, 0.0, 0.75]) - pose[:3, 3]
+    assert np.cross(pose[:3, 2], offset / np.linalg.norm(offset)) == pytest.approx(0, abs=1e-2)
 
 
 def test_unreachable_view_is_reported(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

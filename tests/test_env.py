@@ -14,6 +14,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
 from vprobot.env import ENV_ID, InspectEnv
 from vprobot.env.rewards import DENSE, SPARSE
+from vprobot.episode import EpisodeSpec
 from vprobot.paths import DEFAULT_MOTOR
 
 SMALL = {"motors": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}
@@ -54,8 +55,8 @@ def test_observations_are_object_centred_and_bounded() -> None:
     points = obs["points"]
     assert points.shape == (2048, 4) and points.dtype == np.float32
     # The GT, turned with the object, centred on it and scaled by the fixed state scale.
-    inspection = env.inspection
-    expected = inspection.scene.ground_truth.points @ inspection.object_pose.rotation.T / 0.25
+    episode = env.episode
+    expected = episode.scene.ground_truth.points @ episode.object_pose.rotation.T / 0.25
     np.testing.assert_allclose(points[:, :3], expected, atol=1e-6)
     assert points[:, 3].mean() == pytest.approx(info["coverage"])
 
@@ -65,7 +66,8 @@ def test_reset_places_the_robot_at_home_and_acquires_once() -> None:
     _, info = env.reset(seed=0)
     assert info["acquisitions"] == 1 and info["reachable"]
     assert 0.0 < info["coverage"] < 0.9
-    assert env.inspection.views[0].path[0] == pytest.approx(env.inspection.start_joints)
+    assert env.episode.views[0].path[0] == pytest.approx(env.episode.start_joints)
+    assert len(env.episode.views) == 1
 
 
 def test_terminated_at_the_goal() -> None:
@@ -84,21 +86,12 @@ def test_terminated_at_the_goal() -> None:
 
 def test_real_goal_of_ninety_percent_is_reachable() -> None:
     env = make(action="A_2S0R", resolution=(215, 150))
-    _, info = env.reset(seed=2)
+    _, info = env.reset(seed=1)
     for action in AROUND:
         _, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
             break
     assert terminated and info["coverage"] >= 0.90
-
-
-def test_truncated_after_the_acquisition_limit() -> None:
-    env = make(action="A_2S2R", max_acquisitions=3)
-    env.reset(seed=0)
-    # Looking straight up from beside the motor: reachable or not, nothing new is seen.
-    away = np.array([0.0, 0.0, -1.0, -1.0], dtype=np.float32)
-    flags = [env.step(away)[2:4] for _ in range(3)]
-    assert flags == [(False, False), (False, False), (False, True)]
 
 
 def test_unreachable_request_keeps_joints_and_coverage() -> None:
@@ -155,22 +148,129 @@ def test_bad_configuration_is_a_clear_error() -> None:
         make(mesh="nowhere.stl")
 
 
+def expected_reward(name: str, info: dict, steps: int, done: bool, goal: bool,
+                    travel_sum: float, floor: float) -> float:
+    """SPEC section 8, written out from the step's info and the test's own bookkeeping."""
+    delta, coverage = info["delta_coverage"], info["coverage"]
+    remaining = max(1.0 - (coverage - delta), floor)
+    k = max(info["travel_cartesian"], floor)
+    k_cum = max(travel_sum, floor)
+    dense = {
+        "R1": delta, "R2": delta if delta > 0 else -1.0,
+        "R3": delta / remaining, "R4": delta / remaining if delta > 0 else -1.0,
+        "R5": delta / k, "R6": delta / remaining / k,
+        "R7": delta / k if delta > 0 else -1.0, "R8": delta / remaining / k if delta > 0 else -1.0,
+    }
+    if name in dense:
+        return dense[name]
+    if not done or (name in ("R13", "R14") and not goal):
+        return 0.0
+    return {"R9": coverage, "R10": coverage / steps, "R11": coverage / k_cum,
+            "R12": coverage / (steps * k_cum), "R13": 1.0 / steps,
+            "R14": 1.0 / (steps * k_cum)}[name]
+
+
 @pytest.mark.parametrize("reward", DENSE + SPARSE)
-def test_random_agent_runs_to_the_end_with_every_reward(reward: str) -> None:
+def test_every_reward_matches_its_formula(reward: str) -> None:
     env = make(reward=reward, goal_only_step_cap=4, travel_cost="cartesian")
-    env.reset(seed=5)
+    _, start = env.reset(seed=5)
+    # The approach to the initial view is reported, and is no step of k_cum.
+    assert start["approach_cartesian"] > 0.0 and start["travel_sum_cartesian"] == 0.0
     floor = env.config.env.travel_cost_floor
-    done, steps = False, 0
+    rng = np.random.default_rng(7)
+    done, steps, travel_sum = False, 0, 0.0
     while not done:
-        _, value, terminated, truncated, info = env.step(env.action_space.sample())
+        _, value, terminated, truncated, info = env.step(
+            rng.uniform(-1, 1, 5).astype(np.float32))
         done, steps = terminated or truncated, steps + 1
-        assert np.isfinite(value)
-        delta, travel = info["delta_coverage"], max(info["travel_cartesian"], floor)
-        if reward == "R5":
-            assert value == pytest.approx(delta / travel)
-        if reward == "R9" and not done:
-            assert value == 0.0
-    assert steps <= (4 if reward in ("R13", "R14") else 10)
+        travel_sum += info["travel_cartesian"]
+        assert info["travel_sum_cartesian"] == pytest.approx(travel_sum)
+        assert info["approach_cartesian"] == start["approach_cartesian"]
+        assert value == pytest.approx(expected_reward(reward, info, steps, done, terminated,
+                                                      travel_sum, floor))
+    limit = 4 if reward in ("R13", "R14") else 10
+    assert steps == limit or terminated
+
+
+def test_truncated_exactly_at_the_step_limit() -> None:
+    env = make(action="A_2S2R")
+    env.reset(seed=0)
+    away = np.array([0.0, 0.0, -1.0, -1.0], dtype=np.float32)
+    flags = [env.step(away)[2:4] for _ in range(10)]
+    assert flags == [(False, False)] * 9 + [(False, True)]
+
+
+def test_different_seeds_give_different_episodes() -> None:
+    env = make(motors="train", mesh=None)
+    quaternions, motors = set(), set()
+    for seed in range(6):
+        _, info = env.reset(seed=seed)
+        quaternions.add(tuple(np.round(env.episode.object_pose.quaternion, 6)))
+        motors.add(info["motor"])
+    assert len(quaternions) == 6 and len(motors) >= 3
+
+
+def test_initial_view_attempts_that_fail_leave_no_trace() -> None:
+    env = make()
+    # Straight from below (inside the fixture) first, then the paper's fixed view.
+    spec = EpisodeSpec(motor=str(DEFAULT_MOTOR), object_quaternion=(1.0, 0.0, 0.0, 0.0),
+                       initial_views=((0.0, np.pi), (1.42, 0.71)), seed=0)
+    _, info = env.reset(options={"episode": spec})
+    assert len(env.episode.views) == 1 and env.episode.views[0].reachable
+    assert info["acquisitions"] == 1
+    record = env.episode_record()
+    assert len(record.views) == 1
+    random = make(initial_view="random")
+    for seed in range(3):
+        random.reset(seed=seed)
+        assert len(random.episode.views) == 1 and random.episode.views[0].reachable
+
+
+@pytest.mark.parametrize("points", [512, 3000])
+def test_s_bin_state_has_the_declared_rows(points: int) -> None:
+    env = make(state="s_bin", state_points=points)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (points, 4) and env.observation_space.contains(obs)
+    gt = env.episode.tracker.gt_points
+    rows = np.arange(points) % len(gt)
+    np.testing.assert_allclose(obs[:, :3], gt[rows] @ env.episode.object_pose.rotation.T / 0.25,
+                               atol=1e-6)
+
+
+def test_a_spec_gives_the_same_episode_to_both_carriers() -> None:
+    spec = EpisodeSpec(motor=str(DEFAULT_MOTOR), object_quaternion=(0.9, 0.1, 0.0, 0.3),
+                       initial_views=((1.42, 0.71),), seed=3)
+    robot, free = make(action="A_2S0R"), make(action="A_2S0R", carrier="free")
+    _, robot_info = robot.reset(options={"episode": spec})
+    _, free_info = free.reset(options={"episode": spec.as_dict()})
+    np.testing.assert_allclose(robot.episode.object_pose.rotation,
+                               free.episode.object_pose.rotation)
+    # The same view from the same pose: only the arm's occlusion can differ.
+    assert free_info["coverage"] >= robot_info["coverage"] > 0.2
+    action = look_at_action(4.2, 1.2)
+    _, _, _, _, info = free.step(action)
+    assert info["reachable"] and info["carrier"] == "free"
+    assert info["travel_joint_time"] == 0.0 and info["travel_paper"] > 0.0
+    start = np.asarray(free_info["sensor_position"]) - free.episode.center
+    end = np.asarray(info["sensor_position"]) - free.episode.center
+    arc = np.linalg.norm(start) * np.arccos(np.clip(start @ end / (np.linalg.norm(start)
+                                                                   * np.linalg.norm(end)), -1, 1))
+    assert info["travel_paper"] == pytest.approx(arc, rel=1e-6)
+    assert info["travel_cartesian"] == pytest.approx(np.linalg.norm(end - start))
+
+
+def test_free_carrier_rejects_joint_travel_in_its_reward() -> None:
+    with pytest.raises(ValueError, match="needs the robot"):
+        make(carrier="free", reward="R5", travel_cost="joint_time")
+    make(carrier="free", reward="R5", travel_cost="paper")
+
+
+def test_bad_episode_option_is_a_clear_error() -> None:
+    env = make()
+    with pytest.raises(ValueError, match="object_quaternion"):
+        env.reset(options={"episode": {"motor": str(DEFAULT_MOTOR), "seed": 0,
+                                       "object_quaternion": [0, 0, 0, 0],
+                                       "initial_views": [[1.42, 0.71]]}})
 
 
 def test_registered_id_and_vector_envs() -> None:

@@ -9,7 +9,19 @@ import pytest
 
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 from vprobot.config import Config
-from vprobot.evaluation import COLUMNS, EPISODE_COLUMNS, evaluate, summarize
+from vprobot.episode import (
+    BUNDLED_TEST_EPISODES,
+    episode_list,
+    read_episode_list,
+)
+from vprobot.evaluation import (
+    COLUMNS,
+    EPISODE_COLUMNS,
+    evaluate,
+    evaluation_episodes,
+    held_out_motors,
+    summarize,
+)
 from vprobot.paths import DEFAULT_MOTOR
 
 CONFIG = Config()
@@ -21,9 +33,9 @@ def read_csv(path: Path) -> list[dict[str, str]]:
 
 
 def test_evaluate_writes_markdown_and_csv(tmp_path: Path) -> None:
-    table = evaluate(CONFIG, ["hrec", "random2"], [DEFAULT_MOTOR], [0, 1], tmp_path,
-                     progress=False)
-    assert [(row["planner"], row["mode"]) for row in table] == [
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1])
+    table = evaluate(CONFIG, ["hrec", "random2"], specs, tmp_path, progress=False)
+    assert [(row["planner"], row["carrier"]) for row in table] == [
         ("hrec", "robot"), ("random2", "robot"), ("hrec", "free"), ("random2", "free")]
     summary = read_csv(tmp_path / "evaluation.csv")
     assert list(summary[0]) == list(COLUMNS) and len(summary) == 4
@@ -32,46 +44,64 @@ def test_evaluate_writes_markdown_and_csv(tmp_path: Path) -> None:
     for row in episodes:
         assert 0.0 <= float(row["coverage_pct"]) <= 100.0
         assert int(row["acquisitions"]) <= int(row["requested"])
-        if row["mode"] == "free":
+        if row["carrier"] == "free":
             assert row["joint_time_s"] == "" and row["reachable_pct"] == ""
         else:
             assert float(row["joint_time_s"]) > 0.0
             assert 0.0 <= float(row["reachable_pct"]) <= 100.0
-    hrec_free = next(row for row in table if row["planner"] == "hrec" and row["mode"] == "free")
+    hrec_free = next(row for row in table
+                     if row["planner"] == "hrec" and row["carrier"] == "free")
     assert hrec_free["acquisitions"] == 6 and hrec_free["joint_time_s"] is None
     markdown = (tmp_path / "evaluation.md").read_text()
     assert "| hrec | free | 2 |" in markdown and "B_SCP,5 | 98.17" in markdown
+    # The episode list is part of the output, and running it again gives the same rows.
+    assert read_episode_list(tmp_path / "episodes.json") == specs
+    again = evaluate(CONFIG, ["hrec", "random2"], evaluation_episodes(
+        CONFIG, episodes=tmp_path / "episodes.json"), tmp_path / "again", progress=False)
+    assert [row["coverage_pct"] for row in again] == [row["coverage_pct"] for row in table]
 
 
-def test_episodes_are_deterministic_per_seed(tmp_path: Path) -> None:
-    first = evaluate(CONFIG, ["random1"], [DEFAULT_MOTOR], [3], tmp_path / "a", progress=False,
-                     modes=["free"])
-    second = evaluate(CONFIG, ["random1"], [DEFAULT_MOTOR], [3], tmp_path / "b", progress=False,
-                      modes=["free"])
-    assert first[0]["coverage_pct"] == second[0]["coverage_pct"]
+def test_every_planner_sees_the_same_object_pose(tmp_path: Path) -> None:
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [3])
+    evaluate(CONFIG, ["random1", "hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    rows = read_csv(tmp_path / "evaluation_episodes.csv")
+    assert {(row["motor"], row["seed"]) for row in rows} == {("motor_000.stl", "3")}
 
 
-def test_summarize_averages_per_planner_and_mode() -> None:
+def test_bundled_episode_list_is_what_the_sampler_draws() -> None:
+    """The committed list is versioned: a change to the sampler must come with a new version."""
+    bundled = read_episode_list(BUNDLED_TEST_EPISODES)
+    assert bundled == episode_list(CONFIG, held_out_motors(), [0, 1, 2])
+    assert evaluation_episodes(CONFIG) == bundled
+    assert len({spec.object_quaternion for spec in bundled}) == len(bundled) == 15
+
+
+def test_summarize_averages_per_planner_and_carrier() -> None:
     base = {"acquisitions": 4, "requested": 5, "joint_time_s": None, "joint_path_rad": None,
             "cartesian_m": None, "paper_m": 1.0, "reachable_pct": None, "plan_s": 0.5,
             "episode_s": 1.0}
-    rows = [{**base, "planner": "bscp", "mode": "free", "coverage_pct": 90.0, "success": True},
-            {**base, "planner": "bscp", "mode": "free", "coverage_pct": 80.0, "success": False}]
+    rows = [{**base, "planner": "bscp", "carrier": "free", "coverage_pct": 90.0,
+             "success": True},
+            {**base, "planner": "bscp", "carrier": "free", "coverage_pct": 80.0,
+             "success": False}]
     (row,) = summarize(rows)
     assert row["coverage_pct"] == 85.0 and row["coverage_std_pct"] == 5.0
     assert row["success_pct"] == 50.0 and row["joint_time_s"] is None and row["episodes"] == 2
 
 
 @pytest.mark.parametrize(
-    ("planners", "modes", "message"),
+    ("planners", "carriers", "message"),
     [(["dijkstra"], ["robot"], "unknown planner 'dijkstra'"),
-     (["hrec"], ["flying"], "unknown mode 'flying'"),
+     (["hrec"], ["flying"], "unknown carrier 'flying'"),
      ([], ["robot"], "at least one planner")],
 )
-def test_bad_arguments_are_clear_errors(planners: list[str], modes: list[str], message: str,
+def test_bad_arguments_are_clear_errors(planners: list[str], carriers: list[str], message: str,
                                         tmp_path: Path) -> None:
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
     with pytest.raises(ValueError, match=message):
-        evaluate(CONFIG, planners, [DEFAULT_MOTOR], [0], tmp_path, progress=False, modes=modes)
+        evaluate(CONFIG, planners, specs, tmp_path, progress=False, carriers=carriers)
+    with pytest.raises(ValueError, match="not both"):
+        evaluation_episodes(CONFIG, seeds=[0], episodes=BUNDLED_TEST_EPISODES)
 
 
 def test_planner_benchmark_reports_the_targets(capsys: pytest.CaptureFixture) -> None:

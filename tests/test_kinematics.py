@@ -6,38 +6,14 @@ import dataclasses
 
 import numpy as np
 import pytest
+from dh_reference import world_flange, world_sensor
 
-from vprobot.config import CellConfig, Config, KinematicsConfig
-from vprobot.geometry import Pose, rotation_angle
+from vprobot.config import CellConfig, Config, KinematicsConfig, SensorConfig
+from vprobot.geometry import rotation_angle
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.path import joint_path
 from vprobot.kinematics.travel import joint_path_length, joint_time, paper_travel
 from vprobot.scene import Cell
-
-# Universal Robots' published DH parameters (standard DH, metres).
-UR_DH = {
-    "ur5": {
-        "d": [0.089159, 0.0, 0.0, 0.10915, 0.09465, 0.0823],
-        "a": [0.0, -0.425, -0.39225, 0.0, 0.0, 0.0],
-    },
-    "ur10": {
-        "d": [0.1273, 0.0, 0.0, 0.163941, 0.1157, 0.0922],
-        "a": [0.0, -0.612, -0.5723, 0.0, 0.0, 0.0],
-    },
-}
-UR_ALPHA = [np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0]
-
-
-def dh_flange(q: np.ndarray, robot: str) -> np.ndarray:
-    """Homogeneous flange pose in the UR controller's base frame from the DH table."""
-    transform = np.eye(4)
-    for theta, d, a, alpha in zip(q, UR_DH[robot]["d"], UR_DH[robot]["a"], UR_ALPHA, strict=True):
-        ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
-        transform = transform @ np.array(
-            [[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st],
-             [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]]
-        )
-    return transform
 
 
 def make_arm(robot: str = "ur10", **kinematics: object) -> RobotArm:
@@ -59,28 +35,33 @@ def free_configurations(arm: RobotArm, count: int, seed: int) -> list[np.ndarray
     configurations = []
     while len(configurations) < count:
         q = rng.uniform(-np.pi, np.pi, arm.joints.dof)
-        if not arm.in_collision(q):
+        if not arm.collisions.in_collision(q):
             configurations.append(q)
     return configurations
 
 
 @pytest.mark.parametrize("robot", ["ur5", "ur10"])
 def test_fk_matches_published_dh_parameters(robot: str) -> None:
-    arm = make_arm(robot)
-    base = arm.cell.robot_base
-    # The UR controller's base frame is the description's base_link turned half a turn about z.
-    controller_base = base.compose(Pose(np.zeros(3), np.diag([-1.0, -1.0, 1.0])))
-    mount = arm.cell.sensor_mount
+    # A turned base and a tilted, offset mount, so that every part of the composition shows.
+    config = dataclasses.replace(
+        Config(),
+        cell=dataclasses.replace(CellConfig(), robot=robot, robot_base_position_m=(0.1, -0.2, 0.4),
+                                 robot_base_yaw_deg=30.0),
+        sensor=dataclasses.replace(SensorConfig(), mount_position_m=(0.01, -0.02, 0.09),
+                                   mount_quaternion_wxyz=(0.9, 0.1, -0.3, 0.2)),
+    )
+    arm = RobotArm(Cell(config))
     rng = np.random.default_rng(7)
     for _ in range(25):
         q = rng.uniform(arm.joints.lower, arm.joints.upper)
-        dh = dh_flange(q, robot)
-        expected_flange = controller_base.compose(Pose(dh[:3, 3], dh[:3, :3]))
+        # Base pose and sensor mount come from the config, not from the compiled model.
+        expected_flange, expected_sensor = world_flange(q, config), world_sensor(q, config)
         flange = arm.forward.flange_pose(q)
-        np.testing.assert_allclose(flange.position, expected_flange.position, atol=1e-6)
-        np.testing.assert_allclose(flange.rotation, expected_flange.rotation, atol=1e-6)
-        expected_sensor = expected_flange.compose(mount)
-        np.testing.assert_allclose(arm.fk(q).position, expected_sensor.position, atol=1e-6)
+        np.testing.assert_allclose(flange.position, expected_flange[:3, 3], atol=1e-6)
+        np.testing.assert_allclose(flange.rotation, expected_flange[:3, :3], atol=1e-6)
+        sensor = arm.fk(q)
+        np.testing.assert_allclose(sensor.position, expected_sensor[:3, 3], atol=1e-6)
+        np.testing.assert_allclose(sensor.rotation, expected_sensor[:3, :3], atol=1e-6)
 
 
 def test_ik_round_trip_from_home(arm: RobotArm) -> None:
@@ -121,7 +102,7 @@ def test_far_target_does_not_converge(arm: RobotArm) -> None:
 
 
 def test_target_inside_the_fixture_collides(arm: RobotArm) -> None:
-    fixture_top = arm.forward.data.mocap_pos[arm.cell.fixture_mocap_id]
+    fixture_top = arm.collisions.data.mocap_pos[arm.cell.fixture_mocap_id]
     inside = fixture_top - [0.0, 0.0, 0.01]
     result = arm.reach(SensorTarget.look_at(inside, inside + [0.0, 0.0, -1.0]), arm.joints.home)
     assert not result.reachable
@@ -132,7 +113,7 @@ def test_path_through_the_fixture_is_a_path_collision() -> None:
     arm = make_arm(restarts=0)
     q_from = np.array([0.9, -0.5, 2.1, -3.1, -0.8, -2.6])
     q_to = q_from * [-1, 1, 1, 1, 1, 1]
-    assert not arm.in_collision(q_from) and not arm.in_collision(q_to)
+    assert not arm.collisions.in_collision(q_from) and not arm.collisions.in_collision(q_to)
     midway = arm.collisions.colliding_pairs((q_from + q_to) / 2)
     assert midway and all("fixture" in pair for pair in midway)
     goal = arm.fk(q_to)
@@ -149,7 +130,7 @@ def test_reported_paths_are_collision_free(arm: RobotArm) -> None:
     np.testing.assert_allclose(result.path[0], arm.joints.home)
     np.testing.assert_allclose(result.path[-1], result.q)
     assert np.max(np.abs(np.diff(result.path, axis=0))) <= 0.05 + 1e-12
-    assert not any(arm.in_collision(q) for q in result.path)
+    assert not any(arm.collisions.in_collision(q) for q in result.path)
 
 
 def test_no_success_outside_joint_limits() -> None:
@@ -187,8 +168,7 @@ def test_travel_costs_against_hand_values(arm: RobotArm) -> None:
     forth, back = arm.travel(q, moved, center), arm.travel(moved, q, center)
     assert forth.joint_time == pytest.approx(0.3 / arm.joints.velocity_limits[0])
     assert forth.joint_path == pytest.approx(0.3)
-    # The paper's arc runs at the start radius, so only the robot's own costs are symmetric.
-    for name in ("joint_time", "joint_path", "cartesian"):
+    for name in ("joint_time", "joint_path", "cartesian", "paper"):
         assert getattr(forth, name) == pytest.approx(getattr(back, name))
     # A pan move swings the sensor along a horizontal circle: chord < arc length <= arc bound.
     start, end = arm.fk(q).position, arm.fk(moved).position
@@ -208,9 +188,15 @@ def test_paper_travel_hand_values() -> None:
     # Equal radii, a quarter turn: the arc r * pi / 2.
     a, b = center + [0.47, 0.0, 0.0], center + [0.0, 0.47, 0.0]
     assert paper_travel(a, b, center) == pytest.approx(0.47 * np.pi / 2)
-    # Opposite directions, radii 0.4 and 0.5: half a circle at 0.4 plus 0.1.
+    # Opposite directions, radii 0.4 and 0.5: half a circle on the smaller sphere plus 0.1, in
+    # either direction (the paper computes the larger-to-smaller case "the other way around").
     a, b = center + [0.0, 0.0, 0.4], center + [0.0, 0.0, -0.5]
     assert paper_travel(a, b, center) == pytest.approx(0.4 * np.pi + 0.1)
+    assert paper_travel(b, a, center) == pytest.approx(0.4 * np.pi + 0.1)
+    # A quarter turn from 0.5 down to 0.3: 0.3 * pi / 2 + 0.2 both ways.
+    a, b = center + [0.5, 0.0, 0.0], center + [0.0, 0.3, 0.0]
+    assert paper_travel(a, b, center) == pytest.approx(0.3 * np.pi / 2 + 0.2)
+    assert paper_travel(b, a, center) == pytest.approx(0.3 * np.pi / 2 + 0.2)
     # Same direction, different radii: only the radius difference.
     assert paper_travel(center + [0.3, 0, 0], center + [0.45, 0, 0], center) == pytest.approx(0.15)
 

@@ -9,25 +9,22 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.config import Config
 from vprobot.coverage import CoverageTracker
-from vprobot.geometry import Pose, rotation_angle
-from vprobot.inspection import MotorScene, random_object_rotation
-from vprobot.kinematics import RobotArm, SensorTarget, TravelCost
+from vprobot.episode import Episode, EpisodeSpec, MotorScene, ViewRequest, seeded_episode
+from vprobot.geometry import Pose
+from vprobot.kinematics import SensorTarget, TravelCost
 from vprobot.kinematics.travel import joint_time
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import write_json
 from vprobot.planners import (
     BoxFacesPlanner,
-    FreeFlyingEpisode,
     OraclePlanner,
     Random1Planner,
     Random2Planner,
-    RobotEpisode,
     SetCoverPlanner,
-    ViewRequest,
-    episode_rng,
     greedy_cover,
     make_planner,
     order_views,
@@ -55,19 +52,18 @@ def motor() -> MotorScene:
     return MotorScene.load(CONFIG, DEFAULT_MOTOR)
 
 
-def episode_of(scene: MotorScene, seed: int, robot: bool) -> tuple[RobotEpisode
-                                                                  | FreeFlyingEpisode,
+def episode_of(scene: MotorScene, seed: int, robot: bool) -> tuple[Episode, EpisodeSpec,
                                                                   np.random.Generator]:
-    rng = episode_rng(seed, scene)
-    rotation = random_object_rotation(CONFIG.env, rng)
-    return (RobotEpisode if robot else FreeFlyingEpisode)(scene, rotation), rng
+    spec = seeded_episode(CONFIG.env, scene.mesh.path, seed, scene.mesh.scale)
+    return (Episode.from_spec(scene, spec, "robot" if robot else "free"), spec,
+            np.random.default_rng(seed))
 
 
 def test_bscp_free_flying_covers_a_cube(millimetre_cube: Path) -> None:
     scene = MotorScene.load(CONFIG, millimetre_cube, scale=0.001)
-    episode, rng = episode_of(scene, seed=0, robot=False)
+    episode, spec, rng = episode_of(scene, seed=0, robot=False)
     planner = SetCoverPlanner(goal=0.95, max_views=6, candidate_count=300)
-    record, _ = run_episode(planner, episode, CONFIG, rng)
+    record, _ = run_episode(planner, episode, spec, CONFIG, rng)
     assert record.coverage >= 0.95
     assert len(record.views) <= 6
     # Every pick was confirmed by a simulated acquisition: the plan measured what it predicted.
@@ -114,15 +110,15 @@ def test_ordering_never_lengthens_travel() -> None:
 
 
 def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: MotorScene) -> None:
-    episode, rng = episode_of(motor, seed=1, robot=True)
+    episode, spec, rng = episode_of(motor, seed=1, robot=True)
     planner = SetCoverPlanner(views=5, candidate_count=300)
-    record, _ = run_episode(planner, episode, CONFIG, rng)
+    record, _ = run_episode(planner, episode, spec, CONFIG, rng)
     candidates = planner.candidates
     velocity = motor.cell.joints.velocity_limits
     greedy = [record.start_joints, *(candidates.joints[i] for i in planner.picks)]
     unordered = sum(joint_time(a, b, velocity) for a, b in itertools.pairwise(greedy))
     assert all(view.reachable for view in record.views)
-    assert record.travel.joint_time <= unordered + 1e-9
+    assert (record.approach + record.travel).joint_time <= unordered + 1e-9
 
 
 @pytest.fixture(scope="module")
@@ -137,18 +133,48 @@ def test_exported_plan_reproduces_sensor_poses_by_fk(bscp_plan: tuple, tmp_path:
     assert document["coverage"] >= CONFIG.env.coverage_goal
     assert "coverage" in text and "bscp" in text
     json.loads(write_json(tmp_path / "plan.json", document).read_text())
-    arm = RobotArm(Cell(CONFIG))  # independent FK, no object needed
     previous = 0.0
     for view in document["views"]:
         assert view["reachable"] is True
-        pose = arm.fk(np.array(view["joints"]))
-        assert np.linalg.norm(pose.position - view["position"]) <= 1e-3
-        expected = Pose.from_quat(view["position"], view["quaternion"]).rotation
-        assert rotation_angle(pose.rotation, expected) <= 1e-3
+        # Independent FK: the published DH parameters, base and mount from the config.
+        pose = world_sensor(np.array(view["joints"]), CONFIG)
+        assert np.linalg.norm(pose[:3, 3] - view["position"]) <= 1e-3
+        expected = quaternion_matrix(view["quaternion"])
+        assert rotation_difference(pose[:3, :3], expected) <= 1e-3
         assert view["coverage"] >= previous
         previous = view["coverage"]
         assert set(view["travel"]) == {"joint_time", "joint_path", "cartesian", "paper"}
     assert previous == pytest.approx(document["coverage"])
+
+
+def test_plan_carries_what_re_checks_its_coverage(bscp_plan: tuple) -> None:
+    """A third party's check from the JSON alone: the coverage after each view follows from the
+    per-point first-covering view, and each point lies in the frustum and range of the view
+    that covered it (plain geometry on the exported poses and sensor block)."""
+    _, record, document, _ = bscp_plan
+    gt = document["ground_truth"]
+    points = np.array(gt["points"])
+    first = np.array(gt["first_covered_by_view"])
+    assert points.shape == (2048, 3) and first.shape == (2048,)
+    assert 0.001 < gt["epsilon_m"] < 0.005
+    np.testing.assert_allclose(points, record.gt_points_world, atol=1e-6)
+    sensor = document["sensor"]
+    half_tangent = np.tan(np.deg2rad(np.array(sensor["fov_deg"])) / 2.0)
+    near, far = sensor["range"]
+    for index, view in enumerate(document["views"]):
+        assert view["coverage"] == pytest.approx(np.mean((first >= 0) & (first <= index)))
+        local = (points[first == index] - view["position"]) @ quaternion_matrix(
+            view["quaternion"])
+        assert len(local) > 0
+        slack = gt["epsilon_m"] / local[:, 2:3]
+        assert np.all(np.abs(local[:, :2] / local[:, 2:3]) <= half_tangent + slack)
+        distance = np.linalg.norm(local, axis=1)
+        assert np.all((distance >= near - gt["epsilon_m"]) & (distance <= far + gt["epsilon_m"]))
+    # The approach is reported on its own; the travel total sums the later moves only.
+    steps = [view["travel"] for view in document["views"]]
+    assert document["approach"] == steps[0]
+    for name, total in document["travel"].items():
+        assert total == pytest.approx(sum(step[name] for step in steps[1:]))
 
 
 def _placed_file_bounds(document: dict) -> np.ndarray:
@@ -179,8 +205,8 @@ PLANNERS = {
 @pytest.mark.parametrize("name", PLANNERS)
 def test_no_planner_reports_an_unreachable_view_as_executed(name: str,
                                                             motor: MotorScene) -> None:
-    episode, rng = episode_of(motor, seed=2, robot=True)
-    record, _ = run_episode(PLANNERS[name](), episode, CONFIG, rng)
+    episode, spec, rng = episode_of(motor, seed=2, robot=True)
+    record, _ = run_episode(PLANNERS[name](), episode, spec, CONFIG, rng)
     arm = motor.arm
     joints, coverage = record.start_joints, 0.0
     for view in record.views:
@@ -188,7 +214,7 @@ def test_no_planner_reports_an_unreachable_view_as_executed(name: str,
             assert view.sensor_pose is not None and view.path is not None
             np.testing.assert_allclose(arm.fk(view.joints).position, view.sensor_pose.position,
                                        atol=1e-9)
-            assert not arm.in_collision(view.joints)
+            assert not episode.carrier.collisions.in_collision(view.joints)
             np.testing.assert_allclose(view.path[0], joints)
             np.testing.assert_allclose(view.path[-1], view.joints)
         else:
@@ -214,7 +240,7 @@ def test_user_mesh_in_millimetres_plans(millimetre_cube: Path) -> None:
 
 
 def test_predicted_visibility_agrees_with_the_sensor(motor: MotorScene) -> None:
-    episode, _ = episode_of(motor, seed=3, robot=False)
+    episode, _, _ = episode_of(motor, seed=3, robot=False)
     tracker = CoverageTracker.from_ground_truth(motor.ground_truth)
     renderer = VisibilityRenderer(motor.mesh.mesh, CONFIG.sensor, tolerance_m=tracker.epsilon)
     center, to_mesh = episode.center, episode.object_pose.inverse()

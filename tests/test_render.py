@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 from vprobot.config import load_config
-from vprobot.episode import EpisodeRecord
-from vprobot.inspection import Inspection, MotorScene
+from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import PlannedView, plan_document, write_json
@@ -47,14 +46,14 @@ def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
 @pytest.fixture(scope="module")
 def record(scene) -> EpisodeRecord:
     """Two reachable views, then a request far out of reach."""
-    inspection = Inspection(scene, np.eye(3))
-    center = inspection.center
+    episode = Episode(scene, np.eye(3))
+    center = episode.center
     for azimuth in (0.0, 70.0):
         target = SensorTarget.look_at(center + 0.47 * _direction(azimuth, 35.0), center)
-        assert inspection.request(target).view.reachable
+        assert episode.request(ViewRequest(target)).reachable
     far = SensorTarget.look_at(center + 3.0 * _direction(180.0, 10.0), center)
-    assert not inspection.request(far).view.reachable
-    return inspection.record()
+    assert not episode.request(ViewRequest(far)).reachable
+    return episode.record()
 
 
 def _acquisition_states(record, settings):

@@ -135,9 +135,32 @@ def test_cube_face_on_shows_one_face() -> None:
     acquisition = sensor.acquire_from_pose(data, pose)
     points = acquisition.points_object
     np.testing.assert_allclose(points[:, 2], side / 2, atol=1e-9)
+    # Looking straight down, image x is world x and image y is world -y.
+    np.testing.assert_allclose(pose.rotation, np.diag([1.0, -1.0, -1.0]), atol=1e-12)
+    # Exact reference from the documented pixel grid: the ray through pixel centre (u_j, v_i)
+    # meets the top face, D = 0.4 m below the sensor, at x = 0.003 + D u_j, y = -0.002 - D v_i,
+    # and the face holds it iff |x|, |y| <= side / 2 (no ray outside it reaches a side face).
+    (width, height), depth = sensor.resolution, 0.45 - side / 2
+    tan_x, tan_y = np.tan(np.deg2rad(sensor.sensor.fov_deg) / 2)
+    u = tan_x * ((2 * np.arange(width) + 1) / width - 1)
+    v = tan_y * ((2 * np.arange(height) + 1) / height - 1)
+    margin_x = side / 2 - np.abs(0.003 + depth * u)
+    margin_y = side / 2 - np.abs(-0.002 - depth * v)
+    # No hit lies within 0.05 mm of an edge, so rounding (float32 vertices) cannot move the count.
+    assert min(np.abs(margin_x).min(), np.abs(margin_y).min()) > 5e-5
+    columns, rows = np.flatnonzero(margin_x >= 0), np.flatnonzero(margin_y >= 0)
+    assert (len(columns), len(rows)) == (112, 85)
+    np.testing.assert_array_equal(acquisition.pixels, (rows[:, None] * width + columns).ravel())
+    expected_xy = np.stack(np.broadcast_arrays(0.003 + depth * u[columns][None, :],
+                                               -0.002 - depth * v[rows][:, None]), axis=-1)
+    np.testing.assert_allclose(points[:, :2], expected_xy.reshape(-1, 2), atol=1e-9)
+    # On a face normal to the axis every pixel covers exactly (pitch_u D) x (pitch_v D), so the
+    # area sums to 112 * 85 pixels: 1.0055 side^2, the pixel centres sampling each edge to
+    # within half a pixel (0.89 x 1.18 mm here).
     normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
     area = _surface_area(sensor, pose, points, acquisition.pixels, normals)
-    assert area / (6 * side**2) == pytest.approx(1 / 6, abs=0.02)
+    pixel_area = (u[1] - u[0]) * (v[1] - v[0]) * depth**2
+    assert area == pytest.approx(112 * 85 * pixel_area, rel=1e-6)
 
 
 @pytest.mark.parametrize(("distance", "target"), [
@@ -196,16 +219,27 @@ def motor_cell() -> Cell:
     return Cell(Config(), load_mesh(MOTORS_DIR / "test" / "motor_000.stl").mesh)
 
 
-@pytest.mark.parametrize("direction_index", [0, 15, 27, 31, 39])
-def test_matches_brute_force_mujoco_rays_in_the_cell(motor_cell: Cell,
-                                                     direction_index: int) -> None:
+# Joint configurations (collision-free) that put a link between the sensor and the motor.
+FOREARM_IN_VIEW = (-2.85, -2.04, -1.94, 0.23, -0.31, 2.87)
+UPPER_ARM_IN_VIEW = (-1.56, -1.8, 2.72, 0.75, -0.35, -2.75)
+
+
+@pytest.mark.parametrize(("direction_index", "joints"), [
+    (0, None), (15, None), (31, None), (39, None), (5, FOREARM_IN_VIEW), (19, UPPER_ARM_IN_VIEW),
+])
+def test_matches_brute_force_mujoco_rays_in_the_cell(motor_cell: Cell, direction_index: int,
+                                                     joints: tuple | None) -> None:
     """Same points as one `mj_multiRay` over every ray of the frame, robot and fixture included.
 
-    The views cover a clear line of sight, the robot (at home) hiding the motor, and views from
-    below where the fixture plate and pedestal hide parts of it.
+    The views cover clear lines of sight (robot at home), views from below where the fixture
+    plate and pedestal hide parts of the motor, and views where the forearm or the upper arm
+    hides part of it.
     """
     cell = motor_cell
     data = cell.make_data()
+    if joints is not None:
+        data.qpos[:] = joints
+        mujoco.mj_kinematics(cell.model, data)
     sensor = DepthSensor(cell, resolution=(215, 150))
     direction = sphere_directions(40)[direction_index]
     pose = Pose.look_at(cell.object_center + 0.45 * direction,
@@ -214,11 +248,26 @@ def test_matches_brute_force_mujoco_rays_in_the_cell(motor_cell: Cell,
 
     rays = sensor.directions @ pose.rotation.T
     count = len(rays)
-    geom_id, distance = np.empty(count, np.int32), np.empty(count)
-    mujoco.mj_multiRay(cell.model, data, pose.position, rays.ravel(), None, 1,
-                       cell.sensor_body_id, geom_id, distance, None, count, 10.0)
-    kept = (np.isin(geom_id, cell.object_geom_ids) & (distance >= 0.3) & (distance <= 0.5))
-    expected = np.flatnonzero(kept)
+
+    def brute_force(geomgroup: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        geom_id, distance = np.empty(count, np.int32), np.empty(count)
+        mujoco.mj_multiRay(cell.model, data, pose.position, rays.ravel(), geomgroup, 1,
+                           cell.sensor_body_id, geom_id, distance, None, count, 10.0)
+        kept = (np.isin(geom_id, cell.object_geom_ids) & (distance >= 0.3) & (distance <= 0.5))
+        return np.flatnonzero(kept), geom_id, distance
+
+    expected, geom_id, distance = brute_force(None)
+    # Never an empty frame against an empty frame.
+    assert len(expected) > 2000
+    if joints is not None:
+        # The robot really hides part of the motor, and only part: without the robot's geom
+        # group (2) MuJoCo sees about twice as many object points, and every one of them that
+        # the full cast lost is hidden by a robot link.
+        unoccluded = brute_force(np.array([1, 1, 0, 1, 1, 1], np.uint8))[0]
+        assert len(unoccluded) > 1.8 * len(expected)
+        assert np.isin(expected, unoccluded).all()
+        hidden = np.setdiff1d(unoccluded, expected)
+        assert np.isin(geom_id[hidden], cell.robot_geom_ids).all()
     np.testing.assert_array_equal(acquisition.pixels, expected)
     np.testing.assert_allclose(acquisition.points_world,
                                pose.position + rays[expected] * distance[expected, None],

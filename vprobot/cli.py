@@ -95,7 +95,8 @@ def command_plan(args: argparse.Namespace) -> int:
 
     _check_outputs(args)
     scene, record, document, summary = plan_motor(_config(args), args.mesh, args.scale,
-                                                  args.planner, args.views, args.free, args.seed)
+                                                  args.planner, args.views, args.carrier,
+                                                  args.seed)
     print(summary)
     print(f"wrote {write_json(args.out, document)}")
     _render_outputs(args, scene, record)
@@ -113,7 +114,7 @@ def command_render(args: argparse.Namespace) -> int:
         scene, record = episode_from_plan(config, args.plan)
     else:
         scene, record, _, summary = plan_motor(config, args.mesh, args.scale, args.planner,
-                                               args.views, False, args.seed)
+                                               args.views, args.carrier, args.seed)
         print(summary)
     _render_outputs(args, scene, record)
     return 0
@@ -140,11 +141,12 @@ def _render_outputs(args: argparse.Namespace, scene: Any, record: Any) -> None:
 
 
 def command_evaluate(args: argparse.Namespace) -> int:
-    """Compare planners on motors x seeds; write evaluation.md and .csv."""
-    from vprobot.evaluation import evaluate
+    """Compare planners on one episode list; write evaluation.md, .csv and episodes.json."""
+    from vprobot.evaluation import evaluate, evaluation_episodes
 
-    evaluate(_config(args), args.planners, args.motors, args.seeds, args.out, progress=True,
-             modes=args.modes)
+    config = _config(args)
+    specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
+    evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers)
     print((Path(args.out) / "evaluation.md").read_text())
     return 0
 
@@ -234,15 +236,16 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--planner", choices=PLANNER_NAMES, default="bscp")
         sub.add_argument("--views", type=int,
                          help="fixed number of views (bscp); default: until the coverage goal")
-        sub.add_argument("--seed", type=int, default=0, help="seed of the object pose")
+        sub.add_argument("--seed", type=int, default=0,
+                         help="seed of the episode (object pose, initial view)")
+        sub.add_argument("--carrier", choices=["robot", "free"], default="robot",
+                         help="robot in the loop, or a free-flying sensor (as in the paper)")
         sub.add_argument("--summary", help="also write a summary PNG here")
         sub.add_argument("--width", type=int, default=640, help="video width (pixels)")
         sub.add_argument("--height", type=int, default=480, help="video height (pixels)")
 
     plan = add("plan", command_plan, "Plan the inspection of a motor and write the plan JSON.")
     add_planning(plan)
-    plan.add_argument("--free", action="store_true",
-                      help="free-flying sensor without the robot (as in the paper)")
     plan.add_argument("--out", required=True, help="plan JSON to write")
     plan.add_argument("--video", help="also render the rollout to this .mp4 or .gif")
 
@@ -257,9 +260,14 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--planners", nargs="+", default=[
         "random1", "random2", "hrec", "bscp", "bscp4", "bscp5", "oracle"],
         help="planner names, or bscp<N> for B_SCP with N views")
-    evaluation.add_argument("--motors", nargs="+", help="mesh files; default: the test motors")
-    evaluation.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    evaluation.add_argument("--modes", nargs="+", choices=["robot", "free"],
+    evaluation.add_argument("--episodes", help="episode list (JSON, as written into --out); "
+                            "default: the bundled list over the test motors")
+    evaluation.add_argument("--motors", nargs="+",
+                            help="mesh files to draw episodes for instead (default: the test "
+                            "motors)")
+    evaluation.add_argument("--seeds", type=int, nargs="+",
+                            help="seeds to draw episodes for instead (default: 0 1 2)")
+    evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
                             default=["robot", "free"])
     evaluation.add_argument("--out", default="results", help="folder for the tables")
 

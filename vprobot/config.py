@@ -131,6 +131,10 @@ RewardName = Literal[
     "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "R10", "R11", "R12", "R13", "R14"
 ]
 TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper"]
+ROBOT_TRAVEL_COSTS = ("joint_time", "joint_path")
+"""Travel costs that exist only with a robot (joint space)."""
+TRAVEL_REWARDS = ("R5", "R6", "R7", "R8", "R11", "R12", "R14")
+"""Rewards that divide by a travel cost."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -138,6 +142,8 @@ class EnvConfig:
     """The inspection environment (SPEC sections 6-8; paper Tables 1-4).
 
     Attributes:
+        carrier: `robot` (the robot must reach every view) or `free` (the paper's free-flying
+            sensor: every request is executed; travel is `cartesian` or `paper` only).
         state: `s_cov` (acquired cloud, model-free) or `s_bin` (GT cloud + covered flag).
         robot_state: Add the sensor pose and joints as a second observation entry.
         action: Action variant of SPEC section 7.
@@ -169,6 +175,7 @@ class EnvConfig:
         state_points: Points in the state (paper: 2048).
     """
 
+    carrier: Literal["robot", "free"] = "robot"
     state: Literal["s_cov", "s_bin"] = "s_cov"
     robot_state: bool = False
     action: ActionName = "A_3S2R_lim"
@@ -212,6 +219,11 @@ class EnvConfig:
         if not 0.0 < low <= high:
             raise ConfigError(f"env.wpk_distance_range_m must satisfy 0 < low <= high, got "
                               f"{self.wpk_distance_range_m}")
+        if (self.carrier == "free" and self.travel_cost in ROBOT_TRAVEL_COSTS
+                and self.reward in TRAVEL_REWARDS):
+            raise ConfigError(f"env.travel_cost {self.travel_cost!r} needs the robot, but "
+                              f"env.carrier is 'free' and env.reward {self.reward} uses the "
+                              f"travel cost; use 'cartesian' or 'paper'")
         if not 0.0 <= self.radius_range_m[0] <= self.radius_range_m[1]:
             raise ConfigError(f"env.radius_range_m must satisfy 0 <= low <= high, got "
                               f"{self.radius_range_m}")

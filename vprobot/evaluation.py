@@ -1,12 +1,15 @@
 """Compare planners on held-out motors (`vprobot evaluate`): a Markdown and a CSV table.
 
-Every planner runs one episode per (motor, seed, mode); all planners see the same object pose
-for a (motor, seed). Modes: `robot` (the robot must reach every view; joint-space travel and
-reachability are measured) and `free` (a free-flying sensor as in the paper, for comparison
-with its Table 9). Per planner and mode the table gives the mean coverage, the acquisitions
-(views actually acquired, the initial view included), the success rate (coverage goal reached),
-the mean travel per episode (`joint_time` s, `joint_path` rad, `cartesian` m, `paper` m), the
-fraction of requested views the robot reached and the planning time per episode.
+Every planner runs every episode of one fixed, versioned episode list (`vprobot.episode.specs`;
+by default the bundled list over the test motors) with each carrier, so all planners (and
+agents) are scored on identical episodes; the list is written beside the tables. Carriers:
+`robot` (the robot must reach every view; joint-space travel and reachability are measured)
+and `free` (a free-flying sensor as in the paper, for comparison with its Table 9). Per planner
+and carrier the table gives the mean coverage, the acquisitions (views actually acquired, the
+initial view included), the success rate (coverage goal reached), the mean travel between the
+views of an episode (`joint_time` s, `joint_path` rad, `cartesian` m, `paper` m; the approach
+from the start to the first view is not counted, SPEC section 8), the fraction of requested
+views the robot reached and the planning time per episode.
 """
 
 from __future__ import annotations
@@ -20,15 +23,23 @@ from typing import Any
 from tqdm import tqdm
 
 from vprobot.config import Config
-from vprobot.inspection import MotorScene
+from vprobot.episode import (
+    BUNDLED_TEST_EPISODES,
+    CARRIERS,
+    CarrierName,
+    EpisodeSpec,
+    MotorScene,
+    episode_list,
+    read_episode_list,
+    write_episode_list,
+)
 from vprobot.paths import MOTORS_DIR
-from vprobot.planners.runner import EpisodeResult, Mode, parse_planner, run
+from vprobot.planners.runner import EpisodeResult, parse_planner, run
 
-MODES: tuple[Mode, ...] = ("robot", "free")
-COLUMNS = ("planner", "mode", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
+COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
            "requested", "success_pct", "joint_time_s", "joint_path_rad", "cartesian_m",
            "paper_m", "reachable_pct", "plan_s", "episode_s")
-EPISODE_COLUMNS = ("planner", "mode", "motor", "seed", "coverage_pct", "acquisitions",
+EPISODE_COLUMNS = ("planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
                    "requested", "success", "joint_time_s", "joint_path_rad", "cartesian_m",
                    "paper_m", "reachable_pct", "plan_s", "episode_s")
 PAPER_TABLE_9 = (
@@ -41,17 +52,17 @@ PAPER_TABLE_9 = (
 """The paper's Table 9 (free-flying sensor, synthetic motors): coverage %, acquisitions, s."""
 
 
-def test_motors() -> list[Path]:
+def held_out_motors() -> list[Path]:
     """The bundled held-out motors."""
     return sorted((MOTORS_DIR / "test").glob("*.stl"))
 
 
 def episode_row(result: EpisodeResult) -> dict[str, Any]:
-    """One CSV row of an episode (robot-only figures are None in free mode)."""
-    travel, robot = result.travel, result.mode == "robot"
+    """One CSV row of an episode (robot-only figures are None for the free sensor)."""
+    travel, robot = result.travel, result.carrier == "robot"
     return {
         "planner": result.planner,
-        "mode": result.mode,
+        "carrier": result.carrier,
         "motor": Path(result.mesh).name,
         "seed": result.seed,
         "coverage_pct": 100.0 * result.coverage,
@@ -74,17 +85,17 @@ def _mean(rows: list[dict[str, Any]], key: str) -> float | None:
 
 
 def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """One row per (planner, mode), in the order they first appear (mode by mode, planners in
-    the order given, as `evaluate` runs them)."""
+    """One row per (planner, carrier), in the order they first appear (carrier by carrier,
+    planners in the order given, as `evaluate` runs them)."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
-        groups.setdefault((row["planner"], row["mode"]), []).append(row)
+        groups.setdefault((row["planner"], row["carrier"]), []).append(row)
     table = []
-    for (planner, mode), group in groups.items():
+    for (planner, carrier), group in groups.items():
         coverage = [row["coverage_pct"] for row in group]
         table.append({
             "planner": planner,
-            "mode": mode,
+            "carrier": carrier,
             "episodes": len(group),
             "coverage_pct": statistics.fmean(coverage),
             "coverage_std_pct": statistics.pstdev(coverage),
@@ -106,29 +117,31 @@ def _cell(value: Any, digits: int) -> str:
     return str(value)
 
 
-def markdown(table: list[dict[str, Any]], motors: Sequence[Path], seeds: Sequence[int],
-             config: Config) -> str:
+def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: Config) -> str:
     """The Markdown report: settings, the table, and the paper's Table 9 for reference."""
-    header = ("| planner | mode | episodes | coverage % | acquisitions | requested | success % "
+    motors = sorted({Path(spec.motor).name for spec in specs})
+    seeds = sorted({spec.seed for spec in specs})
+    header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | success % "
               "| joint_time s | joint_path rad | cartesian m | paper m | reachable % "
               "| plan s |")
     lines = [
         "# Planner evaluation",
         "",
-        f"Motors: {', '.join(path.name for path in motors)}; seeds: "
-        f"{', '.join(map(str, seeds))} (one random object pose per motor and seed, the same "
-        f"for every planner); robot {config.cell.robot}; coverage goal "
+        f"Episodes: {len(specs)} from `episodes.json` (motors {', '.join(motors)}; seeds "
+        f"{', '.join(map(str, seeds))}: one object pose and initial view per motor and seed, "
+        f"the same for every planner); robot {config.cell.robot}; coverage goal "
         f"{config.env.coverage_goal:.0%}; at most {config.env.max_acquisitions} requests after "
-        f"the initial view for planners that stop at the goal. Mode `robot`: every view must be "
-        f"reached by the robot; `free`: free-flying sensor as in the paper. Means per episode; "
-        f"travel is summed over an episode; `plan s` is the time spent planning.",
+        f"the initial view for planners that stop at the goal. Carrier `robot`: every view must "
+        f"be reached by the robot; `free`: free-flying sensor as in the paper. Means per "
+        f"episode; travel is summed over the moves between an episode's views (the approach "
+        f"to the first view is not counted); `plan s` is the time spent planning.",
         "",
         header,
         "|" + "---|" * (header.count("|") - 1),
     ]
     for row in table:
         coverage = f"{row['coverage_pct']:.2f} ± {row['coverage_std_pct']:.2f}"
-        cells = [row["planner"], row["mode"], str(row["episodes"]), coverage,
+        cells = [row["planner"], row["carrier"], str(row["episodes"]), coverage,
                  _cell(row["acquisitions"], 2), _cell(row["requested"], 2),
                  _cell(row["success_pct"], 0), _cell(row["joint_time_s"], 2),
                  _cell(row["joint_path_rad"], 2), _cell(row["cartesian_m"], 2),
@@ -150,50 +163,74 @@ def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -
             writer.writerow({key: "" if row[key] is None else row[key] for key in columns})
 
 
-def evaluate(config: Config, planners: Sequence[str], motors: Sequence[str | Path] | None,
-             seeds: Sequence[int], out_dir: str | Path, progress: bool = True,
-             modes: Sequence[Mode] = MODES) -> list[dict[str, Any]]:
-    """Run every planner on every motor, seed and mode; write the tables into `out_dir`.
+def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = None,
+                        seeds: Sequence[int] | None = None,
+                        episodes: str | Path | None = None) -> list[EpisodeSpec]:
+    """The episode list of an evaluation: a list file, the episodes of motors x seeds, or the
+    bundled list over the test motors.
+
+    Raises:
+        ValueError: For a list file together with motors or seeds, or a bad list.
+    """
+    if episodes is not None:
+        if motors is not None or seeds is not None:
+            raise ValueError("give either an episode list or motors and seeds, not both")
+        return read_episode_list(episodes)
+    if motors is None and seeds is None:
+        return read_episode_list(BUNDLED_TEST_EPISODES)
+    return episode_list(config, [Path(path) for path in motors] if motors is not None
+                        else held_out_motors(), seeds if seeds is not None else (0, 1, 2))
+
+
+def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpec],
+             out_dir: str | Path, progress: bool = True,
+             carriers: Sequence[CarrierName] = CARRIERS) -> list[dict[str, Any]]:
+    """Run every planner on every episode with every carrier; write the tables into `out_dir`.
 
     Args:
         config: The configuration.
         planners: Planner names (`random1`, `random2`, `hrec`, `bscp`, `oracle`), or `bscp<N>`
             for B_SCP with N views.
-        motors: Mesh files; the bundled test motors when None.
-        seeds: Seeds of the object poses.
-        out_dir: Folder for `evaluation.md`, `evaluation.csv` (one row per planner and mode)
-            and `evaluation_episodes.csv` (one row per episode); created if missing.
+        specs: The episodes (`evaluation_episodes`).
+        out_dir: Folder for `evaluation.md`, `evaluation.csv` (one row per planner and
+            carrier), `evaluation_episodes.csv` (one row per episode) and `episodes.json` (the
+            episode list); created if missing.
         progress: Show a progress bar.
-        modes: `robot` and/or `free`.
+        carriers: `robot` and/or `free`.
 
     Returns:
         The summary rows.
 
     Raises:
-        ValueError: For an unknown planner or mode, or no planners, motors or seeds.
+        ValueError: For an unknown planner or carrier, or no planners, episodes or carriers.
     """
-    specs = [parse_planner(spec) for spec in planners]
-    unknown = [mode for mode in modes if mode not in MODES]
+    parsed = [parse_planner(spec) for spec in planners]
+    unknown = [carrier for carrier in carriers if carrier not in CARRIERS]
     if unknown:
-        raise ValueError(f"unknown mode {unknown[0]!r}; allowed: {', '.join(MODES)}")
-    paths = [Path(path) for path in motors] if motors is not None else test_motors()
-    if not specs or not paths or not seeds or not modes:
-        raise ValueError("evaluate needs at least one planner, motor, seed and mode")
+        raise ValueError(f"unknown carrier {unknown[0]!r}; allowed: {', '.join(CARRIERS)}")
+    if not parsed or not specs or not carriers:
+        raise ValueError("evaluate needs at least one planner, episode and carrier")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
-    with tqdm(total=len(paths) * len(seeds) * len(modes) * len(specs), desc="evaluate",
+    scenes: dict[tuple[Path, float], MotorScene] = {}
+    with tqdm(total=len(specs) * len(carriers) * len(parsed), desc="evaluate",
               disable=not progress) as bar:
-        for path in paths:
-            scene = MotorScene.load(config, path)
-            for seed in seeds:
-                for mode in modes:
-                    for name, views in specs:
-                        bar.set_postfix_str(f"{path.name} seed {seed} {mode} {name}")
-                        rows.append(episode_row(run(config, scene, name, seed, mode, views)))
-                        bar.update()
+        for spec in specs:
+            key = (spec.motor_path, spec.scale)
+            if key not in scenes:
+                scenes.clear()
+                scenes[key] = MotorScene.load(config, spec.motor_path, spec.scale)
+            for carrier in carriers:
+                for name, views in parsed:
+                    bar.set_postfix_str(f"{Path(spec.motor).name} seed {spec.seed} {carrier} "
+                                        f"{name}")
+                    rows.append(episode_row(run(config, scenes[key], name, spec, carrier,
+                                                views)))
+                    bar.update()
     table = summarize(rows)
-    (out / "evaluation.md").write_text(markdown(table, paths, seeds, config))
+    write_episode_list(out / "episodes.json", specs)
+    (out / "evaluation.md").write_text(markdown(table, specs, config))
     _write_csv(out / "evaluation.csv", COLUMNS, table)
     _write_csv(out / "evaluation_episodes.csv", EPISODE_COLUMNS, rows)
     return table

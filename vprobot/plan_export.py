@@ -9,10 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.episode import EpisodeRecord
+from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.files import atomic_output
 from vprobot.geometry import Pose
-from vprobot.inspection import MotorScene
 from vprobot.kinematics import TravelCost
 from vprobot.robots import FLANGE_FRAME
 from vprobot.scene import Cell
@@ -56,6 +55,25 @@ class PlannedView:
 
 def _floats(values: np.ndarray) -> list[float]:
     return [float(value) for value in np.asarray(values).ravel()]
+
+
+GT_DECIMALS = 6
+"""Ground-truth coordinates in the plan are rounded to the micrometre (epsilon is millimetres)."""
+
+
+def ground_truth_block(record: EpisodeRecord) -> dict[str, Any]:
+    """What a third party needs to re-check the coverage with its own ray caster.
+
+    The GT points in the world (as posed in the episode), epsilon (a GT point counts as covered
+    when an acquired point lies within it) and, per point, the index into `views` of the view
+    that first covered it (-1: never covered); the coverage after view k is the share of points
+    whose index is at most k.
+    """
+    return {
+        "points": np.round(record.gt_points_world, GT_DECIMALS).tolist(),
+        "epsilon_m": float(record.epsilon_m),
+        "first_covered_by_view": [int(index) for index in record.first_covered_by],
+    }
 
 
 def robot_block(cell: Cell) -> dict[str, Any]:
@@ -108,13 +126,14 @@ def plan_document(
     return document
 
 
-def planned_views(record: EpisodeRecord, robot: bool = True) -> list[PlannedView]:
+def planned_views(record: EpisodeRecord) -> list[PlannedView]:
     """The views of an episode as plan views.
 
     A reached view carries the sensor pose it was acquired from and the joints that reach it; an
-    unreached one its requested pose and no joints. Without the robot (`robot=False`, a
-    free-flying sensor) views carry their pose only and `reachable` is None.
+    unreached one its requested pose and no joints. Without the robot (a free-flying sensor)
+    views carry their pose only and `reachable` is None.
     """
+    robot = record.carrier == "robot"
     views = []
     for view in record.views:
         reached = robot and view.reachable
@@ -130,19 +149,27 @@ def planned_views(record: EpisodeRecord, robot: bool = True) -> list[PlannedView
     return views
 
 
-def episode_document(scene: MotorScene, record: EpisodeRecord, robot: bool = True,
+def episode_document(scene: MotorScene, record: EpisodeRecord,
                      metadata: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The plan JSON of an episode: object placement, robot, sensor, views, final coverage.
+    """The plan JSON of an episode: object placement, robot, sensor, views, final coverage,
+    travel, and the ground truth to re-check the coverage.
+
+    `views[i].travel` is the move from the previous view (for the first view: the approach from
+    `start_joints`); `approach` repeats the approach and `travel` sums the moves between views
+    (k_cum, SPEC section 8), which exclude it.
 
     Args:
         scene: The motor scene the episode ran in.
         record: The episode.
-        robot: Whether the robot reached the views (False: free-flying sensor).
-        metadata: Extra top-level entries (planner, mode, seed, ...).
+        metadata: Extra top-level entries (planner, carrier, seed, ...).
     """
-    document = plan_document(scene.cell, planned_views(record, robot),
+    document = plan_document(scene.cell, planned_views(record),
                              scene.object_block(record.object_pose), record.coverage)
+    document["carrier"] = record.carrier
     document["start_joints"] = _floats(record.start_joints)
+    document["approach"] = record.approach.as_dict()
+    document["travel"] = record.travel.as_dict()
+    document["ground_truth"] = ground_truth_block(record)
     document.update(metadata or {})
     return document
 

@@ -24,6 +24,7 @@ for the few rays whose segment to the object crosses their bounding boxes, on wo
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -189,6 +190,7 @@ class DepthSensor:
         self._distance = np.empty(self.rays_per_frame)
         self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
+        self._cell = cell
 
     def _classify_geoms(self, object_geom_ids: np.ndarray,
                         seen_groups: Sequence[int] | None) -> None:
@@ -235,6 +237,23 @@ class DepthSensor:
     @property
     def rays_per_frame(self) -> int:
         return self.resolution[0] * self.resolution[1]
+
+    def acquire_at(self, pose: Pose, object_rotation: np.ndarray,
+                   joints: np.ndarray | None = None) -> Acquisition:
+        """Measure from `pose` with the object turned by `object_rotation` and the robot at
+        `joints` (`home` when omitted), on the sensor's own MjData.
+
+        The state is passed whole on every call, so that no other user of the cell (kinematics,
+        collision checks, a renderer) can change what the sensor sees.
+        """
+        cell, data = self._cell, self._own_data
+        data.qpos[:] = cell.joints.home if joints is None else joints
+        cell.place_object(data, object_rotation)
+        return self.acquire_from_pose(data, pose)
+
+    @functools.cached_property
+    def _own_data(self) -> mujoco.MjData:
+        return self._cell.make_data()
 
     def acquire(self, data: mujoco.MjData) -> Acquisition:
         """Measure from the `sensor` site of `data` (kinematics already computed)."""

@@ -1,8 +1,8 @@
 """Planner benchmark: B_SCP speed with the robot in the loop, coverage next to the paper's Table 9.
 
-Per test motor and seed (one random object pose each), it runs B_SCP until the coverage goal with
-the robot in the loop (planning time includes the reachability of all 900 candidates), B_SCP,4
-and B_SCP,5 with the free-flying sensor, and H_rec in both modes.
+Per test motor and seed (one episode spec each), it runs B_SCP until the coverage goal with the
+robot in the loop (planning time includes the reachability of all 900 candidates), B_SCP,4 and
+B_SCP,5 with the free-flying sensor, and H_rec with both carriers.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ from typing import Any
 from tqdm import tqdm
 
 from vprobot.config import Config
-from vprobot.evaluation import PAPER_TABLE_9, test_motors
-from vprobot.inspection import MotorScene
-from vprobot.planners.runner import EpisodeResult, Mode, run
+from vprobot.episode import CarrierName, MotorScene, seeded_episode
+from vprobot.evaluation import PAPER_TABLE_9, held_out_motors
+from vprobot.planners.runner import EpisodeResult, run
 
-RUNS: tuple[tuple[str, str, int | None, Mode], ...] = (
+RUNS: tuple[tuple[str, str, int | None, CarrierName], ...] = (
     ("bscp_robot", "bscp", None, "robot"),
     ("bscp_free", "bscp", None, "free"),
     ("bscp4_free", "bscp", 4, "free"),
@@ -27,7 +27,7 @@ RUNS: tuple[tuple[str, str, int | None, Mode], ...] = (
     ("hrec_free", "hrec", None, "free"),
     ("hrec_robot", "hrec", None, "robot"),
 )
-"""(key, planner, fixed views, mode) of every benchmarked run."""
+"""(key, planner, fixed views, carrier) of every benchmarked run."""
 
 
 def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None = None,
@@ -52,7 +52,7 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
     Raises:
         ValueError: If there are no motors or seeds.
     """
-    paths = [Path(path) for path in motors] if motors is not None else test_motors()
+    paths = [Path(path) for path in motors] if motors is not None else held_out_motors()
     if not paths or not seeds:
         raise ValueError("the planner benchmark needs at least one motor and one seed")
     results: dict[str, list[EpisodeResult]] = {key: [] for key, *_ in RUNS}
@@ -61,8 +61,9 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         for path in paths:
             scene = MotorScene.load(config, path)
             for seed in seeds:
-                for key, planner, views, mode in RUNS:
-                    results[key].append(run(config, scene, planner, seed, mode, views))
+                spec = seeded_episode(config.env, path, seed)
+                for key, planner, views, carrier in RUNS:
+                    results[key].append(run(config, scene, planner, spec, carrier, views))
                     bar.update()
 
     def coverage_pct(key: str) -> float:
@@ -113,10 +114,10 @@ def print_table(results: dict[str, Any]) -> None:
         ("H_rec", "robot", results["hrec_robot_coverage_pct"],
          f"6 ({results['hrec_robot_reachable_pct']:.0f} % reachable)", None),
     ]
-    print(f"{'planner':<14}{'mode':<7}{'coverage %':>11}  {'paper %':>8}  views")
-    for name, mode, coverage, views, paper in rows:
+    print(f"{'planner':<14}{'carrier':<8}{'coverage %':>11}  {'paper %':>8}  views")
+    for name, carrier, coverage, views, paper in rows:
         shown = f"{paper:8.2f}" if paper is not None else f"{'-':>8}"
-        print(f"{name:<14}{mode:<7}{coverage:11.2f}  {shown}  {views}")
+        print(f"{name:<14}{carrier:<8}{coverage:11.2f}  {shown}  {views}")
     print(f"B_SCP with the robot: {results['bscp_plan_s_median']:.2f} s per plan (median; max "
           f"{results['bscp_plan_s_max']:.2f} s; paper, free-flying: "
           f"{results['paper_bscp_plan_s']:.0f} s)")

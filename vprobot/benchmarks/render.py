@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.inspection import MotorScene
+from vprobot.episode import MotorScene
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.render.camera import aim_overview
 from vprobot.render.demo import ring_inspection

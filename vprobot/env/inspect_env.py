@@ -2,16 +2,20 @@
 
 Each episode places a motor (drawn from the train or test split, or one fixed mesh) on the
 fixture, turns it about the vertical by U[-180, 180] deg and tilts it by U[-25, 25] deg about x
-or y, puts the robot at `home` and makes the initial acquisition. Each step maps the action to a
-requested sensor pose, lets the robot reach it (IK, limits, collisions, joint-space path),
-acquires a point cloud there and updates the coverage. An unreachable request uses up a step:
-with `unreachable: skip` the robot stays and nothing is acquired; with `nearest` the robot goes
-to the closest feasible configuration the IK reached and acquires there.
+or y, puts the robot at `home` and makes the initial acquisition; all of it is an episode spec
+(`vprobot.episode.EpisodeSpec`) drawn from `np_random`, or passed with
+`reset(options={"episode": spec})` to run a fixed evaluation episode. Each step maps the action
+to a requested sensor pose and executes it through the episode's carrier: with `carrier: robot`
+the robot must reach it (IK, limits, collisions, joint-space path) and an unreachable request
+uses up a step (`unreachable: skip`: the robot stays and nothing is acquired; `nearest`: the
+robot goes to the closest feasible configuration the IK reached and acquires there); with
+`carrier: free` the sensor flies to every requested pose, as in the paper.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -20,23 +24,23 @@ import numpy as np
 
 from vprobot.config import Config, load_config, replace
 from vprobot.env.actions import ActionMapping
-from vprobot.env.observations import observation_space, resample, robot_state, scaled
+from vprobot.env.observations import gt_rows, observation_space, resample, robot_state, scaled
 from vprobot.env.rewards import Reward, RewardTerms
-from vprobot.episode import EpisodeRecord
-from vprobot.geometry import Pose
-from vprobot.inspection import (
-    Inspection,
+from vprobot.episode import (
+    Episode,
+    EpisodeRecord,
+    EpisodeSpec,
     MotorScene,
-    StepOutcome,
-    initial_view_target,
-    random_object_rotation,
+    ViewRecord,
+    ViewRequest,
+    sample_episode,
 )
-from vprobot.kinematics import TRAVEL_COSTS, SensorTarget, TravelCost
+from vprobot.geometry import Pose
+from vprobot.kinematics import TRAVEL_COSTS, SensorTarget
 from vprobot.paths import MOTORS_DIR
-from vprobot.viewsphere import sphere_directions
 
-RANDOM_INITIAL_TRIES = 50
-INITIAL_MAX_POLAR_RAD = np.deg2rad(120.0)
+SEED_BOUND = 2**31
+"""Episode specs drawn by the env carry a seed below this, drawn from np_random."""
 
 
 def motor_files(config: Config) -> list[Path]:
@@ -91,10 +95,12 @@ class InspectEnv(gym.Env):
         self.observation_space = observation_space(config.env)
         self.step_limit = (config.env.goal_only_step_cap if self.reward_function.goal_only
                            else config.env.max_acquisitions)
-        self._scenes: dict[Path, MotorScene] = {}
+        self._scenes: dict[tuple[Path, float], MotorScene] = {}
         self._renderer = None
         self._renderer_cell = None
-        self.inspection: Inspection | None = None
+        self._renderer_data = None
+        self.episode: Episode | None = None
+        self.spec_of_episode: EpisodeSpec | None = None
         self._done = True
 
     def __getstate__(self) -> dict[str, Any]:
@@ -105,22 +111,13 @@ class InspectEnv(gym.Env):
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(state["config"], state["render_mode"])
 
-    def scene(self, path: Path) -> MotorScene:
+    def scene(self, path: Path, scale: float = 1.0) -> MotorScene:
         """The (cached) scene of one motor file."""
-        if path not in self._scenes:
-            env = self.config.env
-            scale = env.mesh_scale if env.motors == "mesh" else 1.0
-            self._scenes[path] = MotorScene.load(self.config, path, scale, env.resolution)
-        return self._scenes[path]
-
-    def _initial_targets(self, center: np.ndarray) -> list[SensorTarget]:
-        """The fixed paper pose, or random look-at views drawn from np_random."""
-        env, radius = self.config.env, self.config.sensor.working_distance_m
-        if env.initial_view == "fixed":
-            return [initial_view_target(self.config, center)]
-        directions = sphere_directions(4 * RANDOM_INITIAL_TRIES, INITIAL_MAX_POLAR_RAD)
-        chosen = self.np_random.choice(len(directions), RANDOM_INITIAL_TRIES, replace=False)
-        return [SensorTarget.look_at(center + radius * directions[i], center) for i in chosen]
+        key = (Path(path), scale)
+        if key not in self._scenes:
+            self._scenes[key] = MotorScene.load(self.config, path, scale,
+                                                self.config.env.resolution)
+        return self._scenes[key]
 
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
@@ -128,28 +125,46 @@ class InspectEnv(gym.Env):
 
         Args:
             seed: Seeds `self.np_random`, from which everything random is drawn.
-            options: `motor` (index into `motor_files`) to choose the motor.
+            options: `episode`: an `EpisodeSpec` (or its dict form) to run instead of a drawn
+                one; `motor`: index into `motor_files` of the motor to draw an episode for.
 
         Raises:
+            ValueError: For a bad spec or motor index.
             RuntimeError: If no initial view is reachable.
         """
         super().reset(seed=seed)
         options = options or {}
-        index = options.get("motor", int(self.np_random.integers(len(self.motor_files))))
-        if not 0 <= index < len(self.motor_files):
-            raise ValueError(f"options['motor'] must lie in 0..{len(self.motor_files) - 1}, "
-                             f"got {index}")
-        self.inspection = Inspection(self.scene(self.motor_files[index]),
-                                     random_object_rotation(self.config.env, self.np_random))
-        for target in self._initial_targets(self.inspection.center):
-            outcome = self.inspection.request(target)
-            if outcome.view.reachable:
-                break
-        else:
-            raise RuntimeError("no initial view is reachable; check the cell placement")
+        spec = options.get("episode")
+        if spec is None:
+            env = self.config.env
+            spec = sample_episode(env, self.motor_files, self.np_random,
+                                  seed=int(self.np_random.integers(SEED_BOUND)),
+                                  motor=options.get("motor"),
+                                  scale=env.mesh_scale if env.motors == "mesh" else 1.0)
+        elif isinstance(spec, Mapping):
+            spec = EpisodeSpec.from_dict(spec)
+        elif not isinstance(spec, EpisodeSpec):
+            raise ValueError(f"options['episode'] must be an EpisodeSpec or its dict, got "
+                             f"{type(spec).__name__}")
+        self.spec_of_episode = spec
+        scene = self.scene(spec.motor_path, spec.scale)
+        self.episode = Episode.from_spec(scene, spec, self.config.env.carrier,
+                                         self.config.env.unreachable)
+        view = self.episode.begin(spec.initial_requests(
+            self.episode.center, self.config.sensor.working_distance_m))
         self.steps = 0
         self._done = False
-        return self._observation(), self._info(outcome, None)
+        return self._observation(), self._info(view, 0.0, None)
+
+    def _target(self, action: np.ndarray) -> SensorTarget:
+        """The requested sensor pose of an action, in the world."""
+        requested = self.actions.view(action)
+        center = self.episode.center
+        pose = Pose(requested.pose.position + center, requested.pose.rotation)
+        roll_free = self.config.kinematics.roll == "free"
+        if requested.looks_at_center and roll_free:
+            return SensorTarget.look_at(pose.position, center)
+        return SensorTarget(pose, roll_free=roll_free)
 
     def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Request the view of `action`.
@@ -158,100 +173,97 @@ class InspectEnv(gym.Env):
             ValueError: For an action of the wrong shape, NaN or outside [-1, 1].
             RuntimeError: If the episode is over (call `reset`).
         """
-        if self._done or self.inspection is None:
+        if self._done or self.episode is None:
             raise RuntimeError("the episode is over: call reset() before step()")
-        requested = self.actions.view(action)
-        inspection = self.inspection
-        pose = Pose(requested.pose.position + inspection.center, requested.pose.rotation)
-        roll_free = self.config.kinematics.roll == "free"
-        if requested.looks_at_center and roll_free:
-            target = SensorTarget.look_at(pose.position, inspection.center)
-        else:
-            target = SensorTarget(pose, roll_free=roll_free)
-        coverage_before = inspection.coverage
-        outcome = inspection.request(target, self.config.env.unreachable)
+        episode = self.episode
+        target = self._target(action)
+        coverage_before = episode.coverage
+        view = episode.request(ViewRequest(target))
         self.steps += 1
-        terminated = inspection.coverage >= self.config.env.coverage_goal
+        terminated = episode.coverage >= self.config.env.coverage_goal
         truncated = not terminated and self.steps >= self.step_limit
         self._done = terminated or truncated
-        travel = getattr(outcome.view.travel, self.config.env.travel_cost)
-        travel_sum = getattr(inspection.travel_sum, self.config.env.travel_cost)
+        travel_cost = self.config.env.travel_cost
         terms = self.reward_function.step(
-            delta=inspection.coverage - coverage_before,
+            delta=episode.coverage - coverage_before,
             remaining_before=1.0 - coverage_before,
-            travel=travel,
-            reachable=outcome.view.reachable,
+            travel=getattr(view.travel, travel_cost),
+            reachable=view.reachable,
             episode_over=self._done,
             goal_reached=terminated,
-            final_coverage=inspection.coverage,
+            final_coverage=episode.coverage,
             steps=self.steps,
-            travel_sum=travel_sum,
+            travel_sum=getattr(episode.travel_sum, travel_cost),
         )
         return (self._observation(), float(terms.reward), terminated, truncated,
-                self._info(outcome, terms))
+                self._info(view, episode.coverage - coverage_before, terms))
 
     def _observation(self) -> Any:
-        inspection = self.inspection
+        episode = self.episode
         env = self.config.env
-        rotation = inspection.object_pose.rotation
+        rotation = episode.object_pose.rotation
         if env.state == "s_cov":
-            cloud = inspection.tracker.accumulated_cloud @ rotation.T
+            cloud = episode.tracker.accumulated_cloud @ rotation.T
             points = scaled(resample(cloud, env.state_points, self.np_random), env)
         else:
-            gt = inspection.scene.ground_truth.points @ rotation.T
-            points = np.column_stack([scaled(gt, env), inspection.tracker.covered])
+            rows = gt_rows(len(episode.tracker.gt_points), env.state_points)
+            gt = episode.tracker.gt_points[rows] @ rotation.T
+            points = np.column_stack([scaled(gt, env), episode.tracker.covered[rows]])
         points = points.astype(np.float32)
         if not env.robot_state:
             return points
-        state = robot_state(inspection.sensor_pose(), inspection.center, inspection.q, env)
+        state = robot_state(episode.sensor_pose(), episode.center, episode.q, env)
         return {"points": points, "robot": state}
 
-    def _info(self, outcome: StepOutcome, terms: RewardTerms | None) -> dict[str, Any]:
-        inspection = self.inspection
-        view = outcome.view
-        sensor = inspection.sensor_pose()
-        travel: TravelCost = view.travel
+    def _info(self, view: ViewRecord, delta: float, terms: RewardTerms | None) -> dict[str, Any]:
+        episode = self.episode
+        sensor = episode.sensor_pose()
+        approach, travel_sum = episode.approach, episode.travel_sum
         info: dict[str, Any] = {
-            "coverage": inspection.coverage,
-            "delta_coverage": 0.0 if outcome.coverage is None else outcome.coverage.delta,
+            "coverage": episode.coverage,
+            "delta_coverage": delta,
             "reachable": view.reachable,
             "reason": view.reason,
-            "joints": inspection.q.copy(),
+            "carrier": episode.carrier.name,
+            "joints": episode.q.copy(),
             "sensor_position": sensor.position,
             "sensor_quaternion": sensor.quaternion,
-            "acquisitions": len(inspection.tracker.steps),
+            "acquisitions": len(episode.tracker.steps),
             "points_acquired": len(view.points_world),
-            "motor": str(inspection.scene.mesh.path),
+            "motor": str(episode.scene.mesh.path),
+            "episode_seed": self.spec_of_episode.seed,
         }
         for name in TRAVEL_COSTS:
-            info[f"travel_{name}"] = getattr(travel, name)
-            info[f"travel_sum_{name}"] = getattr(inspection.travel_sum, name)
+            info[f"travel_{name}"] = getattr(view.travel, name) if terms is not None else 0.0
+            info[f"travel_sum_{name}"] = getattr(travel_sum, name)
+            info[f"approach_{name}"] = getattr(approach, name)
         if terms is not None:
             info["reward_terms"] = dataclasses.asdict(terms)
         return info
 
     def episode_record(self) -> EpisodeRecord:
         """The episode so far (for rendering and plan export)."""
-        if self.inspection is None:
+        if self.episode is None:
             raise RuntimeError("no episode yet: call reset() first")
-        return self.inspection.record()
+        return self.episode.record()
 
     def render(self) -> np.ndarray | None:
         """An RGB frame of the cell (`render_mode="rgb_array"`), else None."""
-        if self.render_mode != "rgb_array" or self.inspection is None:
+        if self.render_mode != "rgb_array" or self.episode is None:
             return None
         from vprobot.render.camera import aim_overview
         from vprobot.render.offscreen import OffscreenView
 
-        cell = self.inspection.scene.cell
+        cell = self.episode.scene.cell
         if self._renderer is None or self._renderer_cell is not cell:
             self.close()
             self._renderer = OffscreenView(cell.model, 640, 480)
             self._renderer_cell = cell
+            self._renderer_data = cell.make_data()
             aim_overview(self._renderer.camera, cell)
-        forward = self.inspection.scene.arm.forward
-        forward.set_configuration(self.inspection.q)
-        self._renderer.update(forward.data)
+        self._renderer_data.qpos[:] = self.episode.q
+        cell.place_object(self._renderer_data, self.episode.object_pose.rotation)
+        self._renderer.update(self._renderer_data)
         return self._renderer.rgb()
 
     def close(self) -> None:

@@ -53,6 +53,12 @@ def resample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.nda
     return np.concatenate([points, points[extra]])
 
 
+def gt_rows(gt_count: int, count: int) -> np.ndarray:
+    """The GT points an `s_bin` state of `count` rows shows: the first `count` (the GT is stored
+    in farthest-point order, so any prefix is spread evenly), repeated cyclically beyond it."""
+    return np.arange(count) % gt_count
+
+
 def scaled(points_object: np.ndarray, config: EnvConfig) -> np.ndarray:
     """Object-frame coordinates divided by the state scale, clipped to the declared bounds."""
     return np.clip(points_object / config.state_scale_m, -POINT_BOUND, POINT_BOUND)

@@ -18,7 +18,7 @@ from vprobot.kinematics.ik import (
     random_configuration,
     residuals,
 )
-from vprobot.kinematics.path import first_collision, joint_path
+from vprobot.kinematics.path import joint_path
 from vprobot.kinematics.travel import (
     TravelCost,
     joint_path_length,
@@ -69,6 +69,9 @@ class ReachResult:
 class RobotArm:
     """Kinematics of the cell's robot: FK, IK with restarts, collision and path checks, travel.
 
+    Collision checks run on a `CollisionChecker`, which holds the object placement they check
+    against: `collisions` (the object upright) unless a call passes the episode's own.
+
     Args:
         cell: The compiled cell.
         settings: IK and path settings; the cell's config when omitted.
@@ -79,10 +82,10 @@ class RobotArm:
         self.settings = settings if settings is not None else cell.config.kinematics
         self.joints = cell.joints
         self.forward = ForwardKinematics(cell)
-        self.collisions = CollisionChecker(self.forward)
+        self.collisions = CollisionChecker(cell)
         self.ik = IKSolver(cell, self.settings)
         self.reach_radius_m = self._reach_radius()
-        self.shoulder_position = self.forward.data.xpos[cell.model.body("shoulder_link").id].copy()
+        self.shoulder_position = self.forward.body_position("shoulder_link", self.joints.home)
         self.restart_seeds = self._restart_seeds()
         self._seed_azimuths = np.array([self._azimuth(self.fk(q).position)
                                         for q in self.restart_seeds])
@@ -120,34 +123,39 @@ class RobotArm:
             body = model.body_parentid[body]
         return radius
 
-    def place_object(self, rotation: np.ndarray) -> Pose:
-        """Place the object (and fixture) for collision checks; returns the object pose."""
-        return self.cell.place_object(self.forward.data, rotation)
-
     def fk(self, q: np.ndarray) -> Pose:
         """Sensor pose in the world at configuration `q`."""
         return self.forward.sensor_pose(q)
-
-    def in_collision(self, q: np.ndarray) -> bool:
-        return self.collisions.in_collision(self.joints.check(q))
 
     def path(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
         """The sampled joint-space path between two configurations."""
         return joint_path(self.joints.check(q_from, "q_from"), self.joints.check(q_to, "q_to"),
                           self.settings.path_max_joint_step_rad)
 
-    def reach(self, target: SensorTarget, q_from: np.ndarray) -> ReachResult:
+    def reach(self, target: SensorTarget, q_from: np.ndarray,
+              collisions: CollisionChecker | None = None,
+              restarts: int | None = None) -> ReachResult:
         """Find a feasible configuration for `target`, starting the IK from `q_from`.
 
         The first attempt is warm-started from `q_from`, so the nearest branch (shortest travel)
-        wins; only if it fails are the restart seeds tried, up to `settings.restarts`. For
-        roll-free targets, an attempt that converges into a collision is also retried with the
-        sensor turned about its axis (the first MAX_ROLL_VARIANTS such attempts).
+        wins; only if it fails are the restart seeds tried, up to `restarts`. For roll-free
+        targets, an attempt that converges into a collision is also retried with the sensor
+        turned about its axis (the first MAX_ROLL_VARIANTS such attempts).
+
+        Args:
+            target: The requested sensor pose.
+            q_from: The configuration the robot is in.
+            collisions: The checker holding the episode's object placement; `self.collisions`
+                (object upright) when omitted.
+            restarts: Restart seeds to try at most; `settings.restarts` when omitted.
 
         Raises:
             ValueError: If `q_from` is not a finite configuration of the right size.
         """
         q_from = self.joints.check(q_from, "q_from")
+        collisions = collisions if collisions is not None else self.collisions
+        restarts = self.settings.restarts if restarts is None else min(restarts,
+                                                                       self.settings.restarts)
         distance = np.linalg.norm(target.pose.position - self.shoulder_position)
         if distance > self.reach_radius_m:
             position_error, orientation_error = residuals(self.fk(q_from), target)
@@ -155,7 +163,7 @@ class RobotArm:
                                float(np.rad2deg(orientation_error)))
         failures: list[tuple[int, IKAttempt]] = []
         iterations = 0
-        seeds = [q_from, *self._aimed_seeds(target.pose.position)]
+        seeds = [q_from, *self._aimed_seeds(target.pose.position)[:restarts]]
         rolled = 0
         while seeds:
             attempt = self.ik.solve(target, seeds.pop(0))
@@ -163,11 +171,11 @@ class RobotArm:
             if not attempt.converged:
                 failures.append((0 if not attempt.at_joint_limit else 1, attempt))
                 continue
-            if not self.joints.within_limits(attempt.q) or self.collisions.in_collision(attempt.q):
+            if not self.joints.within_limits(attempt.q) or collisions.in_collision(attempt.q):
                 failures.append((2, attempt))
             else:
                 path = self.path(q_from, attempt.q)
-                if first_collision(self.collisions, path) is None:
+                if collisions.first_collision(path) is None:
                     return self._result(attempt, None, iterations, len(failures) + 1, path)
                 failures.append((3, attempt))
             if target.roll_free and rolled < MAX_ROLL_VARIANTS:
@@ -192,15 +200,18 @@ class RobotArm:
             path=path,
         )
 
-    def travel(self, q_from: np.ndarray, q_to: np.ndarray, center: np.ndarray) -> TravelCost:
+    def travel(self, q_from: np.ndarray, q_to: np.ndarray, center: np.ndarray,
+               path: np.ndarray | None = None) -> TravelCost:
         """All travel costs of the joint-space move `q_from` -> `q_to`.
 
         Args:
             q_from: Start configuration.
             q_to: End configuration.
             center: Object centre for the paper's spherical approximation.
+            path: The sampled path of the move (`path(q_from, q_to)`), when already known.
         """
-        path = self.path(q_from, q_to)
+        if path is None:
+            path = self.path(q_from, q_to)
         positions = self.forward.sensor_positions(path)
         return TravelCost(
             joint_time=joint_time(path[0], path[-1], self.joints.velocity_limits),

@@ -5,7 +5,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from vprobot.kinematics.forward import ForwardKinematics
+from vprobot.geometry import Pose
+from vprobot.scene import Cell
 
 
 class CollisionChecker:
@@ -16,19 +17,32 @@ class CollisionChecker:
     their collision bits. A contact counts when its penetration exceeds `margin_m` (a negative
     margin demands clearance).
 
+    The checker owns its MjData: the object placement it checks against is its own state, set
+    once per episode with `place_object`, and never shared with FK, the sensor or a renderer.
+
     Args:
-        forward: Forward kinematics whose MjData holds the current object placement.
+        cell: The compiled cell.
+        object_rotation: Rotation of the object about its centre (3x3); upright when omitted.
         margin_m: Penetration depth tolerated before a contact counts as a collision.
     """
 
-    def __init__(self, forward: ForwardKinematics, margin_m: float = 0.0):
-        self.forward = forward
-        self.model = forward.cell.model
-        self.data = forward.data
+    def __init__(self, cell: Cell, object_rotation: np.ndarray | None = None,
+                 margin_m: float = 0.0):
+        self.cell = cell
+        self.model = cell.model
+        self.data = cell.make_data()
         self.margin_m = margin_m
+        self.object_pose = self.place_object(np.eye(3) if object_rotation is None
+                                             else object_rotation)
+
+    def place_object(self, rotation: np.ndarray) -> Pose:
+        """Place the object (and fixture) to check against; returns the object pose."""
+        self.object_pose = self.cell.place_object(self.data, rotation)
+        return self.object_pose
 
     def _collide(self, q: np.ndarray) -> None:
-        self.forward.set_configuration(q)
+        self.data.qpos[:] = q
+        mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_collision(self.model, self.data)
 
     def in_collision(self, q: np.ndarray) -> bool:
@@ -37,6 +51,13 @@ class CollisionChecker:
         count = self.data.ncon
         # The struct-array view is orders of magnitude faster than iterating MjContact objects.
         return count > 0 and bool((self.data.contact.dist[:count] < -self.margin_m).any())
+
+    def first_collision(self, path: np.ndarray) -> int | None:
+        """Index of the first configuration on `path` (n, dof) in collision, or None."""
+        for index, q in enumerate(path):
+            if self.in_collision(q):
+                return index
+        return None
 
     def colliding_pairs(self, q: np.ndarray) -> list[tuple[str, str]]:
         """Names of the bodies in contact at `q` (for messages and debugging)."""

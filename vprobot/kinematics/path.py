@@ -6,8 +6,6 @@ import math
 
 import numpy as np
 
-from vprobot.kinematics.collision import CollisionChecker
-
 
 def joint_path(q_from: np.ndarray, q_to: np.ndarray, max_joint_step_rad: float) -> np.ndarray:
     """Configurations along the straight joint-space line from `q_from` to `q_to`.
@@ -25,11 +23,3 @@ def joint_path(q_from: np.ndarray, q_to: np.ndarray, max_joint_step_rad: float) 
     steps = max(1, math.ceil(float(np.max(np.abs(q_to - q_from))) / max_joint_step_rad))
     fractions = np.linspace(0.0, 1.0, steps + 1)[:, None]
     return q_from + fractions * (q_to - q_from)
-
-
-def first_collision(checker: CollisionChecker, path: np.ndarray) -> int | None:
-    """Index of the first configuration on `path` in collision, or None if the path is free."""
-    for index, q in enumerate(path):
-        if checker.in_collision(q):
-            return index
-    return None

@@ -17,8 +17,8 @@ class TravelCost:
         joint_time: Synchronous point-to-point time, max_i |dq_i| / v_max_i (s).
         joint_path: Sum of absolute joint changes (rad).
         cartesian: Length of the path the sensor traces along the joint-space line (m).
-        paper: The paper's approximation: great-circle arc about the object centre plus the
-            radius difference (m).
+        paper: The paper's approximation: great-circle arc about the object centre on the
+            smaller sphere plus the radius difference (m).
     """
 
     joint_time: float = 0.0
@@ -52,8 +52,10 @@ def polyline_length(points: np.ndarray) -> float:
 def paper_travel(position_from: np.ndarray, position_to: np.ndarray, center: np.ndarray) -> float:
     """The paper's travel approximation between two sensor positions around `center` (m).
 
-    The arc runs on the sphere through `position_from` (radius r_from) to the radial projection
-    of `position_to`, r_from times the angle between the two directions, plus |r_to - r_from|.
+    A great-circle arc on the smaller of the two spheres about `center` through the positions,
+    between one position and the radial projection of the other, plus the radius difference:
+    min(r_from, r_to) * angle + |r_to - r_from| (SPEC section 8). The paper draws the case
+    r_from < r_to and computes the other "the other way around", so the cost is symmetric.
     """
     offset_from = np.asarray(position_from, dtype=float) - center
     offset_to = np.asarray(position_to, dtype=float) - center
@@ -62,4 +64,4 @@ def paper_travel(position_from: np.ndarray, position_to: np.ndarray, center: np.
     if radius_from < 1e-12 or radius_to < 1e-12:
         return abs(radius_to - radius_from)
     cosine = np.clip(np.dot(offset_from, offset_to) / (radius_from * radius_to), -1.0, 1.0)
-    return float(radius_from * np.arccos(cosine) + abs(radius_to - radius_from))
+    return float(min(radius_from, radius_to) * np.arccos(cosine) + abs(radius_to - radius_from))

@@ -1,15 +1,14 @@
 """View planners behind one interface: random agents, H_rec, B_SCP and a greedy oracle.
 
-`run` plays one episode of a planner on a motor (robot in the loop or free-flying sensor);
+`run` plays one episode of a planner on a motor (robot in the loop or free-flying sensor) as an
+episode spec fixes it;
 `plan_motor` is the `vprobot plan` job: load a mesh, plan, and return the record, the plan JSON
 document and a summary.
 """
 
-from vprobot.planners.base import Episode, Planner, PlanPlanner, ViewRequest
+from vprobot.planners.base import Planner, PlanPlanner
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import CandidateViews, candidate_views
-from vprobot.planners.episode import RobotEpisode, episode_rng
-from vprobot.planners.free_flying import FreeFlyingEpisode
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.hrec import BoxFacesPlanner
 from vprobot.planners.oracle import OraclePlanner
@@ -30,19 +29,14 @@ __all__ = [
     "PLANNER_NAMES",
     "BoxFacesPlanner",
     "CandidateViews",
-    "Episode",
     "EpisodeResult",
-    "FreeFlyingEpisode",
     "OraclePlanner",
     "PlanPlanner",
     "Planner",
     "Random1Planner",
     "Random2Planner",
-    "RobotEpisode",
     "SetCoverPlanner",
-    "ViewRequest",
     "candidate_views",
-    "episode_rng",
     "greedy_cover",
     "make_planner",
     "order_requests",

@@ -1,96 +1,23 @@
 """The planner interface: a next view from the current state of an episode, or a whole plan.
 
-An `Episode` is one inspection of a motor in a fixed object pose, with the robot in the loop
-(`vprobot.planners.episode.RobotEpisode`) or with a free-flying sensor as in the paper
-(`vprobot.planners.free_flying.FreeFlyingEpisode`). A `Planner` is asked for one `ViewRequest`
-at a time until it returns None or the runner stops it (coverage goal, view budget); planners
-that compute a whole plan up front (`PlanPlanner`) hand it out view by view.
+A `Planner` is asked for one `ViewRequest` at a time for an `Episode` (robot in the loop or
+free-flying sensor, `vprobot.episode`) until it returns None or the runner stops it (coverage
+goal, view budget); planners that compute a whole plan up front (`PlanPlanner`) hand it out
+view by view.
 """
 
 from __future__ import annotations
 
 import abc
-import dataclasses
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from vprobot.episode import EpisodeRecord, ViewRecord
-from vprobot.geometry import Pose
-from vprobot.inspection import MotorScene
-from vprobot.kinematics import SensorTarget
+from vprobot.episode import Episode, ViewRequest
 
 if TYPE_CHECKING:
     # candidates builds on this module's interface.
     from vprobot.planners.candidates import CandidateViews
-
-
-@dataclasses.dataclass(frozen=True)
-class ViewRequest:
-    """A view a planner asks for.
-
-    Attributes:
-        target: The requested sensor pose in the world.
-        joints: A robot configuration known to reach the target (a screened candidate); the
-            robot drives there directly when the joint-space path is free, else the IK is asked.
-    """
-
-    target: SensorTarget
-    joints: np.ndarray | None = None
-
-
-class Episode(abc.ABC):
-    """One inspection of a motor scene in one object pose.
-
-    Attributes:
-        scene: The motor scene.
-        object_pose: Pose of the object's mesh frame in the world.
-        uses_robot: Whether views are reached by the robot (else the sensor flies freely).
-    """
-
-    scene: MotorScene
-    object_pose: Pose
-    uses_robot: ClassVar[bool]
-
-    @property
-    def center(self) -> np.ndarray:
-        """The object's centre in the world."""
-        return self.object_pose.position
-
-    @property
-    @abc.abstractmethod
-    def q(self) -> np.ndarray:
-        """The robot's current configuration (the start configuration when it is not used)."""
-
-    @property
-    @abc.abstractmethod
-    def covered(self) -> np.ndarray:
-        """Which ground-truth points are covered so far (a copy)."""
-
-    @property
-    def coverage(self) -> float:
-        return float(self.covered.mean())
-
-    @property
-    @abc.abstractmethod
-    def views(self) -> list[ViewRecord]:
-        """The views requested so far, in order."""
-
-    @abc.abstractmethod
-    def preview(self, view: ViewRequest) -> np.ndarray:
-        """Which GT points the view alone would cover, simulated without executing it.
-
-        Raises:
-            ValueError: If the view cannot be simulated (with the robot: it needs joints).
-        """
-
-    @abc.abstractmethod
-    def execute(self, view: ViewRequest) -> ViewRecord:
-        """Move to the view if possible and acquire there; never acquires from an unreached pose."""
-
-    @abc.abstractmethod
-    def record(self) -> EpisodeRecord:
-        """The episode so far, for rendering and export."""
 
 
 class Planner(abc.ABC):

@@ -13,7 +13,8 @@ view on the measured coverage until the goal or the view budget is reached.
 
 from __future__ import annotations
 
-from vprobot.planners.base import Episode, PlanPlanner, ViewRequest
+from vprobot.episode import Episode, ViewRequest
+from vprobot.planners.base import PlanPlanner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
     CONFIRMATIONS_PER_PICK,

@@ -30,11 +30,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from vprobot.coverage import EPSILON_PER_SPACING
+from vprobot.episode import Episode, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.ground_truth import MAX_POLAR_DEG
-from vprobot.kinematics import RobotArm, SensorTarget
-from vprobot.kinematics.path import first_collision
-from vprobot.planners.base import Episode, ViewRequest
+from vprobot.kinematics import SensorTarget
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
 from vprobot.viewsphere import sphere_directions
@@ -113,12 +112,11 @@ class CandidateViews:
         With the robot, only candidates joined to the current configuration by a collision-free
         straight joint-space path are offered (the others would fail when executed).
         """
-        arm = episode.scene.arm
         q = episode.q
 
         def allowed(index: int) -> bool:
-            return index not in taken and (not episode.uses_robot or first_collision(
-                arm.collisions, arm.path(q, self.joints[index])) is None)
+            return index not in taken and (not episode.uses_robot or
+                                           episode.carrier.path_is_free(q, self.joints[index]))
 
         picks, _ = greedy_cover(self.known_visibility(), episode.covered, 1,
                                 confirm=lambda index: self.measured(index, episode),
@@ -182,11 +180,8 @@ def _screen_reachability(episode: Episode, directions: np.ndarray,
     Returns:
         Configurations (count, dof) with NaN rows for unusable candidates, and the reasons.
     """
-    scene = episode.scene
-    settings = scene.arm.settings
-    arm = RobotArm(scene.cell, dataclasses.replace(
-        settings, restarts=min(settings.restarts, SCREEN_RESTARTS)))
-    arm.place_object(episode.object_pose.rotation)
+    arm = episode.scene.arm
+    collisions = episode.carrier.collisions
     count = len(targets)
     _, neighbours = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1, count))
     neighbours = np.asarray(neighbours).reshape(count, -1)[:, 1:]
@@ -203,7 +198,7 @@ def _screen_reachability(episode: Episode, directions: np.ndarray,
             index = queue.popleft()
             solved = [n for n in neighbours[index] if not np.isnan(joints[n, 0])]
             seed = joints[solved[0]] if solved else start_q
-            result = arm.reach(targets[index], seed)
+            result = arm.reach(targets[index], seed, collisions, restarts=SCREEN_RESTARTS)
             if result.reachable:
                 joints[index] = result.q
             else:

@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
-from vprobot.planners.base import Episode, PlanPlanner, ViewRequest
+from vprobot.planners.base import PlanPlanner
 from vprobot.planners.ordering import order_requests
 
 
@@ -44,6 +45,6 @@ class BoxFacesPlanner(PlanPlanner):
             return order_requests(episode, [ViewRequest(target) for target in targets])
         requests = []
         for target in targets:
-            result = scene.arm.reach(target, episode.q)
+            result = scene.arm.reach(target, episode.q, episode.carrier.collisions)
             requests.append(ViewRequest(target, result.q if result.reachable else None))
         return order_requests(episode, requests)

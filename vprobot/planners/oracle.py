@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vprobot.planners.base import Episode, Planner, ViewRequest
+from vprobot.episode import Episode, ViewRequest
+from vprobot.planners.base import Planner
 from vprobot.planners.candidates import CANDIDATE_COUNT, candidate_views
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 

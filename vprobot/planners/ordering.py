@@ -16,9 +16,8 @@ from typing import TypeVar
 
 import numpy as np
 
-from vprobot.kinematics.path import first_collision
+from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics.travel import joint_time, paper_travel
-from vprobot.planners.base import Episode, ViewRequest
 
 T = TypeVar("T")
 BLOCKED_PATH_S = 1000.0
@@ -103,12 +102,10 @@ def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[Vi
     if episode.uses_robot:
         known = [request for request in requests if request.joints is not None]
         unknown = [request for request in requests if request.joints is None]
-        arm = episode.scene.arm
-        velocity = arm.joints.velocity_limits
+        velocity = episode.scene.arm.joints.velocity_limits
 
         def move(a: np.ndarray, b: np.ndarray) -> float:
-            free = first_collision(arm.collisions, arm.path(a, b)) is None
-            blocked = 0.0 if free else BLOCKED_PATH_S
+            blocked = 0.0 if episode.carrier.path_is_free(a, b) else BLOCKED_PATH_S
             return joint_time(a, b, velocity) + blocked
 
         costs = cost_matrix([episode.q] + [request.joints for request in known], move)

@@ -15,9 +15,10 @@ import numpy as np
 
 from vprobot.config import Config, EnvConfig
 from vprobot.env.actions import ActionMapping
+from vprobot.episode import Episode, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.kinematics import SensorTarget
-from vprobot.planners.base import Episode, Planner, ViewRequest
+from vprobot.planners.base import Planner
 
 
 class RandomPlanner(Planner):

@@ -6,27 +6,31 @@ import dataclasses
 import re
 import time
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.episode import EpisodeRecord
-from vprobot.inspection import MotorScene, initial_view_target, random_object_rotation
+from vprobot.episode import (
+    CARRIERS,
+    CarrierName,
+    Episode,
+    EpisodeRecord,
+    EpisodeSpec,
+    MotorScene,
+    seeded_episode,
+)
 from vprobot.kinematics import TravelCost
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
-from vprobot.planners.base import Episode, Planner, ViewRequest
+from vprobot.planners.base import Planner
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import CandidateViews
-from vprobot.planners.episode import RobotEpisode, episode_rng
-from vprobot.planners.free_flying import FreeFlyingEpisode
 from vprobot.planners.hrec import BoxFacesPlanner
 from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.random_views import Random1Planner, Random2Planner
 
 PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle")
-Mode = Literal["robot", "free"]
 _FIXED_BSCP = re.compile(r"^bscp(\d+)$")
 
 
@@ -71,9 +75,9 @@ class EpisodeResult:
 
     Attributes:
         planner: Planner label (`bscp5` for B_SCP with five views).
-        mode: `robot` (robot in the loop) or `free` (free-flying sensor).
-        mesh: The mesh file.
-        seed: Seed of the object pose (and of random planners).
+        carrier: `robot` (robot in the loop) or `free` (free-flying sensor).
+        spec: The episode (motor, object rotation, initial view; its seed seeds random
+            planners).
         record: What happened, view by view.
         goal: The coverage goal.
         plan_seconds: Time spent inside the planner (reset and next-view calls).
@@ -82,14 +86,21 @@ class EpisodeResult:
     """
 
     planner: str
-    mode: Mode
-    mesh: str
-    seed: int
+    carrier: CarrierName
+    spec: EpisodeSpec
     record: EpisodeRecord
     goal: float
     plan_seconds: float
     episode_seconds: float
     candidates: CandidateViews | None = None
+
+    @property
+    def mesh(self) -> str:
+        return str(self.spec.motor_path)
+
+    @property
+    def seed(self) -> int:
+        return self.spec.seed
 
     @property
     def coverage(self) -> float:
@@ -103,12 +114,12 @@ class EpisodeResult:
     @property
     def acquisitions(self) -> int:
         """Views actually acquired (never an unreached one)."""
-        return sum(view.sensor_pose is not None for view in self.record.views)
+        return sum(view.acquired for view in self.record.views)
 
     @property
     def reachability(self) -> float | None:
         """Fraction of the requested views the robot reached (None without the robot)."""
-        if self.mode == "free" or not self.record.views:
+        if self.carrier == "free" or not self.record.views:
             return None
         return sum(view.reachable for view in self.record.views) / len(self.record.views)
 
@@ -118,18 +129,23 @@ class EpisodeResult:
 
     @property
     def travel(self) -> TravelCost:
+        """k_cum: the moves between acquisitions (the approach to the first one excluded)."""
         return self.record.travel
 
 
-def run_episode(planner: Planner, episode: Episode, config: Config,
+def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: Config,
                 rng: np.random.Generator) -> tuple[EpisodeRecord, float]:
     """Let `planner` choose views until it stops, the goal or the view budget is reached.
 
-    Planners that stop at the goal (`stops_at_goal`) get at most `env.max_acquisitions`
-    requests after the initial view; fixed plans run to their end.
+    Planners that start from the environment's initial view (`initial_view`) get the spec's;
+    planners that stop at the goal (`stops_at_goal`) get at most `env.max_acquisitions`
+    requests after it; fixed plans run to their end.
 
     Returns:
         The record and the time spent inside the planner (s).
+
+    Raises:
+        RuntimeError: If the spec's initial view is not reachable.
     """
     env = config.env
     planning = 0.0
@@ -137,7 +153,7 @@ def run_episode(planner: Planner, episode: Episode, config: Config,
     planner.reset(episode, rng)
     planning += time.perf_counter() - start
     if planner.initial_view:
-        episode.execute(ViewRequest(initial_view_target(config, episode.center)))
+        episode.begin(spec.initial_requests(episode.center, config.sensor.working_distance_m))
     first = len(episode.views)
     while True:
         if planner.stops_at_goal and (episode.coverage >= env.coverage_goal
@@ -148,28 +164,26 @@ def run_episode(planner: Planner, episode: Episode, config: Config,
         planning += time.perf_counter() - start
         if view is None:
             break
-        episode.execute(view)
+        episode.request(view)
     return episode.record(), planning
 
 
-def run(config: Config, scene: MotorScene, planner: str, seed: int, mode: Mode = "robot",
-        views: int | None = None) -> EpisodeResult:
-    """One episode of a planner on a loaded motor, in the object pose of (motor, seed).
+def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
+        carrier: CarrierName = "robot", views: int | None = None) -> EpisodeResult:
+    """One episode of a planner on a loaded motor, as the spec fixes it.
 
     Raises:
-        ValueError: For an unknown planner or mode.
+        ValueError: For an unknown planner or carrier.
     """
-    if mode not in ("robot", "free"):
-        raise ValueError(f"mode must be 'robot' or 'free', got {mode!r}")
-    rng = episode_rng(seed, scene)
-    rotation = random_object_rotation(config.env, rng)
-    episode = RobotEpisode(scene, rotation) if mode == "robot" else FreeFlyingEpisode(scene,
-                                                                                      rotation)
+    if carrier not in CARRIERS:
+        raise ValueError(f"carrier must be one of {list(CARRIERS)}, got {carrier!r}")
+    episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable)
     chosen = make_planner(planner, config, views)
     start = time.perf_counter()
-    record, planning = run_episode(chosen, episode, config, rng)
-    return EpisodeResult(planner=planner if views is None else f"{planner}{views}", mode=mode,
-                         mesh=str(scene.mesh.path), seed=seed, record=record,
+    record, planning = run_episode(chosen, episode, spec, config,
+                                   np.random.default_rng(spec.seed))
+    return EpisodeResult(planner=planner if views is None else f"{planner}{views}",
+                         carrier=carrier, spec=spec, record=record,
                          goal=config.env.coverage_goal, plan_seconds=planning,
                          episode_seconds=time.perf_counter() - start,
                          candidates=chosen.candidates)
@@ -178,7 +192,8 @@ def run(config: Config, scene: MotorScene, planner: str, seed: int, mode: Mode =
 def summary(result: EpisodeResult, config: Config) -> str:
     """A short human-readable report of an episode."""
     record, travel = result.record, result.travel
-    where = (f"robot {config.cell.robot} in the loop" if result.mode == "robot"
+    robot = result.carrier == "robot"
+    where = (f"robot {config.cell.robot} in the loop" if robot
              else "free-flying sensor (no robot)")
     quaternion = np.round(record.object_pose.quaternion, 4).tolist()
     reached = ("" if result.reachability is None
@@ -190,25 +205,28 @@ def summary(result: EpisodeResult, config: Config) -> str:
         f"  {result.requested} views requested, {result.acquisitions} acquired{reached}",
         f"  coverage {result.coverage:.1%} (goal {result.goal:.0%} {verdict})",
     ]
-    if result.mode == "robot":
+    approach = record.approach
+    if robot:
+        lines.append(f"  approach from the start {approach.joint_time:.2f} s joint time")
         lines.append(f"  travel {travel.joint_time:.2f} s joint time, {travel.joint_path:.2f} rad "
                      f"joint path, {travel.cartesian:.2f} m sensor path, {travel.paper:.2f} m "
-                     f"paper approximation")
+                     f"paper approximation (between views)")
     else:
-        lines.append(f"  travel {travel.paper:.2f} m (paper approximation)")
+        lines.append(f"  travel {travel.paper:.2f} m paper approximation, {travel.cartesian:.2f} m "
+                     f"sensor path (between views)")
     lines.append(f"  planning {result.plan_seconds:.2f} s, episode {result.episode_seconds:.2f} s")
     candidates = result.candidates
     if candidates is not None:
         reach = (f", {int(candidates.usable.sum())} reachable (screened in "
-                 f"{candidates.reach_seconds:.2f} s)" if result.mode == "robot" else "")
+                 f"{candidates.reach_seconds:.2f} s)" if robot else "")
         lines.append(f"  candidates {len(candidates)}{reach}, visibility of the GT points "
                      f"{candidates.visibility_seconds:.2f} s")
-    if result.mode == "robot":
+    if robot:
         lines.append("  view  coverage  joint time  reached")
     else:
         lines.append("  view  coverage  paper travel")
     for index, view in enumerate(record.views, start=1):
-        if result.mode == "robot":
+        if robot:
             state = "yes" if view.reachable else f"no ({view.reason})"
             lines.append(f"  {index:4d}  {view.coverage:8.1%}  {view.travel.joint_time:8.2f} s  "
                          f"{state}")
@@ -218,7 +236,8 @@ def summary(result: EpisodeResult, config: Config) -> str:
 
 
 def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float = 1.0,
-               planner: str = "bscp", views: int | None = None, free: bool = False,
+               planner: str = "bscp", views: int | None = None,
+               carrier: CarrierName = "robot",
                seed: int = 0) -> tuple[MotorScene, EpisodeRecord, dict[str, Any], str]:
     """Plan the inspection of one motor (`vprobot plan`).
 
@@ -228,8 +247,8 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         scale: Factor from the file's units to metres (0.001 for millimetres).
         planner: One of `PLANNER_NAMES`.
         views: Fixed number of views for bscp; None plans until the coverage goal.
-        free: Free-flying sensor (no robot) instead of the robot in the loop.
-        seed: Seed of the object pose.
+        carrier: `robot` (robot in the loop) or `free` (free-flying sensor).
+        seed: Seed of the episode (object pose, initial view).
 
     Returns:
         The motor scene (for rendering), the episode record, the plan JSON document (SPEC
@@ -239,10 +258,12 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         FileNotFoundError, ValueError: For a missing or unusable mesh, an unknown planner, or
             `views` with a planner other than bscp.
     """
-    scene = MotorScene.load(config, mesh_path if mesh_path is not None else DEFAULT_MOTOR, scale)
-    result = run(config, scene, planner, seed, "free" if free else "robot", views)
-    document = episode_document(scene, result.record, robot=not free, metadata={
-        "planner": result.planner, "mode": result.mode, "seed": seed,
+    mesh_path = mesh_path if mesh_path is not None else DEFAULT_MOTOR
+    scene = MotorScene.load(config, mesh_path, scale)
+    spec = seeded_episode(config.env, mesh_path, seed, scale)
+    result = run(config, scene, planner, spec, carrier, views)
+    document = episode_document(scene, result.record, metadata={
+        "planner": result.planner, "seed": seed,
         "goal": result.goal, "plan_seconds": result.plan_seconds,
     })
     return scene, result.record, document, summary(result, config)

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vprobot.episode import EpisodeRecord
-from vprobot.inspection import Inspection, MotorScene
+from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.viewsphere import sphere_directions
 
@@ -31,11 +30,11 @@ def ring_inspection(scene: MotorScene, views: int, rotation: np.ndarray | None =
     """
     if views < 1:
         raise ValueError(f"views must be >= 1, got {views}")
-    inspection = Inspection(scene, np.eye(3) if rotation is None else rotation)
+    episode = Episode(scene, np.eye(3) if rotation is None else rotation)
     directions = sphere_directions(views, np.deg2rad(max_polar_deg))
     directions = directions[np.argsort(np.arctan2(directions[:, 1], directions[:, 0]))]
     distance = scene.cell.config.sensor.working_distance_m
     for direction in directions:
-        position = inspection.center + distance * direction
-        inspection.request(SensorTarget.look_at(position, inspection.center))
-    return inspection.record()
+        position = episode.center + distance * direction
+        episode.request(ViewRequest(SensorTarget.look_at(position, episode.center)))
+    return episode.record()

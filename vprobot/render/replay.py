@@ -3,12 +3,12 @@
 The plan fixes the cell (robot, base, sensor mount, sensor) and where the mesh file sits; the
 config supplies everything else (IK and path settings, ground-truth settings). Reachable views
 are driven to with their stored joints and acquired again, so coverage is recomputed rather than
-trusted; unreachable views become records in which the robot stays.
+trusted; unreachable views become records in which the robot stays. A free-flying plan
+(`"carrier": "free"`) places the sensor at every view's pose again.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from vprobot.config import Config, replace
-from vprobot.episode import EpisodeRecord, ViewRecord
+from vprobot.episode import CARRIERS, Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.geometry import Pose, quat_to_matrix
-from vprobot.inspection import Inspection, MotorScene
+from vprobot.kinematics import SensorTarget
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import REPO_ROOT
 
@@ -133,22 +133,22 @@ def episode_from_plan(config: Config, plan_path: str | Path,
     offset = load_mesh(mesh_path, scale).offset
     center = _vector(block, "position", 3, "object") + rotation @ offset
     scene = MotorScene.load(plan_config(config, document, center), mesh_path, scale, resolution)
-    inspection = Inspection(scene, rotation)
-    views = []
+    carrier = document.get("carrier", "robot")
+    if carrier not in CARRIERS:
+        raise ValueError(f"plan carrier must be one of {list(CARRIERS)}, got {carrier!r}")
+    episode = Episode(scene, rotation, carrier)
     for index, view in enumerate(document["views"]):
         where = f"views[{index}]"
         pose = Pose.from_quat(_vector(view, "position", 3, where),
                               _vector(view, "quaternion", 4, where))
-        if _field(view, "reachable", where) and view.get("joints") is not None:
+        if carrier == "free":
+            episode.request(ViewRequest(SensorTarget(pose, roll_free=False)))
+        elif _field(view, "reachable", where) and view.get("joints") is not None:
             joints = _vector(view, "joints", scene.cell.joints.dof, where)
             try:
-                views.append(inspection.replay(joints, requested=pose).view)
+                episode.replay(joints, requested=pose)
             except ValueError as error:
                 raise ValueError(f"plan {where}: {error}") from error
         else:
-            views.append(ViewRecord(requested=pose, reachable=False,
-                                    reason=view.get("reason") or "unreachable",
-                                    joints=inspection.q.copy(), path=None, sensor_pose=None,
-                                    points_world=np.zeros((0, 3)),
-                                    coverage=inspection.coverage))
-    return scene, dataclasses.replace(inspection.record(), views=views)
+            episode.skip(pose, view.get("reason") or "unreachable")
+    return scene, episode.record()

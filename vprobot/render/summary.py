@@ -14,9 +14,8 @@ import mujoco
 import numpy as np
 from PIL import Image, ImageDraw
 
-from vprobot.episode import EpisodeRecord
+from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.geometry import Pose
-from vprobot.inspection import MotorScene
 from vprobot.render.camera import aim_at_sphere, project
 from vprobot.render.markers import (
     COVERED_RGBA,

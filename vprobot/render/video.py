@@ -10,8 +10,7 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
-from vprobot.episode import EpisodeRecord, ViewRecord
-from vprobot.inspection import MotorScene
+from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord
 from vprobot.kinematics import TravelCost
 from vprobot.render.camera import aim_overview
 from vprobot.render.markers import (
@@ -201,7 +200,7 @@ def render_episode(
 
     Args:
         scene: The motor scene (or cell) the episode ran in.
-        record: The episode (`Inspection.record()`, or `episode_from_plan`).
+        record: The episode (`Episode.record()`, or `episode_from_plan`).
         out_path: `.mp4` or `.gif` file in an existing folder.
         width: Frame width in pixels (even for MP4).
         height: Frame height in pixels (even for MP4).

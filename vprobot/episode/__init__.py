@@ -1,0 +1,43 @@
+"""The inspection engine: motor scenes, sensor carriers, episodes, their specs and records."""
+
+from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName, Move, make_carrier
+from vprobot.episode.engine import Episode
+from vprobot.episode.free_carrier import FreeCarrier
+from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest
+from vprobot.episode.robot_carrier import RobotCarrier
+from vprobot.episode.specs import (
+    BUNDLED_TEST_EPISODES,
+    EPISODE_LIST_VERSION,
+    EpisodeSpec,
+    episode_list,
+    random_object_rotation,
+    read_episode_list,
+    sample_episode,
+    seeded_episode,
+    write_episode_list,
+)
+
+__all__ = [
+    "BUNDLED_TEST_EPISODES",
+    "CARRIERS",
+    "EPISODE_LIST_VERSION",
+    "Carrier",
+    "CarrierName",
+    "Episode",
+    "EpisodeRecord",
+    "EpisodeSpec",
+    "FreeCarrier",
+    "MotorScene",
+    "Move",
+    "RobotCarrier",
+    "ViewRecord",
+    "ViewRequest",
+    "episode_list",
+    "make_carrier",
+    "random_object_rotation",
+    "read_episode_list",
+    "sample_episode",
+    "seeded_episode",
+    "write_episode_list",
+]

@@ -1,0 +1,113 @@
+"""Sensor carriers: what moves the sensor to a requested view, and what the move costs.
+
+An episode executes every request through its carrier: `robot` (`RobotCarrier`: the arm must
+reach the view, within its limits, without collisions, along a collision-free joint-space path)
+or `free` (`FreeCarrier`: the paper's free-flying sensor, placed at every requested pose). The
+carrier owns the state its checks need (the object placement for collisions, the sensor's cell
+state), so that the episode only keeps where the sensor is.
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+from typing import ClassVar, Literal
+
+import numpy as np
+
+from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.records import ViewRequest
+from vprobot.geometry import Pose
+from vprobot.kinematics import TravelCost
+from vprobot.sensor import Acquisition
+
+CarrierName = Literal["robot", "free"]
+CARRIERS: tuple[CarrierName, ...] = ("robot", "free")
+
+
+@dataclasses.dataclass(frozen=True)
+class Move:
+    """How a carrier executes one request.
+
+    Attributes:
+        executed: Whether the sensor moved and acquires (False: it stays, nothing is acquired).
+        reachable: Whether the requested view itself was reached (a `nearest` fallback executes
+            an unreachable request).
+        reason: Why the request was not reached, else None.
+        joints: The robot's configuration after the move (the start one when it stayed); None
+            without a robot.
+        path: The joint-space path moved along; None when nothing moved or without a robot.
+        pose: The sensor pose to acquire from; None when not executed.
+        travel: The move's travel costs (zero when not executed).
+    """
+
+    executed: bool
+    reachable: bool
+    reason: str | None
+    joints: np.ndarray | None
+    path: np.ndarray | None
+    pose: Pose | None
+    travel: TravelCost = dataclasses.field(default_factory=TravelCost)
+
+
+class Carrier(abc.ABC):
+    """Moves the sensor of one episode: one object pose in one motor scene.
+
+    Attributes:
+        name: `robot` or `free`.
+        uses_robot: Whether views are reached by the robot.
+        scene: The motor scene.
+        object_pose: Pose of the object's mesh frame in the world.
+    """
+
+    name: ClassVar[CarrierName]
+    uses_robot: ClassVar[bool]
+
+    def __init__(self, scene: MotorScene, object_rotation: np.ndarray):
+        self.scene = scene
+        self.object_pose = Pose(scene.cell.object_center.copy(),
+                                np.asarray(object_rotation, dtype=float))
+
+    @property
+    def center(self) -> np.ndarray:
+        return self.object_pose.position
+
+    @abc.abstractmethod
+    def move(self, request: ViewRequest, joints: np.ndarray,
+             pose: Pose | None) -> Move:
+        """Execute `request` from the current state.
+
+        Args:
+            request: The requested view.
+            joints: The robot's current configuration.
+            pose: The sensor pose of the latest acquisition; None before the first.
+        """
+
+    @abc.abstractmethod
+    def acquire(self, move: Move) -> Acquisition:
+        """The sensor's frame at the end of an executed move."""
+
+    @abc.abstractmethod
+    def preview(self, request: ViewRequest) -> Acquisition:
+        """The frame the request would give, simulated without moving.
+
+        Raises:
+            ValueError: If the request cannot be simulated (with the robot: it needs joints).
+        """
+
+
+def make_carrier(name: CarrierName, scene: MotorScene, object_rotation: np.ndarray,
+                 unreachable: str = "skip") -> Carrier:
+    """The carrier by name.
+
+    Raises:
+        ValueError: For an unknown name.
+    """
+    from vprobot.episode.free_carrier import FreeCarrier
+    from vprobot.episode.robot_carrier import RobotCarrier
+
+    if name == "robot":
+        return RobotCarrier(scene, object_rotation, unreachable)
+    if name == "free":
+        return FreeCarrier(scene, object_rotation)
+    raise ValueError(f"unknown carrier {name!r}; allowed: {', '.join(CARRIERS)}")

@@ -1,0 +1,178 @@
+"""The inspection engine: one episode, executed view by view through its sensor carrier.
+
+The gymnasium env, the planners, the evaluation, plan replay and the renderer all run episodes
+through `Episode`, so that a view is executed, acquired, scored and recorded the same way
+everywhere, with the robot in the loop (`carrier="robot"`) or a free-flying sensor (`"free"`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from vprobot.coverage import CoverageTracker
+from vprobot.episode.carrier import Carrier, CarrierName, Move, make_carrier
+from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest, split_travel
+from vprobot.episode.robot_carrier import RobotCarrier
+from vprobot.episode.specs import EpisodeSpec
+from vprobot.geometry import Pose
+from vprobot.kinematics import TravelCost
+
+
+class Episode:
+    """One inspection of a motor scene in one object pose.
+
+    Args:
+        scene: The motor scene.
+        object_rotation: Rotation of the object about its centre (3x3) for this episode.
+        carrier: `robot` (IK, limits, collisions, joint-space paths) or `free` (free-flying
+            sensor, every request executed).
+        unreachable: With the robot, `skip` or `nearest` (see `RobotCarrier`).
+        start_joints: Initial robot configuration; `home` when omitted.
+
+    Raises:
+        ValueError: For an unknown carrier or policy, or bad start joints.
+    """
+
+    def __init__(self, scene: MotorScene, object_rotation: np.ndarray,
+                 carrier: CarrierName = "robot", unreachable: str = "skip",
+                 start_joints: np.ndarray | None = None):
+        self.scene = scene
+        self.carrier: Carrier = make_carrier(carrier, scene, object_rotation, unreachable)
+        self.object_pose = self.carrier.object_pose
+        self.tracker = CoverageTracker.from_ground_truth(scene.ground_truth)
+        joints = scene.cell.joints
+        self.start_joints = joints.home.copy() if start_joints is None else joints.check(
+            start_joints, "start_joints")
+        self.q = self.start_joints.copy()
+        self.pose: Pose | None = None
+        self.views: list[ViewRecord] = []
+        self._first_covered_by = np.full(len(scene.ground_truth.points), -1)
+
+    @classmethod
+    def from_spec(cls, scene: MotorScene, spec: EpisodeSpec, carrier: CarrierName = "robot",
+                  unreachable: str = "skip") -> Episode:
+        """The episode of a spec (its initial view is not taken yet: see `begin`)."""
+        return cls(scene, spec.rotation, carrier, unreachable)
+
+    @property
+    def uses_robot(self) -> bool:
+        return self.carrier.uses_robot
+
+    @property
+    def center(self) -> np.ndarray:
+        """The object's centre in the world."""
+        return self.object_pose.position
+
+    @property
+    def coverage(self) -> float:
+        return self.tracker.coverage
+
+    @property
+    def covered(self) -> np.ndarray:
+        """Which ground-truth points are covered so far (a copy)."""
+        return self.tracker.covered
+
+    def sensor_pose(self) -> Pose:
+        """Where the sensor is: the robot's FK, or the free sensor's latest pose.
+
+        Raises:
+            RuntimeError: For a free sensor that has not acquired yet.
+        """
+        if self.uses_robot:
+            return self.scene.arm.fk(self.q)
+        if self.pose is None:
+            raise RuntimeError("the free sensor has no pose before its first view")
+        return self.pose
+
+    def begin(self, requests: Iterable[ViewRequest]) -> ViewRecord:
+        """Take the initial view: the first of `requests` the carrier reaches.
+
+        Requests it does not reach leave no trace in the episode.
+
+        Raises:
+            RuntimeError: If none is reached.
+        """
+        for request in requests:
+            move = self.carrier.move(request, self.q, self.pose)
+            if move.reachable and move.executed:
+                return self._execute(request.target.pose, move)
+        raise RuntimeError("no initial view is reachable; check the cell placement")
+
+    def request(self, request: ViewRequest) -> ViewRecord:
+        """Move to the view if the carrier can and acquire there; never acquires from an
+        unreached pose (unless the robot's `nearest` policy moved it elsewhere)."""
+        return self._execute(request.target.pose, self.carrier.move(request, self.q, self.pose))
+
+    def replay(self, joints: np.ndarray, requested: Pose | None = None) -> ViewRecord:
+        """Drive the robot to a given configuration (e.g. from a plan) and acquire there.
+
+        Raises:
+            ValueError: Without a robot, or if the configuration or the straight path to it is
+                in collision or outside the joint limits.
+        """
+        if not isinstance(self.carrier, RobotCarrier):
+            raise ValueError("joints can be replayed only with the robot carrier")
+        move = self.carrier.drive(self.q, joints)
+        return self._execute(requested if requested is not None else move.pose, move)
+
+    def skip(self, requested: Pose, reason: str) -> ViewRecord:
+        """Record a request that was not executed (e.g. a plan's unreachable view)."""
+        return self._execute(requested, Move(executed=False, reachable=False, reason=reason,
+                                             joints=self._joints(), path=None, pose=None))
+
+    def preview(self, request: ViewRequest) -> np.ndarray:
+        """Which GT points the view alone would cover, simulated without executing it.
+
+        Raises:
+            ValueError: If the view cannot be simulated (with the robot: it needs joints).
+        """
+        return self.tracker.match(self.carrier.preview(request).points_mesh)
+
+    def _joints(self) -> np.ndarray | None:
+        return self.q.copy() if self.uses_robot else None
+
+    def _execute(self, requested: Pose, move: Move) -> ViewRecord:
+        points_world = np.zeros((0, 3))
+        if move.executed:
+            acquisition = self.carrier.acquire(move)
+            before = self.tracker.covered
+            self.tracker.update(acquisition.points_mesh, move.pose)
+            self._first_covered_by[self.tracker.covered & ~before] = len(self.views)
+            points_world = acquisition.points_world
+            if move.joints is not None:
+                self.q = move.joints.copy()
+            self.pose = move.pose
+        view = ViewRecord(requested=requested, reachable=move.reachable, reason=move.reason,
+                          joints=self._joints(), path=move.path,
+                          sensor_pose=move.pose if move.executed else None,
+                          points_world=points_world, coverage=self.coverage,
+                          travel=move.travel)
+        self.views.append(view)
+        return view
+
+    @property
+    def travel_sum(self) -> TravelCost:
+        """k_cum so far: the moves between acquisitions (the approach excluded)."""
+        return split_travel(self.views)[1]
+
+    @property
+    def approach(self) -> TravelCost:
+        """The move from the start to the first acquisition."""
+        return split_travel(self.views)[0]
+
+    def record(self) -> EpisodeRecord:
+        """The episode so far, for rendering and export."""
+        gt = self.scene.ground_truth.points
+        return EpisodeRecord(
+            carrier=self.carrier.name,
+            object_pose=self.object_pose,
+            start_joints=self.start_joints.copy(),
+            views=list(self.views),
+            gt_points_world=gt @ self.object_pose.rotation.T + self.center,
+            first_covered_by=self._first_covered_by.copy(),
+            epsilon_m=self.tracker.epsilon,
+            mesh_path=str(self.scene.mesh.path),
+        )

@@ -1,0 +1,72 @@
+"""Everything that depends on one motor mesh: built once, reused across episodes."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from pathlib import Path
+
+from vprobot.config import Config
+from vprobot.geometry import Pose
+from vprobot.ground_truth import ENVIRONMENT_GROUP, GroundTruth, ground_truth
+from vprobot.kinematics import RobotArm
+from vprobot.mesh_loading import LoadedMesh, load_mesh
+from vprobot.scene import GEOM_GROUP_OBJECT, Cell
+from vprobot.sensor import DepthSensor
+
+
+@dataclasses.dataclass
+class MotorScene:
+    """One motor mesh in the cell: its cell, robot arm, sensor and ground truth.
+
+    Attributes:
+        mesh: The loaded mesh (centred; `mesh.offset` and `mesh.scale` place the file).
+        cell: The compiled cell holding it.
+        arm: Robot kinematics in that cell.
+        sensor: The depth sensor at the chosen resolution (the robot occludes).
+        ground_truth: P_GT of the mesh (mesh frame).
+    """
+
+    mesh: LoadedMesh
+    cell: Cell
+    arm: RobotArm
+    sensor: DepthSensor
+    ground_truth: GroundTruth
+
+    @classmethod
+    def load(cls, config: Config, mesh_path: str | Path, scale: float = 1.0,
+             resolution: tuple[int, int] | None = None) -> MotorScene:
+        """Load a mesh file and build its cell, arm, sensor and ground truth.
+
+        Raises:
+            FileNotFoundError, ValueError: For a missing, unreadable, empty or mis-scaled mesh.
+        """
+        mesh = load_mesh(mesh_path, scale)
+        cell = Cell(config, mesh.mesh)
+        return cls(
+            mesh=mesh,
+            cell=cell,
+            arm=RobotArm(cell),
+            sensor=DepthSensor(cell, resolution=resolution),
+            ground_truth=ground_truth(mesh.mesh, config),
+        )
+
+    @functools.cached_property
+    def free_sensor(self) -> DepthSensor:
+        """The same sensor seeing the object and the fixture only (a free-flying sensor)."""
+        return DepthSensor(self.cell, resolution=self.sensor.resolution,
+                           groups=(ENVIRONMENT_GROUP, GEOM_GROUP_OBJECT))
+
+    def object_block(self, object_pose: Pose) -> dict[str, object]:
+        """How to place the mesh file, as stored on disk, into the world (plan JSON).
+
+        The loader scaled the file's vertices by `scale` and subtracted `offset`; a file vertex
+        v therefore lands at position + R (scale * v - offset) = position' + R scale v.
+        """
+        position = object_pose.position - object_pose.rotation @ self.mesh.offset
+        return {
+            "mesh": str(self.mesh.path),
+            "position": [float(x) for x in position],
+            "quaternion": [float(x) for x in object_pose.quaternion],
+            "scale": float(self.mesh.scale),
+        }

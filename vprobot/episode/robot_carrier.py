@@ -1,0 +1,107 @@
+"""The robot in the loop: IK, joint limits, collisions, joint-space paths, all travel costs."""
+
+from __future__ import annotations
+
+from typing import ClassVar, Literal
+
+import numpy as np
+
+from vprobot.episode.carrier import Carrier, CarrierName, Move
+from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.records import ViewRequest
+from vprobot.kinematics import ReachResult
+from vprobot.kinematics.collision import CollisionChecker
+from vprobot.sensor import Acquisition
+
+UnreachablePolicy = Literal["skip", "nearest"]
+UNREACHABLE_POLICIES: tuple[UnreachablePolicy, ...] = ("skip", "nearest")
+
+
+class RobotCarrier(Carrier):
+    """The scene's arm carries the sensor; the arm occludes what it stands in front of.
+
+    Args:
+        scene: The motor scene.
+        object_rotation: The object's rotation for this episode.
+        unreachable: `skip`: an unreachable request leaves the robot where it is and acquires
+            nothing; `nearest`: if the IK's closest configuration is collision-free and joined
+            by a free path, move there and acquire.
+
+    Raises:
+        ValueError: For an unknown unreachable policy.
+    """
+
+    name: ClassVar[CarrierName] = "robot"
+    uses_robot: ClassVar[bool] = True
+
+    def __init__(self, scene: MotorScene, object_rotation: np.ndarray,
+                 unreachable: str = "skip"):
+        if unreachable not in UNREACHABLE_POLICIES:
+            raise ValueError(f"unreachable must be one of {list(UNREACHABLE_POLICIES)}, got "
+                             f"{unreachable!r}")
+        self.scene = scene
+        self.arm = scene.arm
+        self.collisions = CollisionChecker(scene.cell, object_rotation)
+        self.object_pose = self.collisions.object_pose
+        self.unreachable = unreachable
+
+    def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
+        """Whether the straight joint-space path between two configurations is collision-free."""
+        return self.collisions.first_collision(self.arm.path(q_from, q_to)) is None
+
+    def drive(self, q_from: np.ndarray, joints: np.ndarray) -> Move:
+        """Drive to a given configuration (e.g. a screened candidate or a stored plan).
+
+        Raises:
+            ValueError: If the configuration is outside the limits or the straight path to it
+                collides.
+        """
+        arm = self.arm
+        joints = arm.joints.check(joints, "joints")
+        if not arm.joints.within_limits(joints):
+            raise ValueError(f"joints {np.round(joints, 4).tolist()} are outside the limits")
+        path = arm.path(q_from, joints)
+        if self.collisions.first_collision(path) is not None:
+            raise ValueError(f"the path to joints {np.round(joints, 4).tolist()} collides")
+        return self._executed(q_from, joints, path, reachable=True, reason=None)
+
+    def _executed(self, q_from: np.ndarray, joints: np.ndarray, path: np.ndarray,
+                  reachable: bool, reason: str | None) -> Move:
+        return Move(executed=True, reachable=reachable, reason=reason, joints=joints.copy(),
+                    path=path, pose=self.arm.fk(joints),
+                    travel=self.arm.travel(q_from, joints, self.center, path))
+
+    def _feasible_nearest(self, result: ReachResult, q_from: np.ndarray) -> bool:
+        """Whether the configuration a failed IK ended in can be driven to and used."""
+        return (result.reason in ("did_not_converge", "joint_limits")
+                and self.arm.joints.within_limits(result.q)
+                and not self.collisions.in_collision(result.q)
+                and self.path_is_free(q_from, result.q))
+
+    def move(self, request: ViewRequest, joints: np.ndarray, pose: object = None) -> Move:
+        """Drive to the request's known configuration, or let the IK reach it from here."""
+        if request.joints is not None:
+            try:
+                return self.drive(joints, request.joints)
+            except ValueError:
+                # The straight joint-space path from here collides; the IK may find another
+                # configuration (its restarts) with a free path.
+                pass
+        result = self.arm.reach(request.target, joints, self.collisions)
+        if result.reachable:
+            return self._executed(joints, result.q, result.path, True, None)
+        if self.unreachable == "nearest" and self._feasible_nearest(result, joints):
+            return self._executed(joints, result.q, self.arm.path(joints, result.q), False,
+                                  result.reason)
+        return Move(executed=False, reachable=False, reason=result.reason, joints=joints.copy(),
+                    path=None, pose=None)
+
+    def acquire(self, move: Move) -> Acquisition:
+        return self.scene.sensor.acquire_at(move.pose, self.object_pose.rotation, move.joints)
+
+    def preview(self, request: ViewRequest) -> Acquisition:
+        """Acquire from the request's configuration (the arm occluding as it would)."""
+        if request.joints is None:
+            raise ValueError("a robot view can only be previewed from its joints")
+        return self.scene.sensor.acquire_at(self.arm.fk(request.joints),
+                                            self.object_pose.rotation, request.joints)

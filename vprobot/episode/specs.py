@@ -1,0 +1,231 @@
+"""Episode specs: everything random about an episode, drawn once from a seed and then fixed.
+
+A spec names the motor file, the object's rotation and the initial view, so that the env, every
+planner and every agent can be run on exactly the same episodes (SPEC section 9, evaluation
+protocol). `sample_episode` is the one sampler: the env draws from its `np_random`, and
+`episode_list` draws a fixed list over given motors and seeds for `vprobot evaluate`. The list
+format is versioned (`EPISODE_LIST_VERSION`); the bundled list over the test motors is
+`configs/episodes/test-v1.json`, and a test checks that the sampler still reproduces it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import zlib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vprobot.config import Config, EnvConfig
+from vprobot.episode.records import ViewRequest
+from vprobot.files import atomic_output
+from vprobot.geometry import (
+    matrix_to_quat,
+    quat_to_matrix,
+    rotation_about_x,
+    rotation_about_y,
+    rotation_about_z,
+    spherical_position,
+)
+from vprobot.kinematics import SensorTarget
+from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.viewsphere import sphere_directions
+
+EPISODE_LIST_VERSION = 1
+BUNDLED_TEST_EPISODES = CONFIGS_DIR / "episodes" / "test-v1.json"
+"""The evaluation episodes over the bundled test motors: 3 seeds each (0, 1, 2)."""
+RANDOM_INITIAL_VIEWS = 50
+"""Initial view directions a `random` initial view draws; the first one reached is taken."""
+RANDOM_INITIAL_MAX_POLAR_RAD = float(np.deg2rad(120.0))
+
+
+def random_object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
+    """An episode's object rotation (SPEC section 3): about the vertical by U[-yaw, yaw], then
+    tilted by U[-tilt, tilt] about the world x or y axis (equally likely), drawn in that order."""
+    yaw = np.deg2rad(rng.uniform(-env.object_yaw_range_deg, env.object_yaw_range_deg))
+    tilt = np.deg2rad(rng.uniform(-env.object_tilt_range_deg, env.object_tilt_range_deg))
+    tilt_about = rotation_about_x if rng.integers(2) == 0 else rotation_about_y
+    return tilt_about(tilt) @ rotation_about_z(yaw)
+
+
+def motor_name(path: str | Path) -> str:
+    """How a spec names a mesh file: relative to the bundled motors folder when inside it."""
+    path = Path(path)
+    try:
+        return path.resolve().relative_to(MOTORS_DIR.resolve()).as_posix()
+    except ValueError:
+        return str(path)
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeSpec:
+    """One episode, fixed.
+
+    Attributes:
+        motor: The mesh file; a relative name is looked up in the bundled motors folder first
+            (`test/motor_020.stl`).
+        object_quaternion: Rotation (w, x, y, z) of the object about its centre.
+        initial_views: Look-at directions (phi, theta) in rad at the working distance, tried in
+            order: the first the carrier reaches is the initial view (one for `fixed`).
+        seed: The seed the spec was drawn from; it also seeds random planners.
+        scale: Factor from the file's units to metres.
+    """
+
+    motor: str
+    object_quaternion: tuple[float, float, float, float]
+    initial_views: tuple[tuple[float, float], ...]
+    seed: int
+    scale: float = 1.0
+
+    @property
+    def rotation(self) -> np.ndarray:
+        return quat_to_matrix(self.object_quaternion)
+
+    @property
+    def motor_path(self) -> Path:
+        """The mesh file: a bundled motor, else the path as given."""
+        bundled = MOTORS_DIR / self.motor
+        return bundled if not Path(self.motor).is_absolute() and bundled.is_file() else Path(
+            self.motor)
+
+    def initial_requests(self, center: np.ndarray, distance: float) -> list[ViewRequest]:
+        """The initial view candidates as look-at requests around `center`."""
+        return [ViewRequest(SensorTarget.look_at(center + spherical_position(phi, theta,
+                                                                             distance), center))
+                for phi, theta in self.initial_views]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"motor": self.motor, "scale": self.scale, "seed": self.seed,
+                "object_quaternion": list(self.object_quaternion),
+                "initial_views": [list(view) for view in self.initial_views]}
+
+    @classmethod
+    def from_dict(cls, block: Mapping[str, Any]) -> EpisodeSpec:
+        """A spec from its JSON form.
+
+        Raises:
+            ValueError: For a missing or malformed field, naming it.
+        """
+        if not isinstance(block, Mapping):
+            raise ValueError(f"an episode spec must be a mapping, got {block!r}")
+        fields = {"motor", "object_quaternion", "initial_views", "seed", "scale"}
+        unknown = sorted(set(block) - fields)
+        if unknown:
+            raise ValueError(f"unknown episode spec key {unknown[0]!r}; allowed: "
+                             f"{', '.join(sorted(fields))}")
+        missing = sorted(fields - {"scale"} - set(block))
+        if missing:
+            raise ValueError(f"episode spec has no {missing[0]!r}")
+        quaternion = np.asarray(block["object_quaternion"], dtype=float)
+        if quaternion.shape != (4,) or not np.all(np.isfinite(quaternion)) or not np.linalg.norm(
+                quaternion) > 0:
+            raise ValueError(f"episode spec object_quaternion must be 4 finite numbers, not all "
+                             f"zero; got {block['object_quaternion']!r}")
+        views = np.asarray(block["initial_views"], dtype=float)
+        if views.ndim != 2 or views.shape[1] != 2 or len(views) == 0 or not np.all(
+                np.isfinite(views)):
+            raise ValueError(f"episode spec initial_views must be a non-empty list of "
+                             f"[phi, theta] pairs; got {block['initial_views']!r}")
+        seed, scale = block["seed"], block.get("scale", 1.0)
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f"episode spec seed must be a non-negative integer, got {seed!r}")
+        if isinstance(scale, bool) or not isinstance(scale, int | float) or not scale > 0:
+            raise ValueError(f"episode spec scale must be a positive number, got {scale!r}")
+        return cls(motor=str(block["motor"]),
+                   object_quaternion=tuple(float(x) for x in quaternion),
+                   initial_views=tuple((float(phi), float(theta)) for phi, theta in views),
+                   seed=seed, scale=float(scale))
+
+
+def sample_episode(env: EnvConfig, motors: Sequence[str | Path], rng: np.random.Generator,
+                   seed: int, motor: int | None = None, scale: float = 1.0) -> EpisodeSpec:
+    """Draw an episode: the motor (unless given), the object rotation, the initial view(s).
+
+    Args:
+        env: Object rotation ranges and the initial view setting.
+        motors: The mesh files to draw from.
+        rng: The random stream, drawn from in this order: motor, rotation, initial views.
+        seed: Recorded in the spec (it seeds random planners).
+        motor: Index into `motors` instead of a random one.
+        scale: Factor from the files' units to metres.
+
+    Raises:
+        ValueError: If there are no motors or the index is out of range.
+    """
+    if not motors:
+        raise ValueError("no motors to draw an episode from")
+    index = int(rng.integers(len(motors))) if motor is None else motor
+    if not 0 <= index < len(motors):
+        raise ValueError(f"motor index must lie in 0..{len(motors) - 1}, got {index}")
+    quaternion = matrix_to_quat(random_object_rotation(env, rng))
+    if env.initial_view == "fixed":
+        views = ((env.initial_phi_rad, env.initial_theta_rad),)
+    else:
+        directions = sphere_directions(4 * RANDOM_INITIAL_VIEWS, RANDOM_INITIAL_MAX_POLAR_RAD)
+        chosen = directions[rng.choice(len(directions), RANDOM_INITIAL_VIEWS, replace=False)]
+        views = tuple((float(np.arctan2(y, x) % (2.0 * np.pi)),
+                       float(np.arccos(np.clip(z, -1.0, 1.0)))) for x, y, z in chosen)
+    return EpisodeSpec(motor=motor_name(motors[index]),
+                       object_quaternion=tuple(float(x) for x in quaternion),
+                       initial_views=views, seed=seed, scale=scale)
+
+
+def seeded_episode(env: EnvConfig, motor: str | Path, seed: int,
+                   scale: float = 1.0) -> EpisodeSpec:
+    """The episode of (motor, seed): the same for every planner, agent and run."""
+    rng = np.random.default_rng([seed, zlib.crc32(Path(motor).name.encode())])
+    return sample_episode(env, [motor], rng, seed, scale=scale)
+
+
+def episode_list(config: Config, motors: Sequence[str | Path],
+                 seeds: Sequence[int]) -> list[EpisodeSpec]:
+    """The episodes of every motor and seed, motor by motor.
+
+    Raises:
+        ValueError: If there are no motors or seeds, or a seed is negative.
+    """
+    if not motors or not seeds:
+        raise ValueError("an episode list needs at least one motor and one seed")
+    bad = [seed for seed in seeds if seed < 0]
+    if bad:
+        raise ValueError(f"seeds must be non-negative integers, got {bad[0]}")
+    return [seeded_episode(config.env, motor, seed) for motor in motors for seed in seeds]
+
+
+def write_episode_list(path: str | Path, specs: Sequence[EpisodeSpec]) -> Path:
+    """Write a versioned episode list (JSON) atomically."""
+    path = Path(path)
+    # One episode per line: readable, and diffs show which episodes changed.
+    episodes = ",\n  ".join(json.dumps(spec.as_dict()) for spec in specs)
+    text = f'{{"version": {EPISODE_LIST_VERSION}, "episodes": [\n  {episodes}\n]}}\n'
+    with atomic_output(path) as temporary:
+        temporary.write_text(text)
+    return path
+
+
+def read_episode_list(path: str | Path) -> list[EpisodeSpec]:
+    """Read an episode list written by `write_episode_list`.
+
+    Raises:
+        ValueError: If the file is missing, not JSON, of another version, or a spec is bad.
+    """
+    path = Path(path)
+    try:
+        document = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ValueError(f"cannot read episode list {path}: {error}") from error
+    if not isinstance(document, dict) or document.get("version") != EPISODE_LIST_VERSION:
+        raise ValueError(f"{path} is not an episode list of version {EPISODE_LIST_VERSION}")
+    episodes = document.get("episodes")
+    if not isinstance(episodes, list) or not episodes:
+        raise ValueError(f"{path} lists no episodes")
+    specs = []
+    for index, block in enumerate(episodes):
+        try:
+            specs.append(EpisodeSpec.from_dict(block))
+        except ValueError as error:
+            raise ValueError(f"{path} episodes[{index}]: {error}") from None
+    return specs
