@@ -236,3 +236,13 @@ def test_bad_configurations_are_rejected(arm: RobotArm) -> None:
 def test_unknown_robot_is_rejected() -> None:
     with pytest.raises(ValueError, match=r"unknown robot 'kuka'; available robots: ur10, ur5"):
         Cell(dataclasses.replace(Config(), cell=CellConfig(robot="kuka")))
+
+
+def test_kinematics_benchmark_reports_the_cell_targets() -> None:
+    from vprobot.benchmarks.kinematics import run_kinematics_benchmark
+
+    results = run_kinematics_benchmark(Config(), robots=("ur10",), samples=10, progress=False)
+    assert results["ik_success_rate"] == 1.0
+    # SPEC section 3: the default cell reaches >= 80 % of the view sphere.
+    assert results["view_sphere_reachable"]["ur10"] >= 0.8
+    assert results["ik_reachable_median_ms"] > 0.0

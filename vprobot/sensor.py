@@ -191,6 +191,7 @@ class DepthSensor:
         self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
         self._cell = cell
+        self._placed: np.ndarray | None = None
 
     def _classify_geoms(self, object_geom_ids: np.ndarray,
                         seen_groups: Sequence[int] | None) -> None:
@@ -247,8 +248,15 @@ class DepthSensor:
         collision checks, a renderer) can change what the sensor sees.
         """
         cell, data = self._cell, self._own_data
-        data.qpos[:] = cell.joints.home if joints is None else joints
-        cell.place_object(data, object_rotation)
+        joints = cell.joints.home if joints is None else joints
+        # Placing the object costs more than the kinematics: redo it only when the pose changes.
+        if self._placed is None or not np.array_equal(self._placed, object_rotation):
+            data.qpos[:] = joints
+            cell.place_object(data, object_rotation)
+            self._placed = np.array(object_rotation, dtype=float)
+        elif not np.array_equal(data.qpos, joints):
+            data.qpos[:] = joints
+            mujoco.mj_kinematics(self.model, data)
         return self.acquire_from_pose(data, pose)
 
     @functools.cached_property

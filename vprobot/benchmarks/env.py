@@ -1,4 +1,5 @@
-"""Environment benchmark: steps per second at full and training resolution, reset time."""
+"""Environment benchmark: steps per second at full and training resolution (robot in the loop,
+and the free-flying sensor at the training resolution), reset time."""
 
 from __future__ import annotations
 
@@ -42,20 +43,23 @@ def run_env_benchmark(config: Config, steps: int = 300, progress: bool = True) -
     """Measure the environment's throughput with random A_3S2R_lim actions and R2.
 
     Every training motor is loaded (and its ground truth built or read from the cache) before
-    timing, so that resets measure a cached motor.
+    timing, so that resets measure a cached motor. `steps_per_s_free_train` is the free-flying
+    sensor (`carrier: free`) at the training resolution; the reset time is the robot's.
     """
     full = replace(config, "env", **BENCHMARK_ENV, resolution=None)
     train = replace(config, "env", **BENCHMARK_ENV, resolution=TRAINING_RESOLUTION)
+    free = replace(train, "env", carrier="free")
     results: dict[str, Any] = {}
     resets: list[float] = []
-    for name, settings in (("full", full), ("train", train)):
+    for name, settings in (("full", full), ("train", train), ("free_train", free)):
         env = InspectEnv(settings)
         for path in tqdm(env.motor_files, desc=f"load motors ({name})", disable=not progress,
                          leave=False):
             env.scene(path)
         rate, reset_ms = _steps_per_second(env, steps, seed=0, progress=progress, label=name)
         results[f"steps_per_s_{name}"] = rate
-        resets += reset_ms
+        if settings.env.carrier == "robot":
+            resets += reset_ms
     vec = SubprocVecEnv([lambda: _make_train_env(train)] * 2)
     vec.seed(0)
     vec.reset()

@@ -65,7 +65,7 @@ def _random_reachable_targets(arm: RobotArm, count: int, seed: int) -> list[Sens
     targets = []
     while len(targets) < count:
         q = rng.uniform(np.maximum(arm.joints.lower, -np.pi), np.minimum(arm.joints.upper, np.pi))
-        if not arm.in_collision(q):
+        if not arm.collisions.in_collision(q):
             targets.append(SensorTarget(arm.fk(q), roll_free=roll_free))
     return targets
 

@@ -62,7 +62,36 @@ def motor_files(config: Config) -> list[Path]:
 
 
 class InspectEnv(gym.Env):
-    """Inspection planning environment.
+    """Inspection planning environment (SPEC sections 6-8, the paper's Tables 1-4).
+
+    ## Observation
+    | state | content |
+    |---|---|
+    | `s_cov` | (state_points, 3): the accumulated acquired cloud P_cov, resampled (model-free) |
+    | `s_bin` | (state_points, 4): GT points plus a 0/1 "covered" column (needs the model) |
+    | `robot_state` | adds a Dict entry `robot` (15,): sensor position, its x and z axes, joints |
+
+    Coordinates are object-centred (world-aligned axes), divided by `state_scale_m`.
+
+    ## Action
+    Box [-1, 1]^n of the `action` variant: A_2S0R (2), A_3S0R (3), A_2S2R (4), A_2S2R_lim (4),
+    A_3S2R (5), A_3S2R_lim (5, paper default), A_3C0R (3), A_3C2R (5); see `env.actions`.
+
+    ## Reward
+    R1-R8 dense (coverage gain, remaining coverage, travel cost k_t), R9-R14 sparse at the last
+    step (final coverage, steps T, k_cum over the steps; the approach to the initial view is not
+    a step); `unreachable_penalty` is added to an unreachable request. `info["reward_terms"]`
+    holds the terms.
+
+    ## Episode end
+    `terminated` when coverage >= `coverage_goal` (0.90); `truncated` after `max_acquisitions`
+    (10) requests, or `goal_only_step_cap` for R13/R14, which end only at the goal.
+
+    ## Info
+    coverage, delta_coverage, reachable, reason, carrier, joints, sensor_position,
+    sensor_quaternion, acquisitions, points_acquired, motor, episode_seed, travel_<cost>,
+    travel_sum_<cost> (k_cum), approach_<cost> for cost in joint_time, joint_path, cartesian,
+    paper, and reward_terms (after a step).
 
     Args:
         config: A `Config`, a YAML path, or None for `configs/default.yaml`.
