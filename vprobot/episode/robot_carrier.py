@@ -9,6 +9,7 @@ import numpy as np
 from vprobot.episode.carrier import Carrier, CarrierName, Move
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import ViewRequest
+from vprobot.geometry import Pose
 from vprobot.kinematics import ReachResult
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.sensor import Acquisition
@@ -39,10 +40,9 @@ class RobotCarrier(Carrier):
         if unreachable not in UNREACHABLE_POLICIES:
             raise ValueError(f"unreachable must be one of {list(UNREACHABLE_POLICIES)}, got "
                              f"{unreachable!r}")
-        self.scene = scene
+        super().__init__(scene, object_rotation)
         self.arm = scene.arm
         self.collisions = CollisionChecker(scene.cell, object_rotation)
-        self.object_pose = self.collisions.object_pose
         self.unreachable = unreachable
 
     def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
@@ -78,7 +78,7 @@ class RobotCarrier(Carrier):
                 and not self.collisions.in_collision(result.q)
                 and self.path_is_free(q_from, result.q))
 
-    def move(self, request: ViewRequest, joints: np.ndarray, pose: object = None) -> Move:
+    def move(self, request: ViewRequest, joints: np.ndarray, pose: Pose | None = None) -> Move:
         """Drive to the request's known configuration, or let the IK reach it from here."""
         if request.joints is not None:
             try:
