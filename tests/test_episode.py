@@ -1,0 +1,96 @@
+"""The inspection engine: carriers, explicit state, episode specs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vprobot.config import Config
+from vprobot.episode import Episode, EpisodeSpec, MotorScene, ViewRequest, seeded_episode
+from vprobot.geometry import rotation_about_x, rotation_about_z
+from vprobot.kinematics import SensorTarget
+from vprobot.paths import DEFAULT_MOTOR
+
+CONFIG = Config()
+DIRECTIONS = [(0.0, 1.0), (2.0, 1.1), (4.0, 0.8), (1.0, 1.9)]
+
+
+@pytest.fixture(scope="module")
+def scene() -> MotorScene:
+    return MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75))
+
+
+def _requests(episode: Episode) -> list[ViewRequest]:
+    center = episode.center
+    spec = EpisodeSpec(motor="unused", object_quaternion=(1.0, 0.0, 0.0, 0.0),
+                       initial_views=tuple(DIRECTIONS), seed=0)
+    return spec.initial_requests(center, CONFIG.sensor.working_distance_m)
+
+
+def _trace(episode: Episode) -> list[tuple]:
+    return [(view.reachable, view.reason, view.coverage, len(view.points_world))
+            for view in episode.views]
+
+
+def test_interleaved_episodes_do_not_share_state(scene: MotorScene) -> None:
+    """Two episodes of one scene, object turned differently, stepped in turn, give what each
+    gives alone: no consumer reads another episode's object placement or configuration."""
+    rotations = [np.eye(3), rotation_about_x(0.4) @ rotation_about_z(2.0)]
+    alone = []
+    for rotation in rotations:
+        episode = Episode(scene, rotation)
+        for request in _requests(episode):
+            episode.request(request)
+        alone.append(_trace(episode))
+    assert alone[0] != alone[1]
+    together = [Episode(scene, rotation) for rotation in rotations]
+    requests = [_requests(episode) for episode in together]
+    for step in range(len(DIRECTIONS)):
+        for episode, own in zip(together, requests, strict=True):
+            episode.request(own[step])
+            # FK and collision checks of the other episode's arm in between.
+            scene.arm.reach(own[-1].target, scene.cell.joints.home)
+    assert [_trace(episode) for episode in together] == alone
+
+
+def test_free_carrier_acquires_exactly_at_every_request(scene: MotorScene) -> None:
+    episode = Episode(scene, np.eye(3), carrier="free")
+    below = SensorTarget.look_at(episode.center + [0.0, 0.0, -0.47], episode.center)
+    for request in [*_requests(episode), ViewRequest(below)]:
+        view = episode.request(request)
+        assert view.reachable and view.reason is None and view.joints is None
+        np.testing.assert_array_equal(view.sensor_pose.position, request.target.pose.position)
+    first, second = episode.views[0], episode.views[1]
+    assert first.travel.paper == 0.0 and second.travel.paper > 0.0
+    assert second.travel.joint_time == 0.0
+    assert second.travel.cartesian == pytest.approx(np.linalg.norm(
+        second.sensor_pose.position - first.sensor_pose.position))
+    with pytest.raises(ValueError, match="robot carrier"):
+        episode.replay(scene.cell.joints.home)
+
+
+def test_record_reports_the_first_covering_view(scene: MotorScene) -> None:
+    episode = Episode(scene, np.eye(3))
+    for request in _requests(episode):
+        episode.request(request)
+    record = episode.record()
+    for index, view in enumerate(record.views):
+        reached = (record.first_covered_by >= 0) & (record.first_covered_by <= index)
+        assert reached.mean() == pytest.approx(view.coverage)
+    assert record.approach == record.views[0].travel
+    assert record.travel == sum((view.travel for view in record.views[1:]),
+                                start=type(record.travel)())
+
+
+def test_spec_round_trip_and_clear_errors() -> None:
+    spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 4)
+    assert spec.motor == "test/motor_000.stl" and spec.motor_path == DEFAULT_MOTOR
+    assert EpisodeSpec.from_dict(spec.as_dict()) == spec
+    assert seeded_episode(CONFIG.env, DEFAULT_MOTOR, 5) != spec
+    bad = {**spec.as_dict(), "initial_views": [[1.0]]}
+    with pytest.raises(ValueError, match="initial_views"):
+        EpisodeSpec.from_dict(bad)
+    with pytest.raises(ValueError, match="unknown episode spec key 'pose'"):
+        EpisodeSpec.from_dict({**spec.as_dict(), "pose": 1})
+    with pytest.raises(ValueError, match="seed"):
+        EpisodeSpec.from_dict({**spec.as_dict(), "seed": -1})
