@@ -17,7 +17,7 @@ from pathlib import Path
 from vprobot.config import load_config
 from vprobot.episode import MotorScene
 from vprobot.geometry import rotation_about_z
-from vprobot.paths import DEFAULT_MOTOR, REPO_ROOT
+from vprobot.paths import DEFAULT_MOTOR
 from vprobot.render import render_episode
 from vprobot.render.demo import ring_inspection
 from vprobot.render.summary import render_summary
@@ -29,9 +29,12 @@ TIME_SCALE = 1.5
 """Slightly slower than real time: at the sample's low frame rate moves would look jerky."""
 
 
+MEDIA_DIR = Path(__file__).resolve().parent.parent / "docs" / "media"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out-dir", type=Path, default=REPO_ROOT / "docs" / "media")
+    parser.add_argument("--out-dir", type=Path, default=MEDIA_DIR)
     parser.add_argument("--views", type=int, default=8)
     parser.add_argument("--width", type=int, default=480)
     parser.add_argument("--height", type=int, default=360)

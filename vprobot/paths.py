@@ -1,13 +1,18 @@
-"""Locations of the files vprobot ships next to the package (assets, configs)."""
+"""Locations of the files vprobot ships inside the package (robots, motors, configs).
+
+They are package data, found through `importlib.resources`, so that a wheel works as well as an
+editable checkout (where `assets/` and `configs/` at the repository root link here).
+"""
 
 from __future__ import annotations
 
+from importlib.resources import files
 from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
-ASSETS_DIR = REPO_ROOT / "assets"
+PACKAGE_DIR = Path(str(files("vprobot")))
+ASSETS_DIR = PACKAGE_DIR / "assets"
 ROBOTS_DIR = ASSETS_DIR / "robots"
 MOTORS_DIR = ASSETS_DIR / "motors"
-CONFIGS_DIR = REPO_ROOT / "configs"
+CONFIGS_DIR = PACKAGE_DIR / "configs"
 DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 """The bundled motor that commands use when no mesh is given."""

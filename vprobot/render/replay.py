@@ -20,7 +20,7 @@ from vprobot.episode import CARRIERS, Episode, EpisodeRecord, MotorScene, ViewRe
 from vprobot.geometry import Pose, quat_to_matrix
 from vprobot.kinematics import SensorTarget
 from vprobot.mesh_loading import load_mesh
-from vprobot.paths import REPO_ROOT
+from vprobot.paths import MOTORS_DIR
 
 YAW_TOLERANCE = 1e-6
 """How far the plan's robot base may deviate from a pure rotation about z (the config has only
@@ -62,15 +62,15 @@ def read_plan(path: str | Path) -> dict[str, Any]:
 
 
 def _mesh_path(mesh: str, plan_path: Path) -> Path:
-    """The mesh file: as written, else relative to the plan's folder, else to the repository."""
-    candidates = [Path(mesh)]
+    """The mesh file: as written, else beside the plan (by name), else a bundled motor."""
+    candidates = [Path(mesh), plan_path.parent / Path(mesh).name]
     if not Path(mesh).is_absolute():
-        candidates += [plan_path.parent / mesh, REPO_ROOT / mesh]
+        candidates.append(MOTORS_DIR / mesh)
     for candidate in candidates:
         if candidate.is_file():
             return candidate
-    raise ValueError(f"plan's object mesh {mesh} not found (also looked beside the plan and in "
-                     f"the repository)")
+    raise ValueError(f"plan's object mesh {mesh} not found (also looked beside the plan and "
+                     f"among the bundled motors)")
 
 
 def _base_yaw_deg(quaternion: np.ndarray) -> float:
