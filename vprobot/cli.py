@@ -1,18 +1,31 @@
-"""The `vprobot` command line."""
+"""The `vprobot` command line.
+
+Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is unreachable);
+2 a user error (bad option, config, mesh, plan or output path), reported as one line on stderr;
+130 interrupted (Ctrl-C or SIGTERM; `evaluate` keeps the episodes it finished).
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vprobot.config import Config, ConfigError, load_config, replace
+from vprobot.config import Config, load_config, replace
+from vprobot.outputs import check_output_file, check_output_folder
 from vprobot.robots import available_robots
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier")
+"""Options that choose what `plan` or `render` plans; a replayed `--plan` fixes them all."""
+INTERRUPTED = 130
 
 
 def _config(args: argparse.Namespace) -> Config:
@@ -30,6 +43,27 @@ def _write_json(path: str | None, document: dict[str, Any]) -> None:
         print(f"wrote {write_json(path, document)}")
 
 
+def _number(kind: type, low: float, strict: bool, what: str) -> Callable[[str], Any]:
+    """An argparse type: a number of `kind` above `low` (argparse names the option)."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
+        if not np.isfinite(value) or value < low or (strict and value == low):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        return value
+
+    parse.__name__ = what
+    return parse
+
+
+NON_NEGATIVE_INT = _number(int, 0, False, "an integer >= 0")
+POSITIVE_INT = _number(int, 0, True, "an integer >= 1")
+POSITIVE_FLOAT = _number(float, 0.0, True, "a number > 0")
+
+
 def command_reach(args: argparse.Namespace) -> int:
     """Answer "can the cell reach this view?" and optionally write the plan JSON."""
     from vprobot.geometry import Pose
@@ -37,10 +71,18 @@ def command_reach(args: argparse.Namespace) -> int:
     from vprobot.plan_export import PlannedView, plan_document
     from vprobot.scene import Cell
 
+    check_output_file(args.json, "--json", (".json",))
     target = SensorTarget.look_at(args.position, args.look_at)
     cell = Cell(_config(args))
     arm = RobotArm(cell)
-    q_from = cell.joints.home if args.from_joints is None else cell.joints.check(args.from_joints)
+    joints = cell.joints
+    q_from = joints.home
+    if args.from_joints is not None:
+        q_from = joints.check(args.from_joints, "--from-joints")
+        if not joints.within_limits(q_from):
+            raise ValueError(f"--from-joints {np.round(q_from, 4).tolist()} lies outside the "
+                             f"joint limits {np.round(joints.lower, 4).tolist()} .. "
+                             f"{np.round(joints.upper, 4).tolist()} rad")
     result = arm.reach(target, q_from)
     verdict = "REACHABLE" if result.reachable else f"UNREACHABLE ({result.reason})"
     print(f"robot {cell.robot}: sensor at {np.round(target.pose.position, 4).tolist()} looking at "
@@ -64,6 +106,7 @@ def command_cell(args: argparse.Namespace) -> int:
     from vprobot.benchmarks.kinematics import default_cell, view_sphere_survey, view_sphere_targets
     from vprobot.kinematics import RobotArm
 
+    check_output_file(args.json, "--json", (".json",))
     config = _config(args)
     cell = default_cell(config)
     arm = RobotArm(cell)
@@ -88,18 +131,30 @@ def command_cell(args: argparse.Namespace) -> int:
     return 0
 
 
+def _planning(args: argparse.Namespace) -> dict[str, Any]:
+    """The planning options of `plan` / `render`, defaults filled in."""
+    chosen = {name: getattr(args, name) for name in PLANNING_OPTIONS}
+    defaults = {"scale": 1.0, "planner": "bscp", "seed": 0, "carrier": "robot"}
+    return {name: defaults.get(name) if value is None else value
+            for name, value in chosen.items()}
+
+
 def command_plan(args: argparse.Namespace) -> int:
     """Plan the inspection of a motor, write the plan JSON and optionally a video."""
     from vprobot.plan_export import write_json
     from vprobot.planners import plan_motor
 
-    _check_outputs(args)
-    scene, record, document, summary = plan_motor(_config(args), args.mesh, args.scale,
-                                                  args.planner, args.views, args.carrier,
-                                                  args.seed)
+    check_output_file(args.out, "--out", (".json",))
+    _check_render_outputs(args, args.video, "--video")
+    options = _planning(args)
+    scene, record, document, summary = plan_motor(
+        _config(args), options["mesh"], options["scale"], options["planner"], options["views"],
+        options["carrier"], options["seed"])
+    if args.no_timing:
+        document.pop("timing")
     print(summary)
     print(f"wrote {write_json(args.out, document)}")
-    _render_outputs(args, scene, record)
+    _render_outputs(args, scene, record, args.video)
     return 0
 
 
@@ -108,30 +163,33 @@ def command_render(args: argparse.Namespace) -> int:
     from vprobot.planners import plan_motor
     from vprobot.render import episode_from_plan
 
-    _check_outputs(args)
+    _check_render_outputs(args, args.out, "--out")
     config = _config(args)
     if args.plan:
+        given = [f"--{name}" for name in PLANNING_OPTIONS if getattr(args, name) is not None]
+        if given:
+            raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose and "
+                             f"views; {', '.join(given)} cannot be combined with it")
         scene, record = episode_from_plan(config, args.plan)
     else:
-        scene, record, _, summary = plan_motor(config, args.mesh, args.scale, args.planner,
-                                               args.views, args.carrier, args.seed)
+        options = _planning(args)
+        scene, record, _, summary = plan_motor(
+            config, options["mesh"], options["scale"], options["planner"], options["views"],
+            options["carrier"], options["seed"])
         print(summary)
-    _render_outputs(args, scene, record)
+    _render_outputs(args, scene, record, args.out)
     return 0
 
 
-def _check_outputs(args: argparse.Namespace) -> None:
-    """Fail before the long work when an output folder does not exist."""
-    for option in ("out", "video", "summary"):
-        path = getattr(args, option, None)
-        if path and not Path(path).parent.is_dir():
-            raise ValueError(f"--{option}: folder {Path(path).parent} does not exist")
+def _check_render_outputs(args: argparse.Namespace, video: str | None, option: str) -> None:
+    """Fail before the long work when a video or summary output cannot be written."""
+    check_output_file(video, option, VIDEO_SUFFIXES)
+    check_output_file(args.summary, "--summary", (".png",))
 
 
-def _render_outputs(args: argparse.Namespace, scene: Any, record: Any) -> None:
+def _render_outputs(args: argparse.Namespace, scene: Any, record: Any, video: str | None) -> None:
     from vprobot.render import render_episode, render_summary
 
-    video = args.video if args.command == "plan" else args.out
     if video:
         rendered = render_episode(scene, record, video, width=args.width, height=args.height,
                                   progress=True)
@@ -144,6 +202,7 @@ def command_evaluate(args: argparse.Namespace) -> int:
     """Compare planners on one episode list; write evaluation.md, .csv and episodes.json."""
     from vprobot.evaluation import evaluate, evaluation_episodes
 
+    check_output_folder(args.out, "--out")
     config = _config(args)
     specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
     evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers)
@@ -159,6 +218,7 @@ def _print_results(results: dict[str, Any]) -> None:
 
 
 def command_benchmark(args: argparse.Namespace) -> int:
+    check_output_file(args.json, "--json", (".json",))
     config = _config(args)
     printer: Callable[[dict[str, Any]], None] = _print_results
     if args.suite == "kinematics":
@@ -189,6 +249,7 @@ def command_benchmark(args: argparse.Namespace) -> int:
 def command_motors_generate(args: argparse.Namespace) -> int:
     from vprobot.motors import generate_motors
 
+    check_output_folder(args.out, "--out")
     paths = generate_motors(args.count, args.seed, Path(args.out))
     print(f"wrote {len(paths)} motors to {args.out}")
     return 0
@@ -223,7 +284,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     cell = add("cell", command_cell, "Reachability report of the cell's view sphere.")
     add_robot(cell)
-    cell.add_argument("--candidates", type=int, default=900, help="view-sphere candidates")
+    cell.add_argument("--candidates", type=POSITIVE_INT, default=900,
+                      help="view-sphere candidates")
     cell.add_argument("--json", help="write the report as JSON here")
 
     def add_planning(sub: argparse.ArgumentParser) -> None:
@@ -231,23 +293,27 @@ def build_parser() -> argparse.ArgumentParser:
 
         add_robot(sub)
         sub.add_argument("--mesh", help="mesh file (STL/OBJ/PLY); default: the bundled motor")
-        sub.add_argument("--scale", type=float, default=1.0,
-                         help="file units to metres, e.g. 0.001 for millimetres")
-        sub.add_argument("--planner", choices=PLANNER_NAMES, default="bscp")
-        sub.add_argument("--views", type=int,
+        sub.add_argument("--scale", type=POSITIVE_FLOAT,
+                         help="file units to metres, e.g. 0.001 for millimetres (default 1)")
+        sub.add_argument("--planner", choices=PLANNER_NAMES, help="default: bscp")
+        sub.add_argument("--views", type=POSITIVE_INT,
                          help="fixed number of views (bscp); default: until the coverage goal")
-        sub.add_argument("--seed", type=int, default=0,
-                         help="seed of the episode (object pose, initial view)")
-        sub.add_argument("--carrier", choices=["robot", "free"], default="robot",
-                         help="robot in the loop, or a free-flying sensor (as in the paper)")
+        sub.add_argument("--seed", type=NON_NEGATIVE_INT,
+                         help="seed of the episode (object pose, initial view); default 0")
+        sub.add_argument("--carrier", choices=["robot", "free"],
+                         help="robot in the loop (default), or a free-flying sensor (the paper)")
         sub.add_argument("--summary", help="also write a summary PNG here")
-        sub.add_argument("--width", type=int, default=640, help="video width (pixels)")
-        sub.add_argument("--height", type=int, default=480, help="video height (pixels)")
+        sub.add_argument("--width", type=POSITIVE_INT, default=640, help="video width (pixels)")
+        sub.add_argument("--height", type=POSITIVE_INT, default=480,
+                         help="video height (pixels)")
 
     plan = add("plan", command_plan, "Plan the inspection of a motor and write the plan JSON.")
     add_planning(plan)
     plan.add_argument("--out", required=True, help="plan JSON to write")
     plan.add_argument("--video", help="also render the rollout to this .mp4 or .gif")
+    plan.add_argument("--no-timing", action="store_true",
+                      help="leave the timing block out of the plan JSON, so that the same "
+                      "inputs give the same file byte for byte")
 
     render = add("render", command_render,
                  "Render an inspection (a plan JSON or a planner's run) as an MP4 or GIF.")
@@ -265,7 +331,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--motors", nargs="+",
                             help="mesh files to draw episodes for instead (default: the test "
                             "motors)")
-    evaluation.add_argument("--seeds", type=int, nargs="+",
+    evaluation.add_argument("--seeds", type=NON_NEGATIVE_INT, nargs="+",
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
                             default=["robot", "free"])
@@ -275,7 +341,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(benchmark)
     benchmark.add_argument("suite",
                            choices=["kinematics", "sensor", "env", "planners", "render"])
-    benchmark.add_argument("--samples", type=int, default=200,
+    benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
 
@@ -283,19 +349,34 @@ def build_parser() -> argparse.ArgumentParser:
     motor_commands = motors.add_subparsers(dest="motors_command", required=True)
     generate = add("generate", command_motors_generate, "Generate seeded starter motors.",
                    motor_commands)
-    generate.add_argument("--count", type=int, required=True)
-    generate.add_argument("--seed", type=int, default=0)
+    generate.add_argument("--count", type=POSITIVE_INT, required=True)
+    generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0)
     generate.add_argument("--out", required=True, help="output folder")
     return parser
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    # SIGTERM takes the Ctrl-C path: partial outputs are cleaned up or saved, not left half.
+    raise KeyboardInterrupt
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _interrupt) if in_main_thread else None
     try:
         return args.handler(args)
-    except (ConfigError, ValueError, FileNotFoundError) as error:
-        print(f"vprobot {args.command}: error: {error}", file=sys.stderr)
+    except (ValueError, OSError) as error:
+        # ConfigError is a ValueError; OSError covers unreadable inputs and full disks.
+        text = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"vprobot {args.command}: error: {text}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"vprobot {args.command}: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

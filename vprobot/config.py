@@ -19,6 +19,7 @@ from typing import Any, Literal
 import yaml
 
 from vprobot.paths import CONFIGS_DIR
+from vprobot.robots import available_robots
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -46,6 +47,23 @@ class CellConfig:
     robot_base_yaw_deg: float = 0.0
     object_center_m: Vec3 = (0.45, 0.0, 0.75)
 
+    def __post_init__(self) -> None:
+        robots = available_robots()
+        if self.robot not in robots:
+            raise ConfigError(f"cell.robot must be one of {robots}, got {self.robot!r}")
+
+
+MAX_RAYS_PER_AXIS = 2048
+"""Largest sensor resolution along either image axis (4.2 million rays a frame at most; a frame
+buffer grows with the ray count, and no real 3D sensor needs more)."""
+
+
+def check_resolution(resolution: tuple[int, int], key: str) -> None:
+    """Raise ConfigError unless both axes lie in 1..MAX_RAYS_PER_AXIS."""
+    if not all(1 <= rays <= MAX_RAYS_PER_AXIS for rays in resolution):
+        raise ConfigError(f"{key} must lie in 1..{MAX_RAYS_PER_AXIS} rays per axis, got "
+                          f"{list(resolution)}")
+
 
 @dataclasses.dataclass(frozen=True)
 class SensorConfig:
@@ -70,8 +88,7 @@ class SensorConfig:
     mount_quaternion_wxyz: Quat = (1.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        if min(self.resolution) < 1:
-            raise ConfigError(f"sensor.resolution must be positive, got {self.resolution}")
+        check_resolution(self.resolution, "sensor.resolution")
         if not all(0.0 < angle < 180.0 for angle in self.fov_deg):
             raise ConfigError(f"sensor.fov_deg must lie in (0, 180), got {self.fov_deg}")
         if not 0.0 <= self.near_m < self.far_m:
@@ -207,6 +224,12 @@ class EnvConfig:
     def __post_init__(self) -> None:
         if self.motors == "mesh" and self.mesh is None:
             raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
+        if self.motors != "mesh" and self.mesh is not None:
+            raise ConfigError(f"env.mesh is set ({self.mesh!r}) but env.motors is "
+                              f"{self.motors!r}, which would ignore it; set env.motors to 'mesh' "
+                              f"or drop env.mesh")
+        if self.resolution is not None:
+            check_resolution(self.resolution, "env.resolution")
         if not 0.0 < self.coverage_goal <= 1.0:
             raise ConfigError(f"env.coverage_goal must lie in (0, 1], got {self.coverage_goal}")
         for name in ("max_acquisitions", "goal_only_step_cap", "state_points"):
@@ -327,7 +350,13 @@ def load_config(path: str | Path | None = None) -> Config:
     path = Path(path) if path is not None else CONFIGS_DIR / "default.yaml"
     if not path.is_file():
         raise FileNotFoundError(f"config file not found: {path}")
-    data = yaml.safe_load(path.read_text()) or {}
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except (yaml.YAMLError, UnicodeDecodeError) as error:
+        where = getattr(error, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        problem = getattr(error, "problem", None) or type(error).__name__
+        raise ConfigError(f"{path}: not valid YAML{line}: {problem}") from None
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: the top level must be a mapping of sections")
     try:

@@ -31,7 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 import mujoco
 import numpy as np
 
-from vprobot.config import SensorConfig
+from vprobot.config import MAX_RAYS_PER_AXIS, SensorConfig
 from vprobot.geometry import Pose
 from vprobot.scene import Cell
 
@@ -61,9 +61,10 @@ def _pixel_tangents(sensor: SensorConfig, resolution: tuple[int, int]) -> tuple[
 
 def _check_resolution(resolution: tuple[int, int]) -> tuple[int, int]:
     values = tuple(resolution)
-    if len(values) != 2 or not all(isinstance(n, int | np.integer) and n >= 1 for n in values):
-        raise ValueError(f"resolution must be two positive integers (width, height), got "
-                         f"{resolution!r}")
+    if len(values) != 2 or not all(isinstance(n, int | np.integer)
+                                   and 1 <= n <= MAX_RAYS_PER_AXIS for n in values):
+        raise ValueError(f"resolution must be two integers (width, height) in "
+                         f"1..{MAX_RAYS_PER_AXIS}, got {resolution!r}")
     return int(values[0]), int(values[1])
 
 

@@ -112,6 +112,9 @@ class InspectEnv(gym.Env):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if not isinstance(config, Config):
             config = load_config(config)
+        if "mesh" in env_overrides and env_overrides["mesh"] is not None:
+            # Naming a mesh means training on it, unless motors says otherwise (then an error).
+            env_overrides.setdefault("motors", "mesh")
         if env_overrides:
             config = replace(config, "env", **env_overrides)
         self.config = config

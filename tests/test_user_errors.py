@@ -1,0 +1,158 @@
+"""What a new user meets: every user error is one line on stderr and exit code 2, found before
+the long work starts; outputs are portable and reproducible."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from vprobot.cli import main
+from vprobot.config import Config, ConfigError, load_config, replace
+from vprobot.env import InspectEnv
+from vprobot.paths import DEFAULT_MOTOR
+
+REACH = ["reach", "--position", "0.45", "-0.47", "0.75", "--look-at", "0.45", "0", "0.75"]
+UNWRITABLE = "/sys" if not os.access("/sys", os.W_OK) or os.geteuid() == 0 else None
+
+
+def run(argv: list[str], capsys: pytest.CaptureFixture) -> tuple[int, str]:
+    code = main(argv)
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    return code, captured.err
+
+
+def one_line_error(argv: list[str], capsys: pytest.CaptureFixture, *needles: str) -> str:
+    code, err = run(argv, capsys)
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    for needle in needles:
+        assert needle in lines[0]
+    return lines[0]
+
+
+def test_malformed_yaml_names_the_file_and_line(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture) -> None:
+    config = tmp_path / "broken.yaml"
+    config.write_text("cell:\n  robot: [ur10\n")
+    one_line_error([*REACH, "--config", str(config)], capsys, "broken.yaml", "not valid YAML",
+                   "line")
+
+
+def test_unknown_robot_in_a_config_names_file_and_key(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture) -> None:
+    config = tmp_path / "cell.yaml"
+    config.write_text("cell:\n  robot: ur3\n")
+    one_line_error([*REACH, "--config", str(config)], capsys, "cell.yaml", "cell.robot", "'ur3'",
+                   "ur10")
+
+
+@pytest.mark.skipif(UNWRITABLE is None, reason="no unwritable folder on this machine")
+def test_unwritable_output_folder_is_found_before_planning(capsys: pytest.CaptureFixture
+                                                           ) -> None:
+    target = f"{UNWRITABLE}/plan.json"
+    line = one_line_error(["plan", "--out", target], capsys, "--out", target, "cannot write")
+    assert ".plan.json." not in line  # the user's path, not a hidden temporary file
+
+
+@pytest.mark.parametrize(
+    ("argv", "needles"),
+    [
+        (["plan", "--out", "plan.json", "--video", "rollout.avi"], ("--video", ".mp4 or .gif")),
+        (["plan", "--out", "."], ("--out", "is a folder")),
+        (["plan", "--out", ""], ("--out", "empty")),
+        (["plan", "--out", "plan.txt"], ("--out", ".json")),
+        (["plan", "--out", "plan.json", "--summary", "missing/summary.png"],
+         ("--summary", "does not exist")),
+        (["render", "--out", "rollout.mp4", "--summary", "s.jpg"], ("--summary", ".png")),
+        ([*REACH, "--json", "missing/view.json"], ("--json", "does not exist")),
+        (["benchmark", "env", "--json", "x.csv"], ("--json", ".json")),
+    ],
+)
+def test_outputs_are_checked_before_the_work(argv: list[str], needles: tuple[str, ...],
+                                             tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                             capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    one_line_error(argv, capsys, *needles)
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("command", [["evaluate", "--carriers", "free"],
+                                     ["motors", "generate", "--count", "1"]])
+def test_an_existing_file_is_no_output_folder(command: list[str], tmp_path: Path,
+                                              capsys: pytest.CaptureFixture) -> None:
+    existing = tmp_path / "results"
+    existing.write_text("not a folder")
+    one_line_error([*command, "--out", str(existing)], capsys, "--out", "is a file")
+
+
+@pytest.mark.parametrize(
+    ("argv", "needles"),
+    [
+        ([*REACH, "--from-joints", "0", "0", "0", "0", "0", "9"], ("--from-joints", "limits")),
+        (["plan", "--out", "p.json", "--seed", "-5"], ("--seed", ">= 0")),
+        (["plan", "--out", "p.json", "--scale", "0"], ("--scale", "> 0")),
+        (["plan", "--out", "p.json", "--views", "0"], ("--views", ">= 1")),
+        (["motors", "generate", "--count", "-1", "--out", "m"], ("--count", ">= 1")),
+        (["render", "--plan", "p.json", "--out", "v.mp4", "--mesh", "m.stl", "--planner", "hrec"],
+         ("--plan", "--mesh", "--planner")),
+    ],
+)
+def test_misleading_input_is_rejected(argv: list[str], needles: tuple[str, ...], tmp_path: Path,
+                                      monkeypatch: pytest.MonkeyPatch,
+                                      capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    try:
+        one_line_error(argv, capsys, *needles)
+    except SystemExit as exit_:  # argparse reports option errors itself, with usage
+        assert exit_.code == 2
+        err = capsys.readouterr().err
+        assert all(needle in err for needle in needles)
+
+
+def test_unreachable_keeps_exit_code_one_for_reach_only(capsys: pytest.CaptureFixture) -> None:
+    code, _ = run(["reach", "--position", "2.5", "0", "0.75", "--look-at", "3", "0", "0.75"],
+                  capsys)
+    assert code == 1
+    code, _ = run([*REACH, "--from-joints", "0"], capsys)
+    assert code == 2
+
+
+def test_config_bounds_and_contradictions() -> None:
+    with pytest.raises(ConfigError, match=r"sensor\.resolution must lie in 1\.\.2048"):
+        replace(Config(), "sensor", resolution=(100000, 100000))
+    with pytest.raises(ConfigError, match=r"env\.resolution"):
+        replace(Config(), "env", resolution=(0, 10))
+    with pytest.raises(ConfigError, match=r"env\.motors is 'train'"):
+        replace(Config(), "env", motors="train", mesh=str(DEFAULT_MOTOR))
+    # Naming a mesh in the env means using it.
+    env = InspectEnv(mesh=str(DEFAULT_MOTOR))
+    assert env.motor_files == [DEFAULT_MOTOR]
+    assert load_config().env.motors == "train"
+
+
+def test_plans_are_portable_and_reproducible(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                             capsys: pytest.CaptureFixture) -> None:
+    work, elsewhere = tmp_path / "work", tmp_path / "elsewhere"
+    work.mkdir(), elsewhere.mkdir()
+    (work / "motor.stl").write_bytes(DEFAULT_MOTOR.read_bytes())
+    monkeypatch.chdir(work)
+    argv = ["plan", "--mesh", "motor.stl", "--planner", "hrec", "--carrier", "free"]
+    assert run([*argv, "--out", "a.json", "--no-timing"], capsys)[0] == 0
+    assert run([*argv, "--out", "b.json", "--no-timing"], capsys)[0] == 0
+    assert run([*argv, "--out", "timed.json"], capsys)[0] == 0
+    assert (work / "a.json").read_bytes() == (work / "b.json").read_bytes()
+    timed = json.loads((work / "timed.json").read_text())
+    assert set(timed["timing"]) == {"plan_s", "episode_s"}
+    assert "timing" not in json.loads((work / "a.json").read_text())
+    assert Path(timed["object"]["mesh"]).is_absolute()
+    # The plan replays from another folder.
+    monkeypatch.chdir(elsewhere)
+    code, err = run(["render", "--plan", str(work / "a.json"), "--out", "v.gif", "--width", "64",
+                     "--height", "48"], capsys)
+    assert code == 0, err
+    assert (elsewhere / "v.gif").stat().st_size > 0
