@@ -114,3 +114,86 @@ def test_planner_benchmark_reports_the_targets(capsys: pytest.CaptureFixture) ->
     assert 0.0 < results["bscp_plan_s_median"] <= results["bscp_plan_s_max"]
     print_table(results)
     assert "B_SCP,5" in capsys.readouterr().out
+
+
+EVAL_ARGS = ["--planners", "random2", "hrec", "--motors", str(DEFAULT_MOTOR), "--seeds", "0",
+             "1", "2"]
+
+
+def _rows_by_key(path: Path) -> dict[tuple[str, str, str], str]:
+    rows = read_csv(path)
+    keys = [(row["episode"], row["carrier"], row["planner"]) for row in rows]
+    assert len(keys) == len(set(keys)), "duplicated rows"
+    return {key: row["coverage_pct"] for key, row in zip(keys, rows, strict=True)}
+
+
+def test_killed_evaluation_resumes_without_lost_or_duplicated_rows(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from vprobot.cli import main
+
+    reference, killed = tmp_path / "reference", tmp_path / "killed"
+    assert main(["evaluate", *EVAL_ARGS, "--out", str(reference)]) == 0
+    expected = _rows_by_key(reference / "evaluation_episodes.csv")
+    assert len(expected) == 12
+    process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", "evaluate", *EVAL_ARGS,
+                                "--out", str(killed)], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    rows = killed / "evaluation_episodes.csv"
+    deadline = time.monotonic() + 120
+    while process.poll() is None and time.monotonic() < deadline:
+        if rows.exists() and rows.read_text().count("\n") >= 4:  # header + 3 episodes
+            process.send_signal(signal.SIGKILL)
+            break
+        time.sleep(0.05)
+    process.wait()
+    assert process.returncode == -signal.SIGKILL, "the evaluation ended before it was killed"
+    done = len(_rows_by_key(rows))
+    assert 3 <= done < 12
+    # A kill in the middle of a write leaves a cut line; it is dropped, not read as a row.
+    with rows.open("a") as stream:
+        stream.write("5,hrec,fr")
+    assert main(["evaluate", *EVAL_ARGS, "--out", str(killed)]) == 0
+    assert _rows_by_key(rows) == expected
+
+
+def test_interrupted_evaluation_saves_its_tables_and_finishes_later(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import vprobot.evaluation as evaluation
+
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1])
+    real_run, calls = evaluation.run, []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real_run(*args, **kwargs)
+
+    monkeypatch.setattr(evaluation, "run", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        evaluate(CONFIG, ["random2", "hrec"], specs, tmp_path, progress=False,
+                 carriers=["free"])
+    assert len(read_csv(tmp_path / "evaluation_episodes.csv")) == 2
+    assert "Partial: 2 of 4 episodes" in (tmp_path / "evaluation.md").read_text()
+    monkeypatch.setattr(evaluation, "run", real_run)
+    table = evaluate(CONFIG, ["random2", "hrec"], specs, tmp_path, progress=False,
+                     carriers=["free"])
+    assert sum(row["episodes"] for row in table) == 4
+    assert "Partial" not in (tmp_path / "evaluation.md").read_text()
+    # Another episode list into the same folder is refused rather than mixed in.
+    with pytest.raises(ValueError, match="other episodes"):
+        evaluate(CONFIG, ["hrec"], episode_list(CONFIG, [DEFAULT_MOTOR], [7]), tmp_path,
+                 progress=False, carriers=["free"])
+
+
+def test_a_bad_motor_fails_before_the_first_episode(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.stl"
+    bad.write_text("solid nothing\nendsolid nothing\n")
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR, bad], [0])
+    with pytest.raises(ValueError, match=r"bad\.stl"):
+        evaluate(CONFIG, ["hrec"], specs, tmp_path / "out", progress=False)
+    assert not (tmp_path / "out" / "evaluation_episodes.csv").exists()

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import io
+import os
+import tempfile
+import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -122,7 +127,144 @@ def test_unreadable_cache_file_is_recomputed(tmp_path: Path, monkeypatch: pytest
     (tmp_path / f"{key}.npz").write_bytes(b"not an npz")
     monkeypatch.setattr(gt_module, "build_ground_truth", lambda mesh, config: box_gt)
     assert ground_truth(box, Config(), cache_dir=tmp_path) is box_gt
-    assert gt_module._read(tmp_path / f"{key}.npz") is not None
+    assert gt_module._read(tmp_path / f"{key}.npz", mesh_hash(box)) is not None
+
+
+def _npz_bytes(**arrays: object) -> bytes:
+    stream = io.BytesIO()
+    np.savez(stream, **arrays)
+    return stream.getvalue()
+
+
+def _fields(gt: GroundTruth) -> dict[str, object]:
+    return {"points": gt.points, "spacing_m": gt.spacing_m, "voxel_size_m": gt.voxel_size_m,
+            "mesh_hash": gt.mesh_hash, "views": gt.views}
+
+
+def _bad_entries(gt: GroundTruth) -> dict[str, bytes]:
+    """Cache files that must not be taken for a GT, by what is wrong with them."""
+    good = _npz_bytes(**_fields(gt))
+    missing = _fields(gt)
+    del missing["views"]
+    return {
+        "truncated": good[: len(good) // 2],
+        "empty": b"",
+        "random bytes": np.random.default_rng(0).bytes(4096),
+        "npy instead of npz": np.save(stream := io.BytesIO(), gt.points) or stream.getvalue(),
+        "missing key": _npz_bytes(**missing),
+        "wrong shape": _npz_bytes(**{**_fields(gt), "points": gt.points[:100]}),
+        "float32 points": _npz_bytes(**{**_fields(gt), "points": gt.points.astype(np.float32)}),
+        "NaN point": _npz_bytes(**{**_fields(gt), "points": np.where(
+            np.arange(N_GT)[:, None] == 7, np.nan, gt.points)}),
+        "vector spacing": _npz_bytes(**{**_fields(gt), "spacing_m": np.ones(3)}),
+        "other mesh": _npz_bytes(**{**_fields(gt), "mesh_hash": "0" * 64}),
+    }
+
+
+def _counting_build(monkeypatch: pytest.MonkeyPatch, gt: GroundTruth) -> list[int]:
+    """Make `build_ground_truth` return `gt` (a fresh build) and count the calls."""
+    calls: list[int] = []
+
+    def build(mesh: trimesh.Trimesh, config: Config) -> GroundTruth:
+        calls.append(1)
+        return gt
+
+    monkeypatch.setattr(gt_module, "build_ground_truth", build)
+    return calls
+
+
+def _assert_same(actual: GroundTruth, expected: GroundTruth) -> None:
+    np.testing.assert_array_equal(actual.points, expected.points)
+    assert actual.points.dtype == np.float64 and not actual.points.flags.writeable
+    assert (actual.spacing_m, actual.voxel_size_m, actual.mesh_hash, actual.views) == (
+        expected.spacing_m, expected.voxel_size_m, expected.mesh_hash, expected.views)
+
+
+@pytest.mark.parametrize("kind", ["truncated", "empty", "random bytes", "npy instead of npz",
+                                  "missing key", "wrong shape", "float32 points", "NaN point",
+                                  "vector spacing", "other mesh"])
+def test_bad_cache_file_is_recomputed_and_replaced(kind: str, tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch,
+                                                   box: trimesh.Trimesh,
+                                                   box_gt: GroundTruth) -> None:
+    monkeypatch.setattr(gt_module, "_MEMORY_CACHE", {})
+    path = tmp_path / f"{gt_module._cache_key(box, Config())}.npz"
+    path.write_bytes(_bad_entries(box_gt)[kind])
+    calls = _counting_build(monkeypatch, box_gt)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _assert_same(ground_truth(box, Config(), cache_dir=tmp_path), box_gt)
+    assert len(calls) == 1
+    # Replaced by a good entry, without leftovers: the next process reads it back.
+    assert sorted(tmp_path.iterdir()) == [path]
+    stored = gt_module._read(path, mesh_hash(box))
+    assert stored is not None
+    _assert_same(stored, box_gt)
+    monkeypatch.setattr(gt_module, "_MEMORY_CACHE", {})
+    _assert_same(ground_truth(box, Config(), cache_dir=tmp_path), box_gt)
+    assert len(calls) == 1
+
+
+def _cache_dir_is_a_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    directory = tmp_path / "cache"
+    directory.write_bytes(b"")
+    return directory
+
+
+def _cache_dir_below_a_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    (tmp_path / "cache").write_bytes(b"")
+    return tmp_path / "cache" / "ground_truth"
+
+
+def _read_only_cache_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    directory = tmp_path / "cache"
+    directory.mkdir()
+    directory.chmod(0o500)
+    try:
+        (directory / "probe").write_bytes(b"")
+    except PermissionError:
+        return directory
+    # Root (or CAP_DAC_OVERRIDE) writes anyway: refuse the write the way the OS would.
+    (directory / "probe").unlink()
+    mkstemp = tempfile.mkstemp
+
+    def refusing_mkstemp(*args: object, dir: str | Path | None = None,
+                         **kwargs: object) -> tuple[int, str]:
+        if dir is not None and Path(dir) == directory:
+            raise PermissionError(13, "Permission denied", str(directory))
+        return mkstemp(*args, dir=dir, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkstemp", refusing_mkstemp)
+    return directory
+
+
+@pytest.mark.parametrize("make_dir", [_cache_dir_is_a_file, _cache_dir_below_a_file,
+                                      _read_only_cache_dir],
+                         ids=["is a file", "below a file", "read-only"])
+def test_unwritable_cache_dir_warns_once_and_returns_the_gt(
+        make_dir: Callable[[Path, pytest.MonkeyPatch], Path], tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch, box: trimesh.Trimesh, box_gt: GroundTruth) -> None:
+    monkeypatch.setattr(gt_module, "_MEMORY_CACHE", {})
+    monkeypatch.setattr(gt_module, "_WARNED_CACHE_DIRS", set())
+    directory = make_dir(tmp_path, monkeypatch)
+    # Through the environment, as most runs find their cache.
+    monkeypatch.setenv("VPROBOT_CACHE_DIR", str(directory.parent))
+    monkeypatch.setattr(gt_module, "default_cache_dir", lambda: directory)
+    calls = _counting_build(monkeypatch, box_gt)
+    try:
+        with pytest.warns(RuntimeWarning) as record:
+            _assert_same(ground_truth(box, Config()), box_gt)
+            monkeypatch.setattr(gt_module, "_MEMORY_CACHE", {})
+            _assert_same(ground_truth(box, Config(), cache_dir=directory), box_gt)
+    finally:
+        if directory.is_dir():
+            directory.chmod(0o700)
+    assert len(calls) == 2
+    assert len(record) == 1, [str(warning.message) for warning in record]
+    message = str(record[0].message)
+    assert str(directory) in message and "not cached" in message
+    assert record[0].filename == __file__
+    assert not [name for name in os.listdir(tmp_path) if name.startswith(".")]
 
 
 def test_mesh_without_faces_is_rejected() -> None:

@@ -15,7 +15,10 @@ views the robot reached and the planning time per episode.
 from __future__ import annotations
 
 import csv
+import io
+import os
 import statistics
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,13 +36,15 @@ from vprobot.episode import (
     read_episode_list,
     write_episode_list,
 )
+from vprobot.files import atomic_output
+from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.runner import EpisodeResult, parse_planner, run
 
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
            "requested", "success_pct", "joint_time_s", "joint_path_rad", "cartesian_m",
            "paper_m", "reachable_pct", "plan_s", "episode_s")
-EPISODE_COLUMNS = ("planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
+EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
                    "requested", "success", "joint_time_s", "joint_path_rad", "cartesian_m",
                    "paper_m", "reachable_pct", "plan_s", "episode_s")
 PAPER_TABLE_9 = (
@@ -57,10 +62,12 @@ def held_out_motors() -> list[Path]:
     return sorted((MOTORS_DIR / "test").glob("*.stl"))
 
 
-def episode_row(result: EpisodeResult) -> dict[str, Any]:
-    """One CSV row of an episode (robot-only figures are None for the free sensor)."""
+def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
+    """One CSV row of an episode (`index` into the episode list; joint-space figures and
+    reachability are None for the free sensor)."""
     travel, robot = result.travel, result.carrier == "robot"
     return {
+        "episode": index,
         "planner": result.planner,
         "carrier": result.carrier,
         "motor": Path(result.mesh).name,
@@ -71,7 +78,7 @@ def episode_row(result: EpisodeResult) -> dict[str, Any]:
         "success": result.success,
         "joint_time_s": travel.joint_time if robot else None,
         "joint_path_rad": travel.joint_path if robot else None,
-        "cartesian_m": travel.cartesian if robot else None,
+        "cartesian_m": travel.cartesian,
         "paper_m": travel.paper,
         "reachable_pct": 100.0 * result.reachability if robot else None,
         "plan_s": result.plan_seconds,
@@ -155,12 +162,105 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     return "\n".join(lines) + "\n"
 
 
-def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -> None:
-    with path.open("w", newline="") as stream:
-        writer = csv.DictWriter(stream, fieldnames=list(columns))
+def _csv_text(columns: Sequence[str], rows: Sequence[dict[str, Any]], header: bool) -> str:
+    stream = io.StringIO()
+    writer = csv.DictWriter(stream, fieldnames=list(columns), lineterminator="\n")
+    if header:
         writer.writeheader()
-        for row in rows:
-            writer.writerow({key: "" if row[key] is None else row[key] for key in columns})
+    for row in rows:
+        writer.writerow({key: "" if row[key] is None else row[key] for key in columns})
+    return stream.getvalue()
+
+
+def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -> None:
+    with atomic_output(path) as temporary:
+        temporary.write_text(_csv_text(columns, rows, header=True))
+
+
+_INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested")
+_TEXT_COLUMNS = ("planner", "carrier", "motor")
+
+
+def _typed(row: dict[str, str]) -> dict[str, Any]:
+    """A row read back from the episodes CSV, with the types `episode_row` wrote."""
+    typed: dict[str, Any] = {}
+    for key, text in row.items():
+        if key in _TEXT_COLUMNS:
+            typed[key] = text
+        elif key == "success":
+            typed[key] = text == "True"
+        elif text == "":
+            typed[key] = None
+        else:
+            typed[key] = int(text) if key in _INTEGER_COLUMNS else float(text)
+    return typed
+
+
+def finished_rows(path: Path) -> list[dict[str, Any]]:
+    """The episode rows an earlier run wrote to `path`; a row cut short by a kill is dropped
+    (and cut from the file, so that appending goes on cleanly).
+
+    Raises:
+        ValueError: If the file is not an episodes table of this version.
+    """
+    if not path.is_file():
+        return []
+    data = path.read_bytes()
+    complete = data[: data.rfind(b"\n") + 1]
+    if len(complete) != len(data):
+        with path.open("r+b") as stream:
+            stream.truncate(len(complete))
+    lines = complete.decode().splitlines()
+    if not lines:
+        return []
+    if lines[0].split(",") != list(EPISODE_COLUMNS):
+        raise ValueError(f"{path} is not an episodes table of this vprobot version (columns "
+                         f"{', '.join(EPISODE_COLUMNS)}); use another --out")
+    try:
+        return [_typed(row) for row in csv.DictReader(lines)]
+    except ValueError as error:
+        raise ValueError(f"{path} holds a malformed row ({error}); use another --out") from None
+
+
+def _append_row(path: Path, row: dict[str, Any]) -> None:
+    """Append one row as a single write, flushed to disk: a kill leaves whole rows, and at
+    worst a cut last line that `finished_rows` drops."""
+    text = _csv_text(EPISODE_COLUMNS, [row], header=not path.exists() or path.stat().st_size == 0)
+    descriptor = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(descriptor, text.encode())
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)
+
+
+def _check_inputs(config: Config, specs: Sequence[EpisodeSpec]) -> None:
+    """Every motor of the list loads, before the first episode runs."""
+    for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
+        load_mesh(*motor)
+
+
+def _start_episode_list(path: Path, specs: Sequence[EpisodeSpec]) -> None:
+    """Write the episode list, or check that a resumed evaluation ran the same one."""
+    if not path.exists():
+        write_episode_list(path, specs)
+        return
+    if read_episode_list(path) != list(specs):
+        raise ValueError(f"{path.parent} holds an evaluation of other episodes; use another "
+                         f"--out, or --episodes {path} to resume that one")
+
+
+def _write_tables(out: Path, rows: list[dict[str, Any]], specs: Sequence[EpisodeSpec],
+                  config: Config, total: int) -> list[dict[str, Any]]:
+    table = summarize(rows)
+    text = markdown(table, specs, config)
+    if len(rows) < total:
+        text = (f"**Partial: {len(rows)} of {total} episodes; run the same command again to "
+                f"finish.**\n\n" + text)
+    with atomic_output(out / "evaluation.md") as temporary:
+        temporary.write_text(text)
+    _write_csv(out / "evaluation.csv", COLUMNS, table)
+    return table
 
 
 def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = None,
@@ -187,6 +287,10 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
              carriers: Sequence[CarrierName] = CARRIERS) -> list[dict[str, Any]]:
     """Run every planner on every episode with every carrier; write the tables into `out_dir`.
 
+    Resumable: each finished episode is appended to `evaluation_episodes.csv` at once, and a
+    rerun into the same folder skips the episodes already there. On Ctrl-C (or SIGTERM via the
+    CLI) the tables of the finished episodes are written before the interrupt goes on.
+
     Args:
         config: The configuration.
         planners: Planner names (`random1`, `random2`, `hrec`, `bscp`, `oracle`), or `bscp<N>`
@@ -202,35 +306,54 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         The summary rows.
 
     Raises:
-        ValueError: For an unknown planner or carrier, or no planners, episodes or carriers.
+        ValueError: For an unknown planner or carrier, no planners, episodes or carriers, a
+            motor that does not load, or an output folder holding another evaluation.
     """
-    parsed = [parse_planner(spec) for spec in planners]
+    parsed = [(spec, *parse_planner(spec)) for spec in planners]
     unknown = [carrier for carrier in carriers if carrier not in CARRIERS]
     if unknown:
         raise ValueError(f"unknown carrier {unknown[0]!r}; allowed: {', '.join(CARRIERS)}")
     if not parsed or not specs or not carriers:
         raise ValueError("evaluate needs at least one planner, episode and carrier")
+    _check_inputs(config, specs)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    rows = []
+    _start_episode_list(out / "episodes.json", specs)
+    rows_path = out / "evaluation_episodes.csv"
+    wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
+              for label, _, _ in parsed}
+    rows = [row for row in finished_rows(rows_path)
+            if (row["episode"], row["carrier"], row["planner"]) in wanted]
+    done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
+    if done and progress:
+        print(f"resuming: {len(done)} of {len(wanted)} episodes already in {rows_path}")
     scenes: dict[tuple[Path, float], MotorScene] = {}
-    with tqdm(total=len(specs) * len(carriers) * len(parsed), desc="evaluate",
-              disable=not progress) as bar:
-        for spec in specs:
-            key = (spec.motor_path, spec.scale)
-            if key not in scenes:
-                scenes.clear()
-                scenes[key] = MotorScene.load(config, spec.motor_path, spec.scale)
-            for carrier in carriers:
-                for name, views in parsed:
-                    bar.set_postfix_str(f"{Path(spec.motor).name} seed {spec.seed} {carrier} "
-                                        f"{name}")
-                    rows.append(episode_row(run(config, scenes[key], name, spec, carrier,
-                                                views)))
-                    bar.update()
-    table = summarize(rows)
-    write_episode_list(out / "episodes.json", specs)
-    (out / "evaluation.md").write_text(markdown(table, specs, config))
-    _write_csv(out / "evaluation.csv", COLUMNS, table)
-    _write_csv(out / "evaluation_episodes.csv", EPISODE_COLUMNS, rows)
-    return table
+    try:
+        with tqdm(total=len(wanted), initial=len(done), desc="evaluate",
+                  disable=not progress) as bar:
+            for index, spec in enumerate(specs):
+                for carrier in carriers:
+                    for label, name, views in parsed:
+                        if (index, carrier, label) in done:
+                            continue
+                        key = (spec.motor_path, spec.scale)
+                        if key not in scenes:
+                            scenes.clear()
+                            scenes[key] = MotorScene.load(config, *key)
+                        bar.set_postfix_str(f"{Path(spec.motor).name} seed {spec.seed} "
+                                            f"{carrier} {label}")
+                        row = episode_row(index, run(config, scenes[key], name, spec, carrier,
+                                                     views))
+                        _append_row(rows_path, row)
+                        rows.append(row)
+                        bar.update()
+    except KeyboardInterrupt:
+        _write_tables(out, rows, specs, config, len(wanted))
+        print(f"saved {len(rows)} of {len(wanted)} episodes in {out}; run the same command "
+              f"again to resume", file=sys.stderr)
+        raise
+    order = {key: position for position, key in enumerate(
+        (index, carrier, label) for index in range(len(specs)) for carrier in carriers
+        for label, _, _ in parsed)}
+    rows.sort(key=lambda row: order[(row["episode"], row["carrier"], row["planner"])])
+    return _write_tables(out, rows, specs, config, len(wanted))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -16,17 +17,74 @@ def _new_file_mode() -> int:
     return 0o666 & ~umask
 
 
+def _temporary_pattern(path: Path) -> re.Pattern[str]:
+    """Names of `atomic_output`'s temporaries for `path`: `.{name}.{pid}.{random}{suffix}`."""
+    # mkstemp's random part never contains a dot, so a temporary of another target whose name
+    # extends this one's cannot match.
+    return re.compile(rf"\.{re.escape(path.name)}\.(\d+)\.[a-z0-9_]+{re.escape(path.suffix)}")
+
+
+def _is_alive(pid: int) -> bool:
+    """Whether process `pid` may still exist; True whenever that cannot be told."""
+    if os.name != "posix" or pid <= 0:
+        # On Windows os.kill terminates the process instead of probing it.
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):
+        # PermissionError: the process exists but belongs to another user.
+        return True
+    return True
+
+
+def remove_stale_temporaries(path: Path) -> list[Path]:
+    """Delete temporaries that writers of `path` left when killed (their process is gone).
+
+    Temporaries of live processes, of other targets and files named otherwise are kept.
+    Failures are ignored: this is housekeeping and must not stop the write.
+
+    Returns:
+        The files removed.
+    """
+    pattern = _temporary_pattern(path)
+    removed = []
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = pattern.fullmatch(entry.name)
+        if match is None or _is_alive(int(match.group(1))):
+            continue
+        try:
+            if entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            continue
+    return removed
+
+
 @contextlib.contextmanager
 def atomic_output(path: Path) -> Iterator[Path]:
-    """Yield a temporary file beside `path` that replaces `path` only if the block succeeds."""
+    """Yield a temporary file beside `path` that replaces `path` only if the block succeeds.
+
+    The temporary is named `.{name}.{pid}.{random}{suffix}`: a writer killed without a chance
+    to clean up (SIGKILL, an unhandled SIGTERM) leaves it behind, and the next write to `path`
+    removes it once that process is gone.
+    """
+    remove_stale_temporaries(path)
     # Same folder so that os.replace is an atomic rename; same suffix so writers pick the format.
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.",
                                          suffix=path.suffix)
-    os.close(handle)
     try:
+        os.close(handle)
         yield Path(temporary)
         os.chmod(temporary, _new_file_mode())
         os.replace(temporary, path)
     except BaseException:
+        # BaseException: KeyboardInterrupt and SystemExit must not leave the temporary either.
         Path(temporary).unlink(missing_ok=True)
         raise

@@ -24,7 +24,9 @@ mesh frame parallel to the world, the fixture plate under its lowest point):
 P_GT lives in the mesh frame, so it turns with the object when an episode re-poses it; its
 inspectability is that of the upright placement. The result is deterministic and cached in
 memory and on disk (an `.npz` per mesh under `default_cache_dir()`, written atomically), keyed
-by the mesh hash (sha256 of its vertices and faces) and the settings that shape it.
+by the mesh hash (sha256 of its vertices and faces) and the settings that shape it. A cache
+file that does not hold a valid GT of the mesh is recomputed and replaced; a cache directory
+that cannot be written draws one warning per process and the GT is then only kept in memory.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +81,8 @@ class GroundTruth:
 
 
 _MEMORY_CACHE: dict[str, GroundTruth] = {}
+_WARNED_CACHE_DIRS: set[Path] = set()
+"""Cache directories already reported as unwritable by this process."""
 
 
 def mesh_hash(mesh: trimesh.Trimesh) -> str:
@@ -104,6 +109,10 @@ def ground_truth(mesh: trimesh.Trimesh, config: Config, cache_dir: str | Path | 
         cache_dir: Where the `.npz` files live; `default_cache_dir()` when omitted.
         use_cache: False always recomputes and stores nothing.
 
+    A cache file that does not hold a valid GT of `mesh` (truncated, garbage, wrong contents)
+    is recomputed and replaced. When the cache directory cannot be written, a RuntimeWarning
+    says so once per process and directory, and the GT is returned uncached on disk.
+
     Raises:
         ValueError: If the mesh has no faces or no view measures any of it.
     """
@@ -113,7 +122,7 @@ def ground_truth(mesh: trimesh.Trimesh, config: Config, cache_dir: str | Path | 
     if key in _MEMORY_CACHE:
         return _MEMORY_CACHE[key]
     path = Path(cache_dir if cache_dir is not None else default_cache_dir()) / f"{key}.npz"
-    result = _read(path) if path.is_file() else None
+    result = _read(path, mesh_hash(mesh))
     if result is None:
         result = build_ground_truth(mesh, config)
         _write(path, result)
@@ -245,25 +254,62 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(settings.encode()).hexdigest()[:16]}"
 
 
-def _read(path: Path) -> GroundTruth | None:
-    """A cached GT, or None when the file is unreadable (it is then recomputed)."""
+_SCALAR_KINDS = {"spacing_m": "f", "voxel_size_m": "f", "mesh_hash": "U", "views": "iu"}
+"""numpy dtype kinds of the scalars stored beside the points."""
+
+
+def _read(path: Path, expected_hash: str) -> GroundTruth | None:
+    """The GT cached at `path`, or None when there is none or it is not a valid GT of the mesh.
+
+    Args:
+        path: The `.npz` file.
+        expected_hash: `mesh_hash` of the mesh the file must belong to.
+    """
     try:
-        with np.load(path) as stored:
-            points = stored["points"]
-            result = GroundTruth(points=points, spacing_m=float(stored["spacing_m"]),
-                                 voxel_size_m=float(stored["voxel_size_m"]),
-                                 mesh_hash=str(stored["mesh_hash"]), views=int(stored["views"]))
-    except (OSError, ValueError, KeyError):
+        # Our own handle: np.load leaks the one it opens when the zip directory is corrupt.
+        with path.open("rb") as stream, np.load(stream, allow_pickle=False) as stored:
+            arrays = {name: stored[name] for name in stored.files}
+    except Exception:
+        # A corrupt file fails in many ways (BadZipFile, EOFError, ValueError, OSError, a
+        # .npy instead of an .npz, ...); any of them just means "recompute".
         return None
-    if points.shape != (N_GT, 3):
+    if set(arrays) != {"points", *_SCALAR_KINDS}:
+        return None
+    points = arrays["points"]
+    if points.dtype != np.float64 or points.shape != (N_GT, 3) or not np.isfinite(points).all():
+        return None
+    if any(arrays[name].shape != () or arrays[name].dtype.kind not in kinds
+           for name, kinds in _SCALAR_KINDS.items()):
+        return None
+    result = GroundTruth(points=points, spacing_m=float(arrays["spacing_m"]),
+                        voxel_size_m=float(arrays["voxel_size_m"]),
+                        mesh_hash=str(arrays["mesh_hash"]), views=int(arrays["views"]))
+    if (result.mesh_hash != expected_hash or not 1 <= result.views <= VIEW_COUNT
+            or not (np.isfinite(result.spacing_m) and result.spacing_m > 0)
+            or not (np.isfinite(result.voxel_size_m) and result.voxel_size_m > 0)):
         return None
     points.setflags(write=False)
     return result
 
 
 def _write(path: Path, result: GroundTruth) -> None:
-    """Store atomically: write a temporary file next to the target, then rename it."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_output(path) as temporary, temporary.open("wb") as stream:
-        np.savez(stream, points=result.points, spacing_m=result.spacing_m,
-                 voxel_size_m=result.voxel_size_m, mesh_hash=result.mesh_hash, views=result.views)
+    """Store atomically (see `atomic_output`); warn once per directory when it cannot be written.
+
+    A half-written or failed store leaves any previous file in place, and the next run
+    recomputes it if it is bad.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_output(path) as temporary, temporary.open("wb") as stream:
+            np.savez(stream, points=result.points, spacing_m=result.spacing_m,
+                     voxel_size_m=result.voxel_size_m, mesh_hash=result.mesh_hash,
+                     views=result.views)
+    except OSError as error:
+        # The GT is computed; a cache that cannot be written only costs time in later runs.
+        directory = path.parent
+        if directory not in _WARNED_CACHE_DIRS:
+            _WARNED_CACHE_DIRS.add(directory)
+            warnings.warn(f"cannot write the ground-truth cache directory {directory} "
+                          f"({error}); ground truths are not cached on disk and are recomputed "
+                          f"in every run; set ${CACHE_ENV_VAR} to a writable directory",
+                          RuntimeWarning, stacklevel=3)
