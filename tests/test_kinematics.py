@@ -234,7 +234,8 @@ def test_bad_configurations_are_rejected(arm: RobotArm) -> None:
 
 
 def test_unknown_robot_is_rejected() -> None:
-    with pytest.raises(ValueError, match=r"unknown robot 'kuka'; available robots: ur10, ur5"):
+    with pytest.raises(ValueError, match=r"cell\.robot must be one of \['ur10', 'ur5'\], "
+                                         r"got 'kuka'"):
         Cell(dataclasses.replace(Config(), cell=CellConfig(robot="kuka")))
 
 

@@ -14,7 +14,24 @@ import trimesh
 MIN_EXTENT_M = 0.01
 MAX_EXTENT_M = 5.0
 
-_FORMATS = "a mesh file trimesh can read (e.g. STL, OBJ, PLY)"
+FLAT_TOLERANCE = 1e-6
+"""A mesh thinner than this fraction of its largest side is flat: float32, MuJoCo's vertex type,
+resolves about 6e-8 of a coordinate, so to MuJoCo's convex hull it is a plane."""
+
+_FORMATS = "a mesh file trimesh can read (STL, OBJ, PLY, ...)"
+
+# Files users mistake for meshes; a binary STL's 80-byte header is free text, so these are only
+# looked for in files that are not well-formed binary STLs.
+_NOT_MESH_SIGNATURES = (
+    (b"\x89PNG\r\n\x1a\n", "a PNG image"),
+    (b"\xff\xd8\xff", "a JPEG image"),
+    (b"GIF87a", "a GIF image"),
+    (b"GIF89a", "a GIF image"),
+    (b"II*\x00", "a TIFF image"),
+    (b"MM\x00*", "a TIFF image"),
+    (b"%PDF-", "a PDF document"),
+)
+_STL_HEADER_BYTES, _STL_TRIANGLE_BYTES = 84, 50
 
 
 @dataclass(frozen=True)
@@ -38,19 +55,76 @@ class LoadedMesh:
     repairs: list[str]
 
 
+def _is_binary_stl(data: bytes) -> bool:
+    """Whether the bytes are a binary STL whose size matches its triangle count."""
+    if len(data) < _STL_HEADER_BYTES:
+        return False
+    count = int.from_bytes(data[80:_STL_HEADER_BYTES], "little")
+    return len(data) == _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count
+
+
+def _check_kind(path: Path, data: bytes) -> None:
+    """Reject files that are plainly not meshes before trimesh guesses at them.
+
+    Without this, trimesh reads a non-UTF-8 file as text through charset_normalizer, which is
+    not always installed, or returns an empty scene.
+    """
+    if path.suffix.lower() == ".stl" and _is_binary_stl(data):
+        return
+    for signature, kind in _NOT_MESH_SIGNATURES:
+        if data.startswith(signature):
+            raise ValueError(f"{path} is {kind}, not {_FORMATS}")
+    if path.suffix.lower() == ".stl":
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ValueError(
+                f"{path} is not {_FORMATS}: neither a binary STL (its size does not match its "
+                f"triangle count) nor an ASCII STL"
+            ) from None
+
+
 def _read_mesh(path: Path) -> trimesh.Trimesh:
     try:
         # process=False keeps the file as is, so the repairs below can report what they did.
         loaded = trimesh.load(path, process=False)
+    except ImportError as exc:
+        raise ValueError(f"{path} is not {_FORMATS} (reading it needs the missing module "
+                         f"{exc.name})") from exc
     except Exception as exc:
         raise ValueError(f"cannot read {path} as a mesh ({exc}); expected {_FORMATS}") from exc
     if isinstance(loaded, trimesh.Scene):
+        if not loaded.geometry:
+            raise ValueError(f"{path} holds no geometry: it is empty or not {_FORMATS}")
         loaded = loaded.to_mesh()
     if not isinstance(loaded, trimesh.Trimesh):
         raise ValueError(
             f"{path} holds a {type(loaded).__name__}, not a triangle mesh; expected {_FORMATS}"
         )
     return loaded
+
+
+def solid_problem(mesh: trimesh.Trimesh) -> str | None:
+    """What keeps a mesh with faces from being a solid object in the cell, or None.
+
+    Returns:
+        "has non-finite vertex coordinates ..." or "is flat: ...", to follow the mesh's name.
+    """
+    vertices = np.asarray(mesh.vertices, dtype=float)
+    bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+    if bad:
+        return (f"has non-finite vertex coordinates (NaN or inf) in {bad} of {len(vertices)} "
+                f"vertices")
+    used = vertices[np.unique(np.asarray(mesh.faces))] if len(mesh.faces) else vertices
+    centred = used - used.mean(axis=0)
+    # The least-variance direction of coplanar points is their plane's normal.
+    normal = np.linalg.eigh(centred.T @ centred)[1][:, 0]
+    thickness = float(np.ptp(centred @ normal))
+    extent = float(np.ptp(used, axis=0).max())
+    if thickness <= FLAT_TOLERANCE * extent:
+        return (f"is flat: all vertices lie in one plane ({thickness:.3g} m thick over "
+                f"{extent:.3g} m); vprobot needs a solid object")
+    return None
 
 
 def _repair(mesh: trimesh.Trimesh) -> list[str]:
@@ -115,7 +189,8 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> LoadedMesh:
     Raises:
         FileNotFoundError: if the file does not exist.
         ValueError: if scale is not a positive finite number, the file is unreadable or not a
-            mesh, has no faces, or its scaled extent is outside 0.01 .. 5 m.
+            mesh, has no faces or non-finite vertices, is flat, or its scaled extent is outside
+            0.01 .. 5 m. Whether the object fits a cell is `vprobot.fit.check_fits`.
     """
     path = Path(path)
     if not (math.isfinite(scale) and scale > 0):
@@ -126,11 +201,18 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> LoadedMesh:
         data = path.read_bytes()
     except OSError as exc:
         raise ValueError(f"cannot read {path} ({exc}); expected {_FORMATS}") from exc
+    _check_kind(path, data)
     mesh = _read_mesh(path)
+    if not np.isfinite(mesh.vertices).all():
+        # Repairing would quietly drop the faces at such vertices and patch the holes.
+        raise ValueError(f"{path} {solid_problem(mesh)}")
     mesh.apply_scale(scale)
     repairs = _repair(mesh)
     if len(mesh.faces) == 0:
         raise ValueError(f"{path} contains no (non-degenerate) faces; expected {_FORMATS}")
+    problem = solid_problem(mesh)
+    if problem is not None:
+        raise ValueError(f"{path} {problem}")
 
     extent = float(mesh.extents.max())
     if not MIN_EXTENT_M <= extent <= MAX_EXTENT_M:

@@ -11,6 +11,7 @@ import trimesh
 
 from vprobot.config import Config
 from vprobot.geometry import Pose, as_vector, matrix_to_quat, quat_to_matrix, rotation_about_z
+from vprobot.mesh_loading import solid_problem
 from vprobot.robots import FLANGE_FRAME, scene_path
 
 # Geom groups and collision bits of the bundled scenes (see scripts/convert_robots.py).
@@ -19,6 +20,9 @@ ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
 
 NOMINAL_OBJECT_HALF_HEIGHT_M = 0.06
 """Fixture height below the object centre while no object is loaded (a motor lying down)."""
+
+ROBOT_STAND_RADIUS_M = 0.09
+"""Radius of the column under a raised robot base (about that of the UR10's base link)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,7 +59,8 @@ class Cell:
             the empty cell.
 
     Raises:
-        ValueError: If the robot is unknown or the mesh has no faces.
+        ValueError: If the robot is unknown, or the mesh has no faces, non-finite vertices or
+            lies flat in a plane.
     """
 
     def __init__(self, config: Config, object_mesh: trimesh.Trimesh | None = None):
@@ -85,7 +90,7 @@ class Cell:
             name="robot_stand",
             type=mujoco.mjtGeom.mjGEOM_CYLINDER,
             fromto=[0.0, 0.0, -height_m, 0.0, 0.0, -0.005],
-            size=[0.09, 0.0, 0.0],
+            size=[ROBOT_STAND_RADIUS_M, 0.0, 0.0],
             rgba=[0.3, 0.32, 0.35, 1.0],
             group=0,
             contype=ENVIRONMENT_BIT,
@@ -95,6 +100,11 @@ class Cell:
     def _add_object(self, spec: mujoco.MjSpec, mesh: trimesh.Trimesh) -> None:
         if len(mesh.faces) == 0:
             raise ValueError("object mesh has no faces")
+        # `load_mesh` rejects these with the file's name; this guards meshes built in code, which
+        # would otherwise fail deep inside qhull or MuJoCo's compiler.
+        problem = solid_problem(mesh)
+        if problem is not None:
+            raise ValueError(f"object mesh {problem}")
         asset = spec.add_mesh(
             name="object_mesh",
             uservert=np.asarray(mesh.vertices, dtype=np.float32).ravel().tolist(),

@@ -162,7 +162,7 @@ class InspectEnv(gym.Env):
 
         Raises:
             ValueError: For a bad spec or motor index.
-            RuntimeError: If no initial view is reachable.
+            ValueError: If no initial view is reachable.
         """
         super().reset(seed=seed)
         options = options or {}

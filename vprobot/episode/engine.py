@@ -93,13 +93,18 @@ class Episode:
         Requests it does not reach leave no trace in the episode.
 
         Raises:
-            RuntimeError: If none is reached.
+            ValueError: If none is reached (the object or the cell placement leaves the robot
+                no initial view).
         """
+        reasons = []
         for request in requests:
             move = self.carrier.move(request, self.q, self.pose)
             if move.reachable and move.executed:
                 return self._execute(request.target.pose, move)
-        raise RuntimeError("no initial view is reachable; check the cell placement")
+            reasons.append(move.reason)
+        why = ", ".join(sorted(set(map(str, reasons))))
+        raise ValueError(f"none of the {len(reasons)} initial views is reachable ({why}); check "
+                         f"the object and the cell placement")
 
     def request(self, request: ViewRequest) -> ViewRecord:
         """Move to the view if the carrier can and acquire there; never acquires from an

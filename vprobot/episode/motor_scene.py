@@ -7,6 +7,7 @@ import functools
 from pathlib import Path
 
 from vprobot.config import Config
+from vprobot.fit import check_fits
 from vprobot.geometry import Pose
 from vprobot.ground_truth import ENVIRONMENT_GROUP, GroundTruth, ground_truth
 from vprobot.kinematics import RobotArm
@@ -39,9 +40,14 @@ class MotorScene:
         """Load a mesh file and build its cell, arm, sensor and ground truth.
 
         Raises:
-            FileNotFoundError, ValueError: For a missing, unreadable, empty or mis-scaled mesh.
+            FileNotFoundError, ValueError: For a missing, unreadable, empty, flat or mis-scaled
+                mesh, or an object too large for the cell (`vprobot.fit`), before any ground
+                truth is built.
         """
         mesh = load_mesh(mesh_path, scale)
+        # Up front: an object that does not fit would otherwise cost a ground-truth build and a
+        # plan that cannot succeed.
+        check_fits(mesh, config)
         cell = Cell(config, mesh.mesh)
         return cls(
             mesh=mesh,
@@ -65,7 +71,7 @@ class MotorScene:
         """
         position = object_pose.position - object_pose.rotation @ self.mesh.offset
         return {
-            "mesh": str(self.mesh.path),
+            "mesh": str(Path(self.mesh.path).resolve()),
             "position": [float(x) for x in position],
             "quaternion": [float(x) for x in object_pose.quaternion],
             "scale": float(self.mesh.scale),

@@ -145,7 +145,7 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
         The record and the time spent inside the planner (s).
 
     Raises:
-        RuntimeError: If the spec's initial view is not reachable.
+        ValueError: If none of the spec's initial views is reachable.
     """
     env = config.env
     planning = 0.0
