@@ -11,7 +11,6 @@ import os
 import shutil
 import subprocess
 import sys
-import sysconfig
 from pathlib import Path
 
 import pytest
@@ -45,7 +44,8 @@ def wheel_venv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str
     site = Path(_run([str(venv / "bin" / "python"), "-c",
                       "import sysconfig; print(sysconfig.get_paths()['purelib'])"], root,
                      env).strip())
-    paths = dict.fromkeys(sysconfig.get_paths()[key] for key in ("purelib", "platlib"))
+    paths = [entry for entry in sys.path if entry.endswith("site-packages")
+             and Path(entry).is_dir()]
     (site / "dependencies.pth").write_text("\n".join(paths) + "\n")
     work = root / "elsewhere"
     work.mkdir()
