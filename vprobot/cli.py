@@ -210,6 +210,37 @@ def command_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_train(args: argparse.Namespace) -> int:
+    """Train an agent into a run directory, or resume one."""
+    from vprobot.agents.training import profile_config, train
+
+    if args.profile is None and not args.resume:
+        raise ValueError("give a profile (e.g. configs/agents/cpu.yaml), or --resume a run")
+    if args.resume and (args.profile is not None or args.set or args.steps is not None
+                        or args.seed is not None):
+        raise ValueError("--resume goes on with the run's own profile, overrides, steps and "
+                         "seed; give only --out (and --device)")
+    check_output_folder(args.out, "--out")
+    config = None if args.resume else profile_config(args.profile, args.set, args.steps)
+    result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
+                   device=args.device, argv=["vprobot", *args.argv])
+    print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the shared "
+          f"test episodes: coverage {100 * result['coverage']:.1f} %, "
+          f"{result['acquisitions']:.2f} acquisitions, {100 * result['success']:.0f} % at the "
+          f"goal, {100 * result['reachable_share']:.0f} % of requests reachable")
+    print(f"run directory: {args.out} (curves.png, evaluations.csv, best_model.zip)")
+    return 0
+
+
+def command_curves(args: argparse.Namespace) -> int:
+    """Plot training curves of one or more runs."""
+    from vprobot.agents.curves import plot_curves
+
+    check_output_file(args.out, "--out", (".png",))
+    print(f"wrote {plot_curves(args.runs, args.out, args.window)}")
+    return 0
+
+
 def _print_results(results: dict[str, Any]) -> None:
     width = max(len(key) for key in results)
     for key, value in results.items():
@@ -233,6 +264,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 
         results, printer = run_planners_benchmark(config), print_table
+    elif args.suite == "train":
+        from vprobot.benchmarks.train import run_train_benchmark
+
+        results = run_train_benchmark(config, steps=args.samples)
     elif args.suite == "render":
         from vprobot.benchmarks.render import run_render_benchmark
 
@@ -337,12 +372,35 @@ def build_parser() -> argparse.ArgumentParser:
                             default=["robot", "free"])
     evaluation.add_argument("--out", default="results", help="folder for the tables")
 
+    training = add("train", command_train,
+                   "Train an RL agent (stable-baselines3) headless into a run directory.")
+    training.add_argument("profile", nargs="?",
+                          help="agent profile YAML, e.g. configs/agents/cpu.yaml")
+    training.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
+                          help="override profile settings, e.g. env.state=s_bin "
+                          "agent.algorithm=ppo agent.encoder=pointnet env.carrier=free")
+    training.add_argument("--steps", type=POSITIVE_INT, help="env steps (agent.total_steps)")
+    training.add_argument("--seed", type=NON_NEGATIVE_INT, help="seed of the run (default 0)")
+    training.add_argument("--out", required=True, help="run directory")
+    training.add_argument("--resume", action="store_true",
+                          help="go on from the run's latest checkpoint")
+    training.add_argument("--device", choices=["cpu", "cuda", "auto"],
+                          help="torch device (default: the profile's, cpu)")
+
+    curves = add("curves", command_curves,
+                 "Plot training curves (coverage, acquisitions, reward, travel) of runs.")
+    curves.add_argument("runs", nargs="+", help="run directories")
+    curves.add_argument("--out", default="curves.png", help="PNG to write")
+    curves.add_argument("--window", type=POSITIVE_INT, default=50,
+                        help="episodes in the trailing mean")
+
     benchmark = add("benchmark", command_benchmark, "Measure the speed and quality targets.")
     add_robot(benchmark)
     benchmark.add_argument("suite",
-                           choices=["kinematics", "sensor", "env", "planners", "render"])
+                           choices=["kinematics", "sensor", "env", "planners", "render",
+                                    "train"])
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
-                           help="random targets (kinematics) or steps (env) per measure")
+                           help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
 
     motors = commands.add_parser("motors", help="Synthetic starter motors.")
@@ -361,7 +419,9 @@ def _interrupt(signum: int, frame: object) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
+    args.argv = argv
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _interrupt) if in_main_thread else None
     try:

@@ -253,6 +253,87 @@ class EnvConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class AgentConfig:
+    """A reinforcement-learning agent and how it is trained (`vprobot train`, SPEC section 9).
+
+    The defaults are the paper's Table 4 (`configs/agents/paper.yaml`);
+    `configs/agents/cpu.yaml` is the profile that trains on a small CPU.
+
+    Attributes:
+        algorithm: `sac` (off-policy, replay buffer) or `ppo` (on-policy).
+        encoder: Point-cloud feature extractor: `pcn`, `pointnet` or `sphere` (CPU budget).
+        encoder_scale: Multiplies the widths of `pcn` and `pointnet` (1: published sizes).
+        sphere_bins: Polar and azimuth bins of the `sphere` encoder's direction map.
+        sphere_features: Size of the `sphere` encoding.
+        net_arch: Hidden layers of the regression MLP after the encoder (actor and critics).
+        learning_rate: Initial learning rate.
+        learning_rate_schedule: `linear` decays it to 0 over `total_steps`; `constant` keeps it.
+        gamma: Discount factor.
+        batch_size: Minibatch of a gradient step.
+        buffer_size: Replay buffer transitions (SAC).
+        learning_starts: Env steps before the first SAC update.
+        train_freq: Env steps between SAC updates.
+        gradient_steps: Gradient steps per SAC update.
+        n_steps: Env steps per PPO rollout (per env).
+        n_epochs: PPO epochs per rollout.
+        total_steps: Env steps of a training run.
+        n_envs: Environments stepped in parallel (subprocesses when more than one).
+        eval_freq: Env steps between evaluations on the shared test episodes.
+        eval_episodes: How many of the shared episodes an evaluation runs (None: all 15).
+        checkpoint_freq: Env steps between checkpoints (with the replay buffer).
+        torch_threads: Threads of torch in the training process.
+        device: `cpu`, `cuda` or `auto` (cuda when present).
+    """
+
+    algorithm: Literal["sac", "ppo"] = "sac"
+    encoder: Literal["pcn", "pointnet", "sphere"] = "pcn"
+    encoder_scale: float = 1.0
+    sphere_bins: tuple[int, int] = (8, 16)
+    sphere_features: int = 128
+    net_arch: tuple[int, int] = (128, 64)
+    learning_rate: float = 7.8e-5
+    learning_rate_schedule: Literal["constant", "linear"] = "linear"
+    gamma: float = 0.9
+    batch_size: int = 256
+    buffer_size: int = 75_000
+    learning_starts: int = 1_000
+    train_freq: int = 1
+    gradient_steps: int = 1
+    n_steps: int = 1_024
+    n_epochs: int = 10
+    total_steps: int = 75_000
+    n_envs: int = 1
+    eval_freq: int = 5_000
+    eval_episodes: int | None = None
+    checkpoint_freq: int = 5_000
+    torch_threads: int = 1
+    device: Literal["cpu", "cuda", "auto"] = "cpu"
+
+    def __post_init__(self) -> None:
+        for name in ("sphere_features", "batch_size", "buffer_size", "train_freq",
+                     "gradient_steps", "n_steps", "n_epochs", "total_steps", "n_envs",
+                     "eval_freq", "checkpoint_freq", "torch_threads"):
+            if getattr(self, name) < 1:
+                raise ConfigError(f"agent.{name} must be >= 1, got {getattr(self, name)}")
+        if self.eval_episodes is not None and self.eval_episodes < 1:
+            raise ConfigError(f"agent.eval_episodes must be >= 1 (or null for all), got "
+                              f"{self.eval_episodes}")
+        if min(self.net_arch) < 1:
+            raise ConfigError(f"agent.net_arch must be positive widths, got {self.net_arch}")
+        if self.learning_starts < 0:
+            raise ConfigError(f"agent.learning_starts must be >= 0, got {self.learning_starts}")
+        if not self.learning_rate > 0 or not self.encoder_scale > 0:
+            raise ConfigError(f"agent.learning_rate and agent.encoder_scale must be > 0, got "
+                              f"{self.learning_rate}, {self.encoder_scale}")
+        if not 0.0 < self.gamma <= 1.0:
+            raise ConfigError(f"agent.gamma must lie in (0, 1], got {self.gamma}")
+        polar, azimuth = self.sphere_bins
+        if polar < 2 or azimuth < 2 or azimuth % 2:
+            raise ConfigError(f"agent.sphere_bins must be (polar >= 2, even azimuth >= 2), got "
+                              f"{self.sphere_bins}")
+
+
+@dataclasses.dataclass(frozen=True)
 class Config:
     """The whole vprobot configuration."""
 
@@ -260,6 +341,7 @@ class Config:
     sensor: SensorConfig = dataclasses.field(default_factory=SensorConfig)
     kinematics: KinematicsConfig = dataclasses.field(default_factory=KinematicsConfig)
     env: EnvConfig = dataclasses.field(default_factory=EnvConfig)
+    agent: AgentConfig = dataclasses.field(default_factory=AgentConfig)
 
 
 def _convert(value: Any, annotation: Any, key: str) -> Any:

@@ -89,7 +89,8 @@ class InspectEnv(gym.Env):
 
     ## Info
     coverage, delta_coverage, reachable, reason, carrier, joints, sensor_position,
-    sensor_quaternion, acquisitions, points_acquired, motor, episode_seed, travel_<cost>,
+    sensor_quaternion, acquisitions, reachable_share (of the views requested so far),
+    points_acquired, motor, episode_seed, travel_<cost>,
     travel_sum_<cost> (k_cum), approach_<cost> for cost in joint_time, joint_path, cartesian,
     paper, and reward_terms (after a step).
 
@@ -261,6 +262,7 @@ class InspectEnv(gym.Env):
             "sensor_position": sensor.position,
             "sensor_quaternion": sensor.quaternion,
             "acquisitions": len(episode.tracker.steps),
+            "reachable_share": sum(v.reachable for v in episode.views) / len(episode.views),
             "points_acquired": len(view.points_world),
             "motor": str(episode.scene.mesh.path),
             "episode_seed": self.spec_of_episode.seed,

@@ -1,0 +1,251 @@
+"""Agents: feature extractors against their published sizes, training smoke runs (SAC and PPO,
+Box and Dict observations), resume after kill -9, the model-free premise, profiles, curves."""
+
+from __future__ import annotations
+
+import json
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+from vprobot.agents.curves import plot_curves
+from vprobot.agents.extractors import (
+    EXTRACTORS,
+    InputTransform,
+    PCNExtractor,
+    PointNetExtractor,
+    SphereMapExtractor,
+)
+from vprobot.agents.training import buffer_memory, build_model, make_vec_env, profile_config, train
+from vprobot.config import ConfigError, replace
+from vprobot.paths import CONFIGS_DIR
+
+PROFILES = CONFIGS_DIR / "agents"
+TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
+        "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=100",
+        "agent.checkpoint_freq=100", "agent.eval_episodes=2", "agent.net_arch=[16,16]",
+        "agent.encoder_scale=0.05", "agent.n_steps=64", "agent.n_epochs=1"]
+BOX = gym.spaces.Box(-4, 4, (128, 3), np.float32)
+DICT = gym.spaces.Dict({"points": gym.spaces.Box(-4, 4, (128, 4), np.float32),
+                        "robot": gym.spaces.Box(-8, 8, (15,), np.float32)})
+
+
+def tiny_extractor(name: str, space: gym.Space):
+    return (SphereMapExtractor(space) if name == "sphere"
+            else EXTRACTORS[name](space, scale=0.05))
+
+
+@pytest.mark.parametrize("name", sorted(EXTRACTORS))
+@pytest.mark.parametrize("space", [BOX, DICT], ids=["box", "dict"])
+def test_extractors_give_features_and_gradients(name: str, space: gym.Space) -> None:
+    extractor = tiny_extractor(name, space)
+    batch = {key: torch.as_tensor(np.stack([sub.sample() for _ in range(5)]))
+             for key, sub in space.spaces.items()} if isinstance(space, gym.spaces.Dict) else (
+        torch.as_tensor(np.stack([space.sample() for _ in range(5)])))
+    features = extractor(batch)
+    assert features.shape == (5, extractor.features_dim)
+    assert torch.isfinite(features).all()
+    features.square().sum().backward()
+    for name_, parameter in extractor.named_parameters():
+        assert parameter.grad is not None, name_
+        # Behind the T-Net's zero-initialised output layer gradients start at zero.
+        behind_zero_layer = name_.startswith(("input_transform.features",
+                                              "input_transform.regression"))
+        assert behind_zero_layer or parameter.grad.abs().sum() > 0, name_
+
+
+def test_t_net_is_the_identity_at_initialisation() -> None:
+    transform = InputTransform(3, [8, 16, 32, 16, 8])
+    points = torch.randn(4, 50, 3)
+    np.testing.assert_allclose(transform(points).detach().numpy(), np.tile(np.eye(3), (4, 1, 1)))
+    extractor = PointNetExtractor(BOX, scale=0.1)
+    # The transform leaves the points as they are: encoding them equals encoding without it.
+    direct = extractor.encoder(points.transpose(1, 2)).max(dim=2).values
+    torch.testing.assert_close(extractor.encode(points), direct)
+
+
+def test_pcn_has_the_papers_layer_sizes() -> None:
+    """Shared MLP 3->128->256, then 512->512->1024 (weights and biases of 1x1 convolutions)."""
+    sizes = [(3, 128), (128, 256), (512, 512), (512, 1024)]
+    expected = sum(width_in * width_out + width_out for width_in, width_out in sizes)
+    extractor = PCNExtractor(gym.spaces.Box(-4, 4, (2048, 3), np.float32))
+    assert sum(parameter.numel() for parameter in extractor.parameters()) == expected
+    assert extractor.features_dim == 1024
+
+
+def test_sphere_map_bins_the_directions() -> None:
+    extractor = SphereMapExtractor(BOX, bins=(4, 8))
+    # Straight up, straight down, and along +x / -y at the equator; one padding point at 0.
+    points = torch.tensor([[[0.0, 0.0, 2.0], [0.0, 0.0, -1.0], [1.0, 0.01, 0.0],
+                            [0.01, -1.0, 0.0], [0.0, 0.0, 0.0]]])
+    maps = extractor.direction_map(points)[0]
+    assert maps[0].sum() == pytest.approx(4 / 5)  # the padding point counts nowhere
+    assert maps[0, 0].sum() == pytest.approx(1 / 5) and maps[0, 3].sum() == pytest.approx(1 / 5)
+    assert maps[1, 0].max() == pytest.approx(2.0)  # mean distance of the top bin
+    assert maps[0, 1:3].sum() == pytest.approx(2 / 5)
+    assert maps[0, 1:3, 0].sum() == pytest.approx(1 / 5)  # +x: the first azimuth bin
+    assert maps[0, 1:3, 6].sum() == pytest.approx(1 / 5)  # -y: three quarters round
+
+
+@pytest.mark.parametrize(("algorithm", "encoder", "robot_state"),
+                         [("sac", "sphere", False), ("sac", "pcn", True),
+                          ("ppo", "pointnet", False), ("ppo", "sphere", True)])
+def test_training_smoke_run(algorithm: str, encoder: str, robot_state: bool,
+                            tmp_path: Path) -> None:
+    config = profile_config(PROFILES / "cpu.yaml", [
+        *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
+        f"env.robot_state={str(robot_state).lower()}"], steps=200)
+    result = train(config, tmp_path / "run", seed=1, progress=False)
+    assert result["steps"] >= 200 and 0.0 < result["coverage"] <= 1.0
+    run = tmp_path / "run"
+    for name in ("config.yaml", "command.txt", "memory.json", "monitor.csv",
+                 "evaluations.csv", "best_model.zip", "final_model.zip", "curves.png",
+                 "checkpoint.json"):
+        assert (run / name).is_file(), name
+    assert list((run / "logs" / "session_0").glob("events.out.tfevents.*"))
+    assert (run / "logs" / "session_0" / "progress.csv").stat().st_size > 0
+    memory = json.loads((run / "memory.json").read_text())
+    assert memory == buffer_memory(config)
+    checkpoint = json.loads((run / "checkpoint.json").read_text())
+    assert (checkpoint["buffer"] is not None) == (algorithm == "sac")
+
+
+def _buffer_size(run: Path) -> int:
+    from stable_baselines3 import SAC
+
+    model = SAC.load(run / "final_model.zip")
+    model.load_replay_buffer(run / "checkpoints" / json.loads(
+        (run / "checkpoint.json").read_text())["buffer"])
+    return model.replay_buffer.size()
+
+
+def test_resume_after_kill_goes_on_from_the_checkpoint(tmp_path: Path) -> None:
+    steps = ["--steps", "300", "--set", *TINY, "agent.checkpoint_freq=100",
+             "agent.buffer_size=1000"]
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    from vprobot.cli import main
+
+    assert main(["train", str(PROFILES / "cpu.yaml"), *steps, "--out", str(whole)]) == 0
+    process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", "train",
+                                str(PROFILES / "cpu.yaml"), *steps, "--out", str(killed)],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 240
+    while process.poll() is None and time.monotonic() < deadline:
+        if (killed / "checkpoint.json").is_file():
+            process.send_signal(signal.SIGKILL)
+            break
+        time.sleep(0.05)
+    process.wait()
+    assert process.returncode == -signal.SIGKILL, "the run ended before it was killed"
+    assert json.loads((killed / "checkpoint.json").read_text())["steps"] == 100
+    assert main(["train", "--resume", "--out", str(killed)]) == 0
+    for run in (whole, killed):
+        assert json.loads((run / "checkpoint.json").read_text())["steps"] == 300
+        assert _buffer_size(run) == 300
+    # The monitor keeps the episodes up to the checkpoint, then the resumed ones, no others.
+    lines = (killed / "monitor.csv").read_text().splitlines()
+    assert lines[0].startswith("#") and lines[1].startswith("r,l,t,coverage")
+    assert all(not line.startswith(("#", "r,")) for line in lines[2:])
+    episodes = sum(int(line.split(",")[1]) for line in lines[2:])
+    assert episodes <= 300 and abs(episodes - 300) <= 11
+
+
+def test_agent_given_s_cov_sees_only_acquired_points(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every point the extractor is fed, in training and acting, is a point of an observation
+    the env emitted, and every such point is one of the acquired cloud (as posed, scaled):
+    nothing of the ground truth reaches the agent."""
+    config = profile_config(PROFILES / "cpu.yaml", [*TINY, "agent.learning_starts=20"],
+                            steps=60)
+    fed: list[np.ndarray] = []
+    original = SphereMapExtractor.encode
+
+    def recording(self: SphereMapExtractor, points: torch.Tensor) -> torch.Tensor:
+        fed.append(points.detach().numpy().reshape(-1, points.shape[-1]).copy())
+        return original(self, points)
+
+    monkeypatch.setattr(SphereMapExtractor, "encode", recording)
+    env = make_vec_env(config, 0, [0], None)
+    inspect = env.envs[0].unwrapped
+    emitted: set[tuple[float, ...]] = set()
+    gt_rows: set[tuple[float, ...]] = set()
+
+    def acquired_rows() -> set[tuple[float, ...]]:
+        episode = inspect.episode
+        cloud = episode.tracker.accumulated_cloud @ episode.object_pose.rotation.T
+        rows = np.clip(cloud / config.env.state_scale_m, -4, 4).astype(np.float32)
+        gt = episode.tracker.gt_points @ episode.object_pose.rotation.T
+        gt_rows.update(map(tuple, (gt / config.env.state_scale_m).astype(np.float32)))
+        return set(map(tuple, rows)) | {(0.0, 0.0, 0.0)}
+
+    def checked(observation: np.ndarray) -> np.ndarray:
+        rows = set(map(tuple, observation))
+        assert observation.shape[1] == 3 and rows <= acquired_rows()
+        emitted.update(rows)
+        return observation
+
+    reset, step = inspect.reset, inspect.step
+    monkeypatch.setattr(inspect, "reset", lambda **kwargs: (
+        lambda result: (checked(result[0]), result[1]))(reset(**kwargs)))
+    monkeypatch.setattr(inspect, "step", lambda action: (
+        lambda result: (checked(result[0]), *result[1:]))(step(action)))
+    model = build_model(config, env, seed=0, device="cpu")
+    model.learn(60)
+    model.predict(env.reset(), deterministic=True)
+    assert len(fed) > 40
+    for batch in fed:
+        rows = set(map(tuple, batch))
+        assert rows <= emitted
+        assert not rows & gt_rows
+
+
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [(["agent.colour=red"], "unknown key 'colour' in section 'agent'"),
+     (["agent.algorithm=dqn"], "agent.algorithm must be one of"),
+     (["robot.arm=ur5"], "unknown config section 'robot'"),
+     (["agent.encoder"], "section.key=value"),
+     (["agent.buffer_size=2000000", "env.state_points=2048"], "GiB"),
+     (["env.carrier=flying"], "env.carrier must be one of")],
+)
+def test_bad_profiles_are_clear_errors(overrides: list[str], message: str,
+                                       tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        config = profile_config(PROFILES / "cpu.yaml", overrides)
+        train(config, tmp_path / "run", progress=False)
+    assert not (tmp_path / "run" / "checkpoint.json").exists()
+
+
+def test_profiles_and_their_memory() -> None:
+    paper = profile_config(PROFILES / "paper.yaml")
+    assert (paper.agent.algorithm, paper.agent.encoder, paper.agent.net_arch,
+            paper.agent.learning_rate, paper.agent.learning_rate_schedule, paper.agent.gamma,
+            paper.agent.total_steps) == ("sac", "pcn", (128, 64), 7.8e-5, "linear", 0.9, 75_000)
+    assert (paper.env.state, paper.env.action, paper.env.reward, paper.env.state_points) == (
+        "s_cov", "A_3S2R_lim", "R2", 2048)
+    memory = buffer_memory(paper)
+    # Two 2048 x 3 float32 clouds, 5 action floats and 3 more per transition.
+    assert memory["bytes_per_transition"] == 2 * 2048 * 3 * 4 + 5 * 4 + 12
+    assert memory["total_bytes"] == memory["bytes_per_transition"] * 75_000 < 8 * 1024**3
+    cpu = profile_config(PROFILES / "cpu.yaml")
+    assert buffer_memory(cpu)["total_bytes"] < 1024**3
+    assert replace(cpu, "env", carrier="free").env.carrier == "free"
+
+
+def test_curves_of_two_runs(tmp_path: Path) -> None:
+    runs = []
+    for seed in (1, 2):
+        config = profile_config(PROFILES / "cpu.yaml", TINY, steps=120)
+        train(config, tmp_path / f"run{seed}", seed=seed, progress=False)
+        runs.append(tmp_path / f"run{seed}")
+    out = plot_curves(runs, tmp_path / "curves.png", window=3)
+    assert out.stat().st_size > 10_000
+    with pytest.raises(ValueError, match=r"no monitor\.csv"):
+        plot_curves([tmp_path], tmp_path / "x.png")

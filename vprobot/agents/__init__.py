@@ -1,0 +1,1 @@
+"""Reinforcement-learning agents: point-cloud feature extractors, profiles, training."""

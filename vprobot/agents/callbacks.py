@@ -1,0 +1,192 @@
+"""Training callbacks: evaluation on the shared test episodes with the best model kept, and
+resumable checkpoints (model, replay buffer, episode stream, log lengths)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, summarize
+from vprobot.env import InspectEnv
+from vprobot.episode import EpisodeSpec
+from vprobot.files import atomic_output
+
+EVALUATION_COLUMNS = ("step", "wall_s", "episodes", *SUMMARY_KEYS)
+CHECKPOINT_FILE = "checkpoint.json"
+
+
+def append_line(path: Path, text: str) -> None:
+    """Append whole lines in one write, flushed to disk (a kill leaves whole lines)."""
+    descriptor = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(descriptor, text.encode())
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)
+
+
+def count_lines(path: Path) -> int:
+    return path.read_bytes().count(b"\n") if path.is_file() else 0
+
+
+def truncate_lines(path: Path, lines: int) -> None:
+    """Keep the first `lines` lines of a log (what a checkpoint had seen)."""
+    if not path.is_file():
+        return
+    data = path.read_bytes()
+    end = 0
+    for _ in range(lines):
+        end = data.index(b"\n", end) + 1
+    with path.open("r+b") as stream:
+        stream.truncate(end)
+
+
+class SharedEpisodeEvaluation(BaseCallback):
+    """Every `frequency` env steps, score the deterministic policy on the shared episodes.
+
+    Appends a row to `evaluations.csv`, records `eval/*` in the logger (TensorBoard, CSV) and
+    keeps `best_model.zip`: the highest mean coverage, fewer acquisitions breaking ties.
+
+    Args:
+        env: The evaluation env (`evaluation.evaluation_env`).
+        specs: The episodes.
+        run_dir: The run directory.
+        frequency: Env steps between evaluations.
+        clock_start: `time.time()` the run's wall clock counts from (kept across resumes).
+    """
+
+    def __init__(self, env: InspectEnv, specs: list[EpisodeSpec], run_dir: Path,
+                 frequency: int, clock_start: float):
+        super().__init__()
+        self.eval_env = env
+        self.specs = specs
+        self.run_dir = run_dir
+        self.frequency = frequency
+        self.clock_start = clock_start
+        self.path = run_dir / "evaluations.csv"
+        self.best = best_so_far(self.path)
+        self.last = 0
+        self.latest: dict[str, float] = {}
+        self.latest_step = -1
+
+    def _init_callback(self) -> None:
+        self.last = self.num_timesteps - self.num_timesteps % self.frequency
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps - self.last >= self.frequency:
+            self.last = self.num_timesteps - self.num_timesteps % self.frequency
+            self.evaluate()
+        return True
+
+    def evaluate(self) -> dict[str, float]:
+        return self.evaluate_model(self.model)
+
+    def evaluate_model(self, model: BaseAlgorithm) -> dict[str, float]:
+        """Evaluate `model` (at its step count), log the row, keep it if it is the best."""
+        summary = summarize(evaluate_policy(model, self.eval_env, self.specs))
+        self.latest, self.latest_step = summary, model.num_timesteps
+        row = {"step": model.num_timesteps, "wall_s": time.time() - self.clock_start,
+               "episodes": len(self.specs), **summary}
+        stream = io.StringIO()
+        writer = csv.DictWriter(stream, fieldnames=list(EVALUATION_COLUMNS), lineterminator="\n")
+        if not self.path.is_file():
+            writer.writeheader()
+        writer.writerow(row)
+        append_line(self.path, stream.getvalue())
+        for key, value in summary.items():
+            model.logger.record(f"eval/{key}", value)
+        score = (summary["coverage"], -summary["acquisitions"])
+        if self.best is None or score > self.best:
+            self.best = score
+            with atomic_output(self.run_dir / "best_model.zip") as temporary:
+                model.save(temporary)
+        return summary
+
+
+def best_so_far(path: Path) -> tuple[float, float] | None:
+    """The best (coverage, -acquisitions) in an evaluations file, None when there is none."""
+    if not path.is_file():
+        return None
+    rows = list(csv.DictReader(path.read_text().splitlines()))
+    if not rows:
+        return None
+    return max((float(row["coverage"]), -float(row["acquisitions"])) for row in rows)
+
+
+class ResumableCheckpoint(BaseCallback):
+    """Every `frequency` env steps, save what a resume needs, each file atomically, then
+    `checkpoint.json` naming them (written last, so it only ever names complete files).
+
+    Saved: the model (weights, optimiser, step counter, learning-rate schedule), the replay
+    buffer (off-policy algorithms), each env's episode count (the episode stream goes on from
+    there) and the line counts of the logs (a resume cuts what was written after the
+    checkpoint). The previous checkpoint's files are removed once the new one is complete.
+
+    Args:
+        run_dir: The run directory.
+        frequency: Env steps between checkpoints.
+        logs: Log files whose length to record.
+    """
+
+    def __init__(self, run_dir: Path, frequency: int, logs: list[Path]):
+        super().__init__()
+        self.run_dir = run_dir
+        self.folder = run_dir / "checkpoints"
+        self.frequency = frequency
+        self.logs = logs
+        self.last = 0
+
+    def _init_callback(self) -> None:
+        self.folder.mkdir(exist_ok=True)
+        self.last = self.num_timesteps - self.num_timesteps % self.frequency
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        # At the end of a rollout the buffer holds every step counted so far (during a step
+        # the callback runs before the step's transition is stored).
+        if self.num_timesteps - self.last >= self.frequency:
+            self.last = self.num_timesteps - self.num_timesteps % self.frequency
+            self.save()
+
+    def save(self) -> dict[str, Any]:
+        steps = self.num_timesteps
+        previous = read_checkpoint(self.run_dir)
+        model_path = self.folder / f"model_{steps}.zip"
+        with atomic_output(model_path) as temporary:
+            self.model.save(temporary)
+        state: dict[str, Any] = {
+            "steps": steps,
+            "model": model_path.name,
+            "episodes_started": self.training_env.get_attr("episodes_started"),
+            "log_lines": {log.name: count_lines(log) for log in self.logs},
+            "buffer": None,
+        }
+        if isinstance(self.model, OffPolicyAlgorithm):
+            buffer_path = self.folder / f"replay_buffer_{steps}.pkl"
+            with atomic_output(buffer_path) as temporary:
+                self.model.save_replay_buffer(temporary)
+            state["buffer"] = buffer_path.name
+        with atomic_output(self.run_dir / CHECKPOINT_FILE) as temporary:
+            temporary.write_text(json.dumps(state, indent=1) + "\n")
+        if previous is not None and previous["steps"] != steps:
+            for name in (previous["model"], previous["buffer"]):
+                if name is not None:
+                    (self.folder / name).unlink(missing_ok=True)
+        return state
+
+
+def read_checkpoint(run_dir: Path) -> dict[str, Any] | None:
+    """The latest complete checkpoint of a run, None when there is none."""
+    path = run_dir / CHECKPOINT_FILE
+    return json.loads(path.read_text()) if path.is_file() else None

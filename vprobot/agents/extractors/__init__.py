@@ -1,0 +1,29 @@
+"""Point-cloud feature extractors for stable-baselines3 (`BaseFeaturesExtractor`).
+
+| name | encoder |
+|---|---|
+| `pcn` | the paper's PCN: shared MLP 3->128->256, max-pool, concatenate, 512->512->1024, max-pool |
+| `pointnet` | PointNet with its input T-Net (identity at initialisation) |
+| `sphere` | the CPU-budget encoder: a direction map of the cloud and a small CNN |
+"""
+
+from vprobot.agents.extractors.base import PointCloudExtractor, split_space
+from vprobot.agents.extractors.pcn import PCNExtractor
+from vprobot.agents.extractors.pointnet import InputTransform, PointNetExtractor
+from vprobot.agents.extractors.sphere_map import SphereMapExtractor
+
+EXTRACTORS: dict[str, type[PointCloudExtractor]] = {
+    "pcn": PCNExtractor,
+    "pointnet": PointNetExtractor,
+    "sphere": SphereMapExtractor,
+}
+
+__all__ = [
+    "EXTRACTORS",
+    "InputTransform",
+    "PCNExtractor",
+    "PointCloudExtractor",
+    "PointNetExtractor",
+    "SphereMapExtractor",
+    "split_space",
+]

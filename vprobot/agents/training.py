@@ -1,0 +1,337 @@
+"""`vprobot train`: train a SAC or PPO agent headless, resumably, into a run directory.
+
+A run directory holds everything about one run:
+
+| file | content |
+|---|---|
+| `config.yaml` | the resolved configuration (profile plus overrides) |
+| `command.txt` | the command line, the seed and the vprobot commit |
+| `memory.json` | the replay (or rollout) buffer in bytes: per transition and in total |
+| `monitor.csv` | a row per training episode: reward, length, coverage, acquisitions, ... |
+| `evaluations.csv` | the periodic evaluations on the shared test episodes |
+| `logs/` | stable-baselines3's progress CSV and TensorBoard events, one folder per session |
+| `checkpoints/`, `checkpoint.json` | the latest checkpoint (model, replay buffer, episode stream) |
+| `best_model.zip`, `final_model.zip` | the best evaluated and the last model |
+| `curves.png` | the training curves (`vprobot curves`) |
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+from stable_baselines3 import PPO, SAC
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import CallbackList
+from stable_baselines3.common.logger import configure
+from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
+
+from vprobot.agents.callbacks import (
+    ResumableCheckpoint,
+    SharedEpisodeEvaluation,
+    read_checkpoint,
+    truncate_lines,
+)
+from vprobot.agents.evaluation import evaluation_env
+from vprobot.agents.extractors import EXTRACTORS
+from vprobot.agents.stream import EpisodeStream
+from vprobot.config import Config, ConfigError, from_mapping
+from vprobot.env import InspectEnv
+from vprobot.env.observations import observation_space
+from vprobot.episode import BUNDLED_TEST_EPISODES, read_episode_list
+from vprobot.files import atomic_output
+from vprobot.kinematics import TRAVEL_COSTS
+
+MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
+                *(f"travel_sum_{name}" for name in TRAVEL_COSTS))
+"""Info entries the per-episode monitor records at each episode's end."""
+MEMORY_LIMIT_BYTES = 8 * 1024**3
+"""No profile may need more than this for its buffer (issue: 8 GB)."""
+
+
+class LinearSchedule:
+    """Learning rate decaying linearly from `initial` to 0 over the run (paper Table 4)."""
+
+    def __init__(self, initial: float):
+        self.initial = initial
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.initial * progress_remaining
+
+
+def _space_bytes(space: Any) -> int:
+    if hasattr(space, "spaces"):
+        return sum(_space_bytes(item) for item in space.spaces.values())
+    return int(np.prod(space.shape)) * np.dtype(space.dtype).itemsize
+
+
+def buffer_memory(config: Config) -> dict[str, Any]:
+    """The agent's buffer in bytes, from the observation and action spaces.
+
+    SAC's replay buffer stores an observation and the next one per transition, the action, the
+    reward and two flags (float32 each); PPO's rollout buffer one observation, the action and
+    five float32 (reward, return, advantage, value, log-probability) per env step.
+    """
+    agent = config.agent
+    observation = _space_bytes(observation_space(config.env))
+    action = 4 * {"A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4, "A_3S2R": 5,
+                  "A_3S2R_lim": 5, "A_3C0R": 3, "A_3C2R": 5}[config.env.action]
+    if agent.algorithm == "sac":
+        per_transition = 2 * observation + action + 3 * 4
+        transitions = agent.buffer_size
+    else:
+        per_transition = observation + action + 5 * 4
+        transitions = agent.n_steps * agent.n_envs
+    return {"algorithm": agent.algorithm, "observation_bytes": observation,
+            "bytes_per_transition": per_transition, "transitions": transitions,
+            "total_bytes": per_transition * transitions}
+
+
+def check_memory(config: Config) -> dict[str, Any]:
+    """The buffer size, refused above `MEMORY_LIMIT_BYTES`.
+
+    Raises:
+        ConfigError: If the buffer would need more.
+    """
+    memory = buffer_memory(config)
+    if memory["total_bytes"] > MEMORY_LIMIT_BYTES:
+        raise ConfigError(f"the {memory['algorithm']} buffer would need "
+                          f"{memory['total_bytes'] / 1024**3:.1f} GiB (> 8 GiB): lower "
+                          f"agent.buffer_size or env.state_points")
+    return memory
+
+
+def resolve_device(device: str) -> str:
+    """`cpu`, `cuda` (checked to exist) or `auto` (cuda when present).
+
+    Raises:
+        ValueError: For cuda on a machine without it.
+    """
+    if device == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    if device == "cuda" and not torch.cuda.is_available():
+        raise ValueError("--device cuda: no CUDA device on this machine; use cpu or auto")
+    return device
+
+
+def env_factory(config: Config, seed: int, rank: int, start: int,
+                monitor: Path | None) -> Callable[[], Monitor]:
+    """A function making one training env: the inspect env, its episode stream, a monitor."""
+
+    def make() -> Monitor:
+        stream = EpisodeStream(InspectEnv(config), seed, rank, start)
+        # A new file gets the monitor's header; a resumed run appends to its file.
+        fresh = monitor is None or not monitor.exists()
+        return Monitor(stream, filename=None if monitor is None else str(monitor),
+                       info_keywords=MONITOR_KEYS, override_existing=fresh)
+
+    return make
+
+
+def make_vec_env(config: Config, seed: int, starts: Sequence[int],
+                 monitor_dir: Path | None) -> VecEnv:
+    """The run's envs: one in-process, several in subprocesses (one monitor file each)."""
+    factories = [env_factory(config, seed, rank, start, None if monitor_dir is None else
+                             monitor_dir / ("monitor.csv" if rank == 0
+                                            else f"monitor_{rank}.csv"))
+                 for rank, start in enumerate(starts)]
+    return DummyVecEnv(factories) if len(factories) == 1 else SubprocVecEnv(factories)
+
+
+def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgorithm:
+    """A fresh SAC or PPO model with the profile's encoder and regression MLP."""
+    agent = config.agent
+    extractor = EXTRACTORS[agent.encoder]
+    extractor_kwargs: dict[str, Any] = (
+        {"bins": agent.sphere_bins, "features": agent.sphere_features}
+        if agent.encoder == "sphere" else {"scale": agent.encoder_scale})
+    policy = "MultiInputPolicy" if config.env.robot_state else "MlpPolicy"
+    policy_kwargs = {"features_extractor_class": extractor,
+                     "features_extractor_kwargs": extractor_kwargs,
+                     "net_arch": list(agent.net_arch)}
+    rate: Any = (LinearSchedule(agent.learning_rate) if agent.learning_rate_schedule == "linear"
+                 else agent.learning_rate)
+    if agent.algorithm == "sac":
+        return SAC(policy, env, learning_rate=rate, gamma=agent.gamma,
+                   batch_size=agent.batch_size, buffer_size=agent.buffer_size,
+                   learning_starts=agent.learning_starts, train_freq=agent.train_freq,
+                   gradient_steps=agent.gradient_steps, policy_kwargs=policy_kwargs,
+                   seed=seed, device=device)
+    return PPO(policy, env, learning_rate=rate, gamma=agent.gamma, n_steps=agent.n_steps,
+               batch_size=agent.batch_size, n_epochs=agent.n_epochs,
+               policy_kwargs=policy_kwargs, seed=seed, device=device)
+
+
+def config_document(config: Config) -> dict[str, Any]:
+    """The config as plain YAML data (tuples as lists)."""
+    return json.loads(json.dumps(dataclasses.asdict(config)))
+
+
+def load_run_config(run_dir: Path) -> Config:
+    """The resolved config a run was started with.
+
+    Raises:
+        ValueError: If the run directory has none.
+    """
+    path = run_dir / "config.yaml"
+    if not path.is_file():
+        raise ValueError(f"{run_dir} is not a training run (no config.yaml)")
+    return from_mapping(Config, yaml.safe_load(path.read_text()))
+
+
+def _commit() -> str:
+    try:
+        return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                              cwd=Path(__file__).parent, timeout=10).stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _write_text(path: Path, text: str) -> None:
+    with atomic_output(path) as temporary:
+        temporary.write_text(text)
+
+
+def start_run(config: Config, run_dir: Path, seed: int, argv: Sequence[str]) -> None:
+    """Create a run directory with its config, command line and memory figures.
+
+    Raises:
+        ValueError: If the directory already holds a run (resume it, or choose another).
+    """
+    if (run_dir / "config.yaml").exists():
+        raise ValueError(f"{run_dir} already holds a run; add --resume to go on with it, or "
+                         f"choose another --out")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    _write_text(run_dir / "config.yaml", yaml.safe_dump(config_document(config),
+                                                        sort_keys=False))
+    _write_text(run_dir / "command.txt", f"{' '.join(argv)}\nseed: {seed}\n"
+                                        f"commit: {_commit()}\nstarted: {time.ctime()}\n")
+    _write_text(run_dir / "memory.json", json.dumps(check_memory(config), indent=1) + "\n")
+    _write_text(run_dir / "run.json", json.dumps({"seed": seed, "started": time.time()}) + "\n")
+
+
+def train(config: Config, run_dir: str | Path, seed: int = 0, resume: bool = False,
+          device: str | None = None, progress: bool = True,
+          argv: Sequence[str] = ()) -> dict[str, Any]:
+    """Train (or resume) one run.
+
+    Args:
+        config: The resolved configuration (ignored on resume: the run's own is used).
+        run_dir: The run directory.
+        seed: Seed of the model and of the episode stream (the run's own on resume).
+        resume: Go on from the run's latest checkpoint.
+        device: Overrides `agent.device`.
+        progress: Show a progress bar and print the memory figures.
+        argv: The command line, recorded in the run directory.
+
+    Returns:
+        The final evaluation summary on the shared test episodes, plus `steps` and `wall_s`.
+
+    Raises:
+        ValueError, ConfigError: For a bad config, a run directory in the wrong state, or a
+            device that is not there.
+    """
+    run_dir = Path(run_dir)
+    if resume:
+        config = load_run_config(run_dir)
+        run = json.loads((run_dir / "run.json").read_text())
+        seed, clock_start = run["seed"], run["started"]
+    else:
+        start_run(config, run_dir, seed, argv)
+        clock_start = time.time()
+    agent = config.agent
+    device = resolve_device(device or agent.device)
+    torch.set_num_threads(agent.torch_threads)
+    memory = check_memory(config)
+    if progress:
+        print(f"{memory['algorithm']} buffer: {memory['bytes_per_transition']:,} bytes per "
+              f"transition x {memory['transitions']:,} = {memory['total_bytes'] / 1024**2:,.0f} "
+              f"MiB")
+    logs = [run_dir / "monitor.csv", run_dir / "evaluations.csv"]
+    checkpoint = read_checkpoint(run_dir) if resume else None
+    starts = [0] * agent.n_envs
+    if checkpoint is not None:
+        for log in logs:
+            truncate_lines(log, checkpoint["log_lines"].get(log.name, 0))
+        starts = checkpoint["episodes_started"]
+    elif resume:
+        for log in logs:
+            log.unlink(missing_ok=True)
+    env = make_vec_env(config, seed, starts, run_dir)
+    if checkpoint is not None:
+        algorithm = SAC if agent.algorithm == "sac" else PPO
+        model = algorithm.load(run_dir / "checkpoints" / checkpoint["model"], env=env,
+                               device=device)
+        if checkpoint["buffer"] is not None:
+            model.load_replay_buffer(run_dir / "checkpoints" / checkpoint["buffer"])
+    else:
+        model = build_model(config, env, seed, device)
+    sessions = sorted((run_dir / "logs").glob("session_*")) if (run_dir / "logs").is_dir() else []
+    model.set_logger(configure(str(run_dir / "logs" / f"session_{len(sessions)}"),
+                               ["csv", "tensorboard"]))
+    specs = read_episode_list(BUNDLED_TEST_EPISODES)[: agent.eval_episodes]
+    evaluation = SharedEpisodeEvaluation(evaluation_env(config), specs, run_dir,
+                                         agent.eval_freq, clock_start)
+    checkpoints = ResumableCheckpoint(run_dir, agent.checkpoint_freq, logs)
+    remaining = agent.total_steps - model.num_timesteps
+    if remaining > 0:
+        model.learn(remaining, callback=CallbackList([evaluation, checkpoints]),
+                    reset_num_timesteps=checkpoint is None, progress_bar=progress)
+        checkpoints.save()
+    env.close()
+    with atomic_output(run_dir / "final_model.zip") as temporary:
+        model.save(temporary)
+    summary = evaluation.latest if evaluation.latest_step == model.num_timesteps else (
+        evaluation.evaluate_model(model))
+    from vprobot.agents.curves import plot_curves
+
+    plot_curves([run_dir], run_dir / "curves.png")
+    return {**summary, "steps": model.num_timesteps, "wall_s": time.time() - clock_start}
+
+
+def parse_overrides(pairs: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """`section.key=value` pairs (values in YAML) grouped by section.
+
+    Raises:
+        ConfigError: For a pair without `section.key=`.
+    """
+    sections: dict[str, dict[str, Any]] = {}
+    for pair in pairs:
+        key, separator, text = pair.partition("=")
+        section, dot, name = key.partition(".")
+        if not separator or not dot or not section or not name:
+            raise ConfigError(f"override {pair!r} must look like section.key=value, e.g. "
+                              f"env.state=s_bin or agent.algorithm=ppo")
+        sections.setdefault(section, {})[name] = yaml.safe_load(text)
+    return sections
+
+
+def profile_config(profile: str | Path, overrides: Sequence[str] = (),
+                   steps: int | None = None) -> Config:
+    """A profile YAML (any config sections, `agent` among them) with `section.key=value`
+    overrides and `--steps` applied, validated.
+
+    Raises:
+        FileNotFoundError, ConfigError: For a missing profile or a bad key or value.
+    """
+    from vprobot.config import load_config, replace
+
+    config = load_config(profile)
+    for section, changes in parse_overrides(overrides).items():
+        if section not in {field.name for field in dataclasses.fields(Config)}:
+            raise ConfigError(f"unknown config section {section!r} in an override; allowed: "
+                              f"{', '.join(field.name for field in dataclasses.fields(Config))}")
+        config = replace(config, section, **changes)
+    if steps is not None:
+        config = replace(config, "agent", total_steps=steps)
+    return config
+

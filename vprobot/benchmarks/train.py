@@ -1,0 +1,92 @@
+"""Training benchmark: env and training throughput of the CPU profile, the cost of one gradient
+step of the CPU and of the paper profile, and both buffers in bytes."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from vprobot.agents.training import buffer_memory, build_model, make_vec_env, profile_config
+from vprobot.config import Config, replace
+from vprobot.env import InspectEnv
+from vprobot.env.observations import observation_space
+from vprobot.paths import CONFIGS_DIR
+
+PROFILES = CONFIGS_DIR / "agents"
+
+
+class SpacesOnly(gym.Env):
+    """An env with a profile's spaces and random samples: fills a buffer in no time."""
+
+    def __init__(self, config: Config):
+        self.observation_space = observation_space(config.env)
+        self.action_space = InspectEnv(config).action_space
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple:
+        super().reset(seed=seed)
+        return self.observation_space.sample(), {}
+
+    def step(self, action: np.ndarray) -> tuple:
+        return self.observation_space.sample(), 0.0, False, False, {}
+
+
+def update_ms(config: Config, steps: int) -> float:
+    """Median time of one gradient step at the profile's batch size (ms)."""
+    agent = config.agent
+    config = replace(config, "agent", buffer_size=agent.batch_size + 8, learning_starts=0)
+    model = build_model(config, SpacesOnly(config), seed=0, device="cpu")
+    model.learn(agent.batch_size + 4)
+    times = []
+    for _ in range(steps):
+        start = time.perf_counter()
+        model.train(gradient_steps=1, batch_size=agent.batch_size)
+        times.append((time.perf_counter() - start) * 1e3)
+    return float(np.median(times))
+
+
+def run_train_benchmark(config: Config, steps: int = 300, paper_updates: int = 1,
+                        progress: bool = True) -> dict[str, Any]:
+    """Measure the CPU profile (`configs/agents/cpu.yaml`) and the paper profile.
+
+    `config` supplies the cell, sensor and kinematics; the profiles their env and agent
+    sections. Torch runs on the profile's threads (one).
+    """
+    cpu, paper = (profile_config(PROFILES / name) for name in ("cpu.yaml", "paper.yaml"))
+    cpu = dataclasses.replace(config, env=cpu.env, agent=cpu.agent)
+    paper = dataclasses.replace(config, env=paper.env, agent=paper.agent)
+    torch.set_num_threads(cpu.agent.torch_threads)
+    env = InspectEnv(cpu)
+    rng = np.random.default_rng(0)
+    env.reset(seed=0)
+    start = time.perf_counter()
+    for _ in tqdm(range(steps), desc="env steps", disable=not progress, leave=False):
+        _, _, terminated, truncated, _ = env.step(rng.uniform(-1, 1, env.action_space.shape))
+        if terminated or truncated:
+            env.reset()
+    env_rate = steps / (time.perf_counter() - start)
+    vec = make_vec_env(replace(cpu, "agent", learning_starts=0), 0, [0], None)
+    model = build_model(replace(cpu, "agent", learning_starts=0), vec, seed=0, device="cpu")
+    model.learn(cpu.agent.batch_size)  # fill a batch before timing
+    start = time.perf_counter()
+    model.learn(steps, reset_num_timesteps=False, progress_bar=progress)
+    train_rate = steps / (time.perf_counter() - start)
+    vec.close()
+    return {
+        "env_steps_per_s": env_rate,
+        "train_steps_per_s": train_rate,
+        "update_ms_cpu": update_ms(cpu, 20),
+        "update_ms_paper": update_ms(paper, paper_updates),
+        "buffer_bytes_cpu": buffer_memory(cpu)["total_bytes"],
+        "buffer_bytes_per_transition_cpu": buffer_memory(cpu)["bytes_per_transition"],
+        "buffer_bytes_paper": buffer_memory(paper)["total_bytes"],
+        "buffer_bytes_per_transition_paper": buffer_memory(paper)["bytes_per_transition"],
+        "steps": steps,
+        "torch_threads": cpu.agent.torch_threads,
+    }
+
