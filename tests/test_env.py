@@ -298,3 +298,31 @@ def test_render_returns_a_frame() -> None:
     frame = env.render()
     assert frame.shape == (480, 640, 3) and frame.std() > 10
     env.close()
+
+
+def test_stop_action_ends_the_episode_with_the_goal_as_its_signal() -> None:
+    env = make(action="A_2S0R", stop_action=True, coverage_goal=0.6)
+    assert env.action_space.shape == (3,)
+    env.reset(seed=1)
+    go = [np.append(action, -1.0).astype(np.float32) for action in AROUND]
+    # Not stopped at the goal: the agent has to say so.
+    for action in go:
+        _, reward, terminated, truncated, info = env.step(action)
+        if info["coverage"] >= 0.6:
+            break
+    assert info["coverage"] >= 0.6 and not terminated and not truncated
+    _, reward, terminated, truncated, info = env.step(np.array([0, 0, 1.0], dtype=np.float32))
+    assert (reward, terminated, truncated, info["stopped"]) == (1.0, True, False, True)
+    assert info["reward_terms"]["stop"] == 1.0 and info["points_acquired"] == 0
+    env.reset(seed=1)
+    _, reward, terminated, _, _ = env.step(np.array([0, 0, 1.0], dtype=np.float32))
+    assert (reward, terminated) == (-1.0, True)  # stopped short of the goal
+    env.reset(seed=1)
+    away = np.array([0.0, -1.0, -1.0], dtype=np.float32)  # looking from straight above
+    for _ in range(9):
+        env.step(away)
+    _, reward, _, truncated, info = env.step(away)
+    assert truncated and info["reward_terms"]["stop"] == -1.0  # never stopped
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match="plus a stop component"):
+        env.step(np.zeros(2, dtype=np.float32))

@@ -59,6 +59,20 @@ def _number(kind: type, low: float, strict: bool, what: str) -> Callable[[str], 
     return parse
 
 
+def _planner_name(text: str) -> str:
+    """An argparse type: a planner name, `agent` or `agent:PATH` (no view count suffix)."""
+    from vprobot.planners.runner import parse_planner
+
+    try:
+        name, views = parse_planner(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    if views is not None:
+        raise argparse.ArgumentTypeError(f"give the view count with --views, not in the "
+                                         f"name: --planner bscp --views {views}")
+    return name
+
+
 NON_NEGATIVE_INT = _number(int, 0, False, "an integer >= 0")
 POSITIVE_INT = _number(int, 0, True, "an integer >= 1")
 POSITIVE_FLOAT = _number(float, 0.0, True, "a number > 0")
@@ -330,7 +344,9 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--mesh", help="mesh file (STL/OBJ/PLY); default: the bundled motor")
         sub.add_argument("--scale", type=POSITIVE_FLOAT,
                          help="file units to metres, e.g. 0.001 for millimetres (default 1)")
-        sub.add_argument("--planner", choices=PLANNER_NAMES, help="default: bscp")
+        sub.add_argument("--planner", type=_planner_name,
+                         help=f"{', '.join(PLANNER_NAMES)} (the bundled trained agent), or "
+                         f"agent:PATH (a training run or model .zip); default: bscp")
         sub.add_argument("--views", type=POSITIVE_INT,
                          help="fixed number of views (bscp); default: until the coverage goal")
         sub.add_argument("--seed", type=NON_NEGATIVE_INT,
@@ -360,7 +376,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(evaluation)
     evaluation.add_argument("--planners", nargs="+", default=[
         "random1", "random2", "hrec", "bscp", "bscp4", "bscp5", "oracle"],
-        help="planner names, or bscp<N> for B_SCP with N views")
+        help="planner names, bscp<N> for B_SCP with N views, agent (the bundled agent) or "
+        "agent:PATH (a training run or model .zip)")
     evaluation.add_argument("--episodes", help="episode list (JSON, as written into --out); "
                             "default: the bundled list over the test motors")
     evaluation.add_argument("--motors", nargs="+",

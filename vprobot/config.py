@@ -182,6 +182,10 @@ class EnvConfig:
         coverage_goal: Episodes terminate at this coverage.
         max_acquisitions: Episodes are truncated after this many acquisitions (initial excluded).
         goal_only_step_cap: Safety cap of the steps of R13/R14 episodes (which end at the goal).
+        stop_action: The agent also decides when to stop: one more action component, > 0
+            stops. The episode then does not end at the goal; stopping pays +stop_reward at or
+            above the coverage goal and -stop_reward below it, as does never stopping.
+        stop_reward: Size of the stop decision's reward.
         object_yaw_range_deg: Object rotation about the vertical, uniform in +-this.
         object_tilt_range_deg: Tilt about x or y, uniform in +-this.
         motors: Bundled split to draw motors from (`train`, `test`) or `mesh` for one file.
@@ -212,6 +216,8 @@ class EnvConfig:
     coverage_goal: float = 0.90
     max_acquisitions: int = 10
     goal_only_step_cap: int = 50
+    stop_action: bool = False
+    stop_reward: float = 1.0
     object_yaw_range_deg: float = 180.0
     object_tilt_range_deg: float = 25.0
     motors: Literal["train", "test", "mesh"] = "train"

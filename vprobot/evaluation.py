@@ -39,14 +39,14 @@ from vprobot.episode import (
 from vprobot.files import atomic_output
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
-from vprobot.planners.runner import EpisodeResult, parse_planner, run
+from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
 
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
            "requested", "success_pct", "joint_time_s", "joint_path_rad", "cartesian_m",
-           "paper_m", "reachable_pct", "plan_s", "episode_s")
+           "paper_m", "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s")
 EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
                    "requested", "success", "joint_time_s", "joint_path_rad", "cartesian_m",
-                   "paper_m", "reachable_pct", "plan_s", "episode_s")
+                   "paper_m", "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s")
 PAPER_TABLE_9 = (
     ("agent 8 (A_2S0R)", 92.20, 5.26, 0.0521),
     ("agent 9 (A_3S0R)", 92.16, 4.63, 0.0538),
@@ -82,6 +82,7 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "paper_m": travel.paper,
         "reachable_pct": 100.0 * result.reachability if robot else None,
         "plan_s": result.plan_seconds,
+        "plan_ms_per_view": 1e3 * result.plan_seconds / max(result.requested, 1),
         "episode_s": result.episode_seconds,
     }
 
@@ -111,7 +112,7 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "success_pct": 100.0 * statistics.fmean(row["success"] for row in group),
             **{key: _mean(group, key) for key in ("joint_time_s", "joint_path_rad",
                                                   "cartesian_m", "paper_m", "reachable_pct",
-                                                  "plan_s", "episode_s")},
+                                                  "plan_s", "plan_ms_per_view", "episode_s")},
         })
     return table
 
@@ -130,7 +131,7 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     seeds = sorted({spec.seed for spec in specs})
     header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | success % "
               "| joint_time s | joint_path rad | cartesian m | paper m | reachable % "
-              "| plan s |")
+              "| plan s | ms per view |")
     lines = [
         "# Planner evaluation",
         "",
@@ -141,7 +142,8 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         f"the initial view for planners that stop at the goal. Carrier `robot`: every view must "
         f"be reached by the robot; `free`: free-flying sensor as in the paper. Means per "
         f"episode; travel is summed over the moves between an episode's views (the approach "
-        f"to the first view is not counted); `plan s` is the time spent planning.",
+        f"to the first view is not counted); `plan s` is the time spent planning an episode, "
+        f"`ms per view` that time per requested view (for an agent: its policy's compute).",
         "",
         header,
         "|" + "---|" * (header.count("|") - 1),
@@ -153,7 +155,7 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
                  _cell(row["success_pct"], 0), _cell(row["joint_time_s"], 2),
                  _cell(row["joint_path_rad"], 2), _cell(row["cartesian_m"], 2),
                  _cell(row["paper_m"], 2), _cell(row["reachable_pct"], 1),
-                 _cell(row["plan_s"], 3)]
+                 _cell(row["plan_s"], 3), _cell(row["plan_ms_per_view"], 1)]
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "Paper, Table 9 (free-flying sensor, 100 synthetic motors):", "",
               "| agent | coverage % | acquisitions | calculation time s |", "|---|---|---|---|"]
@@ -234,10 +236,14 @@ def _append_row(path: Path, row: dict[str, Any]) -> None:
         os.close(descriptor)
 
 
-def _check_inputs(config: Config, specs: Sequence[EpisodeSpec]) -> None:
-    """Every motor of the list loads, before the first episode runs."""
+def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
+                  planners: Sequence[tuple[str, str, int | None]]) -> None:
+    """Every motor of the list and every planner (an agent's files) loads, before the first
+    episode runs."""
     for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
         load_mesh(*motor)
+    for _, name, views in planners:
+        make_planner(name, config, views)
 
 
 def _start_episode_list(path: Path, specs: Sequence[EpisodeSpec]) -> None:
@@ -315,7 +321,7 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         raise ValueError(f"unknown carrier {unknown[0]!r}; allowed: {', '.join(CARRIERS)}")
     if not parsed or not specs or not carriers:
         raise ValueError("evaluate needs at least one planner, episode and carrier")
-    _check_inputs(config, specs)
+    _check_inputs(config, specs, parsed)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     _start_episode_list(out / "episodes.json", specs)

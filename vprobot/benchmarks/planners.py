@@ -2,7 +2,8 @@
 
 Per test motor and seed (one episode spec each), it runs B_SCP until the coverage goal with the
 robot in the loop (planning time includes the reachability of all 900 candidates), B_SCP,4 and
-B_SCP,5 with the free-flying sensor, and H_rec with both carriers.
+B_SCP,5 with the free-flying sensor, H_rec with both carriers, and the bundled agent with the
+robot (coverage, acquisitions, reachable share of its requests, policy time per view).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ RUNS: tuple[tuple[str, str, int | None, CarrierName], ...] = (
     ("bscp5_free", "bscp", 5, "free"),
     ("hrec_free", "hrec", None, "free"),
     ("hrec_robot", "hrec", None, "robot"),
+    ("agent_robot", "agent", None, "robot"),
 )
 """(key, planner, fixed views, carrier) of every benchmarked run."""
 
@@ -47,7 +49,9 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         `bscp_candidates_reachable_pct`, `bscp_robot_coverage_pct`, `bscp_robot_views`,
         `bscp_free_coverage_pct`, `bscp4_free_coverage_pct`, `bscp5_free_coverage_pct`,
         `hrec_free_coverage_pct`, `hrec_robot_coverage_pct`, `hrec_robot_reachable_pct`,
-        `episodes` (per run) and the paper's figures (`paper_*`).
+        `agent_robot_coverage_pct`, `agent_robot_acquisitions`, `agent_reachable_share`,
+        `agent_ms_per_view` (median), `episodes` (per run) and the paper's figures
+        (`paper_*`).
 
     Raises:
         ValueError: If there are no motors or seeds.
@@ -90,6 +94,15 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         "hrec_robot_coverage_pct": coverage_pct("hrec_robot"),
         "hrec_robot_reachable_pct": 100.0 * statistics.fmean(
             result.reachability for result in results["hrec_robot"]),
+        "agent_robot_coverage_pct": coverage_pct("agent_robot"),
+        "agent_robot_acquisitions": statistics.fmean(
+            result.acquisitions for result in results["agent_robot"]),
+        "agent_reachable_share": statistics.fmean(
+            result.reachability for result in results["agent_robot"]),
+        # The agent chooses every view but the initial one.
+        "agent_ms_per_view": 1e3 * statistics.median(
+            result.plan_seconds / max(result.requested - 1, 1)
+            for result in results["agent_robot"]),
         "episodes": len(bscp),
         "paper_bscp4_coverage_pct": paper["B_SCP,4"][0],
         "paper_bscp5_coverage_pct": paper["B_SCP,5"][0],
@@ -113,6 +126,10 @@ def print_table(results: dict[str, Any]) -> None:
          results["paper_hrec_coverage_pct"]),
         ("H_rec", "robot", results["hrec_robot_coverage_pct"],
          f"6 ({results['hrec_robot_reachable_pct']:.0f} % reachable)", None),
+        ("agent", "robot", results["agent_robot_coverage_pct"],
+         f"{results['agent_robot_acquisitions']:.2f} "
+         f"({100 * results['agent_reachable_share']:.0f} % reachable, "
+         f"{results['agent_ms_per_view']:.1f} ms per view)", None),
     ]
     print(f"{'planner':<14}{'carrier':<8}{'coverage %':>11}  {'paper %':>8}  views")
     for name, carrier, coverage, views, paper in rows:

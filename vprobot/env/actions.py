@@ -22,6 +22,7 @@ from vprobot.geometry import (
     rotation_about_z,
     spherical_position,
 )
+from vprobot.kinematics import SensorTarget
 
 ACTION_SIZES: dict[str, int] = {
     "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,
@@ -67,7 +68,9 @@ class ActionMapping:
         if config.action not in ACTION_SIZES:
             raise ValueError(f"unknown action {config.action!r}; allowed: {list(ACTION_SIZES)}")
         self.name: ActionName = config.action
-        self.size = ACTION_SIZES[config.action]
+        self.view_size = ACTION_SIZES[config.action]
+        # With a stop decision the last component says "stop here" when it is > 0.
+        self.size = self.view_size + (1 if config.stop_action else 0)
         self.config = config
         self.working_distance_m = working_distance_m
         self.deviation_rad = np.deg2rad(config.deviation_limit_deg)
@@ -80,8 +83,10 @@ class ActionMapping:
         """
         array = np.asarray(action, dtype=float)
         if array.shape != (self.size,):
+            stop = " plus a stop component" if self.size > self.view_size else ""
             raise ValueError(
-                f"action for {self.name} must have shape ({self.size},), got {array.shape}"
+                f"action for {self.name}{stop} must have shape ({self.size},), got "
+                f"{array.shape}"
             )
         if not np.all(np.isfinite(array)):
             raise ValueError(f"action must be finite, got {array.tolist()}")
@@ -104,9 +109,31 @@ class ActionMapping:
         direction = point / distance if distance > 1e-9 else np.array([0.0, 0.0, 1.0])
         return direction * np.clip(distance, low, high)
 
+    def target(self, action: np.ndarray, center: np.ndarray, roll_free: bool) -> SensorTarget:
+        """The requested sensor pose of an action in the world, around the object `center`.
+
+        A look-at view with a free roll leaves the rotation about the optical axis to the IK.
+
+        Raises:
+            ValueError: For an action of the wrong shape, NaN or outside [-1, 1].
+        """
+        requested = self.view(action)
+        pose = Pose(requested.pose.position + center, requested.pose.rotation)
+        if requested.looks_at_center and roll_free:
+            return SensorTarget.look_at(pose.position, center)
+        return SensorTarget(pose, roll_free=roll_free)
+
+    def stops(self, action: np.ndarray) -> bool:
+        """Whether the action decides to stop (only with `stop_action`).
+
+        Raises:
+            ValueError: For an invalid action.
+        """
+        return bool(self.config.stop_action and self.check(action)[-1] > 0.0)
+
     def view(self, action: np.ndarray) -> RequestedView:
         """The requested view of a (validated) action."""
-        a = self.check(action)
+        a = self.check(action)[: self.view_size]
         name = self.name
         if name in ("A_3C0R", "A_3C2R"):
             position = self._cartesian(a[:3])

@@ -24,7 +24,7 @@ import numpy as np
 
 from vprobot.config import Config, load_config, replace
 from vprobot.env.actions import ActionMapping
-from vprobot.env.observations import gt_rows, observation_space, resample, robot_state, scaled
+from vprobot.env.observations import observation_space, observe
 from vprobot.env.rewards import Reward, RewardTerms
 from vprobot.episode import (
     Episode,
@@ -35,8 +35,7 @@ from vprobot.episode import (
     ViewRequest,
     sample_episode,
 )
-from vprobot.geometry import Pose
-from vprobot.kinematics import TRAVEL_COSTS, SensorTarget
+from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.paths import MOTORS_DIR
 
 SEED_BOUND = 2**31
@@ -189,16 +188,6 @@ class InspectEnv(gym.Env):
         self._done = False
         return self._observation(), self._info(view, 0.0, None)
 
-    def _target(self, action: np.ndarray) -> SensorTarget:
-        """The requested sensor pose of an action, in the world."""
-        requested = self.actions.view(action)
-        center = self.episode.center
-        pose = Pose(requested.pose.position + center, requested.pose.rotation)
-        roll_free = self.config.kinematics.roll == "free"
-        if requested.looks_at_center and roll_free:
-            return SensorTarget.look_at(pose.position, center)
-        return SensorTarget(pose, roll_free=roll_free)
-
     def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Request the view of `action`.
 
@@ -208,15 +197,19 @@ class InspectEnv(gym.Env):
         """
         if self._done or self.episode is None:
             raise RuntimeError("the episode is over: call reset() before step()")
-        episode = self.episode
-        target = self._target(action)
+        episode, env = self.episode, self.config.env
+        if self.actions.stops(action):
+            return self._stop()
+        target = self.actions.target(action, episode.center,
+                                     self.config.kinematics.roll == "free")
         coverage_before = episode.coverage
         view = episode.request(ViewRequest(target))
         self.steps += 1
-        terminated = episode.coverage >= self.config.env.coverage_goal
+        # An agent that decides when to stop is not stopped at the goal.
+        terminated = episode.coverage >= env.coverage_goal and not env.stop_action
         truncated = not terminated and self.steps >= self.step_limit
         self._done = terminated or truncated
-        travel_cost = self.config.env.travel_cost
+        travel_cost = env.travel_cost
         terms = self.reward_function.step(
             delta=episode.coverage - coverage_before,
             remaining_before=1.0 - coverage_before,
@@ -228,47 +221,49 @@ class InspectEnv(gym.Env):
             steps=self.steps,
             travel_sum=getattr(episode.travel_sum, travel_cost),
         )
+        if truncated and env.stop_action:
+            terms = dataclasses.replace(terms, reward=terms.reward - env.stop_reward,
+                                        stop=-env.stop_reward)
         return (self._observation(), float(terms.reward), terminated, truncated,
                 self._info(view, episode.coverage - coverage_before, terms))
 
-    def _observation(self) -> Any:
-        episode = self.episode
-        env = self.config.env
-        rotation = episode.object_pose.rotation
-        if env.state == "s_cov":
-            cloud = episode.tracker.accumulated_cloud @ rotation.T
-            points = scaled(resample(cloud, env.state_points, self.np_random), env)
-        else:
-            rows = gt_rows(len(episode.tracker.gt_points), env.state_points)
-            gt = episode.tracker.gt_points[rows] @ rotation.T
-            points = np.column_stack([scaled(gt, env), episode.tracker.covered[rows]])
-        points = points.astype(np.float32)
-        if not env.robot_state:
-            return points
-        state = robot_state(episode.sensor_pose(), episode.center, episode.q, env)
-        return {"points": points, "robot": state}
+    def _stop(self) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """The agent stops: +stop_reward at or above the coverage goal, -stop_reward below."""
+        env, episode = self.config.env, self.episode
+        self.steps += 1
+        self._done = True
+        reward = env.stop_reward if episode.coverage >= env.coverage_goal else -env.stop_reward
+        terms = RewardTerms(reward, 0.0, 1.0 - episode.coverage, 0.0, 0.0, stop=reward)
+        return self._observation(), reward, True, False, self._info(None, 0.0, terms)
 
-    def _info(self, view: ViewRecord, delta: float, terms: RewardTerms | None) -> dict[str, Any]:
+    def _observation(self) -> Any:
+        return observe(self.episode, self.config.env, self.np_random)
+
+    def _info(self, view: ViewRecord | None, delta: float,
+              terms: RewardTerms | None) -> dict[str, Any]:
+        """The step's info; `view` is None for a stop decision (no view was requested)."""
         episode = self.episode
         sensor = episode.sensor_pose()
         approach, travel_sum = episode.approach, episode.travel_sum
         info: dict[str, Any] = {
             "coverage": episode.coverage,
             "delta_coverage": delta,
-            "reachable": view.reachable,
-            "reason": view.reason,
+            "stopped": view is None,
+            "reachable": view is None or view.reachable,
+            "reason": "stopped" if view is None else view.reason,
             "carrier": episode.carrier.name,
             "joints": episode.q.copy(),
             "sensor_position": sensor.position,
             "sensor_quaternion": sensor.quaternion,
             "acquisitions": len(episode.tracker.steps),
             "reachable_share": sum(v.reachable for v in episode.views) / len(episode.views),
-            "points_acquired": len(view.points_world),
+            "points_acquired": 0 if view is None else len(view.points_world),
             "motor": str(episode.scene.mesh.path),
             "episode_seed": self.spec_of_episode.seed,
         }
+        step = view is not None and terms is not None
         for name in TRAVEL_COSTS:
-            info[f"travel_{name}"] = getattr(view.travel, name) if terms is not None else 0.0
+            info[f"travel_{name}"] = getattr(view.travel, name) if step else 0.0
             info[f"travel_sum_{name}"] = getattr(travel_sum, name)
             info[f"approach_{name}"] = getattr(approach, name)
         if terms is not None:

@@ -7,11 +7,16 @@ divided by a fixed scale from the config (`env.state_scale_m`), not by a per-obj
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 from gymnasium import spaces
 
 from vprobot.config import EnvConfig
 from vprobot.geometry import Pose
+
+if TYPE_CHECKING:
+    from vprobot.episode import Episode
 
 POINT_BOUND = 4.0
 """Declared bound of the scaled point coordinates (points beyond are clipped)."""
@@ -74,3 +79,26 @@ def robot_state(sensor_pose: Pose, object_center: np.ndarray, joints: np.ndarray
         sensor_pose.rotation[:, 2],
         joints / (2.0 * np.pi),
     ]).astype(np.float32)
+
+
+def observe(episode: Episode, config: EnvConfig, rng: np.random.Generator) -> Any:
+    """The state of an episode (SPEC section 6): what the agent is given.
+
+    With `s_cov` the points are the accumulated acquired cloud only, posed in the world-aligned
+    object frame (the model-free premise: a real cell measures these points in the world and
+    knows where the fixture holds the object); `s_bin` shows the ground truth and its covered
+    flags, so it needs the object model.
+    """
+    rotation = episode.object_pose.rotation
+    if config.state == "s_cov":
+        cloud = episode.tracker.accumulated_cloud @ rotation.T
+        points = scaled(resample(cloud, config.state_points, rng), config)
+    else:
+        rows = gt_rows(len(episode.tracker.gt_points), config.state_points)
+        gt = episode.tracker.gt_points[rows] @ rotation.T
+        points = np.column_stack([scaled(gt, config), episode.tracker.covered[rows]])
+    points = points.astype(np.float32)
+    if not config.robot_state:
+        return points
+    state = robot_state(episode.sensor_pose(), episode.center, episode.q, config)
+    return {"points": points, "robot": state}

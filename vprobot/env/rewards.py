@@ -27,6 +27,7 @@ class RewardTerms:
     remaining_coverage_before: float
     travel_cost: float
     penalty: float
+    stop: float = 0.0
 
 
 class Reward:

@@ -16,8 +16,6 @@ import numpy as np
 from vprobot.config import Config, EnvConfig
 from vprobot.env.actions import ActionMapping
 from vprobot.episode import Episode, ViewRequest
-from vprobot.geometry import Pose
-from vprobot.kinematics import SensorTarget
 from vprobot.planners.base import Planner
 
 
@@ -41,12 +39,8 @@ class RandomPlanner(Planner):
         self._rng = rng
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
-        requested = self.mapping.view(self._rng.uniform(-1.0, 1.0, self.mapping.size))
-        position = episode.center + requested.pose.position
-        if requested.looks_at_center:
-            return ViewRequest(SensorTarget.look_at(position, episode.center))
-        return ViewRequest(SensorTarget(Pose(position, requested.pose.rotation),
-                                        roll_free=self.roll_free))
+        action = self._rng.uniform(-1.0, 1.0, self.mapping.size)
+        return ViewRequest(self.mapping.target(action, episode.center, self.roll_free))
 
 
 class Random1Planner(RandomPlanner):

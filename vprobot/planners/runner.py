@@ -30,20 +30,32 @@ from vprobot.planners.hrec import BoxFacesPlanner
 from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.random_views import Random1Planner, Random2Planner
 
-PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle")
+PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle", "agent")
+AGENT_PREFIX = "agent:"
+"""`agent:PATH` names a trained agent (a run directory or a model .zip); `agent` the bundled
+one."""
 _FIXED_BSCP = re.compile(r"^bscp(\d+)$")
 
 
 def make_planner(name: str, config: Config, views: int | None = None) -> Planner:
-    """A planner by name; `views` fixes the number of views of `bscp` (B_SCP,n).
+    """A planner by name; `views` fixes the number of views of `bscp` (B_SCP,n) or of an agent
+    (the initial view included).
 
     Raises:
-        ValueError: For an unknown name, or `views` with a planner other than bscp.
+        ValueError: For an unknown name, `views` with a planner that has no view count, or an
+            agent that cannot be loaded.
     """
-    if name not in PLANNER_NAMES:
-        raise ValueError(f"unknown planner {name!r}; allowed: {', '.join(PLANNER_NAMES)}")
-    if views is not None and name != "bscp":
-        raise ValueError(f"a fixed number of views applies to bscp only, not to {name!r}")
+    agent = name == "agent" or name.startswith(AGENT_PREFIX)
+    if not agent and name not in PLANNER_NAMES:
+        raise ValueError(f"unknown planner {name!r}; allowed: {', '.join(PLANNER_NAMES)}, "
+                         f"{AGENT_PREFIX}PATH")
+    if views is not None and name != "bscp" and not agent:
+        raise ValueError(f"a fixed number of views applies to bscp and agents only, not to "
+                         f"{name!r}")
+    if agent:
+        from vprobot.planners.agent import AgentPlanner
+
+        return AgentPlanner(name.removeprefix(AGENT_PREFIX) if name != "agent" else None, views)
     if name == "bscp":
         return SetCoverPlanner(views, goal=config.env.coverage_goal,
                                max_views=config.env.max_acquisitions)
@@ -55,17 +67,18 @@ def make_planner(name: str, config: Config, views: int | None = None) -> Planner
 
 
 def parse_planner(spec: str) -> tuple[str, int | None]:
-    """`bscp5` -> ("bscp", 5); a plain name -> (name, None).
+    """`bscp5` -> ("bscp", 5); a plain name or `agent:PATH` -> (spec, None).
 
     Raises:
         ValueError: If the spec names no planner.
     """
-    if spec in PLANNER_NAMES:
+    if spec in PLANNER_NAMES or (spec.startswith(AGENT_PREFIX) and len(spec) > len(AGENT_PREFIX)):
         return spec, None
     match = _FIXED_BSCP.match(spec)
     if match is None or int(match[1]) < 1:
-        raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(PLANNER_NAMES)}, or "
-                         f"bscp<N> for B_SCP with N views (e.g. bscp5)")
+        raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(PLANNER_NAMES)}, "
+                         f"{AGENT_PREFIX}PATH for a trained agent, or bscp<N> for B_SCP with N "
+                         f"views (e.g. bscp5)")
     return "bscp", int(match[1])
 
 

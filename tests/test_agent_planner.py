@@ -1,0 +1,120 @@
+"""Trained agents as planners: end to end through plan / evaluate, model-free, clear errors."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from dh_reference import quaternion_matrix, rotation_difference, world_sensor
+
+from vprobot.agents.trained import BUNDLED_AGENT, load_agent
+from vprobot.agents.training import profile_config, train
+from vprobot.cli import main
+from vprobot.config import Config
+from vprobot.paths import CONFIGS_DIR
+from vprobot.planners import plan_motor
+from vprobot.planners.agent import AgentPlanner
+
+CONFIG = Config()
+TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=30",
+        "agent.batch_size=32", "agent.buffer_size=300", "agent.eval_freq=100",
+        "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]"]
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("agent") / "run"
+    train(profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", TINY, steps=100), folder,
+          progress=False)
+    return folder
+
+
+def test_bundled_agent_plans_the_bundled_motor_end_to_end() -> None:
+    assert (BUNDLED_AGENT / "model.zip").stat().st_size <= 20 * 1024**2
+    _, record, document, text = plan_motor(CONFIG, planner="agent", seed=0)
+    assert "agent on motor_000.stl" in text
+    assert len(document["views"]) == len(record.views) >= 2
+    for view in document["views"]:
+        if view["reachable"]:
+            pose = world_sensor(np.array(view["joints"]), CONFIG)
+            assert np.linalg.norm(pose[:3, 3] - view["position"]) <= 1e-3
+            assert rotation_difference(pose[:3, :3],
+                                       quaternion_matrix(view["quaternion"])) <= 1e-3
+    assert document["coverage"] == pytest.approx(record.coverage)
+
+
+def test_agent_is_handed_acquired_points_only(run: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    planner = AgentPlanner(run)
+    handed: list[np.ndarray] = []
+    predict = planner.agent.model.predict
+
+    def recording(observation: np.ndarray, **kwargs: object) -> tuple:
+        handed.append(np.array(observation))
+        return predict(observation, **kwargs)
+
+    monkeypatch.setattr(planner.agent.model, "predict", recording)
+    from vprobot.episode import Episode, MotorScene
+    from vprobot.paths import DEFAULT_MOTOR
+
+    scene = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75))
+    episode = Episode(scene, np.eye(3))
+    planner.reset(episode, np.random.default_rng(0))
+    episode.begin(planner_initial(episode))
+    scale = planner.agent.config.env.state_scale_m
+    for _ in range(3):
+        acquired = np.clip(episode.tracker.accumulated_cloud @ episode.object_pose.rotation.T
+                           / scale, -4, 4).astype(np.float32)
+        episode.request(planner.next_view(episode))
+        rows = set(map(tuple, handed[-1]))
+        assert handed[-1].shape[1] == 3
+        assert rows <= set(map(tuple, acquired))
+        gt = (episode.tracker.gt_points @ episode.object_pose.rotation.T / scale).astype(
+            np.float32)
+        assert not rows & set(map(tuple, gt))
+
+
+def planner_initial(episode: object) -> list:
+    from vprobot.episode import seeded_episode
+    from vprobot.paths import DEFAULT_MOTOR
+
+    spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
+    return spec.initial_requests(episode.center, CONFIG.sensor.working_distance_m)
+
+
+def test_a_run_directory_gives_its_best_model(run: Path) -> None:
+    assert load_agent(run).path == run / "best_model.zip"
+    checkpoint = run / "checkpoints" / json.loads((run / "checkpoint.json").read_text())["model"]
+    assert load_agent(checkpoint).path == checkpoint  # its run's config.yaml is found above
+
+
+def test_missing_or_corrupt_agents_are_clear_errors(run: Path, tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="does not exist"):
+        load_agent(tmp_path / "nowhere")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match=r"no best_model\.zip"):
+        load_agent(empty)
+    corrupt = tmp_path / "corrupt"
+    corrupt.mkdir()
+    shutil.copy(run / "config.yaml", corrupt / "config.yaml")
+    (corrupt / "best_model.zip").write_bytes(b"PK\x03\x04 not really a zip")
+    with pytest.raises(ValueError, match="cannot be loaded"):
+        load_agent(corrupt)
+    lone = tmp_path / "lone.zip"
+    shutil.copy(run / "best_model.zip", lone)
+    with pytest.raises(ValueError, match=r"no config\.yaml"):
+        load_agent(lone)
+
+
+def test_cli_plans_with_an_agent_for_a_fixed_view_count(run: Path, tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture) -> None:
+    plan = tmp_path / "plan.json"
+    assert main(["plan", "--planner", f"agent:{run}", "--views", "3", "--out", str(plan)]) == 0
+    assert len(json.loads(plan.read_text())["views"]) == 3
+    assert main(["plan", "--planner", f"agent:{tmp_path / 'nothing'}", "--out",
+                 str(plan)]) == 2
+    assert "does not exist" in capsys.readouterr().err

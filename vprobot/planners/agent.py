@@ -1,0 +1,64 @@
+"""A trained agent as a next-best-view planner (`--planner agent`, `--planner agent:PATH`).
+
+Like the paper's agents it starts from the episode's initial view and chooses one view at a time
+from what was acquired so far: the episode's state is built exactly as the env builds it for the
+agent's training (`vprobot.env.observations.observe`), so an `s_cov` agent is handed the acquired
+cloud only, never the mesh or the ground truth. It stops at the coverage goal (a simulation can
+tell); given `views`, after that many views in all, the initial one included; an agent trained
+with `stop_action` decides itself when to stop (a real cell, where coverage is unknown).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from vprobot.env.actions import ActionMapping
+from vprobot.env.observations import observe
+from vprobot.episode import Episode, ViewRequest
+from vprobot.planners.base import Planner
+
+
+class AgentPlanner(Planner):
+    """Plans with a trained policy (deterministic).
+
+    Args:
+        source: A run directory, a model .zip in a run, or None for the bundled agent.
+        views: Stop after this many views in all (None: at the goal or the view budget).
+
+    Raises:
+        ValueError: If the agent cannot be loaded or views < 1.
+    """
+
+    name = "agent"
+    initial_view = True
+
+    def __init__(self, source: str | Path | None = None, views: int | None = None):
+        from vprobot.agents.trained import load_agent
+
+        if views is not None and views < 1:
+            raise ValueError(f"views must be >= 1, got {views}")
+        self.agent = load_agent(source)
+        config = self.agent.config
+        self.mapping = ActionMapping(config.env, config.sensor.working_distance_m)
+        self.roll_free = config.kinematics.roll == "free"
+        self.views = views
+        self.decides_stop = config.env.stop_action
+        self.stops_at_goal = views is None and not self.decides_stop
+        self._rng = np.random.default_rng(0)
+
+    def reset(self, episode: Episode, rng: np.random.Generator) -> None:
+        self._rng = rng
+
+    def next_view(self, episode: Episode) -> ViewRequest | None:
+        env = self.agent.config.env
+        if self.views is not None and len(episode.views) >= self.views:
+            return None
+        if self.decides_stop and len(episode.views) > env.max_acquisitions:
+            return None
+        observation = observe(episode, env, self._rng)
+        action, _ = self.agent.model.predict(observation, deterministic=True)
+        if self.views is None and self.mapping.stops(action):
+            return None
+        return ViewRequest(self.mapping.target(action, episode.center, self.roll_free))
