@@ -79,7 +79,7 @@ def test_bundled_episode_list_is_what_the_sampler_draws() -> None:
 def test_summarize_averages_per_planner_and_carrier() -> None:
     base = {"acquisitions": 4, "requested": 5, "joint_time_s": None, "joint_path_rad": None,
             "cartesian_m": None, "paper_m": 1.0, "reachable_pct": None, "plan_s": 0.5,
-            "episode_s": 1.0}
+            "plan_ms_per_view": 100.0, "episode_s": 1.0}
     rows = [{**base, "planner": "bscp", "carrier": "free", "coverage_pct": 90.0,
              "success": True},
             {**base, "planner": "bscp", "carrier": "free", "coverage_pct": 80.0,
