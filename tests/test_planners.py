@@ -279,3 +279,8 @@ def test_bad_arguments_are_clear_errors(call: object, message: str) -> None:
 def test_parse_planner() -> None:
     assert parse_planner("bscp5") == ("bscp", 5)
     assert parse_planner("random1") == ("random1", None)
+    assert parse_planner("agent6") == ("agent", 6)
+    assert parse_planner("agent:runs/cpu") == ("agent:runs/cpu", None)
+    for bad in ("agent:", "agent0", "hrec3"):
+        with pytest.raises(ValueError, match="unknown planner"):
+            parse_planner(bad)

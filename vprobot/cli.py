@@ -219,7 +219,8 @@ def command_evaluate(args: argparse.Namespace) -> int:
     check_output_folder(args.out, "--out")
     config = _config(args)
     specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
-    evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers)
+    evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers,
+             workers=args.workers, address=args.address)
     print((Path(args.out) / "evaluation.md").read_text())
     return 0
 
@@ -243,6 +244,17 @@ def command_train(args: argparse.Namespace) -> int:
           f"{result['acquisitions']:.2f} acquisitions, {100 * result['success']:.0f} % at the "
           f"goal, {100 * result['reachable_share']:.0f} % of requests reachable")
     print(f"run directory: {args.out} (curves.png, evaluations.csv, best_model.zip)")
+    return 0
+
+
+def command_sweep(args: argparse.Namespace) -> int:
+    """Run a study of agent configurations on Ray."""
+    from vprobot.agents.sweep import sweep
+
+    check_output_folder(args.out, "--out")
+    sweep(args.study, args.out, resume=args.resume, address=args.address,
+          workers=args.workers)
+    print((Path(args.out) / "study.md").read_text())
     return 0
 
 
@@ -282,6 +294,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.train import run_train_benchmark
 
         results = run_train_benchmark(config, steps=args.samples)
+    elif args.suite == "cluster":
+        from vprobot.benchmarks.cluster import run_cluster_benchmark
+
+        results = run_cluster_benchmark(config)
     elif args.suite == "render":
         from vprobot.benchmarks.render import run_render_benchmark
 
@@ -388,6 +404,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
                             default=["robot", "free"])
     evaluation.add_argument("--out", default="results", help="folder for the tables")
+    evaluation.add_argument("--workers", type=POSITIVE_INT, default=1,
+                            help="episodes at once on Ray (one CPU each); 1: in this process")
+    evaluation.add_argument("--address", help="Ray cluster address (default: a local Ray)")
 
     training = add("train", command_train,
                    "Train an RL agent (stable-baselines3) headless into a run directory.")
@@ -404,6 +423,16 @@ def build_parser() -> argparse.ArgumentParser:
     training.add_argument("--device", choices=["cpu", "cuda", "auto"],
                           help="torch device (default: the profile's, cpu)")
 
+    study = add("sweep", command_sweep,
+                "Run a study (a grid of agent configurations x seeds) as training runs on Ray.")
+    study.add_argument("study", help="study YAML, e.g. configs/studies/state_algorithm.yaml")
+    study.add_argument("--out", required=True, help="folder of the study's runs and table")
+    study.add_argument("--resume", action="store_true",
+                       help="go on with the study in --out; finished trials are not rerun")
+    study.add_argument("--address", help="Ray cluster address (default: a local Ray)")
+    study.add_argument("--workers", type=POSITIVE_INT,
+                       help="CPUs of the local Ray, one per trial (default: all)")
+
     curves = add("curves", command_curves,
                  "Plot training curves (coverage, acquisitions, reward, travel) of runs.")
     curves.add_argument("runs", nargs="+", help="run directories")
@@ -415,7 +444,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(benchmark)
     benchmark.add_argument("suite",
                            choices=["kinematics", "sensor", "env", "planners", "render",
-                                    "train"])
+                                    "train", "cluster"])
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")

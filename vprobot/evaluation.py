@@ -19,7 +19,7 @@ import io
 import os
 import statistics
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -288,9 +288,45 @@ def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = No
                         else held_out_motors(), seeds if seeds is not None else (0, 1, 2))
 
 
+Job = tuple[int, EpisodeSpec, CarrierName, str, str, int | None]
+"""An episode to run: (index in the list, spec, carrier, planner label, name, fixed views)."""
+
+
+def run_jobs(config: Config, jobs: Sequence[Job]) -> list[dict[str, Any]]:
+    """Run episodes in this process, loading each motor once; one row per job."""
+    rows = []
+    scenes: dict[tuple[Path, float], MotorScene] = {}
+    for index, spec, carrier, _, name, views in jobs:
+        key = (spec.motor_path, spec.scale)
+        if key not in scenes:
+            scenes.clear()
+            scenes[key] = MotorScene.load(config, *key)
+        rows.append(episode_row(index, run(config, scenes[key], name, spec, carrier, views)))
+    return rows
+
+
+def _rows(config: Config, jobs: Sequence[Job], workers: int,
+          address: str | None) -> Iterator[dict[str, Any]]:
+    """The jobs' rows as they finish: in order in this process, or per episode (all its
+    carriers and planners, one motor load) as Ray tasks."""
+    if workers == 1 and address is None:
+        for job in jobs:
+            yield from run_jobs(config, [job])
+        return
+    from vprobot.cluster import parallel_map
+
+    groups: dict[int, list[Job]] = {}
+    for job in jobs:
+        groups.setdefault(job[0], []).append(job)
+    for _, rows in parallel_map(run_jobs, [(config, group) for group in groups.values()],
+                                workers, address):
+        yield from rows
+
+
 def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpec],
              out_dir: str | Path, progress: bool = True,
-             carriers: Sequence[CarrierName] = CARRIERS) -> list[dict[str, Any]]:
+             carriers: Sequence[CarrierName] = CARRIERS, workers: int = 1,
+             address: str | None = None) -> list[dict[str, Any]]:
     """Run every planner on every episode with every carrier; write the tables into `out_dir`.
 
     Resumable: each finished episode is appended to `evaluation_episodes.csv` at once, and a
@@ -307,6 +343,8 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
             episode list); created if missing.
         progress: Show a progress bar.
         carriers: `robot` and/or `free`.
+        workers: Ray tasks at once (one CPU each); 1 without `address` runs in this process.
+        address: A Ray cluster to run on (a local Ray with `workers` CPUs when None).
 
     Returns:
         The summary rows.
@@ -333,26 +371,16 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
     if done and progress:
         print(f"resuming: {len(done)} of {len(wanted)} episodes already in {rows_path}")
-    scenes: dict[tuple[Path, float], MotorScene] = {}
+    jobs = [(index, spec, carrier, label, name, views) for index, spec in enumerate(specs)
+            for carrier in carriers for label, name, views in parsed
+            if (index, carrier, label) not in done]
     try:
         with tqdm(total=len(wanted), initial=len(done), desc="evaluate",
                   disable=not progress) as bar:
-            for index, spec in enumerate(specs):
-                for carrier in carriers:
-                    for label, name, views in parsed:
-                        if (index, carrier, label) in done:
-                            continue
-                        key = (spec.motor_path, spec.scale)
-                        if key not in scenes:
-                            scenes.clear()
-                            scenes[key] = MotorScene.load(config, *key)
-                        bar.set_postfix_str(f"{Path(spec.motor).name} seed {spec.seed} "
-                                            f"{carrier} {label}")
-                        row = episode_row(index, run(config, scenes[key], name, spec, carrier,
-                                                     views))
-                        _append_row(rows_path, row)
-                        rows.append(row)
-                        bar.update()
+            for row in _rows(config, jobs, workers, address):
+                _append_row(rows_path, row)
+                rows.append(row)
+                bar.update()
     except KeyboardInterrupt:
         _write_tables(out, rows, specs, config, len(wanted))
         print(f"saved {len(rows)} of {len(wanted)} episodes in {out}; run the same command "

@@ -34,7 +34,7 @@ PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle", "agent")
 AGENT_PREFIX = "agent:"
 """`agent:PATH` names a trained agent (a run directory or a model .zip); `agent` the bundled
 one."""
-_FIXED_BSCP = re.compile(r"^bscp(\d+)$")
+_FIXED_COUNT = re.compile(r"^(bscp|agent)(\d+)$")
 
 
 def make_planner(name: str, config: Config, views: int | None = None) -> Planner:
@@ -67,19 +67,20 @@ def make_planner(name: str, config: Config, views: int | None = None) -> Planner
 
 
 def parse_planner(spec: str) -> tuple[str, int | None]:
-    """`bscp5` -> ("bscp", 5); a plain name or `agent:PATH` -> (spec, None).
+    """`bscp5` -> ("bscp", 5), `agent6` -> ("agent", 6); a plain name or `agent:PATH` ->
+    (spec, None).
 
     Raises:
         ValueError: If the spec names no planner.
     """
     if spec in PLANNER_NAMES or (spec.startswith(AGENT_PREFIX) and len(spec) > len(AGENT_PREFIX)):
         return spec, None
-    match = _FIXED_BSCP.match(spec)
-    if match is None or int(match[1]) < 1:
+    match = _FIXED_COUNT.match(spec)
+    if match is None or int(match[2]) < 1:
         raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(PLANNER_NAMES)}, "
-                         f"{AGENT_PREFIX}PATH for a trained agent, or bscp<N> for B_SCP with N "
-                         f"views (e.g. bscp5)")
-    return "bscp", int(match[1])
+                         f"{AGENT_PREFIX}PATH for a trained agent, or bscp<N> / agent<N> for "
+                         f"B_SCP / the bundled agent with N views (e.g. bscp5)")
+    return match[1], int(match[2])
 
 
 @dataclasses.dataclass(frozen=True)

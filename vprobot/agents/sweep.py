@@ -1,0 +1,284 @@
+"""`vprobot sweep STUDY.yaml`: a study of agent configurations, one `vprobot train` run per
+(configuration, seed), on Ray; resumable; one table and a curves PNG per configuration.
+
+A study file (`configs/studies/*.yaml`):
+
+```yaml
+profile: cpu.yaml             # in configs/agents/, or a path
+steps: 20000                  # optional: overrides agent.total_steps
+seeds: [0, 1, 2]
+set: [agent.eval_freq=5000]   # optional: overrides of every trial
+grid:                         # every combination is a configuration
+  env.state: [s_cov, s_bin]
+  agent.algorithm: [sac, ppo]
+note: what the study asks    # optional, printed with the table
+```
+
+Ray core rather than Ray Tune: a trial is already a complete, resumable `train` run with its own
+evaluation and checkpoints, so all a study needs is one CPU per trial and a place to run it;
+Tune's schedulers and its own checkpointing would duplicate what `train` does. A trial is
+finished when its run directory holds `result.json`; `--resume` runs the unfinished ones (from
+their checkpoints).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import itertools
+import json
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from vprobot.agents.curves import plot_curves, read_monitor, travel_column
+from vprobot.config import ConfigError
+from vprobot.files import atomic_output
+from vprobot.paths import CONFIGS_DIR
+
+CONVERGED_EPISODES = 100
+"""The converged state: the last this many training episodes (as the paper reports)."""
+STUDY_KEYS = {"profile", "steps", "seeds", "set", "grid", "note"}
+
+
+@dataclasses.dataclass(frozen=True)
+class Trial:
+    """One training run of a study.
+
+    Attributes:
+        configuration: The configuration's name, e.g. `env.state=s_bin,agent.algorithm=ppo`.
+        overrides: The trial's `section.key=value` overrides (study-wide ones first).
+        seed: The run's seed.
+        run_dir: Where the run lives.
+    """
+
+    configuration: str
+    overrides: tuple[str, ...]
+    seed: int
+    run_dir: Path
+
+    @property
+    def finished(self) -> bool:
+        return (self.run_dir / "result.json").is_file()
+
+
+@dataclasses.dataclass(frozen=True)
+class Study:
+    """A parsed study file."""
+
+    profile: Path
+    steps: int | None
+    seeds: tuple[int, ...]
+    overrides: tuple[str, ...]
+    grid: dict[str, list[Any]]
+    note: str
+
+    def configurations(self) -> list[tuple[str, tuple[str, ...]]]:
+        """(name, overrides) of every grid point, in grid order."""
+        keys = list(self.grid)
+        points = []
+        for values in itertools.product(*(self.grid[key] for key in keys)):
+            pairs = [f"{key}={_yaml_value(value)}" for key, value in zip(keys, values,
+                                                                           strict=True)]
+            points.append((",".join(pairs) or "base", tuple(pairs)))
+        return points
+
+    def trials(self, out: Path) -> list[Trial]:
+        return [Trial(name, (*self.overrides, *pairs), seed,
+                      out / _slug(name) / f"seed{seed}")
+                for name, pairs in self.configurations() for seed in self.seeds]
+
+
+def _yaml_value(value: Any) -> str:
+    return yaml.safe_dump(value, default_flow_style=True).strip().removesuffix("...").strip()
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_=." else "_" for c in name.replace(",", "__"))
+
+
+def read_study(path: str | Path) -> Study:
+    """Parse and check a study file (every trial's config is validated before any runs).
+
+    Raises:
+        FileNotFoundError, ConfigError: For a missing file or a bad key or value.
+    """
+    from vprobot.agents.training import profile_config
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"study file not found: {path}")
+    data = yaml.safe_load(path.read_text()) or {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: a study is a mapping with {sorted(STUDY_KEYS)}")
+    unknown = sorted(set(data) - STUDY_KEYS)
+    if unknown:
+        raise ConfigError(f"{path}: unknown study key {unknown[0]!r}; allowed: "
+                          f"{', '.join(sorted(STUDY_KEYS))}")
+    profile = Path(str(data.get("profile", "cpu.yaml")))
+    if not profile.is_file() and (CONFIGS_DIR / "agents" / profile).is_file():
+        profile = CONFIGS_DIR / "agents" / profile
+    seeds = data.get("seeds", [0])
+    if not isinstance(seeds, list) or not seeds or not all(
+            isinstance(seed, int) and seed >= 0 for seed in seeds):
+        raise ConfigError(f"{path}: seeds must be a non-empty list of integers >= 0, got "
+                          f"{seeds!r}")
+    grid = data.get("grid") or {}
+    if not isinstance(grid, dict) or not all(isinstance(values, list) and values
+                                             for values in grid.values()):
+        raise ConfigError(f"{path}: grid must map section.key to a non-empty list of values")
+    steps = data.get("steps")
+    if steps is not None and (not isinstance(steps, int) or steps < 1):
+        raise ConfigError(f"{path}: steps must be an integer >= 1, got {steps!r}")
+    study = Study(profile=profile, steps=steps, seeds=tuple(seeds),
+                  overrides=tuple(str(item) for item in data.get("set") or ()), grid=grid,
+                  note=str(data.get("note", "")))
+    for name, pairs in study.configurations():
+        try:
+            profile_config(study.profile, [*study.overrides, *pairs], study.steps)
+        except ConfigError as error:
+            raise ConfigError(f"{path}: configuration {name}: {error}") from None
+    return study
+
+
+def run_trial(profile: Path, overrides: Sequence[str], steps: int | None, seed: int,
+              run_dir: Path) -> dict[str, Any]:
+    """One trial (in a Ray worker): train or resume, then write `result.json`."""
+    from vprobot.agents.training import profile_config, train
+
+    resume = (run_dir / "config.yaml").is_file()
+    config = None if resume else profile_config(profile, overrides, steps)
+    result = train(config, run_dir, seed=seed, resume=resume, progress=False,
+                   argv=["vprobot", "train", str(profile), "--set", *overrides, "--seed",
+                         str(seed)])
+    with atomic_output(run_dir / "result.json") as temporary:
+        temporary.write_text(json.dumps(result, indent=1) + "\n")
+    return result
+
+
+def converged(run_dir: Path) -> dict[str, float]:
+    """Means over the run's last `CONVERGED_EPISODES` training episodes."""
+    monitor = read_monitor(run_dir)
+    travel, _ = travel_column(run_dir)
+    last = slice(-CONVERGED_EPISODES, None)
+    return {"train_coverage": float(np.mean(monitor["coverage"][last])),
+            "train_acquisitions": float(np.mean(monitor["acquisitions"][last])),
+            "train_reward": float(np.mean(monitor["r"][last])),
+            "train_travel": float(np.mean(monitor[travel][last])),
+            "train_reachable": float(np.mean(monitor["reachable_share"][last]))}
+
+
+TABLE_KEYS = ("train_coverage", "train_acquisitions", "train_reward", "train_travel",
+              "train_reachable", "coverage", "acquisitions", "success", "reachable_share",
+              "travel_joint_time", "ms_per_view", "wall_s")
+
+
+def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
+    """Per configuration: mean, min and max over its finished seeds of the converged training
+    indicators and the final evaluation on the shared episodes; curves PNG per configuration."""
+    table = []
+    for name, _ in study.configurations():
+        runs = [trial.run_dir for trial in study.trials(out)
+                if trial.configuration == name and trial.finished]
+        row: dict[str, Any] = {"configuration": name, "seeds": len(runs)}
+        if runs:
+            values = [{**converged(run), **json.loads((run / "result.json").read_text())}
+                      for run in runs]
+            for key in TABLE_KEYS:
+                column = [float(value[key]) for value in values]
+                row[key] = statistics.fmean(column)
+                row[f"{key}_min"], row[f"{key}_max"] = min(column), max(column)
+            plot_curves(runs, out / _slug(name) / "curves.png")
+        table.append(row)
+    return table
+
+
+def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
+    """`study.csv` and `study.md` in `out`."""
+    columns = ["configuration", "seeds"] + [f"{key}{suffix}" for key in TABLE_KEYS
+                                            for suffix in ("", "_min", "_max")]
+    stream = io.StringIO()
+    writer = csv.DictWriter(stream, fieldnames=columns, lineterminator="\n")
+    writer.writeheader()
+    for row in table:
+        writer.writerow({key: row.get(key, "") for key in columns})
+    with atomic_output(out / "study.csv") as temporary:
+        temporary.write_text(stream.getvalue())
+
+    def cell(row: dict[str, Any], key: str, scale: float = 1.0, digits: int = 1) -> str:
+        if key not in row:
+            return "-"
+        return (f"{row[key] * scale:.{digits}f} ({row[key + '_min'] * scale:.{digits}f}-"
+                f"{row[key + '_max'] * scale:.{digits}f})")
+
+    steps = study.steps if study.steps is not None else "the profile's"
+    lines = [f"# Study: {study.profile.name}", "",
+             study.note, "",
+             f"Trials: {len(study.configurations())} configurations x {len(study.seeds)} seeds "
+             f"({', '.join(map(str, study.seeds))}), {steps} steps each. The paper: 75 000 "
+             f"steps, 3 runs per configuration. Mean (min-max) over seeds. Converged: the last "
+             f"{CONVERGED_EPISODES} training episodes. Evaluation: the final model, "
+             f"deterministic, on the shared test episodes.", "",
+             "| configuration | seeds | train coverage % | train acquisitions | eval coverage % "
+             "| eval acquisitions | eval success % | reachable % | joint time s | ms per view "
+             "| wall min |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for row in table:
+        lines.append(" | ".join([
+            f"| {row['configuration']}", str(row["seeds"]), cell(row, "train_coverage", 100),
+            cell(row, "train_acquisitions", 1, 2), cell(row, "coverage", 100),
+            cell(row, "acquisitions", 1, 2), cell(row, "success", 100, 0),
+            cell(row, "reachable_share", 100, 0), cell(row, "travel_joint_time", 1, 2),
+            cell(row, "ms_per_view", 1, 1), cell(row, "wall_s", 1 / 60, 1)]) + " |")
+    with atomic_output(out / "study.md") as temporary:
+        temporary.write_text("\n".join(lines) + "\n")
+
+
+def sweep(study_path: str | Path, out: str | Path, resume: bool = False,
+          address: str | None = None, workers: int | None = None,
+          progress: bool = True) -> list[dict[str, Any]]:
+    """Run a study's unfinished trials on Ray and write its table.
+
+    Args:
+        study_path: The study file.
+        out: The study's folder (a run directory per trial below it).
+        resume: Go on with a study already in `out` (finished trials are not rerun).
+        address: A Ray cluster; a local Ray when None.
+        workers: CPUs of the local Ray (default: all of this machine's).
+        progress: Print a line per finished trial.
+
+    Raises:
+        ValueError, ConfigError: For a bad study, a folder that holds a study without
+            `--resume`, or no Ray.
+    """
+    import os
+
+    from vprobot.cluster import parallel_map
+
+    study = read_study(study_path)
+    out = Path(out)
+    trials = study.trials(out)
+    if not resume and any(trial.run_dir.exists() for trial in trials):
+        raise ValueError(f"{out} already holds this study's runs; add --resume to go on with "
+                         f"it, or choose another --out")
+    pending = [trial for trial in trials if not trial.finished]
+    if progress:
+        print(f"{len(trials)} trials, {len(trials) - len(pending)} finished, "
+              f"{len(pending)} to run")
+    items = [(study.profile, trial.overrides, study.steps, trial.seed, trial.run_dir)
+             for trial in pending]
+    for index, result in parallel_map(run_trial, items, workers or os.cpu_count() or 1,
+                                      address):
+        if progress:
+            trial = pending[index]
+            print(f"finished {trial.configuration} seed {trial.seed}: coverage "
+                  f"{100 * result['coverage']:.1f} %, {result['acquisitions']:.2f} "
+                  f"acquisitions ({result['wall_s'] / 60:.1f} min)")
+    table = study_table(study, out)
+    write_table(study, out, table)
+    return table
