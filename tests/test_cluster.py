@@ -47,19 +47,19 @@ def _study(tmp_path: Path, steps: int) -> Path:
 
 
 def test_tiny_sweep_produces_its_table_and_curves(tmp_path: Path) -> None:
-    table = sweep(_study(tmp_path, 150), tmp_path / "out", progress=False)
+    table = sweep(_study(tmp_path, 100), tmp_path / "out", progress=False)
     assert [row["configuration"] for row in table] == ["agent.algorithm=sac",
                                                        "agent.algorithm=ppo"]
     assert all(row["seeds"] == 1 and 0 < row["coverage"] <= 1 for row in table)
     text = (tmp_path / "out" / "study.md").read_text()
-    assert "1 seeds (0), 150 steps each. The paper: 75 000 steps, 3 runs" in text
+    assert "1 seeds (0), 100 steps each. The paper: 75 000 steps, 3 runs" in text
     assert len(list((tmp_path / "out").glob("*/curves.png"))) == 2
     with pytest.raises(ValueError, match="--resume"):
-        sweep(_study(tmp_path, 150), tmp_path / "out", progress=False)
+        sweep(_study(tmp_path, 100), tmp_path / "out", progress=False)
 
 
 def test_killed_sweep_resumes_without_rerunning_finished_trials(tmp_path: Path) -> None:
-    study, out = _study(tmp_path, 300), tmp_path / "out"
+    study, out = _study(tmp_path, 200), tmp_path / "out"
     process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", "sweep", str(study),
                                 "--out", str(out), "--workers", "1"],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,

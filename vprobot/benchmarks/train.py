@@ -39,7 +39,9 @@ class SpacesOnly(gym.Env):
 def update_ms(config: Config, steps: int) -> float:
     """Median time of one gradient step at the profile's batch size (ms)."""
     agent = config.agent
-    config = replace(config, "agent", buffer_size=agent.batch_size + 8, learning_starts=0)
+    # Collect a batch without training (learning starts after it), then time single steps.
+    config = replace(config, "agent", buffer_size=agent.batch_size + 8,
+                     learning_starts=agent.batch_size + 8)
     model = build_model(config, SpacesOnly(config), seed=0, device="cpu")
     model.learn(agent.batch_size + 4)
     times = []
