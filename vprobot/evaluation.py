@@ -15,6 +15,7 @@ views the robot reached and the planning time per episode.
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import os
 import statistics
@@ -292,17 +293,17 @@ Job = tuple[int, EpisodeSpec, CarrierName, str, str, int | None]
 """An episode to run: (index in the list, spec, carrier, planner label, name, fixed views)."""
 
 
+@functools.lru_cache(maxsize=2)
+def _scene(config: Config, path: Path, scale: float) -> MotorScene:
+    # Kept across calls: a Ray worker runs many episodes, mostly of the motors it has loaded.
+    return MotorScene.load(config, path, scale)
+
+
 def run_jobs(config: Config, jobs: Sequence[Job]) -> list[dict[str, Any]]:
-    """Run episodes in this process, loading each motor once; one row per job."""
-    rows = []
-    scenes: dict[tuple[Path, float], MotorScene] = {}
-    for index, spec, carrier, _, name, views in jobs:
-        key = (spec.motor_path, spec.scale)
-        if key not in scenes:
-            scenes.clear()
-            scenes[key] = MotorScene.load(config, *key)
-        rows.append(episode_row(index, run(config, scenes[key], name, spec, carrier, views)))
-    return rows
+    """Run episodes in this process (the latest motors stay loaded); one row per job."""
+    return [episode_row(index, run(config, _scene(config, spec.motor_path, spec.scale), name,
+                                   spec, carrier, views))
+            for index, spec, carrier, _, name, views in jobs]
 
 
 def _rows(config: Config, jobs: Sequence[Job], workers: int,
