@@ -156,3 +156,14 @@ def test_plans_are_portable_and_reproducible(tmp_path: Path, monkeypatch: pytest
                      "--height", "48"], capsys)
     assert code == 0, err
     assert (elsewhere / "v.gif").stat().st_size > 0
+
+
+def test_commands_that_need_ray_say_how_to_install_it(monkeypatch: pytest.MonkeyPatch,
+                                                      tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture) -> None:
+    import sys
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
+    one_line_error(["evaluate", "--workers", "2", "--carriers", "free", "--planners", "hrec",
+                    "--out", str(tmp_path / "out")], capsys, "needs Ray",
+                   'pip install -e ".[cluster]"')

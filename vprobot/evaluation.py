@@ -360,6 +360,10 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         raise ValueError(f"unknown carrier {unknown[0]!r}; allowed: {', '.join(CARRIERS)}")
     if not parsed or not specs or not carriers:
         raise ValueError("evaluate needs at least one planner, episode and carrier")
+    if workers > 1 or address is not None:
+        from vprobot.cluster import require_ray
+
+        require_ray()
     _check_inputs(config, specs, parsed)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -258,8 +258,9 @@ def sweep(study_path: str | Path, out: str | Path, resume: bool = False,
     """
     import os
 
-    from vprobot.cluster import parallel_map
+    from vprobot.cluster import parallel_map, require_ray
 
+    require_ray()
     study = read_study(study_path)
     out = Path(out)
     trials = study.trials(out)
