@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -71,8 +72,6 @@ def test_killed_sweep_resumes_without_rerunning_finished_trials(tmp_path: Path) 
             break
         time.sleep(0.2)
     # Kill the driver and its Ray (one process group): the second trial dies half-way.
-    import os
-
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
     assert trials[0].finished and not trials[1].finished
@@ -97,8 +96,26 @@ def test_distributed_evaluation_gives_the_serial_rows(tmp_path: Path) -> None:
                       workers=2)
     assert _rows(tmp_path / "serial") == _rows(tmp_path / "ray")
     assert [row["coverage_pct"] for row in serial] == [row["coverage_pct"] for row in spread]
-    # A distributed evaluation cut short resumes with no lost or duplicated row.
-    lines = (tmp_path / "ray" / "evaluation_episodes.csv").read_text().splitlines()
-    (tmp_path / "ray" / "evaluation_episodes.csv").write_text("\n".join(lines[:5]) + "\n5,hr")
-    evaluate(config, ["hrec", "random2"], specs, tmp_path / "ray", progress=False, workers=2)
-    assert _rows(tmp_path / "serial") == _rows(tmp_path / "ray")
+
+
+def test_killed_distributed_evaluation_resumes(tmp_path: Path) -> None:
+    """kill -9 of a `vprobot evaluate --workers 2` (driver and its Ray), then the same command:
+    the rows of an uninterrupted serial run, none lost or duplicated."""
+    argv = ["evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
+            "--seeds", "0", "1", "2"]
+    assert main([*argv, "--out", str(tmp_path / "serial")]) == 0
+    killed = tmp_path / "killed"
+    process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", *argv, "--workers", "2",
+                                "--out", str(killed)], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL, start_new_session=True)
+    rows = killed / "evaluation_episodes.csv"
+    deadline = time.monotonic() + 300
+    while process.poll() is None and time.monotonic() < deadline:
+        if rows.is_file() and rows.read_text().count("\n") >= 4:
+            break
+        time.sleep(0.05)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    assert 4 <= rows.read_text().count("\n") < 13, "killed before the end"
+    assert main([*argv, "--workers", "2", "--out", str(killed)]) == 0
+    assert _rows(tmp_path / "serial") == _rows(killed)

@@ -120,7 +120,7 @@ def test_render_episode_writes_mp4_and_gif(scene, record, tmp_path):
 
 @pytest.mark.parametrize("video, still, message", [
     ("missing/rollout.mp4", "missing/summary.png", "does not exist"),
-    ("rollout.avi", "summary.jpg", "unsupported suffix"),
+    ("rollout.avi", "summary.jpg", "must end in"),
     ("folder.mp4", "folder.png", "is a folder"),
 ])
 def test_bad_output_paths_are_refused(scene, record, tmp_path, video, still, message):

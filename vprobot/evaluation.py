@@ -17,7 +17,6 @@ from __future__ import annotations
 import csv
 import functools
 import io
-import os
 import statistics
 import sys
 from collections.abc import Iterator, Sequence
@@ -37,7 +36,7 @@ from vprobot.episode import (
     read_episode_list,
     write_episode_list,
 )
-from vprobot.files import atomic_output
+from vprobot.files import append_line, atomic_output
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -228,13 +227,8 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
 def _append_row(path: Path, row: dict[str, Any]) -> None:
     """Append one row as a single write, flushed to disk: a kill leaves whole rows, and at
     worst a cut last line that `finished_rows` drops."""
-    text = _csv_text(EPISODE_COLUMNS, [row], header=not path.exists() or path.stat().st_size == 0)
-    descriptor = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-    try:
-        os.write(descriptor, text.encode())
-        os.fsync(descriptor)
-    finally:
-        os.close(descriptor)
+    append_line(path, _csv_text(EPISODE_COLUMNS, [row],
+                                header=not path.exists() or path.stat().st_size == 0))
 
 
 def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],

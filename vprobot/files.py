@@ -88,3 +88,14 @@ def atomic_output(path: Path) -> Iterator[Path]:
         # BaseException: KeyboardInterrupt and SystemExit must not leave the temporary either.
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+def append_line(path: Path, text: str) -> None:
+    """Append whole lines in one write, flushed to disk: a kill leaves whole lines, and at worst
+    a last line cut short (readers drop a line without its newline)."""
+    descriptor = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(descriptor, text.encode())
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 import time
 from pathlib import Path
 from typing import Any
@@ -18,20 +17,10 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, summarize
 from vprobot.env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.files import atomic_output
+from vprobot.files import append_line, atomic_output
 
 EVALUATION_COLUMNS = ("step", "wall_s", "episodes", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
-
-
-def append_line(path: Path, text: str) -> None:
-    """Append whole lines in one write, flushed to disk (a kill leaves whole lines)."""
-    descriptor = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-    try:
-        os.write(descriptor, text.encode())
-        os.fsync(descriptor)
-    finally:
-        os.close(descriptor)
 
 
 def count_lines(path: Path) -> int:

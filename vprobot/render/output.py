@@ -10,28 +10,20 @@ import imageio.v2 as imageio
 import numpy as np
 
 from vprobot.files import atomic_output
+from vprobot.outputs import check_output_file
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 IMAGE_SUFFIXES = (".png",)
 
 
 def check_output_path(path: str | Path, suffixes: tuple[str, ...]) -> Path:
-    """Return `path` if a file of an allowed type can be written there.
+    """Return `path` if a file of an allowed type can be written there (`vprobot.outputs`).
 
     Raises:
-        ValueError: If `path` is a folder, its folder does not exist or its suffix is not one of
-            `suffixes`.
+        ValueError: If `path` is a folder, its folder does not exist or cannot be written, or
+            its suffix is not one of `suffixes`.
     """
-    path = Path(path)
-    if path.is_dir():
-        raise ValueError(f"output path {path} is a folder; give a file name such as "
-                         f"out{suffixes[0]}")
-    if path.suffix.lower() not in suffixes:
-        raise ValueError(f"output path {path} has the unsupported suffix {path.suffix!r}; "
-                         f"use one of {', '.join(suffixes)}")
-    if not path.parent.is_dir():
-        raise ValueError(f"output folder {path.parent} does not exist")
-    return path
+    return check_output_file(path, "output path", suffixes)
 
 
 class VideoWriter:
