@@ -53,7 +53,7 @@ def test_tiny_sweep_produces_its_table_and_curves(tmp_path: Path) -> None:
                                                        "agent.algorithm=ppo"]
     assert all(row["seeds"] == 1 and 0 < row["coverage"] <= 1 for row in table)
     text = (tmp_path / "out" / "study.md").read_text()
-    assert "1 seeds (0), 100 steps each. The paper: 75 000 steps, 3 runs" in text
+    assert "1 seed(s) (0), 100 steps each. The paper: 75 000 steps, 3 runs" in text
     assert len(list((tmp_path / "out").glob("*/curves.png"))) == 2
     with pytest.raises(ValueError, match="--resume"):
         sweep(_study(tmp_path, 100), tmp_path / "out", progress=False)

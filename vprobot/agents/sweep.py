@@ -219,7 +219,7 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
     steps = study.steps if study.steps is not None else "the profile's"
     lines = [f"# Study: {study.profile.name}", "",
              study.note, "",
-             f"Trials: {len(study.configurations())} configurations x {len(study.seeds)} seeds "
+             f"Trials: {len(study.configurations())} configurations x {len(study.seeds)} seed(s) "
              f"({', '.join(map(str, study.seeds))}), {steps} steps each. The paper: 75 000 "
              f"steps, 3 runs per configuration. Mean (min-max) over seeds. Converged: the last "
              f"{CONVERGED_EPISODES} training episodes. Evaluation: the final model, "
