@@ -46,6 +46,7 @@ from vprobot.agents.extractors import EXTRACTORS
 from vprobot.agents.stream import EpisodeStream
 from vprobot.config import Config, ConfigError, from_mapping
 from vprobot.env import InspectEnv
+from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
 from vprobot.episode import BUNDLED_TEST_EPISODES, read_episode_list
 from vprobot.files import atomic_output
@@ -83,8 +84,7 @@ def buffer_memory(config: Config) -> dict[str, Any]:
     """
     agent = config.agent
     observation = _space_bytes(observation_space(config.env))
-    action = 4 * {"A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4, "A_3S2R": 5,
-                  "A_3S2R_lim": 5, "A_3C0R": 3, "A_3C2R": 5}[config.env.action]
+    action = 4 * ActionMapping(config.env, config.sensor.working_distance_m).size
     if agent.algorithm == "sac":
         per_transition = 2 * observation + action + 3 * 4
         transitions = agent.buffer_size

@@ -15,6 +15,7 @@ from tqdm import tqdm
 from vprobot.agents.training import buffer_memory, build_model, make_vec_env, profile_config
 from vprobot.config import Config, replace
 from vprobot.env import InspectEnv
+from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
 from vprobot.paths import CONFIGS_DIR
 
@@ -26,7 +27,8 @@ class SpacesOnly(gym.Env):
 
     def __init__(self, config: Config):
         self.observation_space = observation_space(config.env)
-        self.action_space = InspectEnv(config).action_space
+        size = ActionMapping(config.env, config.sensor.working_distance_m).size
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (size,), dtype=np.float32)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple:
         super().reset(seed=seed)
