@@ -327,10 +327,11 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
 
     def add(name: str, handler: Callable[[argparse.Namespace], int], help_text: str,
-            parent: Any = commands) -> argparse.ArgumentParser:
+            parent: Any = commands, config: bool = True) -> argparse.ArgumentParser:
         sub = parent.add_parser(name, help=help_text, description=help_text)
         sub.set_defaults(handler=handler)
-        sub.add_argument("--config", help="YAML config (default: configs/default.yaml)")
+        if config:  # train and sweep take their configuration from a profile instead
+            sub.add_argument("--config", help="YAML config (default: configs/default.yaml)")
         return sub
 
     def add_robot(sub: argparse.ArgumentParser) -> None:
@@ -409,7 +410,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--address", help="Ray cluster address (default: a local Ray)")
 
     training = add("train", command_train,
-                   "Train an RL agent (stable-baselines3) headless into a run directory.")
+                   "Train an RL agent (stable-baselines3) headless into a run directory.",
+                   config=False)
     training.add_argument("profile", nargs="?",
                           help="agent profile YAML, e.g. configs/agents/cpu.yaml")
     training.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
@@ -424,7 +426,8 @@ def build_parser() -> argparse.ArgumentParser:
                           help="torch device (default: the profile's, cpu)")
 
     study = add("sweep", command_sweep,
-                "Run a study (a grid of agent configurations x seeds) as training runs on Ray.")
+                "Run a study (a grid of agent configurations x seeds) as training runs on Ray.",
+                config=False)
     study.add_argument("study", help="study YAML, e.g. configs/studies/state_algorithm.yaml")
     study.add_argument("--out", required=True, help="folder of the study's runs and table")
     study.add_argument("--resume", action="store_true",
@@ -434,7 +437,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="CPUs of the local Ray, one per trial (default: all)")
 
     curves = add("curves", command_curves,
-                 "Plot training curves (coverage, acquisitions, reward, travel) of runs.")
+                 "Plot training curves (coverage, acquisitions, reward, travel) of runs.",
+                 config=False)
     curves.add_argument("runs", nargs="+", help="run directories")
     curves.add_argument("--out", default="curves.png", help="PNG to write")
     curves.add_argument("--window", type=POSITIVE_INT, default=50,
