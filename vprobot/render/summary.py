@@ -146,8 +146,8 @@ def _caption(image: np.ndarray, record: EpisodeRecord) -> np.ndarray:
     lines = [
         f"coverage {100.0 * record.coverage:.1f} %: {covered} of {len(record.covered)} "
         "ground-truth points covered (green), the rest not (red)",
-        f"{reached} of {len(record.views)} views reached (x: unreachable request); travel "
-        f"{travel.joint_time:.2f} s joint time, {travel.cartesian:.2f} m sensor path",
+        f"{reached} of {len(record.views)} views reached (x: unreachable request); between "
+        f"views {travel.joint_time:.2f} s joint time, {travel.cartesian:.2f} m sensor path",
     ]
     canvas = Image.fromarray(image).convert("RGBA")
     layer = Image.new("RGBA", canvas.size, (0, 0, 0, 0))
