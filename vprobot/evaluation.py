@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import csv
 import functools
-import io
 import statistics
 import sys
 from collections.abc import Iterator, Sequence
@@ -36,7 +35,7 @@ from vprobot.episode import (
     read_episode_list,
     write_episode_list,
 )
-from vprobot.files import append_line, atomic_output
+from vprobot.files import append_line, csv_text, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -164,21 +163,6 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     return "\n".join(lines) + "\n"
 
 
-def _csv_text(columns: Sequence[str], rows: Sequence[dict[str, Any]], header: bool) -> str:
-    stream = io.StringIO()
-    writer = csv.DictWriter(stream, fieldnames=list(columns), lineterminator="\n")
-    if header:
-        writer.writeheader()
-    for row in rows:
-        writer.writerow({key: "" if row[key] is None else row[key] for key in columns})
-    return stream.getvalue()
-
-
-def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -> None:
-    with atomic_output(path) as temporary:
-        temporary.write_text(_csv_text(columns, rows, header=True))
-
-
 _INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested")
 _TEXT_COLUMNS = ("planner", "carrier", "motor")
 
@@ -227,8 +211,8 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
 def _append_row(path: Path, row: dict[str, Any]) -> None:
     """Append one row as a single write, flushed to disk: a kill leaves whole rows, and at
     worst a cut last line that `finished_rows` drops."""
-    append_line(path, _csv_text(EPISODE_COLUMNS, [row],
-                                header=not path.exists() or path.stat().st_size == 0))
+    append_line(path, csv_text(EPISODE_COLUMNS, [row],
+                               header=not path.exists() or path.stat().st_size == 0))
 
 
 def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
@@ -258,9 +242,8 @@ def _write_tables(out: Path, rows: list[dict[str, Any]], specs: Sequence[Episode
     if len(rows) < total:
         text = (f"**Partial: {len(rows)} of {total} episodes; run the same command again to "
                 f"finish.**\n\n" + text)
-    with atomic_output(out / "evaluation.md") as temporary:
-        temporary.write_text(text)
-    _write_csv(out / "evaluation.csv", COLUMNS, table)
+    write_text(out / "evaluation.md", text)
+    write_text(out / "evaluation.csv", csv_text(COLUMNS, table))
     return table
 
 

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import contextlib
+import csv
+import io
 import os
 import re
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 
 def _new_file_mode() -> int:
@@ -99,3 +102,22 @@ def append_line(path: Path, text: str) -> None:
         os.fsync(descriptor)
     finally:
         os.close(descriptor)
+
+
+def write_text(path: Path, text: str) -> Path:
+    """Write `text` to `path` atomically (the old file, or none, until it is complete)."""
+    with atomic_output(path) as temporary:
+        temporary.write_text(text)
+    return path
+
+
+def csv_text(columns: Sequence[str], rows: Iterable[Mapping[str, Any]],
+             header: bool = True) -> str:
+    """Rows as CSV text ("\n" line ends); a missing or None value is an empty cell."""
+    stream = io.StringIO()
+    writer = csv.DictWriter(stream, fieldnames=list(columns), lineterminator="\n")
+    if header:
+        writer.writeheader()
+    for row in rows:
+        writer.writerow({key: "" if row.get(key) is None else row[key] for key in columns})
+    return stream.getvalue()

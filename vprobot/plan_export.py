@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from vprobot.episode import EpisodeRecord, MotorScene
-from vprobot.files import atomic_output
+from vprobot.files import write_text
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
 from vprobot.robots import FLANGE_FRAME
@@ -185,7 +185,4 @@ def write_json(path: str | Path, document: dict[str, Any]) -> Path:
         raise ValueError(f"output path {path} is a folder; give a file name such as plan.json")
     if not path.parent.is_dir():
         raise ValueError(f"output folder {path.parent} does not exist")
-    text = json.dumps(document, indent=2, allow_nan=False)
-    with atomic_output(path) as temporary:
-        temporary.write_text(text + "\n")
-    return path
+    return write_text(path, json.dumps(document, indent=2, allow_nan=False) + "\n")

@@ -4,7 +4,6 @@ resumable checkpoints (model, replay buffer, episode stream, log lengths)."""
 from __future__ import annotations
 
 import csv
-import io
 import json
 import time
 from pathlib import Path
@@ -17,7 +16,7 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, summarize
 from vprobot.env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.files import append_line, atomic_output
+from vprobot.files import append_line, atomic_output, csv_text, write_text
 
 EVALUATION_COLUMNS = ("step", "wall_s", "episodes", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
@@ -85,12 +84,8 @@ class SharedEpisodeEvaluation(BaseCallback):
         self.latest, self.latest_step = summary, model.num_timesteps
         row = {"step": model.num_timesteps, "wall_s": time.time() - self.clock_start,
                "episodes": len(self.specs), **summary}
-        stream = io.StringIO()
-        writer = csv.DictWriter(stream, fieldnames=list(EVALUATION_COLUMNS), lineterminator="\n")
-        if not self.path.is_file():
-            writer.writeheader()
-        writer.writerow(row)
-        append_line(self.path, stream.getvalue())
+        append_line(self.path, csv_text(EVALUATION_COLUMNS, [row],
+                                         header=not self.path.is_file()))
         for key, value in summary.items():
             model.logger.record(f"eval/{key}", value)
         score = (summary["coverage"], -summary["acquisitions"])
@@ -166,8 +161,7 @@ class ResumableCheckpoint(BaseCallback):
             with atomic_output(buffer_path) as temporary:
                 self.model.save_replay_buffer(temporary)
             state["buffer"] = buffer_path.name
-        with atomic_output(self.run_dir / CHECKPOINT_FILE) as temporary:
-            temporary.write_text(json.dumps(state, indent=1) + "\n")
+        write_text(self.run_dir / CHECKPOINT_FILE, json.dumps(state, indent=1) + "\n")
         if previous is not None and previous["steps"] != steps:
             for name in (previous["model"], previous["buffer"]):
                 if name is not None:

@@ -23,9 +23,7 @@ their checkpoints).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import itertools
 import json
 import statistics
@@ -38,7 +36,7 @@ import yaml
 
 from vprobot.agents.curves import plot_curves, read_monitor, travel_column
 from vprobot.config import ConfigError
-from vprobot.files import atomic_output
+from vprobot.files import csv_text, write_text
 from vprobot.paths import CONFIGS_DIR
 
 CONVERGED_EPISODES = 100
@@ -156,8 +154,7 @@ def run_trial(profile: Path, overrides: Sequence[str], steps: int | None, seed: 
     result = train(config, run_dir, seed=seed, resume=resume, progress=False,
                    argv=["vprobot", "train", str(profile), "--set", *overrides, "--seed",
                          str(seed)])
-    with atomic_output(run_dir / "result.json") as temporary:
-        temporary.write_text(json.dumps(result, indent=1) + "\n")
+    write_text(run_dir / "result.json", json.dumps(result, indent=1) + "\n")
     return result
 
 
@@ -202,13 +199,7 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
     """`study.csv` and `study.md` in `out`."""
     columns = ["configuration", "seeds"] + [f"{key}{suffix}" for key in TABLE_KEYS
                                             for suffix in ("", "_min", "_max")]
-    stream = io.StringIO()
-    writer = csv.DictWriter(stream, fieldnames=columns, lineterminator="\n")
-    writer.writeheader()
-    for row in table:
-        writer.writerow({key: row.get(key, "") for key in columns})
-    with atomic_output(out / "study.csv") as temporary:
-        temporary.write_text(stream.getvalue())
+    write_text(out / "study.csv", csv_text(columns, table))
 
     def cell(row: dict[str, Any], key: str, scale: float = 1.0, digits: int = 1) -> str:
         if key not in row:
@@ -235,8 +226,7 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
             cell(row, "acquisitions", 1, 2), cell(row, "success", 100, 0),
             cell(row, "reachable_share", 100, 0), cell(row, "travel_joint_time", 1, 2),
             cell(row, "ms_per_view", 1, 1), cell(row, "wall_s", 1 / 60, 1)]) + " |")
-    with atomic_output(out / "study.md") as temporary:
-        temporary.write_text("\n".join(lines) + "\n")
+    write_text(out / "study.md", "\n".join(lines) + "\n")
 
 
 def sweep(study_path: str | Path, out: str | Path, resume: bool = False,

@@ -49,7 +49,7 @@ from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
 from vprobot.episode import BUNDLED_TEST_EPISODES, read_episode_list
-from vprobot.files import atomic_output
+from vprobot.files import atomic_output, write_text
 from vprobot.kinematics import TRAVEL_COSTS
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
@@ -196,27 +196,24 @@ def _commit() -> str:
         return "unknown"
 
 
-def _write_text(path: Path, text: str) -> None:
-    with atomic_output(path) as temporary:
-        temporary.write_text(text)
-
-
 def start_run(config: Config, run_dir: Path, seed: int, argv: Sequence[str]) -> None:
     """Create a run directory with its config, command line and memory figures.
 
     Raises:
         ValueError: If the directory already holds a run (resume it, or choose another).
+        ConfigError: If the buffer would need too much memory (before anything is written).
     """
     if (run_dir / "config.yaml").exists():
         raise ValueError(f"{run_dir} already holds a run; add --resume to go on with it, or "
                          f"choose another --out")
+    memory = check_memory(config)
     run_dir.mkdir(parents=True, exist_ok=True)
-    _write_text(run_dir / "config.yaml", yaml.safe_dump(config_document(config),
+    write_text(run_dir / "config.yaml", yaml.safe_dump(config_document(config),
                                                         sort_keys=False))
-    _write_text(run_dir / "command.txt", f"{' '.join(argv)}\nseed: {seed}\n"
+    write_text(run_dir / "command.txt", f"{' '.join(argv)}\nseed: {seed}\n"
                                         f"commit: {_commit()}\nstarted: {time.ctime()}\n")
-    _write_text(run_dir / "memory.json", json.dumps(check_memory(config), indent=1) + "\n")
-    _write_text(run_dir / "run.json", json.dumps({"seed": seed, "started": time.time()}) + "\n")
+    write_text(run_dir / "memory.json", json.dumps(memory, indent=1) + "\n")
+    write_text(run_dir / "run.json", json.dumps({"seed": seed, "started": time.time()}) + "\n")
 
 
 def train(config: Config, run_dir: str | Path, seed: int = 0, resume: bool = False,

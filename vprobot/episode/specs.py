@@ -21,7 +21,7 @@ import numpy as np
 
 from vprobot.config import Config, EnvConfig
 from vprobot.episode.records import ViewRequest
-from vprobot.files import atomic_output
+from vprobot.files import write_text
 from vprobot.geometry import (
     matrix_to_quat,
     quat_to_matrix,
@@ -200,10 +200,8 @@ def write_episode_list(path: str | Path, specs: Sequence[EpisodeSpec]) -> Path:
     path = Path(path)
     # One episode per line: readable, and diffs show which episodes changed.
     episodes = ",\n  ".join(json.dumps(spec.as_dict()) for spec in specs)
-    text = f'{{"version": {EPISODE_LIST_VERSION}, "episodes": [\n  {episodes}\n]}}\n'
-    with atomic_output(path) as temporary:
-        temporary.write_text(text)
-    return path
+    return write_text(path, f'{{"version": {EPISODE_LIST_VERSION}, "episodes": [\n  '
+                            f'{episodes}\n]}}\n')
 
 
 def read_episode_list(path: str | Path) -> list[EpisodeSpec]:
