@@ -1,4 +1,8 @@
-"""Reference forward kinematics of the UR robots from Universal Robots' published DH parameters.
+"""Reference forward kinematics of the bundled robots from their makers' published DH parameters.
+
+UR5 and UR10: Universal Robots' standard DH table. Franka Emika Panda: the modified (Craig) DH
+table of Franka's documentation ("Robot and interface specifications", Denavit-Hartenberg
+parameters), flange 0.107 m beyond joint 7.
 
 Independent of MuJoCo and of vprobot's kinematics: the tests compare vprobot's FK and the poses
 it exports against these plain functions. Every pose is a 4 x 4 homogeneous transform.
@@ -9,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.config import Config
+from vprobot.robots import load_robot
 
 # Universal Robots' published DH parameters (standard DH, metres).
 UR_DH = {
@@ -22,6 +27,19 @@ UR_DH = {
     },
 }
 UR_ALPHA = [np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0]
+
+# Franka's published modified DH parameters (a_{i-1}, d_i, alpha_{i-1}) of joints 1-7 and the
+# flange (theta fixed at 0), metres and radians.
+PANDA_MDH = [
+    (0.0, 0.333, 0.0),
+    (0.0, 0.0, -np.pi / 2),
+    (0.0, 0.316, np.pi / 2),
+    (0.0825, 0.0, np.pi / 2),
+    (-0.0825, 0.384, -np.pi / 2),
+    (0.0, 0.0, np.pi / 2),
+    (0.088, 0.0, np.pi / 2),
+    (0.0, 0.107, 0.0),
+]
 
 
 def transform(position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
@@ -47,8 +65,8 @@ def yaw_matrix(angle_rad: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def dh_flange(q: np.ndarray, robot: str) -> np.ndarray:
-    """Flange (`tool0`) pose in the UR controller's base frame from the DH table."""
+def ur_flange(q: np.ndarray, robot: str) -> np.ndarray:
+    """UR flange (`tool0`) pose in the UR controller's base frame from the standard DH table."""
     result = np.eye(4)
     for theta, d, a, alpha in zip(q, UR_DH[robot]["d"], UR_DH[robot]["a"], UR_ALPHA, strict=True):
         ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
@@ -59,15 +77,45 @@ def dh_flange(q: np.ndarray, robot: str) -> np.ndarray:
     return result
 
 
-def controller_base(config: Config) -> np.ndarray:
-    """The UR controller's base frame in the world, from the cell config.
+def panda_flange(q: np.ndarray) -> np.ndarray:
+    """Panda flange pose in its base frame from the modified DH table:
+    T_i = RotX(alpha_{i-1}) TransX(a_{i-1}) RotZ(theta_i) TransZ(d_i)."""
+    result = np.eye(4)
+    for theta, (a, d, alpha) in zip([*q, 0.0], PANDA_MDH, strict=True):
+        ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+        result = result @ np.array(
+            [[ct, -st, 0.0, a], [st * ca, ct * ca, -sa, -d * sa],
+             [st * sa, ct * sa, ca, d * ca], [0.0, 0.0, 0.0, 1.0]]
+        )
+    return result
 
-    The robot description's `base_link` sits at `robot_base_position_m`, turned by
-    `robot_base_yaw_deg` about world z; the controller's base frame (where the DH chain starts)
-    is `base_link` turned half a turn about z.
+
+def dh_flange(q: np.ndarray, robot: str) -> np.ndarray:
+    """Flange pose in the maker's base frame of the DH chain."""
+    return panda_flange(q) if robot == "panda" else ur_flange(q, robot)
+
+
+def controller_base(config: Config) -> np.ndarray:
+    """The maker's base frame (where the DH chain starts) in the world, from the cell config.
+
+    The robot description's base body sits at `robot_base_position_m`, turned by
+    `robot_base_yaw_deg` about world z and then by `robot_base_tilt_deg` about its own y (the
+    robot's own placement where the config leaves them unset). For the URs the controller's base frame is `base_link` turned half a turn about z;
+    Franka's coincides with `panda_link0`.
     """
-    yaw = np.deg2rad(config.cell.robot_base_yaw_deg) + np.pi
-    return transform(np.asarray(config.cell.robot_base_position_m, dtype=float), yaw_matrix(yaw))
+    cell = config.cell
+    robot = load_robot(cell.robot)
+    position = (cell.robot_base_position_m if cell.robot_base_position_m is not None
+                else robot.base_position_m)
+    yaw = np.deg2rad(cell.robot_base_yaw_deg if cell.robot_base_yaw_deg is not None
+                     else robot.base_yaw_deg)
+    tilt = np.deg2rad(cell.robot_base_tilt_deg if cell.robot_base_tilt_deg is not None
+                      else robot.base_tilt_deg)
+    c, s = np.cos(tilt), np.sin(tilt)
+    rotation = yaw_matrix(yaw) @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    if robot.name != "panda":
+        rotation = rotation @ yaw_matrix(np.pi)
+    return transform(np.asarray(position, dtype=float), rotation)
 
 
 def sensor_mount(config: Config) -> np.ndarray:

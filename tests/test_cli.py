@@ -72,10 +72,12 @@ def test_bad_output_path_leaves_nothing(tmp_path: Path, capsys: pytest.CaptureFi
     assert not out.parent.exists()
 
 
-def test_unknown_robot_is_rejected_by_the_parser(capsys: pytest.CaptureFixture) -> None:
-    with pytest.raises(SystemExit):
-        main(["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0", "--robot", "kuka"])
-    assert "invalid choice: 'kuka'" in capsys.readouterr().err
+def test_unknown_robot_is_one_line_listing_the_bundled_ones(capsys: pytest.CaptureFixture) -> None:
+    code = main(["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0", "--robot",
+                 "kuka"])
+    error = capsys.readouterr().err
+    assert code == 2 and len(error.strip().splitlines()) == 1
+    assert "unknown robot 'kuka'" in error and "panda, ur10, ur5" in error
 
 
 def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

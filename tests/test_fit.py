@@ -131,7 +131,8 @@ def test_cell_clearances_bind_for_unusual_placements(tmp_path: Path) -> None:
     check_fits(load_mesh(MOTOR), low)
     with pytest.raises(ValueError, match=r"allows 0\.15 m.*through the floor"):
         check_fits(load_mesh(_box(tmp_path / "cube.stl", 0.2)), low)
+    # Beside the UR10's column, below its base at (0, 0, 0.5).
     on_robot = dataclasses.replace(CONFIG, cell=dataclasses.replace(
-        CONFIG.cell, object_center_m=(0.05, 0.0, 0.75)))
+        CONFIG.cell, object_center_m=(0.05, 0.0, 0.4)))
     with pytest.raises(ValueError, match=r"room for no object: .*robot base"):
         check_fits(load_mesh(MOTOR), on_robot)

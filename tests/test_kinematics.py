@@ -40,13 +40,14 @@ def free_configurations(arm: RobotArm, count: int, seed: int) -> list[np.ndarray
     return configurations
 
 
-@pytest.mark.parametrize("robot", ["ur5", "ur10"])
+@pytest.mark.parametrize("robot", ["ur5", "ur10", "panda"])
 def test_fk_matches_published_dh_parameters(robot: str) -> None:
-    # A turned base and a tilted, offset mount, so that every part of the composition shows.
+    # A turned and tilted base and a tilted, offset mount, so that every part of the composition
+    # shows. The Panda's reference is Franka's modified DH table, not its URDF or MJCF.
     config = dataclasses.replace(
         Config(),
         cell=dataclasses.replace(CellConfig(), robot=robot, robot_base_position_m=(0.1, -0.2, 0.4),
-                                 robot_base_yaw_deg=30.0),
+                                 robot_base_yaw_deg=30.0, robot_base_tilt_deg=20.0),
         sensor=dataclasses.replace(SensorConfig(), mount_position_m=(0.01, -0.02, 0.09),
                                    mount_quaternion_wxyz=(0.9, 0.1, -0.3, 0.2)),
     )
@@ -234,8 +235,8 @@ def test_bad_configurations_are_rejected(arm: RobotArm) -> None:
 
 
 def test_unknown_robot_is_rejected() -> None:
-    with pytest.raises(ValueError, match=r"cell\.robot must be one of \['ur10', 'ur5'\], "
-                                         r"got 'kuka'"):
+    with pytest.raises(ValueError, match=r"cell\.robot: unknown robot 'kuka': neither a bundled "
+                                         r"robot \(panda, ur10, ur5\) nor a robot folder"):
         Cell(dataclasses.replace(Config(), cell=CellConfig(robot="kuka")))
 
 

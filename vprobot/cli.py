@@ -99,8 +99,8 @@ def command_reach(args: argparse.Namespace) -> int:
                              f"{np.round(joints.upper, 4).tolist()} rad")
     result = arm.reach(target, q_from)
     verdict = "REACHABLE" if result.reachable else f"UNREACHABLE ({result.reason})"
-    print(f"robot {cell.robot}: sensor at {np.round(target.pose.position, 4).tolist()} looking at "
-          f"{np.round(args.look_at, 4).tolist()}: {verdict}")
+    print(f"robot {cell.robot.name}: sensor at {np.round(target.pose.position, 4).tolist()} "
+          f"looking at {np.round(args.look_at, 4).tolist()}: {verdict}")
     print(f"  IK: {result.attempts} attempt(s), {result.iterations} iterations, residual "
           f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
     view = PlannedView(pose=target.pose, joints=None, reachable=False, reason=result.reason)
@@ -125,11 +125,12 @@ def command_cell(args: argparse.Namespace) -> int:
     cell = default_cell(config)
     arm = RobotArm(cell)
     targets = view_sphere_targets(cell, args.candidates)
-    survey = view_sphere_survey(arm, targets, progress=True, label=cell.robot)
+    survey = view_sphere_survey(arm, targets, progress=True, label=cell.robot.name)
     heights = np.array([t.pose.position[2] - cell.object_center[2] for t in targets])
     polar = np.degrees(np.arccos(np.clip(heights / config.sensor.working_distance_m, -1, 1)))
     reachable = np.array(survey["reachable"])
-    print(f"cell: {cell.robot} base at {list(config.cell.robot_base_position_m)} m, motor centre "
+    print(f"cell: {cell.robot.name} base at {np.round(cell.robot_base.position, 4).tolist()} m, "
+          f"motor centre "
           f"at {list(config.cell.object_center_m)} m, views at "
           f"{config.sensor.working_distance_m} m looking at the centre")
     print("polar angle from the top   candidates   reachable")
@@ -140,7 +141,7 @@ def command_cell(args: argparse.Namespace) -> int:
                   f"{reachable[band].mean():7.1%}")
     print(f"all                          {len(targets):5d}     {survey['fraction']:7.1%}")
     print(f"failures: {survey['reasons']}")
-    _write_json(args.json, {"robot": cell.robot, "fraction": survey["fraction"],
+    _write_json(args.json, {"robot": cell.robot.name, "fraction": survey["fraction"],
                             "reasons": survey["reasons"]})
     return 0
 
@@ -320,6 +321,42 @@ def command_motors_generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_robots_list(args: argparse.Namespace) -> int:
+    from vprobot.robots import available_robots, load_robot
+
+    print("robot    joints  base (m)            yaw, tilt (deg)  flange")
+    for name in available_robots():
+        robot = load_robot(name)
+        print(f"{name:8s} {robot.dof:6d}  {list(robot.base_position_m)!s:19s} "
+              f"{robot.base_yaw_deg:5.0f}, {robot.base_tilt_deg:4.0f}      {robot.flange}")
+    return 0
+
+
+def _package_path(text: str) -> tuple[str, Path]:
+    name, separator, folder = text.partition("=")
+    if not separator or not name or not folder:
+        raise argparse.ArgumentTypeError(f"must be NAME=FOLDER, got {text!r}")
+    return name, Path(folder)
+
+
+def command_robots_import(args: argparse.Namespace) -> int:
+    """Convert a URDF into a robot folder and report its reachability of the view sphere."""
+    from vprobot.robots.urdf_import import Provenance, convert_urdf
+
+    out = Path(args.out if args.out is not None else Path("robots") / args.name)
+    robot = convert_urdf(
+        args.urdf, args.name, args.flange, out,
+        provenance=Provenance(title=args.name, source=f"`{args.urdf}`"),
+        home=args.home, base_position_m=args.base_position, base_yaw_deg=args.base_yaw,
+        base_tilt_deg=args.base_tilt, package_paths=dict(args.package or []),
+        overwrite=args.force)
+    print(f"wrote {out}: {robot.dof} joints from {robot.base!r} to {robot.flange!r}, pan "
+          f"{robot.pan_joint!r}, roll {robot.roll_joint!r}")
+    print(f"use it with --robot {out} (or cell.robot: {out}); `vprobot cell --robot {out}` "
+          f"reports how much of the view sphere it reaches from its base placement")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="vprobot", description="Robot-guided visual inspection planning in MuJoCo."
@@ -335,8 +372,9 @@ def build_parser() -> argparse.ArgumentParser:
         return sub
 
     def add_robot(sub: argparse.ArgumentParser) -> None:
-        sub.add_argument("--robot", choices=available_robots(),
-                         help="robot to use instead of the config's")
+        sub.add_argument("--robot", metavar="ROBOT",
+                         help=f"robot to use instead of the config's: "
+                              f"{', '.join(available_robots())} or a robot folder")
 
     reach = add("reach", command_reach, "Can the cell reach this sensor view?")
     add_robot(reach)
@@ -460,6 +498,32 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--count", type=POSITIVE_INT, required=True)
     generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0)
     generate.add_argument("--out", required=True, help="output folder")
+
+    robots = commands.add_parser("robots", help="Robots: the bundled ones, importing your own.")
+    robot_commands = robots.add_subparsers(dest="robots_command", required=True)
+    add("list", command_robots_list, "List the bundled robots.", robot_commands, config=False)
+    importer = add("import", command_robots_import,
+                   "Convert a serial arm's URDF into a robot folder.", robot_commands,
+                   config=False)
+    importer.add_argument("urdf", help="the URDF file")
+    importer.add_argument("--flange", required=True,
+                          help="the link that carries the sensor (the flange frame)")
+    importer.add_argument("--name", required=True, help="the robot's name")
+    importer.add_argument("--out", help="the robot folder to write (default: robots/NAME)")
+    importer.add_argument("--home", type=float, nargs="+", metavar="Q",
+                          help="home configuration (rad); default: zero, mid-range where zero "
+                               "is outside the limits")
+    importer.add_argument("--base-position", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                          default=(0.0, 0.0, 0.5), help="base position in the cell (m)")
+    importer.add_argument("--base-yaw", type=float, default=0.0,
+                          help="base rotation about the world z axis (deg)")
+    importer.add_argument("--base-tilt", type=float, default=0.0,
+                          help="base rotation about its own y axis: 0 floor, 90 wall, "
+                               "180 ceiling (deg)")
+    importer.add_argument("--package", type=_package_path, action="append",
+                          metavar="NAME=FOLDER",
+                          help="folder of a ROS package named by package:// mesh paths")
+    importer.add_argument("--force", action="store_true", help="replace an existing folder")
     return parser
 
 

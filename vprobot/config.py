@@ -19,7 +19,6 @@ from typing import Any, Literal
 import yaml
 
 from vprobot.paths import CONFIGS_DIR
-from vprobot.robots import available_robots
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -34,23 +33,33 @@ class CellConfig:
     """The inspection cell: which robot, where its base is, where the motor sits.
 
     Attributes:
-        robot: Robot folder name under `assets/robots/` (`ur5`, `ur10`).
+        robot: A bundled robot (`ur10`, `ur5`, `panda`) or the path of a robot folder (one
+            written by `vprobot robots import`).
         robot_base_position_m: Position of the robot base in the world (a stand fills the gap
-            down to the floor).
-        robot_base_yaw_deg: Rotation of the robot base about the world z axis.
+            down to the floor); None takes the robot's own placement from its `robot.yaml`.
+        robot_base_yaw_deg: Rotation of the robot base about the world z axis; None takes the
+            robot's own.
+        robot_base_tilt_deg: Rotation of the robot base about its own y axis after the yaw:
+            0 stands on the floor, 90 hangs on a wall, 180 hangs from the ceiling; None takes
+            the robot's own.
         object_center_m: Where the centre of the motor's bounding box is placed (world frame).
             The fixture plate is raised to meet the underside of whatever object is placed.
     """
 
     robot: str = "ur10"
-    robot_base_position_m: Vec3 = (0.0, 0.0, 0.5)
-    robot_base_yaw_deg: float = 0.0
+    robot_base_position_m: Vec3 | None = None
+    robot_base_yaw_deg: float | None = None
+    robot_base_tilt_deg: float | None = None
     object_center_m: Vec3 = (0.45, 0.0, 0.75)
 
     def __post_init__(self) -> None:
-        robots = available_robots()
-        if self.robot not in robots:
-            raise ConfigError(f"cell.robot must be one of {robots}, got {self.robot!r}")
+        # Imported here: the robot descriptions are themselves read with this module's schema.
+        from vprobot.robots import load_robot
+
+        try:
+            load_robot(self.robot)
+        except ValueError as error:
+            raise ConfigError(f"cell.robot: {error}") from None
 
 
 MAX_RAYS_PER_AXIS = 2048
@@ -364,6 +373,10 @@ def _convert(value: Any, annotation: Any, key: str) -> Any:
         return value
     if origin is tuple:
         item_types = typing.get_args(annotation)
+        if len(item_types) == 2 and item_types[1] is Ellipsis:
+            if not isinstance(value, list | tuple) or not value:
+                raise ConfigError(f"{key} must be a non-empty list, got {value!r}")
+            item_types = (item_types[0],) * len(value)
         if not isinstance(value, list | tuple) or len(value) != len(item_types):
             raise ConfigError(f"{key} must be a list of {len(item_types)} values, got {value!r}")
         return tuple(

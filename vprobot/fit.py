@@ -24,7 +24,7 @@ the far ends of an object silently drop out of the ground truth (motor_000 x 2: 
 engulfs its base, and no configuration is collision-free.
 
 The cell adds two clearances, which bind only for unusual placements: the object must stay
-above the floor (z = 0) and clear of the column under the robot base.
+above the floor (z = 0) and clear of the robot base and the column that carries it.
 """
 
 from __future__ import annotations
@@ -36,7 +36,8 @@ import numpy as np
 
 from vprobot.config import Config
 from vprobot.mesh_loading import MIN_EXTENT_M, LoadedMesh
-from vprobot.scene import ROBOT_STAND_RADIUS_M
+from vprobot.robots import load_robot
+from vprobot.scene import ROBOT_STAND_RADIUS_M, robot_base_pose, stand_length
 
 _PLAUSIBLE_MIN_EXTENT_M = 0.05
 """A unit hint must give at least this size: a 2 cm starter motor is a unit mistake too."""
@@ -57,6 +58,14 @@ class FitLimit:
     reason: str
 
 
+def segment_distance(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> float:
+    """Distance from `point` to the segment from `start` to `end`."""
+    along = end - start
+    length2 = float(along @ along)
+    fraction = 0.0 if length2 == 0.0 else float(np.clip((point - start) @ along / length2, 0, 1))
+    return float(np.linalg.norm(point - (start + fraction * along)))
+
+
 def sensor_limit_m(config: Config) -> float:
     """Farthest distance from the object centre that any view on the view sphere measures."""
     sensor = config.sensor
@@ -71,14 +80,15 @@ def fit_limit(config: Config) -> FitLimit:
     """The bounding-sphere radius an object may have in this cell (see the module docstring)."""
     sensor = config.sensor
     center = np.asarray(config.cell.object_center_m, dtype=float)
-    base = np.asarray(config.cell.robot_base_position_m, dtype=float)
+    base = robot_base_pose(config, load_robot(config.cell.robot))
+    column_end = base.position - stand_length(base) * base.rotation[:, 2]
     limits = [
         FitLimit(sensor_limit_m(config),
                  f"the sensor, {sensor.working_distance_m:g} m from the centre and measuring from "
                  f"{sensor.near_m:g} m on, sees nothing farther than that from the centre"),
         FitLimit(float(center[2]), "the object would reach through the floor"),
-        FitLimit(float(np.linalg.norm(center[:2] - base[:2])) - ROBOT_STAND_RADIUS_M,
-                 "the object would reach the robot base"),
+        FitLimit(segment_distance(center, base.position, column_end) - ROBOT_STAND_RADIUS_M,
+                 "the object would reach the robot base or its column"),
     ]
     return min(limits, key=lambda limit: limit.radius_m)
 

@@ -13,7 +13,6 @@ from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.files import write_text
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
-from vprobot.robots import FLANGE_FRAME
 from vprobot.scene import Cell
 
 
@@ -80,12 +79,12 @@ def robot_block(cell: Cell) -> dict[str, Any]:
     """The robot: name, base pose, joint names and the sensor mount on the flange frame."""
     base, mount = cell.robot_base, cell.sensor_mount
     return {
-        "name": cell.robot,
+        "name": cell.robot.name,
         "base_position": _floats(base.position),
         "base_quaternion": _floats(base.quaternion),
         "joint_names": list(cell.joints.names),
         "sensor_mount": {
-            "parent": FLANGE_FRAME,
+            "parent": cell.robot.flange,
             "position": _floats(mount.position),
             "quaternion": _floats(mount.quaternion),
         },

@@ -10,9 +10,16 @@ import numpy.typing as npt
 import trimesh
 
 from vprobot.config import Config
-from vprobot.geometry import Pose, as_vector, matrix_to_quat, quat_to_matrix, rotation_about_z
+from vprobot.geometry import (
+    Pose,
+    as_vector,
+    quat_to_matrix,
+    rotation_about_y,
+    rotation_about_z,
+)
 from vprobot.mesh_loading import solid_problem
-from vprobot.robots import FLANGE_FRAME, scene_path
+from vprobot.robots import RobotDescription, load_robot
+from vprobot.robots.description import SENSOR_BODY, SENSOR_SITE, hangs_below
 
 # Geom groups and collision bits of the bundled scenes (see scripts/convert_robots.py).
 GEOM_GROUP_OBJECT = 1
@@ -20,6 +27,12 @@ ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
 
 NOMINAL_OBJECT_HALF_HEIGHT_M = 0.06
 """Fixture height below the object centre while no object is loaded (a motor lying down)."""
+
+CEILING_HEIGHT_M = 2.2
+"""Height of the cell's ceiling, which carries a hanging robot's column."""
+WALL_MOUNT_COSINE = 0.2
+"""A base whose z axis is within about 78-102 degrees of the vertical hangs on a wall bracket."""
+WALL_BRACKET_M = 0.3
 
 ROBOT_STAND_RADIUS_M = 0.09
 """Radius of the column under a raised robot base (about that of the UR10's base link)."""
@@ -47,8 +60,34 @@ class JointSpace:
         return as_vector(q, self.dof, name)
 
 
+def robot_base_pose(config: Config, robot: RobotDescription) -> Pose:
+    """Where the robot's base stands: the config's placement, else the robot's own."""
+    cell = config.cell
+    position = (cell.robot_base_position_m if cell.robot_base_position_m is not None
+                else robot.base_position_m)
+    yaw_deg = cell.robot_base_yaw_deg if cell.robot_base_yaw_deg is not None else robot.base_yaw_deg
+    tilt_deg = (cell.robot_base_tilt_deg if cell.robot_base_tilt_deg is not None
+                else robot.base_tilt_deg)
+    rotation = rotation_about_z(np.deg2rad(yaw_deg)) @ rotation_about_y(np.deg2rad(tilt_deg))
+    return Pose(np.array(position, dtype=float), rotation)
+
+
+def stand_length(base: Pose) -> float:
+    """Length of the column that carries the base along its -z: down to the floor for an upright
+    base, up to the ceiling for a hanging one, a short bracket for a wall mount (0: none)."""
+    up = float(base.rotation[2, 2])
+    if up > WALL_MOUNT_COSINE:
+        return max(float(base.position[2]) / up, 0.0)
+    if up < -WALL_MOUNT_COSINE:
+        return max((CEILING_HEIGHT_M - float(base.position[2])) / -up, 0.0)
+    return WALL_BRACKET_M
+
+
 class Cell:
     """A compiled inspection cell for one robot, one sensor mount and optionally one object.
+
+    The robot is read through its description (`robot.yaml`): its base is placed where the config
+    says, or where the description's default placement puts it.
 
     The object body and the fixture are mocap bodies, so placing the object for an episode
     (`place_object`) needs no recompilation; a different mesh needs a new `Cell`.
@@ -59,20 +98,25 @@ class Cell:
             the empty cell.
 
     Raises:
-        ValueError: If the robot is unknown, or the mesh has no faces, non-finite vertices or
-            lies flat in a plane.
+        ValueError: If the robot is unknown or its folder does not match its description, or
+            the mesh has no faces, non-finite vertices or lies flat in a plane.
     """
 
     def __init__(self, config: Config, object_mesh: trimesh.Trimesh | None = None):
         self.config = config
-        spec = mujoco.MjSpec.from_file(str(scene_path(config.cell.robot)))
-        base = spec.body("base_link")
-        base.pos = list(config.cell.robot_base_position_m)
-        yaw = rotation_about_z(np.deg2rad(config.cell.robot_base_yaw_deg))
-        base.quat = list(matrix_to_quat(yaw))
-        if config.cell.robot_base_position_m[2] > 0.0:
-            self._add_robot_stand(base, config.cell.robot_base_position_m[2])
-        sensor = spec.body("sensor_body")
+        self.robot: RobotDescription = load_robot(config.cell.robot)
+        spec = mujoco.MjSpec.from_file(str(self.robot.scene_path))
+        base = spec.body(self.robot.base)
+        if base is None:
+            raise ValueError(f"robot {self.robot.name}: base {self.robot.base!r} is not a body "
+                             f"of {self.robot.model}")
+        placement = robot_base_pose(config, self.robot)
+        base.pos = list(placement.position)
+        base.quat = list(placement.quaternion)
+        length = stand_length(placement)
+        if length > 0.0:
+            self._add_robot_stand(base, length)
+        sensor = spec.body(SENSOR_BODY)
         sensor.pos = list(config.sensor.mount_position_m)
         sensor.quat = list(np.asarray(config.sensor.mount_quaternion_wxyz) /
                            np.linalg.norm(config.sensor.mount_quaternion_wxyz))
@@ -84,12 +128,12 @@ class Cell:
         self.object_center = np.array(config.cell.object_center_m, dtype=float)
 
     @staticmethod
-    def _add_robot_stand(base: mujoco.MjsBody, height_m: float) -> None:
-        """A column under a raised robot base, down to the floor."""
+    def _add_robot_stand(base: mujoco.MjsBody, length_m: float) -> None:
+        """The column that carries the robot base, along the base's -z (see `stand_length`)."""
         base.add_geom(
             name="robot_stand",
             type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-            fromto=[0.0, 0.0, -height_m, 0.0, 0.0, -0.005],
+            fromto=[0.0, 0.0, -length_m, 0.0, 0.0, -0.005],
             size=[ROBOT_STAND_RADIUS_M, 0.0, 0.0],
             rgba=[0.3, 0.32, 0.35, 1.0],
             group=0,
@@ -125,43 +169,39 @@ class Cell:
 
     def _index_model(self) -> None:
         model = self.model
-        self.robot = self.config.cell.robot
-        hinge = mujoco.mjtJoint.mjJNT_HINGE
-        joint_ids = [j for j in range(model.njnt) if model.jnt_type[j] == hinge]
+        joint_ids = self.robot.check_model(model)
         # The object and fixture are mocap bodies: the robot's joints are the whole of qpos,
         # which lets kinematics write qpos wholesale.
-        if model.nq != len(joint_ids):
-            raise ValueError(f"expected only the robot's {len(joint_ids)} hinge joints in qpos, "
-                             f"found nq={model.nq}")
-        velocity_limits = model.numeric("joint_velocity_limits").data.copy()
+        if model.nq != len(joint_ids) or list(model.jnt_qposadr[joint_ids]) != list(
+                range(len(joint_ids))):
+            raise ValueError(f"robot {self.robot.name}: qpos must hold the arm's "
+                             f"{len(joint_ids)} joints only, found nq={model.nq}")
+        names = tuple(model.joint(j).name for j in joint_ids)
         self.joints = JointSpace(
-            names=tuple(model.joint(j).name for j in joint_ids),
+            names=names,
             lower=model.jnt_range[joint_ids, 0].copy(),
             upper=model.jnt_range[joint_ids, 1].copy(),
-            velocity_limits=velocity_limits,
-            home=model.key("home").qpos.copy(),
+            velocity_limits=np.array(self.robot.velocity_limits_rad_s),
+            home=np.array(self.robot.home),
         )
-        self.sensor_site_id = model.site("sensor").id
-        self.sensor_body_id = model.body("sensor_body").id
-        self.flange_body_id = model.body(FLANGE_FRAME).id
+        self.pan_index = names.index(self.robot.pan_joint)
+        self.roll_index = names.index(self.robot.roll_joint)
+        self.sensor_site_id = model.site(SENSOR_SITE).id
+        self.sensor_body_id = model.body(SENSOR_BODY).id
+        self.flange_body_id = model.body(self.robot.flange).id
+        self.base_body_id = model.body(self.robot.base).id
+        self.pan_body_id = int(model.jnt_bodyid[joint_ids[self.pan_index]])
         self.object_body_id = model.body("object").id
         self.object_mocap_id = model.body_mocapid[self.object_body_id]
         self.fixture_mocap_id = model.body_mocapid[model.body("fixture").id]
-        robot_root = model.body("base_link").id
-        robot_bodies = {b for b in range(model.nbody) if self._has_ancestor(b, robot_root)}
+        robot_bodies = {b for b in range(model.nbody)
+                        if hangs_below(model, b, self.base_body_id)}
         self.robot_geom_ids = np.array(
             [g for g in range(model.ngeom) if model.geom_bodyid[g] in robot_bodies]
         )
         self.object_geom_ids = np.array(
             [g for g in range(model.ngeom) if model.geom_bodyid[g] == self.object_body_id]
         )
-
-    def _has_ancestor(self, body: int, ancestor: int) -> bool:
-        while body != 0:
-            if body == ancestor:
-                return True
-            body = self.model.body_parentid[body]
-        return False
 
     @property
     def has_object(self) -> bool:
@@ -177,7 +217,7 @@ class Cell:
 
     @property
     def robot_base(self) -> Pose:
-        base = self.model.body("base_link").id
+        base = self.base_body_id
         return Pose(self.model.body_pos[base].copy(), quat_to_matrix(self.model.body_quat[base]))
 
     def make_data(self) -> mujoco.MjData:

@@ -22,8 +22,11 @@ POINT_BOUND = 4.0
 """Declared bound of the scaled point coordinates (points beyond are clipped)."""
 POSITION_BOUND = 8.0
 """Declared bound of the scaled sensor position in the robot state."""
-ROBOT_STATE_SIZE = 3 + 6 + 6
-"""Sensor position, the sensor's x and z axes, and the joint angles / (2 pi)."""
+
+
+def robot_state_size(dof: int) -> int:
+    """Sensor position, the sensor's x and z axes, and the `dof` joint angles / (2 pi)."""
+    return 3 + 6 + dof
 
 
 def points_space(config: EnvConfig) -> spaces.Box:
@@ -36,12 +39,17 @@ def points_space(config: EnvConfig) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
-def observation_space(config: EnvConfig) -> spaces.Space:
-    """A Box of points, or a Dict of points and robot state when `robot_state` is set."""
+def observation_space(config: EnvConfig, dof: int) -> spaces.Space:
+    """A Box of points, or a Dict of points and robot state when `robot_state` is set.
+
+    Args:
+        config: The environment settings.
+        dof: Joints of the robot (its description's), which size the robot state.
+    """
     points = points_space(config)
     if not config.robot_state:
         return points
-    robot = spaces.Box(-POSITION_BOUND, POSITION_BOUND, (ROBOT_STATE_SIZE,), dtype=np.float32)
+    robot = spaces.Box(-POSITION_BOUND, POSITION_BOUND, (robot_state_size(dof),), dtype=np.float32)
     return spaces.Dict({"points": points, "robot": robot})
 
 

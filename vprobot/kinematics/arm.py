@@ -91,7 +91,9 @@ class RobotArm:
         self.collisions = CollisionChecker(cell)
         self.ik = IKSolver(cell, self.settings)
         self.reach_radius_m = self._reach_radius()
-        self.shoulder_position = self.forward.body_position("shoulder_link", self.joints.home)
+        # The pan joint's body frame lies on the pan axis, whatever the other joints do.
+        self.shoulder_position = self.forward.body_position(cell.pan_body_id, self.joints.home)
+        self._pan_frame = self._pan_axis_frame()
         self.restart_seeds = self._restart_seeds()
         self._seed_azimuths = np.array([self._azimuth(self.fk(q).position)
                                         for q in self.restart_seeds])
@@ -114,24 +116,36 @@ class RobotArm:
         return seeds[: self.settings.restarts]
 
     def _azimuth(self, point: np.ndarray) -> float:
-        """Angle of `point` about the base's vertical axis (the pan joint)."""
-        local = self.cell.robot_base.inverse().rotation @ (point - self.shoulder_position)
+        """Angle of `point` about the pan joint's axis."""
+        local = self._pan_frame.T @ (point - self.shoulder_position)
         return float(np.arctan2(local[1], local[0]))
+
+    def _pan_axis_frame(self) -> np.ndarray:
+        """A rotation whose z axis is the pan joint's axis in the world (positive turn sense).
+
+        The pan joint is the chain's first, so its axis does not depend on the configuration.
+        """
+        data = self.forward.data
+        joint = self.cell.model.body_jntadr[self.cell.pan_body_id]
+        axis = data.xaxis[joint] / np.linalg.norm(data.xaxis[joint])
+        helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+        x = np.cross(helper, axis)
+        x /= np.linalg.norm(x)
+        return np.column_stack([x, np.cross(axis, x), axis])
 
     def _aimed_seeds(self, target_position: np.ndarray) -> np.ndarray:
         """The restart seeds turned about the pan joint so that each faces the target."""
         seeds = np.array(self.restart_seeds).reshape(-1, self.joints.dof)
         turn = self._azimuth(target_position) - self._seed_azimuths
-        seeds[:, 0] += np.angle(np.exp(1j * turn))
+        seeds[:, self.cell.pan_index] += np.angle(np.exp(1j * turn))
         return np.clip(seeds, self.joints.lower, self.joints.upper)
 
     def _reach_radius(self) -> float:
         """Upper bound of the sensor's distance from the shoulder: the sum of the link offsets."""
         model = self.cell.model
         body = self.cell.sensor_body_id
-        shoulder = model.body("shoulder_link").id
         radius = float(np.linalg.norm(model.site_pos[self.cell.sensor_site_id]))
-        while body != shoulder:
+        while body != self.cell.pan_body_id:
             radius += float(np.linalg.norm(model.body_pos[body]))
             body = model.body_parentid[body]
         return radius
@@ -193,9 +207,10 @@ class RobotArm:
                 failures.append((3, attempt))
             if target.roll_free and rolled < MAX_ROLL_VARIANTS:
                 # The same view with the sensor turned about its axis often clears the collision:
-                # the last joint turns the sensor about (nearly) its optical axis.
+                # the roll joint turns the sensor about (nearly) its optical axis.
                 rolled += 1
-                seeds.extend(attempt.q + np.eye(self.joints.dof)[-1] * turn for turn in ROLL_TURNS)
+                roll = np.eye(self.joints.dof)[self.cell.roll_index]
+                seeds.extend(attempt.q + roll * turn for turn in ROLL_TURNS)
         stage, attempt = max(failures, key=lambda item: item[0])
         return self._result(attempt, FAILURE_REASONS[stage], iterations, len(failures), None)
 

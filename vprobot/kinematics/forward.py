@@ -33,17 +33,17 @@ class ForwardKinematics:
         )
 
     def flange_pose(self, q: np.ndarray) -> Pose:
-        """Pose of the flange frame (`tool0`) in the world at `q`."""
+        """Pose of the flange frame (the description's `flange`) in the world at `q`."""
         self._set_configuration(self.cell.joints.check(q))
         body = self.cell.flange_body_id
         return Pose(
             self.data.xpos[body].copy(), self.data.xmat[body].reshape(3, 3).copy()
         )
 
-    def body_position(self, name: str, q: np.ndarray) -> np.ndarray:
-        """Position of a robot body's frame in the world at `q`."""
+    def body_position(self, body: int, q: np.ndarray) -> np.ndarray:
+        """Position of a robot body's frame (by body id) in the world at `q`."""
         self._set_configuration(self.cell.joints.check(q))
-        return self.data.xpos[self.cell.model.body(name).id].copy()
+        return self.data.xpos[body].copy()
 
     def sensor_positions(self, configurations: np.ndarray) -> np.ndarray:
         """Sensor positions (n, 3) along a sequence of configurations (n, dof)."""

@@ -20,7 +20,7 @@ raised by OVERVIEW_RAISE_M: the views happen around the object, the elbow above 
 def arm_length(cell: Cell) -> float:
     """Sum of the link offsets from the robot base to the sensor (m): how far the arm can reach."""
     model = cell.model
-    base = model.body("base_link").id
+    base = cell.base_body_id
     body = cell.sensor_body_id
     length = 0.0
     while body not in (base, 0):

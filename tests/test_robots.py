@@ -1,0 +1,178 @@
+"""The robot contract: robot folders, their descriptions, URDF import and a 7-joint arm."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from vprobot.cli import main
+from vprobot.config import CellConfig, Config, ConfigError, replace
+from vprobot.env import InspectEnv
+from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR
+from vprobot.robots import load_robot
+from vprobot.scene import Cell
+
+ROBOT_DATA = Path(str(importlib.metadata.distribution("example-robot-data").locate_file(
+    "cmeel.prefix/share/example-robot-data/robots")))
+UR5_URDF = ROBOT_DATA / "ur_description" / "urdf" / "ur5_robot.urdf"
+
+
+def cell_of(robot: str | Path, **cell: object) -> Cell:
+    return Cell(Config(cell=CellConfig(robot=str(robot), **cell)))
+
+
+def test_importing_the_ur5_urdf_reproduces_the_committed_ur5(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture) -> None:
+    committed = load_robot("ur5")
+    out = tmp_path / "my_ur5"
+    code = main(["robots", "import", str(UR5_URDF), "--flange", "tool0", "--name", "my_ur5",
+                 "--out", str(out), "--home", *map(str, committed.home)])
+    assert code == 0, capsys.readouterr().err
+    imported = load_robot(str(out))
+    assert (imported.base, imported.flange, imported.pan_joint, imported.roll_joint) == (
+        committed.base, committed.flange, committed.pan_joint, committed.roll_joint)
+    assert imported.velocity_limits_rad_s == committed.velocity_limits_rad_s
+    placement = {"robot_base_position_m": (0.1, 0.2, 0.4), "robot_base_yaw_deg": 25.0}
+    ours, theirs = cell_of("ur5", **placement), cell_of(out, **placement)
+    assert ours.joints.names == theirs.joints.names
+    np.testing.assert_array_equal(ours.joints.lower, theirs.joints.lower)
+    np.testing.assert_array_equal(ours.joints.upper, theirs.joints.upper)
+    arm_ours, arm_theirs = RobotArm(ours), RobotArm(theirs)
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        q = rng.uniform(ours.joints.lower, ours.joints.upper)
+        a, b = arm_ours.fk(q), arm_theirs.fk(q)
+        np.testing.assert_allclose(a.position, b.position, atol=1e-12)
+        np.testing.assert_allclose(a.rotation, b.rotation, atol=1e-12)
+        assert arm_ours.collisions.in_collision(q) == arm_theirs.collisions.in_collision(q)
+    assert sorted(p.name for p in (out / "meshes").iterdir()) == sorted(
+        p.name for p in (ROBOTS_DIR / "ur5" / "meshes").iterdir())
+
+
+def test_import_errors_name_the_problem(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    def error(*argv: str) -> str:
+        assert main(["robots", "import", *argv]) == 2
+        return capsys.readouterr().err
+
+    base = [str(UR5_URDF), "--name", "x", "--out", str(tmp_path / "x")]
+    assert "flange link 'tool9' is not in" in error(*base, "--flange", "tool9")
+    assert "its links: base_link, shoulder_link" in error(*base, "--flange", "tool9")
+    # A chain of three revolute joints is no arm vprobot can use.
+    assert "has 3 revolute joints; vprobot supports arms with 6 or 7" in error(
+        *base, "--flange", "forearm_link")
+    assert "home [0.0] must have 6 values" in error(*base, "--flange", "tool0", "--home", "0")
+    copied = tmp_path / "ur5.urdf"
+    shutil.copy(UR5_URDF, copied)
+    message = error(str(copied), "--flange", "tool0", "--name", "y", "--out",
+                    str(tmp_path / "y"))
+    assert "package 'example-robot-data' not found" in message and "--package" in message
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+    assert list(tmp_path.iterdir()) == [copied]  # nothing half-written left behind
+    code = main(["robots", "import", str(copied), "--flange", "tool0", "--name", "y", "--out",
+                 str(tmp_path / "y"), "--package", f"example-robot-data={ROBOT_DATA.parent}"])
+    assert code == 0 and load_robot(str(tmp_path / "y")).dof == 6
+    assert "exists" in error(str(copied), "--flange", "tool0", "--name", "y", "--out",
+                             str(tmp_path / "y"))
+
+
+@pytest.fixture
+def ur5_folder(tmp_path: Path) -> Path:
+    folder = tmp_path / "arm"
+    shutil.copytree(ROBOTS_DIR / "ur5", folder)
+    return folder
+
+
+def edit_description(folder: Path, **changes: object) -> None:
+    path = folder / "robot.yaml"
+    data = yaml.safe_load(path.read_text())
+    for key, value in changes.items():
+        if value is None:
+            del data[key]
+        else:
+            data[key] = value
+    path.write_text(yaml.safe_dump(data))
+
+
+@pytest.mark.parametrize(("changes", "message"), [
+    ({"flange": None}, r"missing 'flange'; a robot description needs name, model, base, flange"),
+    ({"flange": "tool9"}, r"flange 'tool9' is not in ur5\.xml"),
+    ({"base": "plinth"}, r"base 'plinth' is not in ur5\.xml|base 'plinth' is not a body"),
+    ({"pan_joint": "wrist_1_joint"}, r"pan_joint must be the first joint of the chain "
+                                     r"\('shoulder_pan_joint'\)"),
+    ({"roll_joint": "knuckle"}, r"roll_joint 'knuckle' is not a joint of the chain"),
+    ({"home": [0.0] * 7, "velocity_limits_rad_s": [1.0] * 7},
+     r"home has 7 joints, the chain from 'base_link' to 'tool0' has 6"),
+    ({"home": [0.0, 0.0, 4.0, 0.0, 0.0, 0.0]}, r"home\[2\] = 4\.0 lies outside elbow_joint"),
+    ({"home": [0.0] * 5}, r"home has 5 joints; vprobot supports arms with 6 or 7 joints"),
+    ({"velocity_limits_rad_s": [1.0] * 5}, r"velocity_limits_rad_s has 5 values, home 6"),
+    ({"velocity_limits_rad_s": [1.0, 1.0, 1.0, 1.0, 1.0, 0.0]}, r"must be > 0"),
+    ({"model": "arm.xml"}, r"has no arm\.xml"),
+    ({"colour": "blue"}, r"unknown key 'colour'"),
+])
+def test_a_bad_robot_folder_names_the_missing_piece(ur5_folder: Path, changes: dict,
+                                                     message: str) -> None:
+    edit_description(ur5_folder, **changes)
+    with pytest.raises(ValueError, match=message):
+        cell_of(ur5_folder)
+
+
+def test_a_folder_without_description_or_home_keyframe_match(ur5_folder: Path) -> None:
+    home = [0.0, -1.8, 1.9, -1.57, -1.57, 0.0]
+    edit_description(ur5_folder, home=home)
+    with pytest.raises(ValueError, match=r"'home' keyframe of ur5\.xml differs from robot\.yaml"):
+        cell_of(ur5_folder)
+    (ur5_folder / "robot.yaml").unlink()
+    with pytest.raises(ConfigError, match=r"has no robot\.yaml"):
+        cell_of(ur5_folder)
+
+
+def test_config_takes_the_robots_own_placement_unless_given() -> None:
+    panda = load_robot("panda")
+    cell = cell_of("panda")
+    np.testing.assert_allclose(cell.robot_base.position, panda.base_position_m)
+    # Hanging from the ceiling: the base's z axis points down.
+    np.testing.assert_allclose(cell.robot_base.rotation[:, 2], [0.0, 0.0, -1.0], atol=1e-12)
+    moved = cell_of("panda", robot_base_position_m=(0.4, 0.1, 1.3), robot_base_tilt_deg=0.0)
+    np.testing.assert_allclose(moved.robot_base.position, [0.4, 0.1, 1.3])
+    np.testing.assert_allclose(moved.robot_base.rotation, np.eye(3), atol=1e-12)
+
+
+def test_the_seven_joint_panda_runs_the_env_with_its_robot_state() -> None:
+    config = replace(replace(Config(), "cell", robot="panda"), "env", robot_state=True,
+                     resolution=(107, 75), motors="mesh", mesh=str(DEFAULT_MOTOR))
+    env = InspectEnv(config)
+    observation, _ = env.reset(seed=0)
+    assert env.observation_space["robot"].shape == (3 + 6 + 7,)
+    assert env.observation_space.contains(observation)
+    for _ in range(3):
+        observation, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        assert env.observation_space.contains(observation)
+        if terminated or truncated:
+            break
+    np.testing.assert_allclose(observation["robot"][-7:] * 2.0 * np.pi, env.episode.q,
+                               atol=1e-6)
+    env.close()
+
+
+def test_panda_ik_round_trip_within_its_limits() -> None:
+    arm = RobotArm(cell_of("panda"))
+    rng = np.random.default_rng(5)
+    reached = 0
+    for _ in range(40):
+        q = rng.uniform(arm.joints.lower, arm.joints.upper)
+        if arm.collisions.in_collision(q):
+            continue
+        goal = arm.fk(q)
+        result = arm.reach(SensorTarget.full_pose(goal.position, goal.quaternion),
+                           arm.joints.home)
+        if result.reachable:
+            reached += 1
+            assert arm.joints.within_limits(result.q)
+            np.testing.assert_allclose(arm.fk(result.q).position, goal.position, atol=1e-3)
+    assert reached >= 10

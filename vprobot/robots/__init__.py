@@ -1,0 +1,43 @@
+"""Robots: the bundled robot folders, user robot folders and their descriptions.
+
+A robot is named either by a bundled folder under `assets/robots/` (`ur5`, `ur10`, `panda`) or by
+the path of a robot folder of the same layout, e.g. one written by `vprobot robots import`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vprobot.paths import ROBOTS_DIR
+from vprobot.robots.description import DESCRIPTION_FILE, RobotDescription
+
+__all__ = ["RobotDescription", "available_robots", "load_robot", "robot_folder"]
+
+
+def available_robots() -> list[str]:
+    """Names of the bundled robot folders (those holding a `robot.yaml`)."""
+    return sorted(path.parent.name for path in ROBOTS_DIR.glob(f"*/{DESCRIPTION_FILE}"))
+
+
+def robot_folder(robot: str) -> Path:
+    """The folder of a bundled robot's name, or `robot` itself when it is a folder.
+
+    Raises:
+        ValueError: If `robot` is neither; the message lists the bundled robots.
+    """
+    if robot in available_robots():
+        return ROBOTS_DIR / robot
+    path = Path(robot).expanduser()
+    if path.is_dir():
+        return path
+    raise ValueError(f"unknown robot {robot!r}: neither a bundled robot "
+                     f"({', '.join(available_robots())}) nor a robot folder")
+
+
+def load_robot(robot: str) -> RobotDescription:
+    """The checked description of a bundled robot or robot folder.
+
+    Raises:
+        ValueError: If the robot is unknown or its folder or `robot.yaml` is incomplete.
+    """
+    return RobotDescription.load(robot_folder(robot))

@@ -1,0 +1,211 @@
+"""The robot contract: the `robot.yaml` every robot folder carries, and its validation.
+
+A robot folder (MuJoCo Menagerie layout) holds `<name>.xml` (the arm with vprobot's sensor body on
+its flange), `scene.xml` (the arm in the inspection cell), `meshes/`, `LICENSE`, `README.md` and
+`robot.yaml`, which says what vprobot needs to know about the arm and cannot read off the MJCF:
+which body is the base and which the flange, which joint pans the arm and which rolls the sensor,
+the home configuration, the joints' velocity limits and where the base stands in the cell.
+Everything in vprobot reads the arm through this description; no code names a robot's links.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import yaml
+
+from vprobot.config import ConfigError, Vec3, from_mapping
+
+DESCRIPTION_FILE = "robot.yaml"
+SCENE_FILE = "scene.xml"
+SUPPORTED_DOF = (6, 7)
+
+SENSOR_BODY = "sensor_body"
+SENSOR_SITE = "sensor"
+SENSOR_CAMERA = "sensor_camera"
+"""vprobot's sensor mount, added on the flange by the converter: a body, the optical centre site
+(+z viewing direction) and a camera for the renderer's sensor panel."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotDescription:
+    """What vprobot knows about an arm (`robot.yaml`, every key required).
+
+    Attributes:
+        name: The robot's name (its folder name for the bundled robots).
+        model: The MJCF file of the arm, relative to the folder.
+        base: Body at the root of the arm; the cell moves it to the base placement.
+        flange: Body of the flange frame, which carries the sensor.
+        pan_joint: The first joint of the chain, which turns the whole arm about the base.
+        roll_joint: The joint that turns the sensor about (nearly) its optical axis.
+        home: The configuration episodes start from (rad).
+        velocity_limits_rad_s: Joint velocity limits, for the travel cost `joint_time`.
+        base_position_m: Default position of the base in the cell (world frame).
+        base_yaw_deg: Default rotation of the base about the world z axis.
+        base_tilt_deg: Default rotation of the base about its own y axis after the yaw (0
+            floor, 90 wall, 180 ceiling).
+        folder: The robot folder (not a key of the file).
+    """
+
+    name: str
+    model: str
+    base: str
+    flange: str
+    pan_joint: str
+    roll_joint: str
+    home: tuple[float, ...]
+    velocity_limits_rad_s: tuple[float, ...]
+    base_position_m: Vec3
+    base_yaw_deg: float
+    base_tilt_deg: float
+    folder: Path = Path()
+
+    @property
+    def scene_path(self) -> Path:
+        return self.folder / SCENE_FILE
+
+    @property
+    def dof(self) -> int:
+        return len(self.home)
+
+    @classmethod
+    def load(cls, folder: str | Path) -> RobotDescription:
+        """Read and check `robot.yaml` of a robot folder (the MJCF is checked by `check_model`).
+
+        Raises:
+            ConfigError: If the file is missing, not YAML, lacks a key, has an unknown one or a
+                value of the wrong type; the message names the file and the piece.
+        """
+        folder = Path(folder)
+        path = folder / DESCRIPTION_FILE
+        if not path.is_file():
+            raise ConfigError(f"robot folder {folder} has no {DESCRIPTION_FILE} (the robot "
+                              f"description; `vprobot robots import` writes one)")
+        try:
+            data = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as error:
+            raise ConfigError(f"{path}: not valid YAML: {error}") from None
+        if not isinstance(data, dict):
+            raise ConfigError(f"{path}: must be a mapping of the robot's keys")
+        required = [field.name for field in dataclasses.fields(cls) if field.name != "folder"]
+        missing = [key for key in required if key not in data]
+        if missing:
+            raise ConfigError(f"{path}: missing {missing[0]!r}; a robot description needs "
+                              f"{', '.join(required)}")
+        if "folder" in data:
+            raise ConfigError(f"{path}: unknown key 'folder'; allowed keys: {', '.join(required)}")
+        try:
+            description = from_mapping(cls, data)
+        except ConfigError as error:
+            raise ConfigError(f"{path}: {error}") from None
+        description = dataclasses.replace(description, folder=folder)
+        if description.dof not in SUPPORTED_DOF:
+            raise ConfigError(f"{path}: home has {description.dof} joints; vprobot supports "
+                              f"arms with {' or '.join(map(str, SUPPORTED_DOF))} joints")
+        if len(description.velocity_limits_rad_s) != description.dof:
+            raise ConfigError(f"{path}: velocity_limits_rad_s has "
+                              f"{len(description.velocity_limits_rad_s)} values, home "
+                              f"{description.dof}")
+        if min(description.velocity_limits_rad_s) <= 0:
+            raise ConfigError(f"{path}: velocity_limits_rad_s must be > 0, got "
+                              f"{list(description.velocity_limits_rad_s)}")
+        for file in (description.model, SCENE_FILE):
+            if not (folder / file).is_file():
+                raise ConfigError(f"robot folder {folder} has no {file}")
+        return description
+
+    def to_yaml(self) -> str:
+        """The description as `robot.yaml` text."""
+        data = dataclasses.asdict(self)
+        del data["folder"]
+        for key in ("home", "velocity_limits_rad_s", "base_position_m"):
+            data[key] = [round(float(value), 6) for value in data[key]]
+        header = (f"# vprobot robot description of {self.name} (see vprobot/robots/"
+                  f"description.py).\n")
+        return header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
+
+    def chain_joints(self, model: mujoco.MjModel) -> list[int]:
+        """Ids of the joints from the base to the flange, in chain order.
+
+        Raises:
+            ValueError: If the base or flange body is missing, the flange does not hang below
+                the base, or a joint of the chain is not a hinge.
+        """
+        base, flange = (self._body_id(model, key) for key in ("base", "flange"))
+        chain = []
+        body = flange
+        while body != base:
+            if body == 0:
+                raise ValueError(f"robot {self.name}: flange {self.flange!r} does not hang below "
+                                 f"base {self.base!r} in {self.model}")
+            first, count = model.body_jntadr[body], model.body_jntnum[body]
+            chain[:0] = range(first, first + count)
+            body = model.body_parentid[body]
+        for joint in chain:
+            if model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
+                kind = mujoco.mjtJoint(model.jnt_type[joint]).name
+                raise ValueError(f"robot {self.name}: joint {model.joint(joint).name!r} is "
+                                 f"{kind}; vprobot arms have revolute joints only")
+        return chain
+
+    def check_model(self, model: mujoco.MjModel) -> list[int]:
+        """Check the compiled cell against the description; return the chain's joint ids.
+
+        Raises:
+            ValueError: Naming the missing or inconsistent piece: a body, joint, site or camera
+                that is not in the model, a joint count that differs from `home`, a home outside
+                the joint limits, or a `home` keyframe that disagrees with `robot.yaml`.
+        """
+        joints = self.chain_joints(model)
+        names = [model.joint(j).name for j in joints]
+        where = f"robot {self.name} ({self.folder / DESCRIPTION_FILE})"
+        if len(joints) != self.dof:
+            raise ValueError(f"{where}: home has {self.dof} joints, the chain from "
+                             f"{self.base!r} to {self.flange!r} has {len(joints)}: {names}")
+        for key in ("pan_joint", "roll_joint"):
+            if getattr(self, key) not in names:
+                raise ValueError(f"{where}: {key} {getattr(self, key)!r} is not a joint of the "
+                                 f"chain {names}")
+        if names[0] != self.pan_joint:
+            raise ValueError(f"{where}: pan_joint must be the first joint of the chain "
+                             f"({names[0]!r}), got {self.pan_joint!r}")
+        sensor = self._named(model, mujoco.mjtObj.mjOBJ_BODY, SENSOR_BODY, "sensor body")
+        if not hangs_below(model, sensor, self._body_id(model, "flange")):
+            raise ValueError(f"{where}: {SENSOR_BODY!r} must hang below the flange "
+                             f"{self.flange!r}")
+        self._named(model, mujoco.mjtObj.mjOBJ_SITE, SENSOR_SITE, "sensor site")
+        self._named(model, mujoco.mjtObj.mjOBJ_CAMERA, SENSOR_CAMERA, "sensor camera")
+        home = np.asarray(self.home)
+        lower, upper = model.jnt_range[joints, 0], model.jnt_range[joints, 1]
+        outside = np.flatnonzero((home < lower - 1e-9) | (home > upper + 1e-9))
+        if len(outside):
+            j = outside[0]
+            raise ValueError(f"{where}: home[{j}] = {home[j]} lies outside {names[j]}'s limits "
+                             f"[{lower[j]:.4f}, {upper[j]:.4f}]")
+        key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        if key >= 0 and not np.allclose(model.key_qpos[key][: len(home)], home, atol=1e-6):
+            raise ValueError(f"{where}: the 'home' keyframe of {self.model} differs from "
+                             f"robot.yaml's home {list(self.home)}")
+        return joints
+
+    def _body_id(self, model: mujoco.MjModel, key: str) -> int:
+        return self._named(model, mujoco.mjtObj.mjOBJ_BODY, getattr(self, key), key)
+
+    def _named(self, model: mujoco.MjModel, kind: mujoco.mjtObj, name: str, piece: str) -> int:
+        index = mujoco.mj_name2id(model, kind, name)
+        if index < 0:
+            raise ValueError(f"robot {self.name}: {piece} {name!r} is not in {self.model} "
+                             f"({self.folder})")
+        return index
+
+
+def hangs_below(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
+    """Whether `body` is `ancestor` or one of its descendants."""
+    while body != 0:
+        if body == ancestor:
+            return True
+        body = model.body_parentid[body]
+    return False

@@ -1,0 +1,502 @@
+"""Convert a serial arm's URDF into a vprobot robot folder (MJCF, scene, meshes, description).
+
+One converter serves the bundled robots (`scripts/convert_robots.py`) and users' own arms
+(`vprobot robots import`); `CONVERSION_STEPS` says what it does (and goes into every README).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import trimesh
+
+from vprobot.robots.description import (
+    SCENE_FILE,
+    SENSOR_BODY,
+    SENSOR_CAMERA,
+    SENSOR_SITE,
+    SUPPORTED_DOF,
+    RobotDescription,
+)
+
+CONVERSION_STEPS = """\
+1. The chain from the URDF's root to the flange link is found. The base is the parent link of
+   its first revolute joint; links above the base, side branches and everything below the flange
+   (a gripper) are dropped: vprobot mounts its sensor on the flange.
+2. Gazebo and transmission elements and the visuals are dropped (MuJoCo cannot read `.dae`); the
+   collision meshes serve as visual and collision geometry (MuJoCo collides their convex hulls).
+   `package://` and `file://` mesh paths are resolved; meshes MuJoCo cannot read are converted to
+   STL with trimesh.
+3. MuJoCo's URDF importer compiles the arm (`fusestatic=false` keeps the flange as a body).
+   Continuous joints get limits of +-2 pi.
+4. A `sensor_body` is mounted on the flange: a box housing (200 x 60 x 80 mm), the site `sensor`
+   at the optical centre 0.09 m in front of the flange and the camera `sensor_camera`. Sensor
+   frame: +z viewing direction, +x image right, +y image down.
+5. Geom groups: 0 environment, 1 object, 2 robot. Robot geoms collide with each other and with
+   the cell (contype 1, conaffinity 3); environment geoms only with the robot (2 / 1).
+6. Body pairs whose convex hulls already touch at the zero or home configuration are excluded
+   from self-collision, so that a self-collision means a real fold-over of the arm.
+7. A `home` keyframe, and `robot.yaml` with the base, flange, pan joint (the first), roll joint
+   (the last), home, the URDF's velocity limits and the base placement in the cell.
+"""
+
+ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
+"""Collision bits (contype / conaffinity), shared with vprobot.scene."""
+GEOM_GROUP_ROBOT = 2
+
+SENSOR_HALF_SIZE = (0.10, 0.03, 0.04)
+"""A structured-light sensor housing (about 200 x 60 x 80 mm), the optical centre at its front."""
+SENSOR_MOUNT_OFFSET = 0.09
+"""Flange to optical centre along the flange z axis (m); the config's sensor mount overrides it."""
+SENSOR_FOVY_DEG = 25.0
+
+DEFAULT_BASE_POSITION_M = (0.0, 0.0, 0.5)
+DEFAULT_BASE_YAW_DEG = 0.0
+"""Base placement of an imported arm unless given: the cell's UR10 placement."""
+
+MUJOCO_MESH_SUFFIXES = (".stl", ".obj", ".msh")
+REVOLUTE_TYPES = ("revolute", "continuous")
+
+
+@dataclasses.dataclass(frozen=True)
+class Provenance:
+    """Where a converted robot comes from, for its README and LICENSE.
+
+    Attributes:
+        title: Human name of the arm, e.g. "Franka Emika Panda".
+        source: Where the URDF comes from (a package and path, or a URL).
+        license_text: The license of the description; when None the LICENSE next to the URDF
+            (or in a folder above it) is copied, else a note that it is unknown.
+        upstream_readme: A README of the source to keep as UPSTREAM_README.md.
+    """
+
+    title: str
+    source: str
+    license_text: str | None = None
+    upstream_readme: Path | None = None
+
+
+class UrdfChain:
+    """The serial chain of a URDF from its root to the flange link.
+
+    Args:
+        urdf: The URDF file.
+        flange: Name of the flange link.
+
+    Raises:
+        ValueError: If the file is not a URDF, the flange is not one of its links, or the chain
+            holds a joint that is neither revolute, continuous nor fixed, or has not 6 or 7
+            revolute joints.
+    """
+
+    def __init__(self, urdf: Path, flange: str):
+        try:
+            self.tree = ET.parse(urdf)
+        except (ET.ParseError, OSError) as error:
+            raise ValueError(f"cannot read URDF {urdf}: {error}") from None
+        root = self.tree.getroot()
+        if root.tag != "robot":
+            raise ValueError(f"{urdf} is not a URDF (its root element is <{root.tag}>)")
+        self.urdf = urdf
+        links = [link.get("name") for link in root.findall("link")]
+        if flange not in links:
+            raise ValueError(f"flange link {flange!r} is not in {urdf}; its links: "
+                             f"{', '.join(links)}")
+        parent_joint = {joint.find("child").get("link"): joint for joint in root.findall("joint")}
+        chain = []
+        link = flange
+        while link in parent_joint:
+            joint = parent_joint[link]
+            chain.insert(0, joint)
+            link = joint.find("parent").get("link")
+        movable = [joint for joint in chain if joint.get("type") != "fixed"]
+        for joint in movable:
+            if joint.get("type") not in REVOLUTE_TYPES:
+                raise ValueError(f"joint {joint.get('name')!r} of {urdf} is "
+                                 f"{joint.get('type')}; vprobot arms have revolute joints only")
+        if len(movable) not in SUPPORTED_DOF:
+            raise ValueError(f"the chain from {link!r} to {flange!r} in {urdf} has "
+                             f"{len(movable)} revolute joints; vprobot supports arms with "
+                             f"{' or '.join(map(str, SUPPORTED_DOF))}")
+        first = chain.index(movable[0])
+        self.flange = flange
+        self.joints = chain[first:]
+        self.base = movable[0].find("parent").get("link")
+        self.links = [self.base, *(joint.find("child").get("link") for joint in self.joints)]
+        self.revolute = movable
+
+    @property
+    def joint_names(self) -> list[str]:
+        return [joint.get("name") for joint in self.revolute]
+
+    def limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper limits of the revolute joints (continuous ones: +-2 pi)."""
+        lower, upper = [], []
+        for joint in self.revolute:
+            limit = joint.find("limit")
+            if joint.get("type") == "continuous" or limit is None:
+                lower.append(-2.0 * np.pi)
+                upper.append(2.0 * np.pi)
+            else:
+                lower.append(float(limit.get("lower", -2.0 * np.pi)))
+                upper.append(float(limit.get("upper", 2.0 * np.pi)))
+        return np.array(lower), np.array(upper)
+
+    def velocity_limits(self) -> list[float]:
+        """The URDF's joint velocity limits (rad/s).
+
+        Raises:
+            ValueError: If a revolute joint has no positive velocity limit.
+        """
+        limits = []
+        for joint in self.revolute:
+            limit = joint.find("limit")
+            value = float(limit.get("velocity", 0.0)) if limit is not None else 0.0
+            if not value > 0:
+                raise ValueError(f"joint {joint.get('name')!r} of {self.urdf} has no velocity "
+                                 f"limit (<limit velocity=...>), which the travel cost "
+                                 f"joint_time needs")
+            limits.append(value)
+        return limits
+
+
+def resolve_mesh_path(filename: str, urdf: Path,
+                      package_paths: Mapping[str, Path] | None = None) -> Path:
+    """The file a URDF mesh reference names.
+
+    `package://NAME/rest` is looked up in `package_paths`, then in the folders of
+    `ROS_PACKAGE_PATH`, then in a folder named NAME above the URDF; `file://` and plain paths
+    are taken relative to the URDF's folder.
+
+    Raises:
+        ValueError: If the file cannot be found; the message names the reference.
+    """
+    if filename.startswith("package://"):
+        package, _, rest = filename[len("package://"):].partition("/")
+        candidates = []
+        if package_paths and package in package_paths:
+            candidates.append(Path(package_paths[package]) / rest)
+        for root in filter(None, os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)):
+            candidates.append(Path(root) / package / rest)
+        for folder in urdf.resolve().parents:
+            if folder.name == package:
+                candidates.append(folder / rest)
+        for candidate in candidates:
+            if candidate.is_file():
+                return candidate
+        raise ValueError(f"mesh {filename} of {urdf}: package {package!r} not found; pass "
+                         f"--package {package}=FOLDER or set ROS_PACKAGE_PATH")
+    path = Path(filename.removeprefix("file://"))
+    path = path if path.is_absolute() else urdf.parent / path
+    if not path.is_file():
+        raise ValueError(f"mesh {filename} of {urdf} not found (looked at {path})")
+    return path
+
+
+def _copy_mesh(source: Path, meshes: Path, stem: str) -> str:
+    """Copy (or convert to STL) a mesh into `meshes`; return its new file name."""
+    suffix = source.suffix.lower()
+    if suffix in MUJOCO_MESH_SUFFIXES:
+        name = f"{stem}{suffix}"
+        shutil.copy(source, meshes / name)
+        return name
+    try:
+        mesh = trimesh.load(source, force="mesh")
+    except Exception as error:  # trimesh raises many kinds for unreadable files
+        raise ValueError(f"mesh {source}: MuJoCo reads only {', '.join(MUJOCO_MESH_SUFFIXES)} "
+                         f"and trimesh could not convert it ({error})") from None
+    name = f"{stem}.stl"
+    mesh.export(meshes / name)
+    return name
+
+
+def _prepare_urdf(chain: UrdfChain, meshes: Path,
+                  package_paths: Mapping[str, Path] | None) -> ET.ElementTree:
+    """The chain's URDF for MuJoCo's importer, with its meshes copied into `meshes`."""
+    root = chain.tree.getroot()
+    kept_links, kept_joints = set(chain.links), {id(joint) for joint in chain.joints}
+    for element in list(root):
+        if element.tag == "link" and element.get("name") in kept_links:
+            continue
+        if element.tag == "joint" and id(element) in kept_joints:
+            continue
+        root.remove(element)
+    stems: set[str] = set()
+    for link in root.findall("link"):
+        for visual in link.findall("visual"):
+            link.remove(visual)
+        for mesh in link.iter("mesh"):
+            source = resolve_mesh_path(mesh.get("filename", ""), chain.urdf, package_paths)
+            stem = source.stem
+            while stem in stems:  # meshes of different folders may share a file name
+                stem += "_"
+            stems.add(stem)
+            mesh.set("filename", _copy_mesh(source, meshes, stem))
+    for joint in chain.revolute:
+        if joint.get("type") == "continuous":
+            # MuJoCo imports continuous joints unlimited; vprobot's IK and seeds need bounds.
+            joint.set("type", "revolute")
+            limit = joint.find("limit")
+            if limit is None:
+                limit = ET.SubElement(joint, "limit", {"effort": "0", "velocity": "0"})
+            limit.set("lower", str(-2.0 * np.pi))
+            limit.set("upper", str(2.0 * np.pi))
+    compiler = ET.SubElement(ET.SubElement(root, "mujoco"), "compiler")
+    compiler.attrib.update({"meshdir": "meshes", "strippath": "true", "fusestatic": "false",
+                            "balanceinertia": "true", "angle": "radian",
+                            "discardvisual": "false"})
+    return chain.tree
+
+
+def _add_sensor(spec: mujoco.MjSpec, flange: str) -> None:
+    """Mount the sensor body on the flange: housing geom, `sensor` site, render camera."""
+    sensor = spec.body(flange).add_body(name=SENSOR_BODY, pos=[0.0, 0.0, SENSOR_MOUNT_OFFSET])
+    sensor.add_geom(
+        name="sensor_housing",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=list(SENSOR_HALF_SIZE),
+        pos=[0.0, 0.0, -SENSOR_HALF_SIZE[2]],
+        mass=0.8,
+        rgba=[0.15, 0.15, 0.18, 1.0],
+        group=GEOM_GROUP_ROBOT,
+        contype=ROBOT_BIT,
+        conaffinity=ROBOT_BIT | ENVIRONMENT_BIT,
+    )
+    # Sensor frame: +z views, +x is image right, +y image down (SPEC section 3).
+    sensor.add_site(name=SENSOR_SITE, size=[0.01, 0.01, 0.01], rgba=[1.0, 0.5, 0.0, 1.0])
+    # A MuJoCo camera looks along its -z with +y up: a half turn about x maps it onto the sensor.
+    sensor.add_camera(name=SENSOR_CAMERA, quat=[0.0, 1.0, 0.0, 0.0], fovy=SENSOR_FOVY_DEG)
+
+
+def _style_robot_geoms(spec: mujoco.MjSpec) -> None:
+    for geom in spec.geoms:
+        if geom.name == "sensor_housing":
+            continue
+        geom.group = GEOM_GROUP_ROBOT
+        geom.contype = ROBOT_BIT
+        geom.conaffinity = ROBOT_BIT | ENVIRONMENT_BIT
+        geom.rgba = [0.72, 0.75, 0.80, 1.0]
+
+
+def _touching_body_pairs(model: mujoco.MjModel,
+                         configurations: Sequence[np.ndarray]) -> set[tuple[str, str]]:
+    """Body pairs whose collision geoms touch in any of the given configurations."""
+    data = mujoco.MjData(model)
+    pairs = set()
+    for qpos in configurations:
+        data.qpos[:] = qpos
+        mujoco.mj_forward(model, data)
+        for contact in data.contact[: data.ncon]:
+            bodies = sorted((model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]))
+            pairs.add(tuple(model.body(b).name for b in bodies))
+    return pairs
+
+
+def default_home(chain: UrdfChain) -> np.ndarray:
+    """Zero, or the middle of a joint's range where zero lies outside it."""
+    lower, upper = chain.limits()
+    return np.where((lower <= 0.0) & (upper >= 0.0), 0.0, (lower + upper) / 2.0)
+
+
+def _license_text(provenance: Provenance, urdf: Path) -> str:
+    if provenance.license_text is not None:
+        return provenance.license_text
+    for folder in list(urdf.resolve().parents)[:4]:
+        for name in ("LICENSE", "LICENSE.txt", "LICENSE.md"):
+            if (folder / name).is_file():
+                return (folder / name).read_text()
+    return (f"No license file was found next to {urdf.name}. Check the license of the source "
+            f"description ({provenance.source}) before redistributing this folder.\n")
+
+
+def convert_urdf(
+    urdf: str | Path,
+    name: str,
+    flange: str,
+    out_dir: str | Path,
+    provenance: Provenance | None = None,
+    home: Sequence[float] | None = None,
+    base_position_m: Sequence[float] = DEFAULT_BASE_POSITION_M,
+    base_yaw_deg: float = DEFAULT_BASE_YAW_DEG,
+    base_tilt_deg: float = 0.0,
+    package_paths: Mapping[str, Path] | None = None,
+    overwrite: bool = False,
+) -> RobotDescription:
+    """Convert a serial arm's URDF into the robot folder `out_dir` (see the module docstring).
+
+    The folder is built next to `out_dir` and moved into place only once complete and checked
+    (a `Cell` is compiled from it), so a failure leaves nothing behind.
+
+    Args:
+        urdf: The URDF file.
+        name: The robot's name (also the MJCF's file name).
+        flange: The link that carries the sensor.
+        out_dir: The robot folder to write.
+        provenance: Title, source and license for README and LICENSE.
+        home: Home configuration (rad); zero, or mid-range where zero is outside the limits.
+        base_position_m: Default base position in the cell.
+        base_yaw_deg: Default base rotation about the world z axis.
+        base_tilt_deg: Default base rotation about its own y axis after the yaw.
+        package_paths: Folders of ROS packages that `package://` mesh paths name.
+        overwrite: Replace an existing `out_dir`.
+
+    Returns:
+        The checked description of the new folder.
+
+    Raises:
+        ValueError: On an unusable URDF, flange, home or name, or an existing `out_dir`
+            without `overwrite`.
+    """
+    urdf, out_dir = Path(urdf), Path(out_dir)
+    if not name or not name.replace("_", "").replace("-", "").isalnum():
+        raise ValueError(f"robot name must be letters, digits, '_' or '-', got {name!r}")
+    if out_dir.exists() and not overwrite:
+        raise ValueError(f"{out_dir} exists; choose another --out or pass --force")
+    chain = UrdfChain(urdf, flange)
+    provenance = provenance or Provenance(title=name, source=str(urdf))
+    lower, upper = chain.limits()
+    home = default_home(chain) if home is None else np.asarray(home, dtype=float)
+    if home.shape != lower.shape or np.any(home < lower) or np.any(home > upper):
+        raise ValueError(f"home {np.round(home, 4).tolist()} must have {len(lower)} values "
+                         f"within the joint limits {np.round(lower, 4).tolist()} .. "
+                         f"{np.round(upper, 4).tolist()}")
+    description = RobotDescription(
+        name=name, model=f"{name}.xml", base=chain.base, flange=flange,
+        pan_joint=chain.joint_names[0], roll_joint=chain.joint_names[-1],
+        home=tuple(float(value) for value in home),
+        velocity_limits_rad_s=tuple(chain.velocity_limits()),
+        base_position_m=tuple(float(value) for value in base_position_m),
+        base_yaw_deg=float(base_yaw_deg), base_tilt_deg=float(base_tilt_deg))
+
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    building = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=out_dir.parent))
+    try:
+        _build_folder(chain, description, provenance, building, package_paths)
+        checked = dataclasses.replace(description, folder=building)
+        _check_folder(checked)
+        if out_dir.exists():
+            shutil.rmtree(out_dir)
+        building.rename(out_dir)
+    finally:
+        shutil.rmtree(building, ignore_errors=True)
+    return RobotDescription.load(out_dir)
+
+
+def _build_folder(chain: UrdfChain, description: RobotDescription, provenance: Provenance,
+                  folder: Path, package_paths: Mapping[str, Path] | None) -> None:
+    (folder / "meshes").mkdir()
+    with tempfile.TemporaryDirectory() as tmp:
+        urdf = Path(tmp) / f"{description.name}.urdf"
+        _prepare_urdf(chain, folder / "meshes", package_paths).write(urdf)
+        shutil.copytree(folder / "meshes", Path(tmp) / "meshes")
+        try:
+            spec = mujoco.MjSpec.from_file(str(urdf))
+        except ValueError as error:
+            raise ValueError(f"MuJoCo cannot compile {chain.urdf}: {error}") from None
+    spec.modelname = description.name
+    spec.modelfiledir = str(folder)
+    spec.compiler.degree = False
+    spec.meshdir = "meshes"
+    _add_sensor(spec, description.flange)
+    _style_robot_geoms(spec)
+    spec.add_key(name="home", qpos=list(description.home))
+    model = spec.compile()
+    lower, upper = chain.limits()
+    # Convex hulls of neighbouring links overlap by construction at the zero and home poses;
+    # such pairs are excluded so that self-collision means a real fold-over of the arm.
+    zero = np.clip(np.zeros(len(lower)), lower, upper)
+    for body1, body2 in sorted(_touching_body_pairs(model, [zero, np.array(description.home)])):
+        spec.add_exclude(bodyname1=body1, bodyname2=body2)
+    spec.compile()
+    (folder / description.model).write_text(spec.to_xml())
+    (folder / SCENE_FILE).write_text(SCENE_TEMPLATE.format(name=description.name,
+                                                           model=description.model))
+    (folder / "robot.yaml").write_text(description.to_yaml())
+    (folder / "LICENSE").write_text(_license_text(provenance, chain.urdf))
+    if provenance.upstream_readme is not None:
+        shutil.copy(provenance.upstream_readme, folder / "UPSTREAM_README.md")
+    (folder / "README.md").write_text(README_TEMPLATE.format(
+        title=provenance.title, name=description.name, model=description.model,
+        source=provenance.source, flange=description.flange, base=description.base,
+        joints=", ".join(chain.joint_names), home=list(np.round(description.home, 4)),
+        steps=CONVERSION_STEPS.rstrip()))
+
+
+def _check_folder(description: RobotDescription) -> None:
+    """Compile a cell from the folder: the description must match the model."""
+    # Imported here: the cell needs the config, which reads robot folders through this package.
+    from vprobot.config import CellConfig, Config
+    from vprobot.scene import Cell
+
+    RobotDescription.load(description.folder)
+    Cell(Config(cell=CellConfig(robot=str(description.folder))))
+
+
+SCENE_TEMPLATE = """<mujoco model="{name} inspection cell">
+  <!-- Composed by vprobot's URDF converter. vprobot.scene moves the robot base, the pedestal
+       and the object to the poses in the config and puts the motor mesh into `object`. -->
+  <include file="{model}"/>
+
+  <statistic center="0.6 0 0.5" extent="1.2"/>
+
+  <visual>
+    <headlight diffuse="0.6 0.6 0.6" ambient="0.3 0.3 0.3" specular="0 0 0"/>
+    <global azimuth="150" elevation="-25" offwidth="1280" offheight="960"/>
+  </visual>
+
+  <asset>
+    <texture type="2d" name="floor" builtin="checker" mark="edge" rgb1="0.32 0.34 0.37"
+      rgb2="0.26 0.28 0.30" markrgb="0.5 0.5 0.5" width="300" height="300"/>
+    <material name="floor" texture="floor" texuniform="true" texrepeat="5 5" reflectance="0.1"/>
+  </asset>
+
+  <worldbody>
+    <light pos="0.6 0 2.5" dir="0 0 -1" directional="true"/>
+    <geom name="floor" type="plane" size="3 3 0.05" material="floor" group="0"
+      contype="2" conaffinity="1"/>
+    <!-- A slim pedestal so that the sensor can look at the motor from below its equator. The
+         body frame is the top of the fixture plate; vprobot raises it to the object's underside
+         (the column reaches down through the floor). -->
+    <body name="fixture" mocap="true" pos="0.75 0 0.41">
+      <geom name="fixture_plate" type="box" pos="0 0 -0.01" size="0.06 0.04 0.01"
+        rgba="0.35 0.37 0.4 1" group="0" contype="2" conaffinity="1"/>
+      <geom name="pedestal" type="cylinder" fromto="0 0 -2 0 0 -0.02" size="0.035"
+        rgba="0.45 0.47 0.5 1" group="0" contype="2" conaffinity="1"/>
+    </body>
+    <body name="object" mocap="true" pos="0.75 0 0.47">
+      <site name="object_center" size="0.005"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+README_TEMPLATE = """# {title} (vprobot inspection cell)
+
+MJCF model of the {title} carrying a 3D sensor, for vprobot.
+
+## Files
+- `{model}`: the arm from `{base}` to its flange `{flange}`, the sensor body and a `home`
+  keyframe. Joints: {joints}.
+- `scene.xml`: includes `{model}` and adds the floor, the pedestal fixture and the `object` slot
+  (a mocap body into which vprobot puts the motor mesh).
+- `robot.yaml`: the robot description vprobot reads (base, flange, pan and roll joints, home,
+  velocity limits, base placement in the cell).
+- `meshes/`: the collision meshes of the source description (used for visuals too).
+- `LICENSE`: the license of the source description.
+
+## How it was converted
+Converted by vprobot's URDF converter (`vprobot/robots/urdf_import.py`) from {source}:
+
+{steps}
+
+Home: {home} rad. The sensor mount, base pose and fixture pose in these files are defaults;
+vprobot's config overrides them when it builds a scene.
+"""
