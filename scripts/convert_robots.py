@@ -81,7 +81,7 @@ ROBOTS = {
     # (at most 69 % of it from any base position tried); hanging from the ceiling above the
     # motor, it reaches all round except the lowest band and the cap right under its base.
     "panda": BundledRobot("Franka Emika Panda", "panda_description", "urdf/panda.urdf",
-                          "panda_link8", (0.0, 1.08, 0.0, -1.22, 0.0, 0.16, 0.785),
+                          "panda_link8", (-0.68, 1.57, -1.6, -1.27, -0.49, 0.43, 0.08),
                           (0.5, 0.0, 1.25), base_tilt_deg=180.0),
 }
 

@@ -100,8 +100,8 @@ def controller_base(config: Config) -> np.ndarray:
 
     The robot description's base body sits at `robot_base_position_m`, turned by
     `robot_base_yaw_deg` about world z and then by `robot_base_tilt_deg` about its own y (the
-    robot's own placement where the config leaves them unset). For the URs the controller's base frame is `base_link` turned half a turn about z;
-    Franka's coincides with `panda_link0`.
+    robot's own placement where the config leaves them unset). For the URs the controller's
+    base frame is `base_link` turned half a turn about z; Franka's coincides with `panda_link0`.
     """
     cell = config.cell
     robot = load_robot(cell.robot)

@@ -14,6 +14,7 @@ from vprobot.config import Config
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.robots import available_robots
 from vprobot.scene import Cell
 from vprobot.viewsphere import sphere_directions
 
@@ -22,9 +23,12 @@ VIEW_SPHERE_MAX_POLAR_DEG = 120.0  # from the top down to 30 degrees below the e
 
 
 def default_cell(config: Config, robot: str | None = None) -> Cell:
-    """The configured cell holding the bundled default motor, optionally with another robot."""
+    """The configured cell holding the bundled default motor, optionally with another robot
+    (standing at its own placement)."""
     if robot is not None:
-        config = dataclasses.replace(config, cell=dataclasses.replace(config.cell, robot=robot))
+        config = dataclasses.replace(config, cell=dataclasses.replace(
+            config.cell, robot=robot, robot_base_position_m=None, robot_base_yaw_deg=None,
+            robot_base_tilt_deg=None))
     return Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
 
 
@@ -72,7 +76,7 @@ def _random_reachable_targets(arm: RobotArm, count: int, seed: int) -> list[Sens
 
 def run_kinematics_benchmark(
     config: Config,
-    robots: Sequence[str] = ("ur5", "ur10"),
+    robots: Sequence[str] | None = None,
     samples: int = 200,
     progress: bool = True,
 ) -> dict[str, Any]:
@@ -83,9 +87,12 @@ def run_kinematics_benchmark(
         collision-free configurations), `ik_success_rate` (IK converged on those),
         `unreachable_verdict_median_ms` (view-sphere candidates found unreachable with the
         default robot), `out_of_reach_verdict_median_ms` (targets 2-3 m away),
-        `view_sphere_reachable` (robot -> fraction of the 900 candidates) and `default_robot`.
+        `view_sphere_reachable` (robot -> fraction of the 900 candidates; all bundled robots
+        unless `robots` names some), `view_sphere_verdict_median_ms` (robot -> median verdict
+        times of its reachable and unreachable candidates) and `default_robot`.
     """
     default_robot = config.cell.robot
+    robots = available_robots() if robots is None else robots
     arm = RobotArm(default_cell(config))
     ik_ms, converged = [], 0
     for target in tqdm(_random_reachable_targets(arm, samples, seed=11), desc="IK",
@@ -124,6 +131,10 @@ def run_kinematics_benchmark(
         "view_sphere_reachable_verdict_median_ms": float(np.median(default_survey["reachable_ms"])),
         "view_sphere_reachable": {robot: survey["fraction"] for robot, survey in surveys.items()},
         "view_sphere_failures": {robot: survey["reasons"] for robot, survey in surveys.items()},
+        "view_sphere_verdict_median_ms": {
+            robot: {kind: float(np.median(survey[f"{kind}_ms"])) if survey[f"{kind}_ms"] else None
+                    for kind in ("reachable", "unreachable")}
+            for robot, survey in surveys.items()},
         "samples": samples,
         "view_sphere_candidates": VIEW_SPHERE_CANDIDATES,
     }
