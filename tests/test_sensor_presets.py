@@ -248,3 +248,10 @@ def test_ground_truth_cache_key_includes_the_sensor() -> None:
     assert len(keys) == len(DATASHEETS)
     assert gt_module._cache_key(box, with_sensor(Config(), "paper")) == gt_module._cache_key(
         box, Config())
+
+
+def test_sensors_command_lists_every_preset(capsys: pytest.CaptureFixture) -> None:
+    assert main(["sensors"]) == 0
+    rows = capsys.readouterr().out.splitlines()[1:]
+    assert [row.split()[0] for row in rows] == sorted(DATASHEETS)
+    assert "2448 x 2048   50.82 x 41.95   0.300 - 1.100  0.600" in rows[2]

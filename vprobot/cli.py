@@ -318,6 +318,19 @@ def command_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_sensors(args: argparse.Namespace) -> int:
+    """List the sensor presets: resolution, opening angles, range and working distance."""
+    from vprobot.config import sensor_preset
+
+    print("preset            resolution    fov (deg)        range (m)      working distance (m)")
+    for name in available_sensors():
+        sensor = sensor_preset(name)
+        print(f"{name:<17} {sensor.resolution[0]:>4} x {sensor.resolution[1]:<4}   "
+              f"{sensor.fov_deg[0]:5.2f} x {sensor.fov_deg[1]:5.2f}   "
+              f"{sensor.near_m:.3f} - {sensor.far_m:.3f}  {sensor.working_distance_m:.3f}")
+    return 0
+
+
 def command_motors_generate(args: argparse.Namespace) -> int:
     from vprobot.motors import generate_motors
 
@@ -466,6 +479,8 @@ def build_parser() -> argparse.ArgumentParser:
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
+
+    add("sensors", command_sensors, "List the sensor presets (configs/sensors/).", config=False)
 
     motors = commands.add_parser("motors", help="Synthetic starter motors.")
     motor_commands = motors.add_subparsers(dest="motors_command", required=True)
