@@ -29,6 +29,7 @@ from vprobot.config import (
     with_sensor,
 )
 from vprobot.geometry import Pose
+from vprobot.render.replay import plan_config
 from vprobot.sensor import DepthSensor
 from vprobot.sensor_model import SensorModel
 
@@ -234,8 +235,12 @@ def test_cli_sensor_option_changes_the_sensor_used(tmp_path: Path) -> None:
     out = tmp_path / "view.json"
     assert main(["reach", "--position", "0.45", "-0.6", "0.75", "--look-at", "0.45", "0", "0.75",
                  "--sensor", "zivid2plus_mr60", "--json", str(out)]) == 0
-    sensor = json.loads(out.read_text())["sensor"]
+    document = json.loads(out.read_text())
+    sensor = document["sensor"]
     assert (sensor["resolution"], sensor["range"]) == ([2448, 2048], [0.30, 1.10])
+    # Replaying the plan under the default config restores the whole sensor it was made with.
+    replayed = plan_config(Config(), document, np.array([0.45, 0.0, 0.75])).sensor
+    assert replayed == sensor_preset("zivid2plus_mr60")
     with pytest.raises(SystemExit) as error:
         main(["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0",
               "--sensor", "kinect"])

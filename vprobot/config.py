@@ -98,6 +98,9 @@ class SensorConfig:
             raise ConfigError(
                 f"sensor needs 0 <= near_m < far_m, got near_m={self.near_m}, far_m={self.far_m}"
             )
+        if not self.working_distance_m > 0.0:
+            raise ConfigError(f"sensor.working_distance_m must be > 0, got "
+                              f"{self.working_distance_m}")
 
 
 SENSORS_DIR = CONFIGS_DIR / "sensors"
