@@ -35,6 +35,7 @@ from vprobot.planners import (
 from vprobot.planners.ordering import cost_matrix, path_cost
 from vprobot.planners.visibility import VisibilityRenderer
 from vprobot.scene import Cell
+from vprobot.sensor_model import SensorModel
 
 CONFIG = Config()
 
@@ -242,7 +243,8 @@ def test_user_mesh_in_millimetres_plans(millimetre_cube: Path) -> None:
 def test_predicted_visibility_agrees_with_the_sensor(motor: MotorScene) -> None:
     episode, _, _ = episode_of(motor, seed=3, robot=False)
     tracker = CoverageTracker.from_ground_truth(motor.ground_truth)
-    renderer = VisibilityRenderer(motor.mesh.mesh, CONFIG.sensor, tolerance_m=tracker.epsilon)
+    renderer = VisibilityRenderer(motor.mesh.mesh, SensorModel.from_config(CONFIG.sensor),
+                                  tolerance_m=tracker.epsilon)
     center, to_mesh = episode.center, episode.object_pose.inverse()
     directions = np.array([[1.0, 0.0, 0.3], [0.0, -1.0, 0.5], [-0.6, 0.6, 0.6], [0.0, 0.0, 1.0],
                            [0.3, 0.9, -0.3]])
@@ -266,7 +268,9 @@ def test_predicted_visibility_agrees_with_the_sensor(motor: MotorScene) -> None:
         (lambda: parse_planner("bscp0"), "unknown planner 'bscp0'"),
         (lambda: SetCoverPlanner(views=0), "views must be >= 1"),
         (lambda: SetCoverPlanner(goal=1.5), "goal must lie in (0, 1]"),
-        (lambda: VisibilityRenderer(trimesh.creation.box(), CONFIG.sensor, resolution=(1, 5)),
+        (lambda: VisibilityRenderer(trimesh.creation.box(),
+                                           SensorModel.from_config(CONFIG.sensor),
+                                           resolution=(1, 5)),
          "resolution must be two integers >= 2"),
         (lambda: order_views(np.zeros((2, 3)), 0, [1]), "square"),
     ],

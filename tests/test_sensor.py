@@ -14,10 +14,11 @@ from vprobot.geometry import Pose
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.scene import Cell
-from vprobot.sensor import DepthSensor, ray_directions
+from vprobot.sensor import DepthSensor
+from vprobot.sensor_model import SensorModel
 from vprobot.viewsphere import sphere_directions
 
-WIDE = SensorConfig(fov_deg=(40.0, 40.0), near_m=0.2, far_m=0.6)
+WIDE = SensorModel.from_config(SensorConfig(fov_deg=(40.0, 40.0), near_m=0.2, far_m=0.6))
 
 
 def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
@@ -69,8 +70,8 @@ def _surface_area(sensor: DepthSensor, pose: Pose, points: np.ndarray, pixels: n
 
 
 def test_ray_directions_are_an_even_row_major_grid() -> None:
-    sensor = SensorConfig(resolution=(43, 30))
-    directions = ray_directions(sensor)
+    sensor = SensorModel.from_config(SensorConfig(resolution=(43, 30)))
+    directions = sensor.ray_directions
     assert directions.shape == (30 * 43, 3)
     np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0)
     tangents = directions[:, :2] / directions[:, 2:]
@@ -80,13 +81,13 @@ def test_ray_directions_are_an_even_row_major_grid() -> None:
     np.testing.assert_allclose(grid[0, :, 0], half_x * ((2 * np.arange(43) + 1) / 43 - 1))
     np.testing.assert_allclose(grid[:, 0, 1], half_y * ((2 * np.arange(30) + 1) / 30 - 1))
     assert np.all(np.diff(grid[:, :, 1], axis=0) > 0) and np.all(np.diff(grid[:, :, 0]) > 0)
-    assert ray_directions(sensor, resolution=(4, 3)).shape == (12, 3)
+    assert sensor.at_resolution((4, 3)).ray_directions.shape == (12, 3)
 
 
 @pytest.mark.parametrize("resolution", [(0, 10), (10,), (2.5, 3)])
 def test_bad_resolution_is_rejected(resolution: tuple) -> None:
     with pytest.raises(ValueError, match="resolution"):
-        ray_directions(SensorConfig(), resolution=resolution)
+        SensorModel.from_config(SensorConfig()).at_resolution(resolution)
 
 
 def test_bad_worker_count_is_rejected() -> None:

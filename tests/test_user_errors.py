@@ -123,7 +123,7 @@ def test_unreachable_keeps_exit_code_one_for_reach_only(capsys: pytest.CaptureFi
 
 
 def test_config_bounds_and_contradictions() -> None:
-    with pytest.raises(ConfigError, match=r"sensor\.resolution must lie in 1\.\.2048"):
+    with pytest.raises(ConfigError, match=r"sensor\.resolution must lie in 1\.\.4096"):
         replace(Config(), "sensor", resolution=(100000, 100000))
     with pytest.raises(ConfigError, match=r"env\.resolution"):
         replace(Config(), "env", resolution=(0, 10))

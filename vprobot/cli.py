@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.config import Config, load_config, replace
+from vprobot.config import Config, available_sensors, load_config, replace, with_sensor
 from vprobot.outputs import check_output_file, check_output_folder
 from vprobot.robots import available_robots
 
@@ -29,11 +29,16 @@ INTERRUPTED = 130
 
 
 def _config(args: argparse.Namespace) -> Config:
-    """The config file (or the default), with `--robot` applied when given."""
+    """The config file (or the default), with `--robot` and `--sensor` applied when given."""
     config = load_config(args.config)
     if getattr(args, "robot", None):
         config = replace(config, "cell", robot=args.robot)
-    return config
+    return _sensor_option(config, args)
+
+
+def _sensor_option(config: Config, args: argparse.Namespace) -> Config:
+    """`config` with the `--sensor` preset, when given, in place of its sensor (same mount)."""
+    return with_sensor(config, args.sensor) if getattr(args, "sensor", None) else config
 
 
 def _write_json(path: str | None, document: dict[str, Any]) -> None:
@@ -181,10 +186,11 @@ def command_render(args: argparse.Namespace) -> int:
     _check_render_outputs(args, args.out, "--out")
     config = _config(args)
     if args.plan:
-        given = [f"--{name}" for name in PLANNING_OPTIONS if getattr(args, name) is not None]
+        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "sensor")
+                 if getattr(args, name) is not None]
         if given:
-            raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose and "
-                             f"views; {', '.join(given)} cannot be combined with it")
+            raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose, sensor "
+                             f"and views; {', '.join(given)} cannot be combined with it")
         scene, record = episode_from_plan(config, args.plan)
     else:
         options = _planning(args)
@@ -233,11 +239,12 @@ def command_train(args: argparse.Namespace) -> int:
     if args.profile is None and not args.resume:
         raise ValueError("give a profile (e.g. configs/agents/cpu.yaml), or --resume a run")
     if args.resume and (args.profile is not None or args.set or args.steps is not None
-                        or args.seed is not None):
-        raise ValueError("--resume goes on with the run's own profile, overrides, steps and "
-                         "seed; give only --out (and --device)")
+                        or args.seed is not None or args.sensor is not None):
+        raise ValueError("--resume goes on with the run's own profile, overrides, sensor, steps "
+                         "and seed; give only --out (and --device)")
     check_output_folder(args.out, "--out")
-    config = None if args.resume else profile_config(args.profile, args.set, args.steps)
+    config = (None if args.resume
+              else _sensor_option(profile_config(args.profile, args.set, args.steps), args))
     result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
                    device=args.device, argv=["vprobot", *args.argv])
     print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the shared "
@@ -312,6 +319,19 @@ def command_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_sensors(args: argparse.Namespace) -> int:
+    """List the sensor presets: resolution, opening angles, range and working distance."""
+    from vprobot.config import sensor_preset
+
+    print("preset            resolution    fov (deg)        range (m)      working distance (m)")
+    for name in available_sensors():
+        sensor = sensor_preset(name)
+        print(f"{name:<17} {sensor.resolution[0]:>4} x {sensor.resolution[1]:<4}   "
+              f"{sensor.fov_deg[0]:5.2f} x {sensor.fov_deg[1]:5.2f}   "
+              f"{sensor.near_m:.3f} - {sensor.far_m:.3f}  {sensor.working_distance_m:.3f}")
+    return 0
+
+
 def command_motors_generate(args: argparse.Namespace) -> int:
     from vprobot.motors import generate_motors
 
@@ -375,6 +395,12 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--robot", metavar="ROBOT",
                          help=f"robot to use instead of the config's: "
                               f"{', '.join(available_robots())} or a robot folder")
+        add_sensor(sub)
+
+    def add_sensor(sub: argparse.ArgumentParser) -> None:
+        sub.add_argument("--sensor", choices=available_sensors(),
+                         help="sensor preset (configs/sensors/) to use instead of the config's "
+                         "sensor, on the config's mount")
 
     reach = add("reach", command_reach, "Can the cell reach this sensor view?")
     add_robot(reach)
@@ -455,6 +481,7 @@ def build_parser() -> argparse.ArgumentParser:
     training.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
                           help="override profile settings, e.g. env.state=s_bin "
                           "agent.algorithm=ppo agent.encoder=pointnet env.carrier=free")
+    add_sensor(training)
     training.add_argument("--steps", type=POSITIVE_INT, help="env steps (agent.total_steps)")
     training.add_argument("--seed", type=NON_NEGATIVE_INT, help="seed of the run (default 0)")
     training.add_argument("--out", required=True, help="run directory")
@@ -490,6 +517,8 @@ def build_parser() -> argparse.ArgumentParser:
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
+
+    add("sensors", command_sensors, "List the sensor presets (configs/sensors/).", config=False)
 
     motors = commands.add_parser("motors", help="Synthetic starter motors.")
     motor_commands = motors.add_subparsers(dest="motors_command", required=True)

@@ -62,9 +62,12 @@ class CellConfig:
             raise ConfigError(f"cell.robot: {error}") from None
 
 
-MAX_RAYS_PER_AXIS = 2048
-"""Largest sensor resolution along either image axis (4.2 million rays a frame at most; a frame
-buffer grows with the ray count, and no real 3D sensor needs more)."""
+MAX_RAYS_PER_AXIS = 4096
+"""Largest sensor resolution along either image axis. A `DepthSensor` keeps 60 bytes per ray
+(unit direction, distance scale, two depth buffers, MuJoCo's ray distance and geom id): about
+0.3 GB for a Zivid 2+ frame (2448 x 2048) and 1.0 GB at this cap (4096 x 4096, 16.8 million rays),
+plus the scan conversion's working arrays, which grow with the pixels the object covers. Real 3D
+sensors stay below the cap; the `sensors/` presets give their own resolutions."""
 
 
 def check_resolution(resolution: tuple[int, int], key: str) -> None:
@@ -104,6 +107,63 @@ class SensorConfig:
             raise ConfigError(
                 f"sensor needs 0 <= near_m < far_m, got near_m={self.near_m}, far_m={self.far_m}"
             )
+        if not self.working_distance_m > 0.0:
+            raise ConfigError(f"sensor.working_distance_m must be > 0, got "
+                              f"{self.working_distance_m}")
+
+
+SENSORS_DIR = CONFIGS_DIR / "sensors"
+"""Sensor presets, one YAML file per device: `sensor: NAME` in a config, `--sensor NAME`."""
+SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
+"""How the sensor sits on the flange: the cell's business, kept when `--sensor` swaps devices."""
+
+
+def available_sensors() -> list[str]:
+    """Names of the sensor presets in `configs/sensors/`, sorted."""
+    return sorted(path.stem for path in SENSORS_DIR.glob("*.yaml"))
+
+
+def _preset_mapping(name: Any, key: str) -> dict[str, Any]:
+    """The keys of preset `name` as written in its file."""
+    presets = available_sensors()
+    if not isinstance(name, str) or name not in presets:
+        raise ConfigError(f"{key} must name a sensor preset, one of {presets}, got {name!r}")
+    path = SENSORS_DIR / f"{name}.yaml"
+    data = yaml.safe_load(path.read_text()) or {}
+    if not isinstance(data, Mapping) or "preset" in data:
+        raise ConfigError(f"{path}: a sensor preset must be a mapping of sensor keys (no "
+                          f"'preset' of its own)")
+    return dict(data)
+
+
+def _sensor_mapping(value: Any, key: str) -> Any:
+    """A `sensor` section with its preset resolved: `NAME`, or a mapping that may name
+    `preset: NAME` and override single keys of it; anything else is left to the schema."""
+    if isinstance(value, str):
+        return _preset_mapping(value, key)
+    if isinstance(value, Mapping) and "preset" in value:
+        overrides = {name: item for name, item in value.items() if name != "preset"}
+        return {**_preset_mapping(value["preset"], f"{key}.preset"), **overrides}
+    return value
+
+
+def sensor_preset(name: str) -> SensorConfig:
+    """The sensor of preset `name` with the default mount.
+
+    Raises:
+        ConfigError: If no preset has that name (the message lists the presets).
+    """
+    return from_mapping(SensorConfig, _preset_mapping(name, "sensor"), "sensor")
+
+
+def with_sensor(config: Config, name: str) -> Config:
+    """`config` with the sensor of preset `name`, mounted where the config's sensor was.
+
+    Raises:
+        ConfigError: If no preset has that name.
+    """
+    mount = {key: getattr(config.sensor, key) for key in SENSOR_MOUNT_KEYS}
+    return dataclasses.replace(config, sensor=dataclasses.replace(sensor_preset(name), **mount))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -362,6 +422,8 @@ class Config:
 def _convert(value: Any, annotation: Any, key: str) -> Any:
     """Validate `value` against a type annotation and convert it (lists become tuples)."""
     origin = typing.get_origin(annotation)
+    if annotation is SensorConfig:
+        value = _sensor_mapping(value, key)
     if dataclasses.is_dataclass(annotation):
         if not isinstance(value, Mapping):
             raise ConfigError(f"{key} must be a mapping, got {value!r}")

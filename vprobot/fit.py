@@ -38,6 +38,7 @@ from vprobot.config import Config
 from vprobot.mesh_loading import MIN_EXTENT_M, LoadedMesh
 from vprobot.robots import load_robot
 from vprobot.scene import ROBOT_STAND_RADIUS_M, robot_base_pose, stand_length
+from vprobot.sensor_model import SensorModel
 
 _PLAUSIBLE_MIN_EXTENT_M = 0.05
 """A unit hint must give at least this size: a 2 cm starter motor is a unit mistake too."""
@@ -68,9 +69,9 @@ def segment_distance(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> f
 
 def sensor_limit_m(config: Config) -> float:
     """Farthest distance from the object centre that any view on the view sphere measures."""
-    sensor = config.sensor
+    sensor = SensorModel.from_config(config.sensor)
     d = sensor.working_distance_m
-    cos_beta = math.cos(math.radians(min(sensor.fov_deg) / 2.0))
+    cos_beta = math.cos(sensor.inscribed_cone_angle_rad)
     # The distance is convex in the range s, so its largest value is at an end of [near, far].
     return max(math.sqrt(max(d * d + s * s - 2.0 * d * s * cos_beta, 0.0))
                for s in (sensor.near_m, sensor.far_m))

@@ -165,7 +165,7 @@ def inspectable_points(mesh: trimesh.Trimesh, config: Config) -> tuple[np.ndarra
     center = cell.object_center
     clouds = []
     for direction in directions:
-        pose = Pose.look_at(center + config.sensor.working_distance_m * direction, center)
+        pose = Pose.look_at(center + sensor.sensor.working_distance_m * direction, center)
         acquisition = sensor.acquire_from_pose(data, pose)
         if len(acquisition):
             clouds.append(acquisition.points_mesh)

@@ -97,6 +97,7 @@ def sensor_block(cell: Cell) -> dict[str, Any]:
         "resolution": list(sensor.resolution),
         "fov_deg": list(sensor.fov_deg),
         "range": [sensor.near_m, sensor.far_m],
+        "working_distance_m": sensor.working_distance_m,
         "frame": "+z viewing direction, +x image right, +y image down",
     }
 

@@ -1,12 +1,10 @@
 """The 3D sensor: a pinhole grid of rays cast from the `sensor` site into the cell (SPEC §4).
 
-Sensor frame, used throughout vprobot: +z is the viewing direction, +x is image right, +y is image
-down. Pixel (row i, column j) of a w x h frame looks along (u_j, v_i, 1), where u and v are the
-pixel centres of an even grid over ±tan(fov_x / 2) and ±tan(fov_y / 2); frames are row-major.
-Only a ray's first hit in the whole cell counts: it is kept when it lies on the object and its
-distance is within [near, far]; a ray that first meets the robot, the fixture or the floor is
-occluded. Rays start at the optical centre, on the front of the sensor housing, so the sensor
-body itself is excluded.
+The grid, its opening angles and range are a `SensorModel` (`vprobot.sensor_model`, which also
+documents the sensor frame). Only a ray's first hit in the whole cell counts: it is kept when it
+lies on the object and its distance is within [near, far]; a ray that first meets the robot, the
+fixture or the floor is occluded. Rays start at the optical centre, on the front of the sensor
+housing, so the sensor body itself is excluded.
 
 How a frame is computed in milliseconds: MuJoCo's ray-mesh test walks the whole mesh BVH without
 pruning by the nearest hit found so far, which costs several microseconds for every ray that hits
@@ -31,9 +29,9 @@ from concurrent.futures import ThreadPoolExecutor
 import mujoco
 import numpy as np
 
-from vprobot.config import MAX_RAYS_PER_AXIS, SensorConfig
 from vprobot.geometry import Pose
 from vprobot.scene import Cell
+from vprobot.sensor_model import SensorModel
 
 TRAINING_RESOLUTION = (320, 224)
 """A coarser frame for training (0.56 of the rays, same opening angles and aspect). Its
@@ -47,42 +45,6 @@ _SPAN_SLACK = 1e-12
 _MIN_DEPTH = 1e-9
 # Fewer MuJoCo rays than this per thread are cast on one thread.
 _MIN_RAYS_PER_THREAD = 2000
-
-
-def _pixel_tangents(sensor: SensorConfig, resolution: tuple[int, int]) -> tuple[np.ndarray,
-                                                                                 np.ndarray]:
-    """Tangents of the pixel centres along image x (w,) and image y (h,)."""
-    (width, height), (fov_x, fov_y) = resolution, sensor.fov_deg
-    tan_x, tan_y = np.tan(np.deg2rad(fov_x) / 2.0), np.tan(np.deg2rad(fov_y) / 2.0)
-    u = tan_x * ((2.0 * np.arange(width) + 1.0) / width - 1.0)
-    v = tan_y * ((2.0 * np.arange(height) + 1.0) / height - 1.0)
-    return u, v
-
-
-def _check_resolution(resolution: tuple[int, int]) -> tuple[int, int]:
-    values = tuple(resolution)
-    if len(values) != 2 or not all(isinstance(n, int | np.integer)
-                                   and 1 <= n <= MAX_RAYS_PER_AXIS for n in values):
-        raise ValueError(f"resolution must be two integers (width, height) in "
-                         f"1..{MAX_RAYS_PER_AXIS}, got {resolution!r}")
-    return int(values[0]), int(values[1])
-
-
-def ray_directions(sensor: SensorConfig, resolution: tuple[int, int] | None = None) -> np.ndarray:
-    """Unit ray directions (h * w, 3) in the sensor frame, row-major, one per pixel.
-
-    Args:
-        sensor: Opening angles (and the default resolution).
-        resolution: (width, height) in rays; the sensor's own when omitted.
-
-    Raises:
-        ValueError: If the resolution is not two positive integers.
-    """
-    resolution = _check_resolution(resolution if resolution is not None else sensor.resolution)
-    u, v = _pixel_tangents(sensor, resolution)
-    grid_u, grid_v = np.meshgrid(u, v)
-    directions = np.stack([grid_u, grid_v, np.ones_like(grid_u)], axis=-1).reshape(-1, 3)
-    return directions / np.linalg.norm(directions, axis=1, keepdims=True)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -154,7 +116,7 @@ class DepthSensor:
     Args:
         cell: The compiled cell. Its object geoms must be meshes, in geom groups that hold no
             primitive geoms.
-        sensor: Opening angles and range; the cell's sensor config when omitted.
+        sensor: The sensor's geometry; the model of the cell's sensor config when omitted.
         resolution: (width, height) in rays, e.g. a coarser frame for training; the sensor's
             own when omitted. The opening angles stay the same.
         workers: Threads for the MuJoCo ray casts.
@@ -166,12 +128,12 @@ class DepthSensor:
             a primitive geom shares the object's geom group, or `groups` leaves out the object.
     """
 
-    def __init__(self, cell: Cell, sensor: SensorConfig | None = None,
+    def __init__(self, cell: Cell, sensor: SensorModel | None = None,
                  resolution: tuple[int, int] | None = None, workers: int = 2,
                  groups: Sequence[int] | None = None):
-        self.sensor = sensor if sensor is not None else cell.config.sensor
-        self.resolution = _check_resolution(resolution if resolution is not None
-                                            else self.sensor.resolution)
+        sensor = sensor if sensor is not None else SensorModel.from_config(cell.config.sensor)
+        self.sensor = sensor.at_resolution(resolution) if resolution is not None else sensor
+        self.resolution = self.sensor.resolution
         if not (isinstance(workers, int) and workers >= 1):
             raise ValueError(f"workers must be a positive integer, got {workers!r}")
         self.model = cell.model
@@ -179,12 +141,10 @@ class DepthSensor:
         self._sensor_body_id = cell.sensor_body_id
         self._object_body_id = cell.object_body_id
         self._classify_geoms(np.asarray(cell.object_geom_ids, dtype=int), groups)
-        self._u, self._v = _pixel_tangents(self.sensor, self.resolution)
-        self.directions = ray_directions(self.sensor, self.resolution)
+        self._u, self._v = self.sensor.pixel_tangents
+        self.directions = self.sensor.ray_directions
         # Distance along a ray per unit of z-depth.
         self._ray_scale = 1.0 / self.directions[:, 2]
-        # Half-angle of the cone around +z that holds the whole frustum.
-        self._cone_angle = float(np.arctan(np.hypot(self._u[-1], self._v[-1])))
         self._object_depth = np.empty(self.rays_per_frame)
         self._occluder_depth = np.empty(self.rays_per_frame)
         self._geomid = np.empty(self.rays_per_frame, dtype=np.int32)
@@ -238,7 +198,7 @@ class DepthSensor:
 
     @property
     def rays_per_frame(self) -> int:
-        return self.resolution[0] * self.resolution[1]
+        return self.sensor.rays_per_frame
 
     def acquire_at(self, pose: Pose, object_rotation: np.ndarray,
                    joints: np.ndarray | None = None) -> Acquisition:
@@ -280,7 +240,7 @@ class DepthSensor:
         pixels = self._first_hits(self._object_meshes, data, pose, self._object_depth,
                                   self.sensor.far_m)
         distance = self._object_depth[pixels] * self._ray_scale[pixels]
-        in_range = (distance >= self.sensor.near_m) & (distance <= self.sensor.far_m)
+        in_range = self.sensor.in_range(distance)
         pixels, distance = pixels[in_range], distance[in_range]
         if len(pixels):
             pixels, distance = self._unoccluded_by_meshes(data, pose, pixels, distance)
@@ -304,7 +264,7 @@ class DepthSensor:
         if distance <= mesh.radius:
             return True
         off_axis = np.arccos(np.clip(offset @ pose.rotation[:, 2] / distance, -1.0, 1.0))
-        return bool(off_axis - np.arcsin(mesh.radius / distance) <= self._cone_angle)
+        return bool(off_axis - np.arcsin(mesh.radius / distance) <= self.sensor.cone_angle_rad)
 
     def _first_hits(self, meshes: list[_MeshGeom], data: mujoco.MjData, pose: Pose,
                     depth: np.ndarray, max_distance: float,

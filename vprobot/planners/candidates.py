@@ -140,7 +140,7 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
         raise ValueError(f"count must be >= 1, got {count}")
     scene = episode.scene
     center = episode.center
-    radius = scene.cell.config.sensor.working_distance_m
+    radius = scene.sensor.sensor.working_distance_m
     directions = sphere_directions(count, np.deg2rad(MAX_POLAR_DEG))
     targets = tuple(SensorTarget.look_at(center + radius * d, center) for d in directions)
     dof = scene.cell.joints.dof
@@ -159,7 +159,7 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
 
     start = time.perf_counter()
     ground_truth = scene.ground_truth
-    renderer = VisibilityRenderer(scene.mesh.mesh, scene.cell.config.sensor, resolution,
+    renderer = VisibilityRenderer(scene.mesh.mesh, scene.sensor.sensor, resolution,
                                   tolerance_m=EPSILON_PER_SPACING * ground_truth.spacing_m)
     to_mesh = episode.object_pose.inverse()
     indices = np.flatnonzero(usable)

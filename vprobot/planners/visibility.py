@@ -24,9 +24,8 @@ import dataclasses
 import numpy as np
 import trimesh
 
-from vprobot.config import SensorConfig
 from vprobot.geometry import Pose
-from vprobot.sensor import ray_directions
+from vprobot.sensor_model import SensorModel
 
 DEFAULT_RESOLUTION = (86, 60)
 """A fifth of the full frame's rays per axis: pixels of about 2.5 mm at the working distance.
@@ -65,7 +64,7 @@ class VisibilityRenderer:
 
     Args:
         mesh: The object in its mesh frame (metres).
-        sensor: Opening angles and range.
+        sensor: The sensor's geometry (opening angles and range).
         resolution: (width, height) of the coarse grid.
         tolerance_m: How far behind the visible surface a point may lie and still count.
 
@@ -74,7 +73,7 @@ class VisibilityRenderer:
             tolerance is not a positive length.
     """
 
-    def __init__(self, mesh: trimesh.Trimesh, sensor: SensorConfig,
+    def __init__(self, mesh: trimesh.Trimesh, sensor: SensorModel,
                  resolution: tuple[int, int] = DEFAULT_RESOLUTION, tolerance_m: float = 0.002):
         if len(mesh.faces) == 0:
             raise ValueError("mesh has no faces: nothing to render")
@@ -89,18 +88,12 @@ class VisibilityRenderer:
         self.normals = np.asarray(mesh.face_normals, dtype=float)
         self.cull_back_faces = bool(mesh.is_watertight and mesh.is_winding_consistent)
         self._plane_offsets = np.einsum("fj,fj->f", self.normals, self.vertices[self.faces[:, 0]])
-        self.sensor = sensor
-        self.resolution = (int(resolution[0]), int(resolution[1]))
+        self.sensor = sensor.at_resolution((int(resolution[0]), int(resolution[1])))
+        self.resolution = self.sensor.resolution
         self.tolerance_m = float(tolerance_m)
-        # The sensor's own pixel grid: tangents of the pixel centres along image x and y.
-        directions = ray_directions(sensor, self.resolution)
-        width = self.resolution[0]
-        self.u = directions[:width, 0] / directions[:width, 2]
-        self.v = directions[::width, 1] / directions[::width, 2]
+        self.u, self.v = self.sensor.pixel_tangents
         self._du = self.u[1] - self.u[0]
         self._dv = self.v[1] - self.v[0]
-        self._half_tan = (np.tan(np.deg2rad(sensor.fov_deg[0]) / 2.0),
-                          np.tan(np.deg2rad(sensor.fov_deg[1]) / 2.0))
 
     def visible(self, poses: list[Pose], points: np.ndarray) -> np.ndarray:
         """Which points (n, 3) each pose sees; poses and points in the mesh frame.
@@ -227,15 +220,11 @@ class VisibilityRenderer:
         """The depth test of the module docstring for every (pose, point)."""
         _, height, width = depth.shape
         local = np.matmul(points[None] - positions[:, None], rotations)
-        x, y, z = local[..., 0], local[..., 1], local[..., 2]
-        distance = np.sqrt(x * x + y * y + z * z)
-        candidate = ((z > _MIN_DEPTH) & (np.abs(x) <= self._half_tan[0] * z)
-                     & (np.abs(y) <= self._half_tan[1] * z)
-                     & (distance >= self.sensor.near_m) & (distance <= self.sensor.far_m))
+        candidate = self.sensor.contains(local)
         pose_index, point_index = np.nonzero(candidate)
-        z = z[pose_index, point_index]
-        column = (x[pose_index, point_index] / z - self.u[0]) / self._du
-        row = (y[pose_index, point_index] / z - self.v[0]) / self._dv
+        x, y, z = (local[pose_index, point_index, axis] for axis in range(3))
+        column = (x / z - self.u[0]) / self._du
+        row = (y / z - self.v[0]) / self._dv
         # Empty pixels support nothing: they count as infinitely near.
         support = np.where(np.isfinite(depth), depth, -np.inf)
         farthest = np.full(len(pose_index), -np.inf)

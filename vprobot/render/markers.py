@@ -6,6 +6,7 @@ import mujoco
 import numpy as np
 
 from vprobot.geometry import Pose
+from vprobot.sensor_model import SensorModel
 
 VIEW_COLORS = np.array([
     [0.12, 0.47, 0.71], [1.00, 0.50, 0.05], [0.58, 0.40, 0.74], [0.09, 0.75, 0.81],
@@ -35,17 +36,6 @@ def subsample(points: np.ndarray, count: int, seed: int = 0) -> np.ndarray:
     return points[np.sort(rng.choice(len(points), size=count, replace=False))]
 
 
-def frustum_corners(pose: Pose, fov_deg: tuple[float, float], distance: float) -> np.ndarray:
-    """The four corners (4, 3) of the frustum's cross-section at `distance` along the view axis.
-
-    Sensor frame: +z is the viewing direction, +x image right, +y image down.
-    """
-    half_x, half_y = np.tan(np.deg2rad(np.asarray(fov_deg, dtype=float)) / 2.0) * distance
-    local = np.array([[-half_x, -half_y, distance], [half_x, -half_y, distance],
-                      [half_x, half_y, distance], [-half_x, half_y, distance]])
-    return local @ pose.rotation.T + pose.position
-
-
 def _next_geom(scene: mujoco.MjvScene) -> mujoco.MjvGeom | None:
     # Like MuJoCo itself, drop what does not fit rather than fail a whole video over a marker.
     if scene.ngeom >= scene.maxgeom:
@@ -67,14 +57,14 @@ def add_segment(scene: mujoco.MjvScene, start: np.ndarray, end: np.ndarray, rgba
                          np.asarray(start, dtype=float), np.asarray(end, dtype=float))
 
 
-def add_frustum(scene: mujoco.MjvScene, pose: Pose, fov_deg: tuple[float, float], far_m: float,
+def add_frustum(scene: mujoco.MjvScene, sensor: SensorModel, pose: Pose, distance: float,
                 rgba: np.ndarray, width_px: float = 2.0) -> None:
-    """The sensor's viewing pyramid at `pose`, out to the far bound `far_m`.
+    """The sensor's viewing pyramid at `pose`, out to `distance` along the view axis.
 
     The near bound is left out: four more lines per view clutter the picture more than they
     tell.
     """
-    far = frustum_corners(pose, fov_deg, far_m)
+    far = sensor.frustum_corners(pose, distance)
     for corner in range(4):
         add_segment(scene, pose.position, far[corner], rgba, width_px)
         add_segment(scene, far[corner], far[(corner + 1) % 4], rgba, width_px)

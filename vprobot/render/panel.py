@@ -9,6 +9,7 @@ import numpy as np
 
 from vprobot.render.offscreen import OffscreenView
 from vprobot.scene import Cell
+from vprobot.sensor_model import SensorModel
 
 PanelMode = Literal["color", "depth"]
 SENSOR_CAMERA = "sensor_camera"
@@ -34,11 +35,11 @@ class SensorPanel:
         if mode not in get_args(PanelMode):
             raise ValueError(f"sensor panel mode must be one of {get_args(PanelMode)}, "
                              f"got {mode!r}")
-        sensor = cell.config.sensor
-        half_x, half_y = np.tan(np.deg2rad(sensor.fov_deg) / 2.0)
+        sensor = SensorModel.from_config(cell.config.sensor)
+        half_x, half_y = sensor.half_tangents
         height = max(1, round(width * half_y / half_x))
         self.mode = mode
-        self.near_m, self.far_m = sensor.near_m, sensor.far_m
+        self.sensor = sensor
         self.view = OffscreenView(cell.model, width, height)
         self.view.use_fixed_camera(SENSOR_CAMERA)
         # The camera's vertical opening follows the configured sensor, not the model's default.
@@ -61,7 +62,8 @@ class SensorPanel:
 
     def colorize(self, depth: np.ndarray) -> np.ndarray:
         """Depth (m) to colour: near bound yellow, far bound violet, outside the range dark."""
-        fraction = (depth - self.near_m) / (self.far_m - self.near_m)
+        near, far = self.sensor.near_m, self.sensor.far_m
+        fraction = (depth - near) / (far - near)
         inside = (fraction >= 0.0) & (fraction <= 1.0)
         rgb = NEAR_RGB + np.clip(fraction, 0.0, 1.0)[..., None] * (FAR_RGB - NEAR_RGB)
         return np.where(inside[..., None], rgb, NO_RETURN_RGB).astype(np.uint8)

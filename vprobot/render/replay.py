@@ -102,6 +102,9 @@ def plan_config(config: Config, document: dict[str, Any], object_center: np.ndar
         sensor.update(resolution=tuple(int(x) for x in _vector(block, "resolution", 2, "sensor")),
                       fov_deg=tuple(_vector(block, "fov_deg", 2, "sensor")),
                       near_m=float(near), far_m=float(far))
+        # Plans written before the working distance was exported keep the config's.
+        if "working_distance_m" in block:
+            sensor["working_distance_m"] = block["working_distance_m"]
     return replace(config, "sensor", **sensor)
 
 

@@ -32,6 +32,7 @@ from vprobot.render.output import check_output_path, write_png
 from vprobot.render.overlay import BOX_RGBA, TEXT_RGB, font
 from vprobot.render.video import cell_of
 from vprobot.scene import Cell
+from vprobot.sensor_model import SensorModel
 
 OVERVIEW_FRACTION = 0.6
 """Share of the width taken by the overview; the close-ups share the rest."""
@@ -85,7 +86,7 @@ def _overview(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int
     track = _sensor_track(cell, record)
     poses = _view_poses(record)
     geoms = len(record.gt_points_world) + len(track) + FRUSTUM_SEGMENTS * len(poses)
-    fov = cell.config.sensor.fov_deg
+    sensor = SensorModel.from_config(cell.config.sensor)
     with OffscreenView(cell.model, width, height, fine=True, max_geom=geoms) as view:
         _object_only(view, cell)
         positions = np.array([pose.position for pose in poses] + [record.object_pose.position])
@@ -100,7 +101,7 @@ def _overview(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int
                 add_segment(scene, start, end, TRACK_RGBA, 1.5)
             for index, (pose, view_record) in enumerate(zip(poses, record.views, strict=True)):
                 rgba = view_rgba(index) if view_record.reachable else UNREACHABLE_RGBA
-                add_frustum(scene, pose, fov, SMALL_FRUSTUM_M, rgba, 2.5)
+                add_frustum(scene, sensor, pose, SMALL_FRUSTUM_M, rgba, 2.5)
 
         view.update(data, draw)
         image = view.rgb()

@@ -27,6 +27,7 @@ from vprobot.render.overlay import OverlayStatus, draw_status, inset
 from vprobot.render.panel import PanelMode, SensorPanel
 from vprobot.render.timeline import FrameState, TimingSettings, episode_timeline
 from vprobot.scene import Cell
+from vprobot.sensor_model import SensorModel
 
 POINT_SIZE_M = 0.004
 TARGET_RGBA = np.array([1.0, 1.0, 1.0, 0.6], dtype=np.float32)
@@ -82,8 +83,7 @@ class EpisodeRenderer:
             raise ValueError("the episode has no views to render")
         self.cell = cell_of(scene)
         self.record = record
-        sensor = self.cell.config.sensor
-        self.fov_deg, self.far_m = sensor.fov_deg, sensor.far_m
+        self.sensor = SensorModel.from_config(self.cell.config.sensor)
         self.data = self.cell.make_data()
         self.cell.place_object(self.data, record.object_pose.rotation)
         self.points = [subsample(view.points_world, points_per_view, seed=index)
@@ -109,16 +109,16 @@ class EpisodeRenderer:
         for index, view in enumerate(self.record.views[: state.shown]):
             latest = index == state.shown - 1 and state.phase in ("acquire", "unreachable")
             if not view.reachable:
-                add_frustum(scene, view.requested, self.fov_deg, self.far_m,
+                add_frustum(scene, self.sensor, view.requested, self.sensor.far_m,
                             UNREACHABLE_RGBA, 3.0 if latest else 1.5)
             if view.sensor_pose is not None:
                 rgba = view_rgba(index, 1.0 if latest else FADED_ALPHA)
-                add_frustum(scene, view.sensor_pose, self.fov_deg, self.far_m,
+                add_frustum(scene, self.sensor, view.sensor_pose, self.sensor.far_m,
                             rgba, 3.0 if latest else 1.5)
                 add_points(scene, self.points[index], view_rgba(index), POINT_SIZE_M)
         if state.phase == "move":
             target = self.record.views[state.view].requested
-            add_frustum(scene, target, self.fov_deg, self.far_m, TARGET_RGBA, 1.0)
+            add_frustum(scene, self.sensor, target, self.sensor.far_m, TARGET_RGBA, 1.0)
 
     def status(self, state: FrameState) -> OverlayStatus:
         """The overlay's text for `state`."""
