@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import importlib.metadata
+import json
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.cli import main
 from vprobot.config import CellConfig, Config, ConfigError, replace
@@ -176,3 +178,20 @@ def test_panda_ik_round_trip_within_its_limits() -> None:
             assert arm.joints.within_limits(result.q)
             np.testing.assert_allclose(arm.fk(result.q).position, goal.position, atol=1e-3)
     assert reached >= 10
+
+
+def test_reach_with_the_panda_exports_joints_franka_dh_agrees_with(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "view.json"
+    code = main(["reach", "--robot", "panda", "--position", "0.45", "-0.47", "0.75", "--look-at",
+                 "0.45", "0", "0.75", "--json", str(out)])
+    assert code == 0, capsys.readouterr().out
+    plan = json.loads(out.read_text())
+    assert plan["robot"]["name"] == "panda"
+    assert plan["robot"]["sensor_mount"]["parent"] == "panda_link8"
+    (view,) = plan["views"]
+    assert len(view["joints"]) == 7
+    # Franka's DH table, the config's (default: the Panda's own) base placement and mount.
+    pose = world_sensor(np.array(view["joints"]), replace(Config(), "cell", robot="panda"))
+    assert np.linalg.norm(pose[:3, 3] - [0.45, -0.47, 0.75]) <= 1e-3
+    assert rotation_difference(pose[:3, :3], quaternion_matrix(view["quaternion"])) <= 1e-3

@@ -8,11 +8,11 @@ import mujoco
 import numpy as np
 
 from vprobot.render.offscreen import OffscreenView
+from vprobot.robots.description import SENSOR_CAMERA
 from vprobot.scene import Cell
 from vprobot.sensor_model import SensorModel
 
 PanelMode = Literal["color", "depth"]
-SENSOR_CAMERA = "sensor_camera"
 NO_RETURN_RGB = np.array([25, 25, 30], dtype=np.uint8)
 """Depth pixels outside the sensor's range: the sensor gets nothing back there."""
 NEAR_RGB = np.array([255, 230, 90], dtype=float)
