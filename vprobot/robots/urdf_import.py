@@ -380,8 +380,7 @@ def convert_urdf(
     building = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=out_dir.parent))
     try:
         _build_folder(chain, description, provenance, building, package_paths)
-        checked = dataclasses.replace(description, folder=building)
-        _check_folder(checked)
+        _check_folder(building)
         if out_dir.exists():
             shutil.rmtree(out_dir)
         building.rename(out_dir)
@@ -430,14 +429,13 @@ def _build_folder(chain: UrdfChain, description: RobotDescription, provenance: P
         steps=CONVERSION_STEPS.rstrip()))
 
 
-def _check_folder(description: RobotDescription) -> None:
-    """Compile a cell from the folder: the description must match the model."""
+def _check_folder(folder: Path) -> None:
+    """Compile a cell from the folder: loading it checks the description against the model."""
     # Imported here: the cell needs the config, which reads robot folders through this package.
     from vprobot.config import CellConfig, Config
     from vprobot.scene import Cell
 
-    RobotDescription.load(description.folder)
-    Cell(Config(cell=CellConfig(robot=str(description.folder))))
+    Cell(Config(cell=CellConfig(robot=str(folder))))
 
 
 SCENE_TEMPLATE = """<mujoco model="{name} inspection cell">
