@@ -51,7 +51,6 @@ from vprobot.env.observations import observation_space
 from vprobot.episode import BUNDLED_TEST_EPISODES, read_episode_list
 from vprobot.files import atomic_output, write_text
 from vprobot.kinematics import TRAVEL_COSTS
-from vprobot.robots import load_robot
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
                 *(f"travel_sum_{name}" for name in TRAVEL_COSTS))
@@ -84,7 +83,7 @@ def buffer_memory(config: Config) -> dict[str, Any]:
     five float32 (reward, return, advantage, value, log-probability) per env step.
     """
     agent = config.agent
-    observation = _space_bytes(observation_space(config.env, load_robot(config.cell.robot).dof))
+    observation = _space_bytes(observation_space(config))
     action = 4 * ActionMapping(config.env, config.sensor.working_distance_m).size
     if agent.algorithm == "sac":
         per_transition = 2 * observation + action + 3 * 4

@@ -18,7 +18,6 @@ from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
 from vprobot.paths import CONFIGS_DIR
-from vprobot.robots import load_robot
 
 PROFILES = CONFIGS_DIR / "agents"
 
@@ -27,7 +26,7 @@ class SpacesOnly(gym.Env):
     """An env with a profile's spaces and random samples: fills a buffer in no time."""
 
     def __init__(self, config: Config):
-        self.observation_space = observation_space(config.env, load_robot(config.cell.robot).dof)
+        self.observation_space = observation_space(config)
         size = ActionMapping(config.env, config.sensor.working_distance_m).size
         self.action_space = gym.spaces.Box(-1.0, 1.0, (size,), dtype=np.float32)
 

@@ -37,7 +37,6 @@ from vprobot.episode import (
 )
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.paths import MOTORS_DIR
-from vprobot.robots import load_robot
 
 SEED_BOUND = 2**31
 """Episode specs drawn by the env carry a seed below this, drawn from np_random."""
@@ -125,7 +124,7 @@ class InspectEnv(gym.Env):
         self.reward_function = Reward(config.env.reward, config.env.travel_cost_floor,
                                       config.env.unreachable_penalty)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.size,), dtype=np.float32)
-        self.observation_space = observation_space(config.env, load_robot(config.cell.robot).dof)
+        self.observation_space = observation_space(config)
         self.step_limit = (config.env.goal_only_step_cap if self.reward_function.goal_only
                            else config.env.max_acquisitions)
         self._scenes: dict[tuple[Path, float], MotorScene] = {}

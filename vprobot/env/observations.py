@@ -12,8 +12,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from gymnasium import spaces
 
-from vprobot.config import EnvConfig
+from vprobot.config import Config, EnvConfig
 from vprobot.geometry import Pose
+from vprobot.robots import load_robot
 
 if TYPE_CHECKING:
     from vprobot.episode import Episode
@@ -39,17 +40,14 @@ def points_space(config: EnvConfig) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
-def observation_space(config: EnvConfig, dof: int) -> spaces.Space:
-    """A Box of points, or a Dict of points and robot state when `robot_state` is set.
-
-    Args:
-        config: The environment settings.
-        dof: Joints of the robot (its description's), which size the robot state.
-    """
-    points = points_space(config)
-    if not config.robot_state:
+def observation_space(config: Config) -> spaces.Space:
+    """A Box of points, or a Dict of points and robot state when `env.robot_state` is set (sized
+    by the joints of the configured robot)."""
+    points = points_space(config.env)
+    if not config.env.robot_state:
         return points
-    robot = spaces.Box(-POSITION_BOUND, POSITION_BOUND, (robot_state_size(dof),), dtype=np.float32)
+    size = robot_state_size(load_robot(config.cell.robot).dof)
+    robot = spaces.Box(-POSITION_BOUND, POSITION_BOUND, (size,), dtype=np.float32)
     return spaces.Dict({"points": points, "robot": robot})
 
 
