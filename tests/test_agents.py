@@ -15,8 +15,12 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import torch
+import trimesh
+import yaml
+from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
-from vprobot.agents.curves import plot_curves
+from vprobot.agents.callbacks import load_buffer, save_buffer
+from vprobot.agents.curves import plot_curves, read_monitor
 from vprobot.agents.extractors import (
     EXTRACTORS,
     InputTransform,
@@ -24,9 +28,16 @@ from vprobot.agents.extractors import (
     PointNetExtractor,
     SphereMapExtractor,
 )
-from vprobot.agents.training import buffer_memory, build_model, make_vec_env, profile_config, train
+from vprobot.agents.training import (
+    buffer_memory,
+    build_model,
+    config_document,
+    make_vec_env,
+    profile_config,
+    train,
+)
 from vprobot.config import ConfigError, replace
-from vprobot.paths import CONFIGS_DIR
+from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
 TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
@@ -36,6 +47,7 @@ TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=
 BOX = gym.spaces.Box(-4, 4, (128, 3), np.float32)
 DICT = gym.spaces.Dict({"points": gym.spaces.Box(-4, 4, (128, 4), np.float32),
                         "robot": gym.spaces.Box(-8, 8, (15,), np.float32)})
+ACTION = gym.spaces.Box(-1, 1, (5,), np.float32)
 
 
 def tiny_extractor(name: str, space: gym.Space):
@@ -122,9 +134,24 @@ def _buffer_size(run: Path) -> int:
     from stable_baselines3 import SAC
 
     model = SAC.load(run / "final_model.zip")
-    model.load_replay_buffer(run / "checkpoints" / json.loads(
+    load_buffer(model.replay_buffer, run / "checkpoints" / json.loads(
         (run / "checkpoint.json").read_text())["buffer"])
     return model.replay_buffer.size()
+
+
+def _train_in_background(run: Path, options: list[str]) -> subprocess.Popen[bytes]:
+    """`vprobot train` of the CPU profile with `options` into `run`, in a subprocess."""
+    return subprocess.Popen([sys.executable, "-m", "vprobot.cli", "train",
+                             str(PROFILES / "cpu.yaml"), *options, "--out", str(run)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def _wait_while_running(process: subprocess.Popen[bytes], path: Path) -> bool:
+    """Wait (4 minutes at most) for `path` to appear; whether `process` still runs then."""
+    deadline = time.monotonic() + 240
+    while process.poll() is None and time.monotonic() < deadline and not path.is_file():
+        time.sleep(0.05)
+    return process.poll() is None and path.is_file()
 
 
 def test_resume_after_kill_goes_on_from_the_checkpoint(tmp_path: Path) -> None:
@@ -134,15 +161,9 @@ def test_resume_after_kill_goes_on_from_the_checkpoint(tmp_path: Path) -> None:
     from vprobot.cli import main
 
     assert main(["train", str(PROFILES / "cpu.yaml"), *steps, "--out", str(whole)]) == 0
-    process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", "train",
-                                str(PROFILES / "cpu.yaml"), *steps, "--out", str(killed)],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 240
-    while process.poll() is None and time.monotonic() < deadline:
-        if (killed / "checkpoint.json").is_file():
-            process.send_signal(signal.SIGKILL)
-            break
-        time.sleep(0.05)
+    process = _train_in_background(killed, steps)
+    if _wait_while_running(process, killed / "checkpoint.json"):
+        process.send_signal(signal.SIGKILL)
     process.wait()
     assert process.returncode == -signal.SIGKILL, "the run ended before it was killed"
     assert json.loads((killed / "checkpoint.json").read_text())["steps"] == 100
@@ -249,3 +270,147 @@ def test_curves_of_two_runs(tmp_path: Path) -> None:
     assert out.stat().st_size > 10_000
     with pytest.raises(ValueError, match=r"no monitor\.csv"):
         plot_curves([tmp_path], tmp_path / "x.png")
+
+
+def test_a_run_in_use_refuses_a_resume_at_once_and_trains_on_intact(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from vprobot.cli import main
+
+    run = tmp_path / "run"
+    options = ["--steps", "400", "--set", *TINY]
+    process = _train_in_background(run, options)
+    try:
+        assert _wait_while_running(process, run / "checkpoint.json"), "the run ended early"
+        assert (run / "run.lock").read_text().strip() == str(process.pid)
+        assert main(["train", "--resume", "--out", str(run)]) == 2
+        assert f"{run} is in use by pid {process.pid}" in capsys.readouterr().err
+        # Reading a running run is fine.
+        assert main(["curves", str(run), "--out", str(tmp_path / "during.png"),
+                     "--window", "3"]) == 0
+        assert process.poll() is None, "the run ended before the resume was refused"
+        assert process.wait(timeout=300) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert b"\0" not in (run / "monitor.csv").read_bytes()
+    assert len(read_monitor(run)["r"]) > 10
+    assert json.loads((run / "checkpoint.json").read_text())["steps"] == 400
+    assert _buffer_size(run) == 400
+    assert main(["curves", str(run), "--out", str(tmp_path / "after.png"), "--window", "3"]) == 0
+
+
+def _filled_buffer(space: gym.Space, size: int, transitions: int) -> ReplayBuffer:
+    """A replay buffer of `size` with `transitions` reproducible random transitions added."""
+    kind = DictReplayBuffer if isinstance(space, gym.spaces.Dict) else ReplayBuffer
+    buffer = kind(size, space, ACTION, device="cpu")
+    space.seed(0)
+    ACTION.seed(0)
+
+    def observation() -> np.ndarray | dict[str, np.ndarray]:
+        sample = space.sample()
+        return ({key: value[None] for key, value in sample.items()}
+                if isinstance(sample, dict) else sample[None])
+
+    for index in range(transitions):
+        buffer.add(observation(), observation(), ACTION.sample()[None],
+                   np.array([float(index)]), np.array([index % 7 == 0]), [{}])
+    return buffer
+
+
+def _arrays(buffer: ReplayBuffer) -> dict[str, np.ndarray]:
+    arrays = {}
+    for name in ("observations", "next_observations", "actions", "rewards", "dones",
+                 "timeouts"):
+        value = getattr(buffer, name)
+        arrays.update({f"{name}.{key}": item for key, item in value.items()}
+                      if isinstance(value, dict) else {name: value})
+    return arrays
+
+
+@pytest.mark.parametrize("space", [BOX, DICT], ids=["box", "dict"])
+@pytest.mark.parametrize("transitions", [30, 130], ids=["filling", "wrapped"])
+def test_buffer_checkpoint_holds_the_filled_transitions_and_restores_them_exactly(
+        space: gym.Space, transitions: int, tmp_path: Path) -> None:
+    buffer = _filled_buffer(space, 100, transitions)
+    save_buffer(buffer, tmp_path / "buffer.npz")
+    restored = _filled_buffer(space, 100, 0)
+    load_buffer(restored, tmp_path / "buffer.npz")
+    assert (restored.pos, restored.full) == (buffer.pos, buffer.full) == (
+        transitions % 100, transitions >= 100)
+    original = _arrays(buffer)
+    for name, array in _arrays(restored).items():
+        np.testing.assert_array_equal(array, original[name], err_msg=name)
+    # The file holds the filled transitions: a buffer 100 times larger writes as much.
+    filled = min(transitions, 100)
+    per_transition = sum(array[0].nbytes for array in original.values())
+    size = (tmp_path / "buffer.npz").stat().st_size
+    assert filled * per_transition < size < filled * per_transition + 8192
+    save_buffer(_filled_buffer(space, 10_000, filled), tmp_path / "large.npz")
+    assert (tmp_path / "large.npz").stat().st_size == size
+
+
+def test_training_before_the_first_finished_episode_succeeds_without_curves(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from vprobot.cli import main
+
+    run = tmp_path / "run"
+    assert main(["train", str(PROFILES / "cpu.yaml"), "--steps", "5", "--set", *TINY,
+                 "--out", str(run)]) == 0
+    assert "no finished episodes yet, so no curves.png" in capsys.readouterr().out
+    assert (run / "final_model.zip").is_file() and not (run / "curves.png").exists()
+
+
+def _millimetre_motor(path: Path, factor: float) -> Path:
+    mesh = trimesh.load(MOTORS_DIR / "test" / "motor_000.stl")
+    mesh.apply_scale(factor)
+    mesh.export(path)
+    return path
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--set", "env.motors=mesh", "env.mesh=MM"],
+     "largest side is 192.6 m with env.mesh_scale=1, outside the allowed 0.01 .. 5 m; looks like "
+     "millimetres: use env.mesh_scale=0.001"),
+    (["--set", "env.motors=mesh", "env.mesh=BIG"],
+     "does not fit the cell: at env.mesh_scale=1 it measures"),
+    (["--set", "env.motors=mesh", "env.mesh=MISSING"], "env.mesh not found"),
+    (["--set", "agent.buffer_size=2000000", "env.state_points=2048"], "GiB"),
+    (["--device", "cuda"], "--device cuda: no CUDA device on this machine"),
+], ids=["millimetres", "too-large", "missing-mesh", "memory", "device"])
+def test_failed_checks_leave_no_run_folder_behind(
+        options: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.cli import main
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    meshes = {"MM": str(_millimetre_motor(tmp_path / "motor_mm.stl", 1000.0)),
+              "BIG": str(_millimetre_motor(tmp_path / "motor_big.stl", 2.0)),
+              "MISSING": str(tmp_path / "missing.stl")}
+    options = [re.sub("MM|BIG|MISSING", lambda match: meshes[match.group()], option)
+               for option in options]
+    run = tmp_path / "run"
+    assert main(["train", str(PROFILES / "cpu.yaml"), *options, "--out", str(run)]) == 2
+    error = capsys.readouterr().err
+    assert message in error and len(error.splitlines()) == 1
+    assert not run.exists()
+    assert main(["train", "--resume", "--out", str(run)]) == 2
+    assert "is not a training run" in capsys.readouterr().err
+
+
+def test_an_agent_with_other_observations_than_its_config_names_its_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.agents.trained import load_agent
+
+    config = profile_config(PROFILES / "cpu.yaml", TINY)
+    run = tmp_path / "run"
+    run.mkdir()
+    build_model(config, make_vec_env(config, 0, [0], None), 0, "cpu").save(
+        run / "best_model.zip")
+    other = replace(config, "env", state_points=128)
+    (run / "config.yaml").write_text(yaml.safe_dump(config_document(other)))
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError, match=re.escape(
+            "agent run/best_model.zip: its run's config.yaml gives observations of shape "
+            "(128, 3), but the model was trained on (64, 3)")):
+        load_agent("run")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from vprobot.episode import MotorScene
 from vprobot.fit import check_fits, fit_limit, sensor_limit_m
 from vprobot.kinematics import RobotArm
 from vprobot.mesh_loading import load_mesh
+from vprobot.planners import plan_motor
 from vprobot.scene import Cell
 
 CONFIG = Config()
@@ -136,3 +138,34 @@ def test_cell_clearances_bind_for_unusual_placements(tmp_path: Path) -> None:
         CONFIG.cell, object_center_m=(0.05, 0.0, 0.4)))
     with pytest.raises(ValueError, match=r"room for no object: .*robot base"):
         check_fits(load_mesh(MOTOR), on_robot)
+
+
+def _millimetre_motor(path: Path) -> Path:
+    motor = load_mesh(MOTOR).mesh.copy()
+    motor.apply_scale(1000.0)
+    motor.export(path)
+    return path
+
+
+@pytest.mark.parametrize(("option", "unit_hint", "fit_hint"), [
+    ("scale", "use scale=0.001", "did you mean scale=0.001 (file in millimetres)?"),
+    ("--scale", "use --scale 0.001", "did you mean --scale 0.001 (file in millimetres)?"),
+    ("env.mesh_scale", "use env.mesh_scale=0.001",
+     "did you mean env.mesh_scale=0.001 (file in millimetres)?"),
+])
+def test_unit_hints_name_the_scale_setting_the_caller_gave(
+        tmp_path: Path, no_ground_truth: Path, option: str, unit_hint: str,
+        fit_hint: str) -> None:
+    path = _millimetre_motor(tmp_path / "motor_mm.stl")
+    with pytest.raises(ValueError, match=re.escape(unit_hint)):
+        MotorScene.load(CONFIG, path, scale_option=option)
+    with pytest.raises(ValueError, match=re.escape(fit_hint)):
+        MotorScene.load(CONFIG, path, 0.01, scale_option=option)
+
+
+def test_plan_hints_name_the_scale_option(tmp_path: Path, no_ground_truth: Path) -> None:
+    path = _millimetre_motor(tmp_path / "motor_mm.stl")
+    with pytest.raises(ValueError, match=r"with --scale 1, .* use --scale 0\.001$"):
+        plan_motor(CONFIG, path)
+    with pytest.raises(ValueError, match=r"at --scale 2 it .* did you mean --scale 1 \(file in "):
+        plan_motor(CONFIG, MOTOR, 2.0)

@@ -251,7 +251,11 @@ def command_train(args: argparse.Namespace) -> int:
           f"test episodes: coverage {100 * result['coverage']:.1f} %, "
           f"{result['acquisitions']:.2f} acquisitions, {100 * result['success']:.0f} % at the "
           f"goal, {100 * result['reachable_share']:.0f} % of requests reachable")
-    print(f"run directory: {args.out} (curves.png, evaluations.csv, best_model.zip)")
+    if result["curves"] is None:
+        print(f"run directory: {args.out} (evaluations.csv, best_model.zip); no finished "
+              f"episodes yet, so no curves.png: more --steps, or `vprobot curves` later")
+    else:
+        print(f"run directory: {args.out} (curves.png, evaluations.csv, best_model.zip)")
     return 0
 
 

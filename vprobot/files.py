@@ -121,3 +121,41 @@ def csv_text(columns: Sequence[str], rows: Iterable[Mapping[str, Any]],
     for row in rows:
         writer.writerow({key: "" if row.get(key) is None else row[key] for key in columns})
     return stream.getvalue()
+
+
+class InUseError(ValueError):
+    """Another live process holds the lock (a `ValueError`: a user error, exit 2)."""
+
+
+@contextlib.contextmanager
+def exclusive_lock(path: Path, what: str) -> Iterator[None]:
+    """Hold an exclusive lock on the file `path` (created if missing) for the block.
+
+    The lock is flock(2) (POSIX): the kernel drops it when its holder ends, however it ends
+    (kill -9 included), so a crash never leaves a stale lock. The file keeps the holder's pid,
+    for the refusal to name it.
+
+    Args:
+        path: The lock file.
+        what: What the lock guards, as the user knows it (e.g. the folder they gave).
+
+    Raises:
+        InUseError: At once, if another process holds the lock.
+    """
+    import fcntl  # POSIX only; imported here so that the module still imports elsewhere
+
+    descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(descriptor, 32, 0).decode(errors="replace").strip()
+            by = f"pid {holder}" if holder.isdigit() else "another process"
+            raise InUseError(f"{what} is in use by {by}; wait for it to end, or stop it "
+                             f"first") from None
+        os.ftruncate(descriptor, 0)
+        os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)
+        yield
+    finally:
+        # Closing the descriptor releases the lock.
+        os.close(descriptor)

@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.mesh_loading import MIN_EXTENT_M, LoadedMesh
+from vprobot.mesh_loading import MIN_EXTENT_M, LoadedMesh, scale_setting
 from vprobot.robots import load_robot
 from vprobot.scene import ROBOT_STAND_RADIUS_M, robot_base_pose, stand_length
 from vprobot.sensor_model import SensorModel
@@ -94,18 +94,25 @@ def fit_limit(config: Config) -> FitLimit:
     return min(limits, key=lambda limit: limit.radius_m)
 
 
-def _scale_hint(radius: float, extent: float, scale: float, limit: float) -> str:
+def _scale_hint(radius: float, extent: float, scale: float, limit: float, option: str) -> str:
     """Suggest the file unit that makes the object fit, else the largest scale that does."""
     for unit, factor in _UNITS:
         if math.isclose(factor, scale, rel_tol=1e-9):
             continue
         if radius / scale * factor <= limit and extent / scale * factor >= _PLAUSIBLE_MIN_EXTENT_M:
-            return f"did you mean scale={factor:g} (file in {unit})?"
-    return f"scale={scale * limit / radius:.3g} or less would make it fit"
+            return f"did you mean {scale_setting(factor, option)} (file in {unit})?"
+    largest = float(f"{scale * limit / radius:.3g}")
+    return f"{scale_setting(largest, option)} or less would make it fit"
 
 
-def check_fits(mesh: LoadedMesh, config: Config) -> None:
+def check_fits(mesh: LoadedMesh, config: Config, scale_option: str = "scale") -> None:
     """Raise ValueError unless the loaded object fits the cell of `config`.
+
+    Args:
+        mesh: The loaded object.
+        config: The configuration whose cell it must fit.
+        scale_option: How the user set the mesh's scale (`mesh_loading.scale_setting`): the
+            hint names it.
 
     Raises:
         ValueError: If its bounding-sphere radius about its centre exceeds `fit_limit(config)`;
@@ -120,10 +127,11 @@ def check_fits(mesh: LoadedMesh, config: Config) -> None:
     if radius <= limit.radius_m:
         return
     extents = " x ".join(f"{x:.3g}" for x in mesh.mesh.extents)
+    hint = _scale_hint(radius, float(mesh.mesh.extents.max()), mesh.scale, limit.radius_m,
+                       scale_option)
     raise ValueError(
-        f"{mesh.path} does not fit the cell: at scale={mesh.scale:g} it measures {extents} m, "
-        f"{radius:.3g} m from its centre to its farthest point, but the cell allows "
-        f"{limit.radius_m:.3g} m (a bounding sphere {2.0 * limit.radius_m:.3g} m across): "
-        f"{limit.reason}; "
-        f"{_scale_hint(radius, float(mesh.mesh.extents.max()), mesh.scale, limit.radius_m)}"
+        f"{mesh.path} does not fit the cell: at {scale_setting(mesh.scale, scale_option)} it "
+        f"measures {extents} m, {radius:.3g} m from its centre to its farthest point, but the "
+        f"cell allows {limit.radius_m:.3g} m (a bounding sphere {2.0 * limit.radius_m:.3g} m "
+        f"across): {limit.reason}; {hint}"
     )

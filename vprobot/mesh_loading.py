@@ -164,24 +164,30 @@ def _repair(mesh: trimesh.Trimesh) -> list[str]:
     return repairs
 
 
-def _unit_hint(extent: float, scale: float) -> str:
+def scale_setting(scale: float, option: str = "scale") -> str:
+    """`scale` as the user sets it: `--scale 0.001` (an option), `env.mesh_scale=0.001` (a
+    config key) or `scale=0.001` (a Python argument)."""
+    return f"{option} {scale:g}" if option.startswith("--") else f"{option}={scale:g}"
+
+
+def _unit_hint(extent: float, scale: float, option: str) -> str:
     """Suggest the scale that brings an out-of-range extent to a plausible object size."""
     if extent > MAX_EXTENT_M:
         for unit, factor in (("millimetres", 1e-3), ("centimetres", 1e-2), ("inches", 0.0254)):
             if 0.05 <= extent * factor <= 2.0:
-                return f"looks like {unit}: use scale={scale * factor:g}"
+                return f"looks like {unit}: use {scale_setting(scale * factor, option)}"
     factor = 10.0 ** round(math.log10(0.2 / extent))
-    return (
-        f"set the scale option to convert the file units to metres, e.g. scale={scale * factor:g}"
-    )
+    return (f"set {option} to convert the file units to metres, e.g. "
+            f"{scale_setting(scale * factor, option)}")
 
 
-def load_mesh(path: str | Path, scale: float = 1.0) -> LoadedMesh:
+def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale") -> LoadedMesh:
     """Load, repair, scale to metres and centre a mesh file.
 
     Args:
         path: STL, OBJ, PLY or any other mesh file trimesh reads; a scene is merged into one mesh.
         scale: Factor from file units to metres, e.g. 0.001 for a file in millimetres.
+        scale_option: How the user sets `scale` (`scale_setting`), for the hints.
 
     Returns:
         The loaded mesh with its offset, scale, hash and repair notes.
@@ -217,8 +223,9 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> LoadedMesh:
     extent = float(mesh.extents.max())
     if not MIN_EXTENT_M <= extent <= MAX_EXTENT_M:
         raise ValueError(
-            f"{path}: largest side is {extent:.4g} m with scale={scale:g}, outside the allowed"
-            f" {MIN_EXTENT_M:g} .. {MAX_EXTENT_M:g} m; {_unit_hint(extent, scale)}"
+            f"{path}: largest side is {extent:.4g} m with {scale_setting(scale, scale_option)},"
+            f" outside the allowed {MIN_EXTENT_M:g} .. {MAX_EXTENT_M:g} m; "
+            f"{_unit_hint(extent, scale, scale_option)}"
         )
 
     offset = mesh.bounds.mean(axis=0)

@@ -9,7 +9,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
@@ -20,6 +22,8 @@ from vprobot.files import append_line, atomic_output, csv_text, write_text
 
 EVALUATION_COLUMNS = ("step", "wall_s", "episodes", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
+BUFFER_ARRAYS = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
+"""A replay buffer's per-transition arrays (Dict observations: one array per key)."""
 
 
 def count_lines(path: Path) -> int:
@@ -110,10 +114,11 @@ class ResumableCheckpoint(BaseCallback):
     """Every `frequency` env steps, save what a resume needs, each file atomically, then
     `checkpoint.json` naming them (written last, so it only ever names complete files).
 
-    Saved: the model (weights, optimiser, step counter, learning-rate schedule), the replay
-    buffer (off-policy algorithms), each env's episode count (the episode stream goes on from
-    there) and the line counts of the logs (a resume cuts what was written after the
-    checkpoint). The previous checkpoint's files are removed once the new one is complete.
+    Saved: the model (weights, optimiser, step counter, learning-rate schedule), the filled
+    part of the replay buffer (off-policy algorithms; `save_buffer`), each env's episode count
+    (the episode stream goes on from there) and the line counts of the logs (a resume cuts
+    what was written after the checkpoint). The previous checkpoint's files are removed once
+    the new one is complete.
 
     Args:
         run_dir: The run directory.
@@ -157,9 +162,9 @@ class ResumableCheckpoint(BaseCallback):
             "buffer": None,
         }
         if isinstance(self.model, OffPolicyAlgorithm):
-            buffer_path = self.folder / f"replay_buffer_{steps}.pkl"
+            buffer_path = self.folder / f"replay_buffer_{steps}.npz"
             with atomic_output(buffer_path) as temporary:
-                self.model.save_replay_buffer(temporary)
+                save_buffer(self.model.replay_buffer, temporary)
             state["buffer"] = buffer_path.name
         write_text(self.run_dir / CHECKPOINT_FILE, json.dumps(state, indent=1) + "\n")
         if previous is not None and previous["steps"] != steps:
@@ -173,3 +178,45 @@ def read_checkpoint(run_dir: Path) -> dict[str, Any] | None:
     """The latest complete checkpoint of a run, None when there is none."""
     path = run_dir / CHECKPOINT_FILE
     return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _buffer_arrays(buffer: ReplayBuffer) -> dict[str, np.ndarray]:
+    """The buffer's per-transition arrays by name (`observations.points` for a Dict)."""
+    arrays: dict[str, np.ndarray] = {}
+    for name in BUFFER_ARRAYS:
+        value = getattr(buffer, name, None)
+        if isinstance(value, dict):
+            arrays.update({f"{name}.{key}": array for key, array in value.items()})
+        elif value is not None:
+            # None: next_observations of a buffer that optimises memory usage.
+            arrays[name] = value
+    return arrays
+
+
+def save_buffer(buffer: ReplayBuffer, path: Path) -> None:
+    """Save the transitions a replay buffer holds (not its empty pre-allocated rest) as `.npz`.
+
+    SB3's `save_replay_buffer` pickles the whole allocation: 615 MB at step 100 of the CPU
+    profile, where this writes what those 100 transitions take.
+    """
+    filled = buffer.buffer_size if buffer.full else buffer.pos
+    with path.open("wb") as stream:
+        np.savez(stream, pos=buffer.pos, full=buffer.full,
+                 **{name: array[:filled] for name, array in _buffer_arrays(buffer).items()})
+
+
+def load_buffer(buffer: ReplayBuffer, path: Path) -> None:
+    """Restore what `save_buffer` saved into a fresh buffer of the same size and spaces.
+
+    Raises:
+        ValueError: If the file does not hold this buffer's arrays.
+    """
+    arrays = _buffer_arrays(buffer)
+    with np.load(path) as stored:
+        if set(stored.files) != {"pos", "full", *arrays}:
+            raise ValueError(f"{path} holds {', '.join(sorted(stored.files))}, not the arrays "
+                             f"of this run's replay buffer")
+        for name, array in arrays.items():
+            transitions = stored[name]
+            array[: len(transitions)] = transitions
+        buffer.pos, buffer.full = int(stored["pos"]), bool(stored["full"])

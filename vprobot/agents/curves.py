@@ -19,9 +19,20 @@ PANELS = (("coverage", "coverage at episode end", 100.0, "%"),
           ("travel", "travel between views per episode", 1.0, ""))
 
 
+class NoEpisodesError(ValueError):
+    """A run has not finished an episode yet: there is nothing to plot."""
+
+
+def _whole_lines(path: Path) -> list[str]:
+    """The lines of a file a running training may be appending to, a last one cut short
+    dropped."""
+    text = path.read_text()
+    return text.splitlines() if text.endswith("\n") else text.splitlines()[:-1]
+
+
 def read_monitor(run_dir: Path) -> dict[str, np.ndarray]:
     """The per-episode columns of a run's `monitor.csv` (and `monitor_<rank>.csv` of parallel
-    envs, interleaved episode by episode).
+    envs, interleaved episode by episode); read-only, so a running run can be read.
 
     Raises:
         ValueError: If the run has no monitor file.
@@ -31,7 +42,7 @@ def read_monitor(run_dir: Path) -> dict[str, np.ndarray]:
         raise ValueError(f"{run_dir} has no monitor.csv: is it a training run?")
     # The first line of a monitor file is its JSON header. (Its time column restarts with each
     # resumed session, so episodes are kept in file order.)
-    per_env = [list(csv.DictReader(path.read_text().splitlines()[1:])) for path in files]
+    per_env = [list(csv.DictReader(_whole_lines(path)[1:])) for path in files]
     rows = [row for group in itertools.zip_longest(*per_env) for row in group if row is not None]
     return {key: np.array([float(row[key]) for row in rows]) for key in rows[0]} if rows else {}
 
@@ -58,7 +69,8 @@ def plot_curves(run_dirs: Sequence[str | Path], out: str | Path, window: int = 5
     Runs are cut to the shortest one; each curve is a trailing mean over `window` episodes.
 
     Raises:
-        ValueError: For no runs, a run without episodes, or a window < 1.
+        NoEpisodesError: If a run has no finished episode yet.
+        ValueError: For no runs, a run without a monitor file, or a window < 1.
     """
     import matplotlib
 
@@ -73,7 +85,7 @@ def plot_curves(run_dirs: Sequence[str | Path], out: str | Path, window: int = 5
     monitors = [read_monitor(run) for run in runs]
     empty = [str(run) for run, monitor in zip(runs, monitors, strict=True) if not monitor]
     if empty:
-        raise ValueError(f"no finished episodes yet in {', '.join(empty)}")
+        raise NoEpisodesError(f"no finished episodes yet in {', '.join(empty)}")
     travel, unit = travel_column(runs[0])
     length = min(len(monitor["r"]) for monitor in monitors)
     figure, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)

@@ -5,12 +5,15 @@ from __future__ import annotations
 import dataclasses
 import functools
 from pathlib import Path
+from typing import Any
 
+import gymnasium as gym
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from vprobot.agents.training import load_run_config
 from vprobot.config import Config
+from vprobot.env.observations import observation_space
 from vprobot.paths import ASSETS_DIR
 
 BUNDLED_AGENT = ASSETS_DIR / "agents" / "cpu"
@@ -46,12 +49,13 @@ def _model_file(source: Path) -> Path:
     raise ValueError(f"agent {source} does not exist (give a run directory or a model .zip)")
 
 
-def _run_config(model_file: Path) -> Config:
-    """The config of the run a model file belongs to: beside it, or in a folder above it."""
+def _run_config(model_file: Path, shown: Path) -> Config:
+    """The config of the run a model file (absolute; `shown` as the user named it) belongs to:
+    beside it, or in a folder above it."""
     for folder in (model_file.parent, *model_file.parents[:3]):
         if (folder / "config.yaml").is_file():
             return load_run_config(folder)
-    raise ValueError(f"agent {model_file}: no config.yaml of its run beside it or above it")
+    raise ValueError(f"agent {shown}: no config.yaml of its run beside it or above it")
 
 
 def load_agent(source: str | Path | None = None) -> TrainedAgent:
@@ -63,20 +67,35 @@ def load_agent(source: str | Path | None = None) -> TrainedAgent:
 
     Raises:
         ValueError: For a missing path, a folder without a model, a model whose run config is
-            missing, or a file that is not a loadable model.
+            missing, a file that is not a loadable model, or a model whose observations are not
+            those of its run's config.
     """
-    model_file = _model_file(Path(source) if source is not None else BUNDLED_AGENT).resolve()
-    return _load(model_file, model_file.stat().st_mtime_ns)
+    shown = _model_file(Path(source) if source is not None else BUNDLED_AGENT)
+    model_file = shown.resolve()
+    return _load(model_file, model_file.stat().st_mtime_ns, shown)
+
+
+def _shapes(space: gym.Space) -> Any:
+    """The observation shape: a tuple, or a dict of them for a Dict space."""
+    if isinstance(space, gym.spaces.Dict):
+        return {key: tuple(item.shape) for key, item in space.spaces.items()}
+    return tuple(space.shape)
 
 
 @functools.lru_cache(maxsize=4)
-def _load(model_file: Path, modified: int) -> TrainedAgent:
+def _load(model_file: Path, modified: int, shown: Path) -> TrainedAgent:
     # Cached per file and modification time: an evaluation asks for the agent every episode.
-    config = _run_config(model_file)
+    # `shown` is the file as the user named it, for the messages.
+    config = _run_config(model_file, shown)
     algorithm = SAC if config.agent.algorithm == "sac" else PPO
     try:
         model = algorithm.load(model_file, device="cpu")
     except Exception as error:  # a corrupt zip raises anything from zipfile to pickle
-        raise ValueError(f"agent {model_file} cannot be loaded as a {config.agent.algorithm} "
+        raise ValueError(f"agent {shown} cannot be loaded as a {config.agent.algorithm} "
                          f"model ({type(error).__name__}: {error})") from None
+    expected, found = _shapes(observation_space(config)), _shapes(model.observation_space)
+    if expected != found:
+        raise ValueError(f"agent {shown}: its run's config.yaml gives observations of shape "
+                         f"{expected}, but the model was trained on {found}; use the model with "
+                         f"the config.yaml of its own run")
     return TrainedAgent(model, config, model_file)

@@ -13,6 +13,7 @@ A run directory holds everything about one run:
 | `checkpoints/`, `checkpoint.json` | the latest checkpoint (model, replay buffer, episode stream) |
 | `best_model.zip`, `final_model.zip` | the best evaluated and the last model |
 | `curves.png` | the training curves (`vprobot curves`) |
+| `run.lock` | locked by the process training in the directory (holds its pid) |
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 from vprobot.agents.callbacks import (
     ResumableCheckpoint,
     SharedEpisodeEvaluation,
+    load_buffer,
     read_checkpoint,
     truncate_lines,
 )
@@ -49,12 +51,18 @@ from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
 from vprobot.episode import BUNDLED_TEST_EPISODES, read_episode_list
-from vprobot.files import atomic_output, write_text
+from vprobot.files import atomic_output, exclusive_lock, write_text
+from vprobot.fit import check_fits
 from vprobot.kinematics import TRAVEL_COSTS
+from vprobot.mesh_loading import load_mesh
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
                 *(f"travel_sum_{name}" for name in TRAVEL_COSTS))
 """Info entries the per-episode monitor records at each episode's end."""
+LOCK_FILE = "run.lock"
+"""Held (flock) by the process training in a run directory, with its pid."""
+MESH_SCALE_KEY = "env.mesh_scale"
+"""How a training config sets the scale of its mesh file, for the hints of unit mistakes."""
 MEMORY_LIMIT_BYTES = 8 * 1024**3
 """No profile may need more than this for its buffer (issue: 8 GB)."""
 
@@ -196,30 +204,51 @@ def _commit() -> str:
         return "unknown"
 
 
+def check_environment(config: Config) -> None:
+    """Check what the envs will need before a run folder is touched: the env settings and every
+    motor file episodes draw from (it loads and fits the cell).
+
+    Raises:
+        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, or
+            env settings that do not make an env.
+    """
+    env = config.env
+    scale = env.mesh_scale if env.motors == "mesh" else 1.0
+    for path in InspectEnv(config).motor_files:
+        check_fits(load_mesh(path, scale, scale_option=MESH_SCALE_KEY), config,
+                   scale_option=MESH_SCALE_KEY)
+
+
 def start_run(config: Config, run_dir: Path, seed: int, argv: Sequence[str]) -> None:
-    """Create a run directory with its config, command line and memory figures.
+    """Write a new run's config, command line and memory figures into its (locked) directory.
 
     Raises:
         ValueError: If the directory already holds a run (resume it, or choose another).
-        ConfigError: If the buffer would need too much memory (before anything is written).
     """
-    if (run_dir / "config.yaml").exists():
-        raise ValueError(f"{run_dir} already holds a run; add --resume to go on with it, or "
-                         f"choose another --out")
-    memory = check_memory(config)
-    run_dir.mkdir(parents=True, exist_ok=True)
+    refuse_existing_run(run_dir)
     write_text(run_dir / "config.yaml", yaml.safe_dump(config_document(config),
                                                         sort_keys=False))
     write_text(run_dir / "command.txt", f"{' '.join(argv)}\nseed: {seed}\n"
                                         f"commit: {_commit()}\nstarted: {time.ctime()}\n")
-    write_text(run_dir / "memory.json", json.dumps(memory, indent=1) + "\n")
+    write_text(run_dir / "memory.json", json.dumps(buffer_memory(config), indent=1) + "\n")
     write_text(run_dir / "run.json", json.dumps({"seed": seed, "started": time.time()}) + "\n")
 
 
-def train(config: Config, run_dir: str | Path, seed: int = 0, resume: bool = False,
+def refuse_existing_run(run_dir: Path) -> None:
+    """Raise ValueError if `run_dir` already holds a run."""
+    if (run_dir / "config.yaml").exists():
+        raise ValueError(f"{run_dir} already holds a run; add --resume to go on with it, or "
+                         f"choose another --out")
+
+
+def train(config: Config | None, run_dir: str | Path, seed: int = 0, resume: bool = False,
           device: str | None = None, progress: bool = True,
           argv: Sequence[str] = ()) -> dict[str, Any]:
     """Train (or resume) one run.
+
+    Every check (config, device, buffer memory, motor files) comes before the run directory is
+    created; the directory is then locked (`run.lock`) for the whole run, so a second train or
+    resume of it is refused while this one lives.
 
     Args:
         config: The resolved configuration (ignored on resume: the run's own is used).
@@ -231,28 +260,43 @@ def train(config: Config, run_dir: str | Path, seed: int = 0, resume: bool = Fal
         argv: The command line, recorded in the run directory.
 
     Returns:
-        The final evaluation summary on the shared test episodes, plus `steps` and `wall_s`.
+        The final evaluation summary on the shared test episodes, plus `steps`, `wall_s` and
+        `curves` (the curves.png written, None before the first finished episode).
 
     Raises:
-        ValueError, ConfigError: For a bad config, a run directory in the wrong state, or a
-            device that is not there.
+        ValueError, ConfigError: For a bad config, a run directory in the wrong state or in use
+            by another process, a device that is not there, or an unusable motor file.
     """
     run_dir = Path(run_dir)
     if resume:
         config = load_run_config(run_dir)
-        run = json.loads((run_dir / "run.json").read_text())
-        seed, clock_start = run["seed"], run["started"]
+    elif config is None:
+        raise ValueError("a new run needs a config")
     else:
-        start_run(config, run_dir, seed, argv)
-        clock_start = time.time()
-    agent = config.agent
-    device = resolve_device(device or agent.device)
-    torch.set_num_threads(agent.torch_threads)
+        refuse_existing_run(run_dir)
+    device = resolve_device(device or config.agent.device)
     memory = check_memory(config)
-    if progress:
-        print(f"{memory['algorithm']} buffer: {memory['bytes_per_transition']:,} bytes per "
-              f"transition x {memory['transitions']:,} = {memory['total_bytes'] / 1024**2:,.0f} "
-              f"MiB")
+    check_environment(config)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with exclusive_lock(run_dir / LOCK_FILE, str(run_dir)):
+        if resume:
+            run = json.loads((run_dir / "run.json").read_text())
+            seed, clock_start = run["seed"], run["started"]
+        else:
+            start_run(config, run_dir, seed, argv)
+            clock_start = time.time()
+        if progress:
+            print(f"{memory['algorithm']} buffer: {memory['bytes_per_transition']:,} bytes per "
+                  f"transition x {memory['transitions']:,} = "
+                  f"{memory['total_bytes'] / 1024**2:,.0f} MiB")
+        return _train_locked(config, run_dir, seed, resume, device, progress, clock_start)
+
+
+def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device: str,
+                  progress: bool, clock_start: float) -> dict[str, Any]:
+    """The training itself, in a run directory this process holds the lock of."""
+    agent = config.agent
+    torch.set_num_threads(agent.torch_threads)
     logs = [run_dir / "monitor.csv", run_dir / "evaluations.csv"]
     checkpoint = read_checkpoint(run_dir) if resume else None
     starts = [0] * agent.n_envs
@@ -268,8 +312,12 @@ def train(config: Config, run_dir: str | Path, seed: int = 0, resume: bool = Fal
         algorithm = SAC if agent.algorithm == "sac" else PPO
         model = algorithm.load(run_dir / "checkpoints" / checkpoint["model"], env=env,
                                device=device)
-        if checkpoint["buffer"] is not None:
-            model.load_replay_buffer(run_dir / "checkpoints" / checkpoint["buffer"])
+        buffer = checkpoint["buffer"]
+        if buffer is not None and buffer.endswith(".pkl"):
+            # A checkpoint written before buffers were saved as their filled part.
+            model.load_replay_buffer(run_dir / "checkpoints" / buffer)
+        elif buffer is not None:
+            load_buffer(model.replay_buffer, run_dir / "checkpoints" / buffer)
     else:
         model = build_model(config, env, seed, device)
     sessions = sorted((run_dir / "logs").glob("session_*")) if (run_dir / "logs").is_dir() else []
@@ -289,10 +337,14 @@ def train(config: Config, run_dir: str | Path, seed: int = 0, resume: bool = Fal
         model.save(temporary)
     summary = evaluation.latest if evaluation.latest_step == model.num_timesteps else (
         evaluation.evaluate_model(model))
-    from vprobot.agents.curves import plot_curves
+    from vprobot.agents.curves import NoEpisodesError, plot_curves
 
-    plot_curves([run_dir], run_dir / "curves.png")
-    return {**summary, "steps": model.num_timesteps, "wall_s": time.time() - clock_start}
+    try:
+        curves: Path | None = plot_curves([run_dir], run_dir / "curves.png")
+    except NoEpisodesError:
+        curves = None
+    return {**summary, "steps": model.num_timesteps, "wall_s": time.time() - clock_start,
+            "curves": curves}
 
 
 def parse_overrides(pairs: Sequence[str]) -> dict[str, dict[str, Any]]:

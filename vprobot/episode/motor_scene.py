@@ -36,18 +36,22 @@ class MotorScene:
 
     @classmethod
     def load(cls, config: Config, mesh_path: str | Path, scale: float = 1.0,
-             resolution: tuple[int, int] | None = None) -> MotorScene:
+             resolution: tuple[int, int] | None = None,
+             scale_option: str = "scale") -> MotorScene:
         """Load a mesh file and build its cell, arm, sensor and ground truth.
+
+        `scale_option` is how the user set `scale` (`mesh_loading.scale_setting`): the hints
+        of a unit mistake name it.
 
         Raises:
             FileNotFoundError, ValueError: For a missing, unreadable, empty, flat or mis-scaled
                 mesh, or an object too large for the cell (`vprobot.fit`), before any ground
                 truth is built.
         """
-        mesh = load_mesh(mesh_path, scale)
+        mesh = load_mesh(mesh_path, scale, scale_option)
         # Up front: an object that does not fit would otherwise cost a ground-truth build and a
         # plan that cannot succeed.
-        check_fits(mesh, config)
+        check_fits(mesh, config, scale_option)
         cell = Cell(config, mesh.mesh)
         return cls(
             mesh=mesh,

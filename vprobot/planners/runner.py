@@ -273,7 +273,7 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
             `views` with a planner other than bscp.
     """
     mesh_path = mesh_path if mesh_path is not None else DEFAULT_MOTOR
-    scene = MotorScene.load(config, mesh_path, scale)
+    scene = MotorScene.load(config, mesh_path, scale, scale_option="--scale")
     spec = seeded_episode(config.env, mesh_path, seed, scale)
     result = run(config, scene, planner, spec, carrier, views)
     document = episode_document(scene, result.record, metadata={
