@@ -1,4 +1,5 @@
-"""Ray: a tiny sweep and its resume, distributed evaluation against serial, on a local Ray."""
+"""Ray: a tiny sweep and its resume, distributed evaluation against serial, on a local Ray;
+SIGTERM to either command (exit 130, partial tables, resumable) and bad study files."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -18,9 +20,11 @@ from vprobot.cli import main
 pytest.importorskip("ray")
 
 from vprobot.agents.sweep import read_study, sweep
+from vprobot.cluster import parallel_map, start
 from vprobot.config import Config
 from vprobot.episode import episode_list
 from vprobot.evaluation import evaluate
+from vprobot.files import InUseError, exclusive_lock
 from vprobot.paths import DEFAULT_MOTOR
 
 TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=30",
@@ -59,6 +63,65 @@ def test_tiny_sweep_produces_its_table_and_curves(tmp_path: Path) -> None:
         sweep(_study(tmp_path, 100), tmp_path / "out", progress=False)
 
 
+@pytest.mark.parametrize(("written", "shown"), [
+    ("set:\n  agent.eval_freq: 5000\n", "got {agent.eval_freq: 5000}"),
+    ("set:\n  - agent.eval_freq: 5000\n", "got {agent.eval_freq: 5000}"),
+    ("set: agent.eval_freq=5000\n", "got agent.eval_freq=5000"),
+], ids=["mapping", "list-of-mappings", "string"])
+def test_study_set_that_is_not_a_list_of_overrides_is_a_one_line_error(
+        written: str, shown: str, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    study = tmp_path / "study.yaml"
+    study.write_text(f"profile: cpu.yaml\n{written}grid:\n  agent.algorithm: [sac]\n")
+    assert main(["sweep", str(study), "--out", str(tmp_path / "out")]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line == (f"vprobot sweep: error: {study}: set must be a list of section.key=value, "
+                    f"e.g. set: [agent.eval_freq=5000]; {shown}")
+
+
+def _terminate(command: list[str], started: Callable[[], bool], log: Path) -> tuple[int, str]:
+    """Run `vprobot COMMAND` in a subprocess, send it SIGTERM (as `kill PID` does) once
+    `started()` holds, and return its exit code and stderr."""
+    with log.open("w") as stderr:
+        process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", *command],
+                                   stdout=subprocess.DEVNULL, stderr=stderr,
+                                   start_new_session=True)
+        try:
+            deadline = time.monotonic() + 300
+            while process.poll() is None and time.monotonic() < deadline and not started():
+                time.sleep(0.05)
+            assert process.poll() is None and started(), "it ended or stalled before SIGTERM"
+            process.send_signal(signal.SIGTERM)
+            process.wait(timeout=120)
+        finally:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+    return process.returncode, log.read_text()
+
+
+def _assert_interrupted_quietly(code: int, stderr: str, command: str) -> None:
+    assert code == 130
+    assert f"vprobot {command}: interrupted" in stderr
+    # Ray's own SIGTERM handler would print a C++ stack dump and exit with 15.
+    assert "SIGTERM received" not in stderr and "***" not in stderr
+
+
+def test_sigterm_to_sweep_saves_a_partial_table_and_resume_finishes_the_rest(
+        tmp_path: Path) -> None:
+    study, out = _study(tmp_path, 200), tmp_path / "out"
+    trials = read_study(study).trials(out)
+    code, stderr = _terminate(["sweep", str(study), "--out", str(out), "--workers", "1"],
+                              lambda: trials[0].finished, tmp_path / "stderr.txt")
+    _assert_interrupted_quietly(code, stderr, "sweep")
+    assert trials[0].finished and not trials[1].finished
+    assert "saved 1 of 2 trials" in stderr
+    assert (out / "study.md").read_text().startswith("**Partial: 1 of 2 trials;")
+    first = (trials[0].run_dir / "result.json").stat().st_mtime_ns
+    assert main(["sweep", str(study), "--out", str(out), "--resume"]) == 0
+    assert (trials[0].run_dir / "result.json").stat().st_mtime_ns == first  # not rerun
+    assert trials[1].finished and "Partial" not in (out / "study.md").read_text()
+
+
 def test_killed_sweep_resumes_without_rerunning_finished_trials(tmp_path: Path) -> None:
     study, out = _study(tmp_path, 200), tmp_path / "out"
     process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", "sweep", str(study),
@@ -76,9 +139,25 @@ def test_killed_sweep_resumes_without_rerunning_finished_trials(tmp_path: Path) 
     process.wait()
     assert trials[0].finished and not trials[1].finished
     first = (trials[0].run_dir / "result.json").stat().st_mtime_ns
-    assert main(["sweep", str(study), "--out", str(out), "--resume"]) == 0
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            sweep(study, out, resume=True, progress=False)
+            break
+        except InUseError:
+            # The killed driver's Ray worker runs in its own session: it outlives the process
+            # group by a few seconds, holding the trial's lock, and a resume meanwhile is refused.
+            assert time.monotonic() < deadline, "the killed trial's worker never ended"
+            time.sleep(0.5)
     assert (trials[0].run_dir / "result.json").stat().st_mtime_ns == first  # not rerun
     assert trials[1].finished
+
+
+def test_a_user_error_in_a_ray_task_reaches_the_user_as_itself() -> None:
+    """Not as Ray's RayTaskError, whose first line (all the CLI shows) is the worker's name."""
+    with pytest.raises(FileNotFoundError) as caught:
+        list(parallel_map(read_study, [("missing.yaml",)], 1))
+    assert str(caught.value) == "study file not found: missing.yaml"
 
 
 def _rows(folder: Path) -> list[dict[str, str]]:
@@ -119,3 +198,74 @@ def test_killed_distributed_evaluation_resumes(tmp_path: Path) -> None:
     assert 4 <= rows.read_text().count("\n") < 13, "killed before the end"
     assert main([*argv, "--workers", "2", "--out", str(killed)]) == 0
     assert _rows(tmp_path / "serial") == _rows(killed)
+
+
+def test_sigterm_to_distributed_evaluation_saves_partial_tables_and_resumes(
+        tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    argv = ["evaluate", "--planners", "hrec", "--motors", str(DEFAULT_MOTOR), "--seeds",
+            *map(str, range(6)), "--workers", "2", "--out", str(out)]
+    rows = out / "evaluation_episodes.csv"
+    code, stderr = _terminate(argv, lambda: rows.is_file() and rows.read_text().count("\n") >= 2,
+                              tmp_path / "stderr.txt")
+    _assert_interrupted_quietly(code, stderr, "evaluate")
+    done = len(_rows(out))
+    assert 1 <= done < 12
+    assert f"Partial: {done} of 12 episodes" in (out / "evaluation.md").read_text()
+    with (out / "evaluation.csv").open() as stream:
+        assert sum(int(row["episodes"]) for row in csv.DictReader(stream)) == done
+    assert main(argv) == 0
+    keys = {(row["episode"], row["carrier"]) for row in _rows(out)}
+    assert len(keys) == len(_rows(out)) == 12
+    assert "Partial" not in (out / "evaluation.md").read_text()
+
+
+def _hold_lock(path: str) -> None:
+    with exclusive_lock(Path(path), path):
+        time.sleep(60)
+
+
+def test_an_interrupted_parallel_map_ends_its_running_workers_before_going_on(
+        tmp_path: Path) -> None:
+    """A rerun right after Ctrl-C must not find the run folder locked by a dying worker."""
+    from ray import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
+    lock = tmp_path / "run.lock"
+
+    def interrupt_once_locked(signum: int, frame: object) -> None:
+        if lock.is_file() and lock.read_text().strip():
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGALRM, interrupt_once_locked)
+    signal.setitimer(signal.ITIMER_REAL, 0.1, 0.1)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            list(parallel_map(_hold_lock, [(str(lock),)], 1))
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    with exclusive_lock(lock, str(lock)):  # raises InUseError while the worker lives
+        pass
+
+
+def test_sigterm_while_ray_starts_reaches_the_callers_handler(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ray's handler, in place during ray.init, would exit with 15 and skip the partial tables."""
+    import ray
+
+    def init_interrupted(**options: object) -> None:
+        raise SystemExit(signal.SIGTERM)  # what Ray's handler does on SIGTERM
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.setattr(ray, "init", init_interrupted)
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            start(None, 1)
+        assert signal.getsignal(signal.SIGTERM) is interrupt
+    finally:
+        signal.signal(signal.SIGTERM, previous)

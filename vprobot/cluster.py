@@ -8,10 +8,14 @@ keep two cores busy without oversubscribing them.
 from __future__ import annotations
 
 import os
+import signal
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 INSTALL_HINT = 'pip install -e ".[cluster]"'
+CANCEL_WAIT_S = 10.0
+"""How long an interrupted `parallel_map` waits for its cancelled tasks' workers to end."""
 
 
 def require_ray() -> Any:
@@ -36,6 +40,8 @@ def start(address: str | None, cpus: int) -> Any:
     """
     ray = require_ray()
     if not ray.is_initialized():
+        in_main_thread = threading.current_thread() is threading.main_thread()
+        caller_handler = signal.getsignal(signal.SIGTERM) if in_main_thread else None
         try:
             if address is not None:
                 ray.init(address=address, log_to_driver=False)
@@ -43,6 +49,18 @@ def start(address: str | None, cpus: int) -> Any:
                 ray.init(num_cpus=cpus, include_dashboard=False, log_to_driver=False)
         except ConnectionError as error:
             raise ValueError(f"cannot reach the Ray cluster at {address}: {error}") from None
+        except SystemExit as exit_request:
+            # While ray.init runs, Ray's own handler turns SIGTERM into sys.exit(15): hand that
+            # SIGTERM to the caller's handler instead.
+            if callable(caller_handler) and exit_request.code == signal.SIGTERM:
+                caller_handler(signal.SIGTERM, None)
+            raise
+        finally:
+            if callable(caller_handler):
+                # ray.init replaces SIGTERM handling with a C++ stack dump and sys.exit(15);
+                # a handler the caller installed (the CLI's: SIGTERM as Ctrl-C, so partial
+                # results are saved and the exit code is 130) stays in charge.
+                signal.signal(signal.SIGTERM, caller_handler)
     return ray
 
 
@@ -54,10 +72,22 @@ def _one_thread(function: Callable[..., Any], *args: Any) -> Any:
     return function(*args)
 
 
+def _result(ray: Any, reference: Any) -> Any:
+    """A finished task's result; a user error it raised (a bad input, a run in use) is raised
+    as itself, so that its message, not Ray's remote traceback, reaches the user."""
+    try:
+        return ray.get(reference)
+    except ray.exceptions.RayTaskError as error:
+        if isinstance(error.cause, ValueError | OSError):
+            raise error.cause from None
+        raise
+
+
 def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
                  workers: int, address: str | None = None) -> Iterator[tuple[int, Any]]:
     """Run `function(*item)` for every item as a Ray task (one CPU each), yielding
-    (item index, result) as tasks finish; on an interrupt the pending tasks are cancelled.
+    (item index, result) as tasks finish; on an interrupt (or when closed early) the pending
+    tasks are cancelled and their workers ended.
 
     Raises:
         ValueError: Without Ray or a reachable cluster, or for workers < 1.
@@ -70,8 +100,12 @@ def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
     try:
         while pending:
             (ready,), _ = ray.wait(list(pending), num_returns=1)
-            yield pending.pop(ready), ray.get(ready)
+            yield pending.pop(ready), _result(ray, ready)
     except BaseException:
         for reference in pending:
             ray.cancel(reference, force=True)
+        if pending:
+            # Until a killed worker has ended it may hold files a rerun needs at once (a
+            # training run's lock); a cancelled task resolves when its worker is gone.
+            ray.wait(list(pending), num_returns=len(pending), timeout=CANCEL_WAIT_S)
         raise

@@ -14,6 +14,7 @@ views the robot reached and the planning time per episode.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import functools
 import statistics
@@ -296,9 +297,10 @@ def _rows(config: Config, jobs: Sequence[Job], workers: int,
     groups: dict[int, list[Job]] = {}
     for job in jobs:
         groups.setdefault(job[0], []).append(job)
-    for _, rows in parallel_map(run_jobs, [(config, group) for group in groups.values()],
-                                workers, address):
-        yield from rows
+    with contextlib.closing(parallel_map(run_jobs, [(config, group) for group in
+                                                    groups.values()], workers, address)) as tasks:
+        for _, rows in tasks:
+            yield from rows
 
 
 def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpec],
@@ -359,10 +361,13 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     try:
         with tqdm(total=len(wanted), initial=len(done), desc="evaluate",
                   disable=not progress) as bar:
-            for row in _rows(config, jobs, workers, address):
-                _append_row(rows_path, row)
-                rows.append(row)
-                bar.update()
+            # Closed at once on an interrupt: Ray's pending episodes are cancelled before the
+            # partial tables are written.
+            with contextlib.closing(_rows(config, jobs, workers, address)) as finished:
+                for row in finished:
+                    _append_row(rows_path, row)
+                    rows.append(row)
+                    bar.update()
     except KeyboardInterrupt:
         _write_tables(out, rows, specs, config, len(wanted))
         print(f"saved {len(rows)} of {len(wanted)} episodes in {out}; run the same command "

@@ -23,10 +23,12 @@ their checkpoints).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
 import json
 import statistics
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -127,15 +129,26 @@ def read_study(path: str | Path) -> Study:
         raise ConfigError(f"{path}: seeds must be a non-empty list of integers >= 0, got "
                           f"{seeds!r}")
     grid = data.get("grid") or {}
-    if not isinstance(grid, dict) or not all(isinstance(values, list) and values
-                                             for values in grid.values()):
-        raise ConfigError(f"{path}: grid must map section.key to a non-empty list of values")
+    if not isinstance(grid, dict):
+        raise ConfigError(f"{path}: grid must map section.key to a non-empty list of values, "
+                          f"got {_yaml_value(grid)}")
+    for key, values in grid.items():
+        if not isinstance(values, list) or not values:
+            raise ConfigError(f"{path}: grid {key} must be a non-empty list of values, e.g. "
+                              f"[sac, ppo]; got {_yaml_value(values)}")
     steps = data.get("steps")
     if steps is not None and (not isinstance(steps, int) or steps < 1):
         raise ConfigError(f"{path}: steps must be an integer >= 1, got {steps!r}")
-    study = Study(profile=profile, steps=steps, seeds=tuple(seeds),
-                  overrides=tuple(str(item) for item in data.get("set") or ()), grid=grid,
-                  note=str(data.get("note", "")))
+    overrides = data.get("set") or []
+    # A mapping (`set: {agent.eval_freq: 5000}`) or list items written as `- key: value` would
+    # otherwise reach the config as keys without values.
+    bad = ([item for item in overrides if not isinstance(item, str) or "=" not in item]
+           if isinstance(overrides, list) else [overrides])
+    if bad:
+        raise ConfigError(f"{path}: set must be a list of section.key=value, e.g. "
+                          f"set: [agent.eval_freq=5000]; got {_yaml_value(bad[0])}")
+    study = Study(profile=profile, steps=steps, seeds=tuple(seeds), overrides=tuple(overrides),
+                  grid=grid, note=str(data.get("note", "")))
     for name, pairs in study.configurations():
         try:
             profile_config(study.profile, [*study.overrides, *pairs], study.steps)
@@ -154,7 +167,8 @@ def run_trial(profile: Path, overrides: Sequence[str], steps: int | None, seed: 
     result = train(config, run_dir, seed=seed, resume=resume, progress=False,
                    argv=["vprobot", "train", str(profile), "--set", *overrides, "--seed",
                          str(seed)])
-    write_text(run_dir / "result.json", json.dumps(result, indent=1) + "\n")
+    # default=str: the result names its curves.png as a Path.
+    write_text(run_dir / "result.json", json.dumps(result, indent=1, default=str) + "\n")
     return result
 
 
@@ -196,9 +210,10 @@ def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
 
 
 def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
-    """`study.csv` and `study.md` in `out`."""
+    """`study.csv` and `study.md` in `out` (marked partial while trials are unfinished)."""
     columns = ["configuration", "seeds"] + [f"{key}{suffix}" for key in TABLE_KEYS
                                             for suffix in ("", "_min", "_max")]
+    out.mkdir(parents=True, exist_ok=True)  # missing when interrupted before the first trial
     write_text(out / "study.csv", csv_text(columns, table))
 
     def cell(row: dict[str, Any], key: str, scale: float = 1.0, digits: int = 1) -> str:
@@ -208,8 +223,11 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
                 f"{row[key + '_max'] * scale:.{digits}f})")
 
     steps = study.steps if study.steps is not None else "the profile's"
-    lines = [f"# Study: {study.profile.name}", "",
-             study.note, "",
+    finished, total = sum(row["seeds"] for row in table), len(study.trials(out))
+    partial = ([f"**Partial: {finished} of {total} trials; run the same sweep with --resume to "
+                f"finish.**", ""] if finished < total else [])
+    lines = [*partial, f"# Study: {study.profile.name}", "",
+             *([study.note, ""] if study.note else []),
              f"Trials: {len(study.configurations())} configurations x {len(study.seeds)} seed(s) "
              f"({', '.join(map(str, study.seeds))}), {steps} steps each. The paper: 75 000 "
              f"steps, 3 runs per configuration. Mean (min-max) over seeds. Converged: the last "
@@ -242,6 +260,9 @@ def sweep(study_path: str | Path, out: str | Path, resume: bool = False,
         workers: CPUs of the local Ray (default: all of this machine's).
         progress: Print a line per finished trial.
 
+    On Ctrl-C (or SIGTERM via the CLI) the running trials are cancelled and the table of the
+    finished ones is written, marked partial, before the interrupt goes on.
+
     Raises:
         ValueError, ConfigError: For a bad study, a folder that holds a study without
             `--resume`, or no Ray.
@@ -263,13 +284,25 @@ def sweep(study_path: str | Path, out: str | Path, resume: bool = False,
               f"{len(pending)} to run")
     items = [(study.profile, trial.overrides, study.steps, trial.seed, trial.run_dir)
              for trial in pending]
-    for index, result in parallel_map(run_trial, items, workers or os.cpu_count() or 1,
-                                      address):
-        if progress:
-            trial = pending[index]
-            print(f"finished {trial.configuration} seed {trial.seed}: coverage "
-                  f"{100 * result['coverage']:.1f} %, {result['acquisitions']:.2f} "
-                  f"acquisitions ({result['wall_s'] / 60:.1f} min)")
+    try:
+        # Closed at once on an interrupt, so that the running trials are cancelled before the
+        # partial table is written.
+        with contextlib.closing(parallel_map(run_trial, items, workers or os.cpu_count() or 1,
+                                             address)) as results:
+            for index, result in results:
+                if progress:
+                    trial = pending[index]
+                    print(f"finished {trial.configuration} seed {trial.seed}: coverage "
+                          f"{100 * result['coverage']:.1f} %, {result['acquisitions']:.2f} "
+                          f"acquisitions ({result['wall_s'] / 60:.1f} min)")
+    except KeyboardInterrupt:
+        table = study_table(study, out)
+        write_table(study, out, table)
+        finished = sum(row["seeds"] for row in table)
+        print(f"saved {finished} of {len(trials)} trials in {out}; run it again with --resume "
+              f"to finish (an unfinished trial goes on from its last checkpoint)",
+              file=sys.stderr)
+        raise
     table = study_table(study, out)
     write_table(study, out, table)
     return table
