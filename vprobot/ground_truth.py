@@ -44,6 +44,7 @@ from scipy.spatial import cKDTree
 from vprobot.config import Config
 from vprobot.files import atomic_output
 from vprobot.geometry import Pose
+from vprobot.progress import stage
 from vprobot.scene import Cell
 from vprobot.sensor import DepthSensor
 from vprobot.viewsphere import sphere_directions
@@ -164,7 +165,7 @@ def inspectable_points(mesh: trimesh.Trimesh, config: Config) -> tuple[np.ndarra
     directions = sphere_directions(VIEW_COUNT, np.deg2rad(MAX_POLAR_DEG))
     center = cell.object_center
     clouds = []
-    for direction in directions:
+    for direction in stage("ground truth", len(directions), "view", directions):
         pose = Pose.look_at(center + sensor.sensor.working_distance_m * direction, center)
         acquisition = sensor.acquire_from_pose(data, pose)
         if len(acquisition):

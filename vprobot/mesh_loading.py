@@ -10,6 +10,9 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from vprobot.mesh_simplify import SIMPLIFIED_FACES, SIMPLIFY_ABOVE_FACES, Simplification, simplify
+from vprobot.progress import note
+
 # Anything outside this is almost surely in the wrong unit rather than a real inspection object.
 MIN_EXTENT_M = 0.01
 MAX_EXTENT_M = 5.0
@@ -45,6 +48,8 @@ class LoadedMesh:
         path: The source file.
         mesh_hash: sha256 of the file bytes and the scale, to recognise the same object.
         repairs: What repairing changed, plus a "warning: ..." entry if it is still open.
+        simplification: How a mesh above `SIMPLIFY_ABOVE_FACES` was simplified, else None
+            (`mesh` is then the simplified copy).
     """
 
     mesh: trimesh.Trimesh
@@ -53,6 +58,7 @@ class LoadedMesh:
     path: Path
     mesh_hash: str
     repairs: list[str]
+    simplification: Simplification | None = None
 
 
 def _is_binary_stl(data: bytes) -> bool:
@@ -213,6 +219,14 @@ def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale")
         # Repairing would quietly drop the faces at such vertices and patch the holes.
         raise ValueError(f"{path} {solid_problem(mesh)}")
     mesh.apply_scale(scale)
+    bounds = mesh.bounds
+    simplification = None
+    if len(mesh.faces) > SIMPLIFY_ABOVE_FACES:
+        note(f"{path}: {len(mesh.faces):,} faces, simplifying to {SIMPLIFIED_FACES:,} for "
+             f"planning ...")
+        mesh.merge_vertices()
+        mesh, simplification = simplify(mesh, SIMPLIFIED_FACES)
+        note(f"{path}: {simplification.describe()}")
     repairs = _repair(mesh)
     if len(mesh.faces) == 0:
         raise ValueError(f"{path} contains no (non-degenerate) faces; expected {_FORMATS}")
@@ -228,7 +242,8 @@ def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale")
             f"{_unit_hint(extent, scale, scale_option)}"
         )
 
-    offset = mesh.bounds.mean(axis=0)
+    # The original's box, so that the plan places the file as stored whatever was simplified.
+    offset = bounds.mean(axis=0)
     mesh.apply_translation(-offset)
     mesh_hash = hashlib.sha256(data + f"|scale={scale!r}".encode()).hexdigest()
-    return LoadedMesh(mesh, offset, float(scale), path, mesh_hash, repairs)
+    return LoadedMesh(mesh, offset, float(scale), path, mesh_hash, repairs, simplification)

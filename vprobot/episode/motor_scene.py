@@ -74,9 +74,13 @@ class MotorScene:
         v therefore lands at position + R (scale * v - offset) = position' + R scale v.
         """
         position = object_pose.position - object_pose.rotation @ self.mesh.offset
-        return {
+        block: dict[str, object] = {
             "mesh": str(Path(self.mesh.path).resolve()),
             "position": [float(x) for x in position],
             "quaternion": [float(x) for x in object_pose.quaternion],
             "scale": float(self.mesh.scale),
         }
+        if self.mesh.simplification is not None:
+            # The views were planned on a simplified copy: say how far it is from the file.
+            block["simplification"] = dataclasses.asdict(self.mesh.simplification)
+        return block

@@ -36,6 +36,7 @@ from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import SensorTarget
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
+from vprobot.progress import stage
 from vprobot.viewsphere import sphere_directions
 
 CANDIDATE_COUNT = 900
@@ -189,22 +190,24 @@ def _screen_reachability(episode: Episode, directions: np.ndarray,
     reasons: list[str | None] = [None] * count
     visited = np.zeros(count, dtype=bool)
     start_q = episode.q
-    for root in range(count):
-        if visited[root]:
-            continue
-        visited[root] = True
-        queue = collections.deque([root])
-        while queue:
-            index = queue.popleft()
-            solved = [n for n in neighbours[index] if not np.isnan(joints[n, 0])]
-            seed = joints[solved[0]] if solved else start_q
-            result = arm.reach(targets[index], seed, collisions, restarts=SCREEN_RESTARTS)
-            if result.reachable:
-                joints[index] = result.q
-            else:
-                reasons[index] = result.reason
-            for neighbour in neighbours[index]:
-                if not visited[neighbour]:
-                    visited[neighbour] = True
-                    queue.append(neighbour)
+    with stage("reachability of the candidates", count, "view") as bar:
+        for root in range(count):
+            if visited[root]:
+                continue
+            visited[root] = True
+            queue = collections.deque([root])
+            while queue:
+                index = queue.popleft()
+                solved = [n for n in neighbours[index] if not np.isnan(joints[n, 0])]
+                seed = joints[solved[0]] if solved else start_q
+                result = arm.reach(targets[index], seed, collisions, restarts=SCREEN_RESTARTS)
+                if result.reachable:
+                    joints[index] = result.q
+                else:
+                    reasons[index] = result.reason
+                bar.update()
+                for neighbour in neighbours[index]:
+                    if not visited[neighbour]:
+                        visited[neighbour] = True
+                        queue.append(neighbour)
     return joints, tuple(reasons)

@@ -25,6 +25,7 @@ import numpy as np
 import trimesh
 
 from vprobot.geometry import Pose
+from vprobot.progress import stage
 from vprobot.sensor_model import SensorModel
 
 DEFAULT_RESOLUTION = (86, 60)
@@ -104,13 +105,15 @@ class VisibilityRenderer:
         points = np.asarray(points, dtype=float)
         result = np.zeros((len(poses), len(points)), dtype=bool)
         chunk = max(1, _CHUNK_PAIRS // len(self.faces))
-        for start in range(0, len(poses), chunk):
-            batch = poses[start:start + chunk]
-            positions = np.array([pose.position for pose in batch])
-            rotations = np.array([pose.rotation for pose in batch])
-            depth = self.depth_maps(positions, rotations)
-            result[start:start + len(batch)] = self._points_visible(depth, positions, rotations,
-                                                                    points)
+        with stage("visibility", len(poses), "view") as bar:
+            for start in range(0, len(poses), chunk):
+                batch = poses[start:start + chunk]
+                positions = np.array([pose.position for pose in batch])
+                rotations = np.array([pose.rotation for pose in batch])
+                depth = self.depth_maps(positions, rotations)
+                result[start:start + len(batch)] = self._points_visible(depth, positions,
+                                                                        rotations, points)
+                bar.update(len(batch))
         return result
 
     def depth_maps(self, positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:

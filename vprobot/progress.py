@@ -1,0 +1,41 @@
+"""Progress of the long stages of a plan (ground truth, candidate screening, visibility).
+
+Library calls stay silent; a command that a person watches (`plan`, `render`) turns the display
+on with `show_progress()`. A stage draws its bar only once it has run for `DELAY_S`, so the
+bundled motor's second-long stages print nothing while a CAD part's minute-long ones do.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterable
+from typing import TypeVar
+
+from tqdm import tqdm
+
+DELAY_S = 2.0
+"""A stage shows its bar after running this long."""
+
+Item = TypeVar("Item")
+
+_shown = False
+
+
+def show_progress(enabled: bool = True) -> None:
+    """Turn the stage bars (and notes) of this process on or off."""
+    global _shown
+    _shown = enabled
+
+
+def stage(description: str, total: int, unit: str = "it",
+          items: Iterable[Item] | None = None) -> tqdm:
+    """A progress bar named `description` (silent unless shown): iterate it over `items`, or
+    advance it with `update(n)` when the work is not a plain loop."""
+    return tqdm(items, desc=description, total=total, unit=unit, delay=DELAY_S,
+                disable=not _shown, file=sys.stderr, dynamic_ncols=True)
+
+
+def note(text: str) -> None:
+    """One line on stderr about a stage without steps (e.g. simplifying a mesh), when shown."""
+    if _shown:
+        print(text, file=sys.stderr, flush=True)
