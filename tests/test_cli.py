@@ -110,3 +110,61 @@ def test_planning_errors_are_clear(argv: list[str], message: str, tmp_path: Path
     assert main(argv) == 2
     assert message in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("argv", "line"),
+    [
+        (["train", "--steps", "0", "--out", "run"],
+         "vprobot train: error: argument --steps: must be an integer >= 1, got '0'"),
+        (["plan", "--sensor", "nope", "--out", "p.json"],
+         "vprobot plan: error: argument --sensor: invalid choice: 'nope'"),
+        (["robots", "import", "arm.urdf", "--name", "arm"],
+         "vprobot robots import: error: the following arguments are required: --flange"),
+    ],
+)
+def test_option_errors_are_one_line_without_usage(argv: list[str], line: str,
+                                                  capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and err.startswith(line), err
+
+
+@pytest.mark.parametrize(
+    ("argv", "wanted", "unwanted"),
+    [
+        (["plan", "--planner", "agent7", "--out", "p.json"], "--planner agent --views 7",
+         "--planner bscp"),
+        (["render", "--planner", "dijkstra", "--out", "v.gif"],
+         "a fixed number of views (bscp, agent) goes in --views", "bscp<N>"),
+    ],
+)
+def test_planner_hints_name_forms_that_plan_accepts(argv: list[str], wanted: str, unwanted: str,
+                                                    capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit):
+        main(argv)
+    err = capsys.readouterr().err
+    assert wanted in err and unwanted not in err, err
+
+
+def test_evaluate_lists_the_planners_with_a_view_count(tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture) -> None:
+    assert main(["evaluate", "--planners", "dijkstra", "--out", str(tmp_path / "out")]) == 2
+    assert "bscp<N> / agent<N>" in capsys.readouterr().err
+
+
+def test_a_warning_is_one_line_in_the_commands_name(monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture) -> None:
+    import warnings
+
+    from vprobot import cli
+
+    def warns(args: object) -> int:
+        warnings.warn("the cache is not writable", RuntimeWarning, stacklevel=2)
+        return 0
+
+    monkeypatch.setattr(cli, "command_sensors", warns)
+    assert main(["sensors"]) == 0
+    assert capsys.readouterr().err == "vprobot sensors: warning: the cache is not writable\n"

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from vprobot.cli import main
 from vprobot.config import Config, ConfigError, from_mapping, load_config, replace
 from vprobot.paths import CONFIGS_DIR
 
@@ -32,6 +33,11 @@ def test_unknown_key_names_key_and_allowed_keys() -> None:
         ({"sensor": {"resolution": [430]}}, r"sensor.resolution must be a list of 2 values"),
         ({"sensor": {"near_m": "far"}}, r"sensor.near_m must be a number"),
         ({"sensor": {"near_m": 0.6}}, r"near_m < far_m"),
+        ({"sensor": {"fov_deg": [179.9, 25.0]}},
+         r"sensor\.fov_deg must be two opening angles in \(0, 120\] degrees, got \[179\.9, 25"),
+        ({"sensor": {"fov_deg": [27.0, 0.0]}}, r"sensor\.fov_deg .* \(0, 120\]"),
+        ({"sensor": {"working_distance_m": 0.8}},
+         r"sensor\.working_distance_m must lie in \(near_m, far_m\] = \(0\.3, 0\.5\], got 0\.8"),
         ({"kinematics": {"roll": "loose"}}, r"kinematics.roll must be one of \['free', 'fixed'\]"),
         ({"kinematics": {"restarts": 1.5}}, r"kinematics.restarts must be an integer"),
         ({"kinematics": {"max_step_rad": -1.0}}, r"kinematics.max_step_rad must be > 0"),
@@ -62,3 +68,14 @@ def test_replace_validates() -> None:
     assert config.cell.robot == "ur5"
     with pytest.raises(ConfigError, match="unknown key"):
         replace(Config(), "cell", colour="red")
+
+
+def test_an_unusable_opening_angle_is_refused_by_plan(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture) -> None:
+    config = tmp_path / "wide.yaml"
+    config.write_text("sensor:\n  fov_deg: [179.9, 25]\n")
+    assert main(["plan", "--config", str(config), "--out", str(tmp_path / "p.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "wide.yaml" in err and "sensor.fov_deg" in err and "(0, 120]" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["wide.yaml"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -13,10 +14,11 @@ import yaml
 from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.cli import main
-from vprobot.config import CellConfig, Config, ConfigError, replace
+from vprobot.config import CellConfig, Config, ConfigError, load_config, replace
 from vprobot.env import InspectEnv
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR
+from vprobot.render.replay import episode_from_plan
 from vprobot.robots import load_robot
 from vprobot.scene import Cell
 
@@ -195,3 +197,104 @@ def test_reach_with_the_panda_exports_joints_franka_dh_agrees_with(
     pose = world_sensor(np.array(view["joints"]), replace(Config(), "cell", robot="panda"))
     assert np.linalg.norm(pose[:3, 3] - [0.45, -0.47, 0.75]) <= 1e-3
     assert rotation_difference(pose[:3, :3], quaternion_matrix(view["quaternion"])) <= 1e-3
+
+
+@pytest.fixture(scope="module")
+def imported_ur5(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """example-robot-data's UR5 imported once, as `robots/six` under a work folder."""
+    out = tmp_path_factory.mktemp("work") / "robots" / "six"
+    assert main(["robots", "import", str(UR5_URDF), "--flange", "tool0", "--name", "six",
+                 "--out", str(out)]) == 0
+    return out
+
+
+def test_an_imported_robot_folder_has_the_umask_mode(imported_ur5: Path) -> None:
+    umask = os.umask(0)
+    os.umask(umask)
+    expected = 0o777 & ~umask  # 755 under the usual umask 022, not mkdtemp's 700
+    assert imported_ur5.stat().st_mode & 0o777 == expected
+    assert (imported_ur5 / "meshes").stat().st_mode & 0o777 == expected
+
+
+def test_import_force_refuses_a_folder_that_is_no_robot_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    folder = tmp_path / "F"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    code = main(["robots", "import", str(UR5_URDF), "--flange", "tool0", "--name", "six",
+                 "--out", str(folder), "--force"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert str(folder) in err and "no robot folder" in err and "--force" in err
+    assert [p.name for p in folder.iterdir()] == ["notes.txt"]
+    assert (folder / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["F"]  # no hidden build folder left
+
+
+def test_import_force_replaces_an_existing_robot_folder(
+        imported_ur5: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    folder = tmp_path / "six"
+    shutil.copytree(imported_ur5, folder)
+    argv = ["robots", "import", str(UR5_URDF), "--flange", "tool0", "--name", "six", "--out",
+            str(folder), "--base-yaw", "30"]
+    assert main(argv) == 2
+    assert "exists" in capsys.readouterr().err and load_robot(str(folder)).base_yaw_deg == 0.0
+    assert main([*argv, "--force"]) == 0
+    assert load_robot(str(folder)).base_yaw_deg == 30.0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["six"]
+
+
+def test_import_check_errors_name_the_folder_asked_for_not_the_build_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture) -> None:
+    from vprobot.robots.description import RobotDescription
+
+    def failing_check(self: RobotDescription, model: object) -> list[int]:
+        raise ValueError(f"robot {self.name} ({self.folder / 'robot.yaml'}): a broken piece")
+
+    monkeypatch.setattr(RobotDescription, "check_model", failing_check)
+    monkeypatch.chdir(tmp_path)
+    code = main(["robots", "import", str(UR5_URDF), "--flange", "tool0", "--name", "six"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "robots/six/robot.yaml" in err and "ur5_robot.urdf" in err and ".six." not in err
+    assert list((tmp_path / "robots").iterdir()) == []
+
+
+def replay_plan(plan: Path) -> None:
+    """Replay a plan the way `render --plan` does and check it restores the planned cell."""
+    document = json.loads(plan.read_text())
+    scene, record = episode_from_plan(load_config(), plan)
+    base = scene.cell.robot_base
+    np.testing.assert_allclose(base.position, document["robot"]["base_position"], atol=1e-9)
+    np.testing.assert_allclose(np.abs(base.quaternion @ document["robot"]["base_quaternion"]),
+                               1.0, atol=1e-9)
+    assert list(scene.cell.joints.names) == document["robot"]["joint_names"]
+    assert len(record.views) == len(document["views"])
+    assert record.coverage == pytest.approx(document["coverage"], abs=1e-9)
+
+
+@pytest.mark.parametrize("robot", ["ur10", "ur5", "panda"])
+def test_a_plan_of_every_bundled_robot_replays(robot: str, tmp_path: Path,
+                                               capsys: pytest.CaptureFixture) -> None:
+    plan = tmp_path / "plan.json"
+    assert main(["plan", "--robot", robot, "--planner", "hrec", "--carrier", "robot",
+                 "--out", str(plan)]) == 0, capsys.readouterr().err
+    assert json.loads(plan.read_text())["robot"]["name"] == robot
+    assert "folder" not in json.loads(plan.read_text())["robot"]  # bundled: named only
+    replay_plan(plan)
+
+
+def test_a_plan_of_an_imported_robot_replays_from_another_folder(
+        imported_ur5: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(imported_ur5.parent.parent)
+    plan = tmp_path / "plan.json"
+    assert main(["plan", "--robot", "robots/six", "--planner", "hrec", "--out", str(plan)]) == 0
+    robot = json.loads(plan.read_text())["robot"]
+    assert robot["name"] == "six" and robot["folder"] == str(imported_ur5.resolve())
+    monkeypatch.chdir(tmp_path)
+    replay_plan(plan)
+    capsys.readouterr()
+    # The plan fixes the robot: a --robot beside --plan is refused, not silently ignored.
+    assert main(["render", "--plan", str(plan), "--robot", "ur5", "--out", "v.gif"]) == 2
+    assert "--robot" in capsys.readouterr().err

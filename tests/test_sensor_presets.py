@@ -190,7 +190,7 @@ def test_sensor_model_geometry_matches_the_pinhole_maths() -> None:
 @pytest.mark.parametrize(("changes", "message"), [
     ({"resolution": (0, 10)}, r"resolution must be two integers .* got \(0, 10\)"),
     ({"resolution": (5000, 10)}, r"in 1\.\.4096"),
-    ({"fov_deg": (180.0, 20.0)}, r"fov_deg must be two opening angles in \(0, 180\)"),
+    ({"fov_deg": (179.9, 20.0)}, r"fov_deg must be two opening angles in \(0, 120\]"),
     ({"near_m": 0.6, "far_m": 0.5}, r"0 <= near_m < far_m .* near_m=0\.6"),
     ({"working_distance_m": 0.0}, r"working_distance_m must be a positive length, got 0\.0"),
 ])
@@ -239,7 +239,7 @@ def test_cli_sensor_option_changes_the_sensor_used(tmp_path: Path) -> None:
     sensor = document["sensor"]
     assert (sensor["resolution"], sensor["range"]) == ([2448, 2048], [0.30, 1.10])
     # Replaying the plan under the default config restores the whole sensor it was made with.
-    replayed = plan_config(Config(), document, np.array([0.45, 0.0, 0.75])).sensor
+    replayed = plan_config(Config(), document, np.array([0.45, 0.0, 0.75]), out).sensor
     assert replayed == sensor_preset("zivid2plus_mr60")
     with pytest.raises(SystemExit) as error:
         main(["reach", "--position", "0", "0", "1", "--look-at", "1", "0", "0",

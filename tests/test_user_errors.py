@@ -108,9 +108,10 @@ def test_misleading_input_is_rejected(argv: list[str], needles: tuple[str, ...],
     monkeypatch.chdir(tmp_path)
     try:
         one_line_error(argv, capsys, *needles)
-    except SystemExit as exit_:  # argparse reports option errors itself, with usage
+    except SystemExit as exit_:  # argparse reports option errors itself, also in one line
         assert exit_.code == 2
         err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1, err
         assert all(needle in err for needle in needles)
 
 

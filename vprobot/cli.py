@@ -12,15 +12,16 @@ import json
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
 from vprobot.config import Config, available_sensors, load_config, replace, with_sensor
 from vprobot.outputs import check_output_file, check_output_folder
-from vprobot.robots import available_robots
+from vprobot.robots import available_robots, load_robot
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier")
@@ -32,6 +33,10 @@ def _config(args: argparse.Namespace) -> Config:
     """The config file (or the default), with `--robot` and `--sensor` applied when given."""
     config = load_config(args.config)
     if getattr(args, "robot", None):
+        try:
+            load_robot(args.robot)
+        except ValueError as error:  # named as the user gave it, not as the config key
+            raise ValueError(f"--robot: {error}") from None
         config = replace(config, "cell", robot=args.robot)
     return _sensor_option(config, args)
 
@@ -65,17 +70,14 @@ def _number(kind: type, low: float, strict: bool, what: str) -> Callable[[str], 
 
 
 def _planner_name(text: str) -> str:
-    """An argparse type: a planner name, `agent` or `agent:PATH` (no view count suffix)."""
+    """An argparse type: a planner name, `agent` or `agent:PATH` (the view count goes in
+    `--views`)."""
     from vprobot.planners.runner import parse_planner
 
     try:
-        name, views = parse_planner(text)
+        return parse_planner(text, counted=False)[0]
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
-    if views is not None:
-        raise argparse.ArgumentTypeError(f"give the view count with --views, not in the "
-                                         f"name: --planner bscp --views {views}")
-    return name
 
 
 NON_NEGATIVE_INT = _number(int, 0, False, "an integer >= 0")
@@ -186,11 +188,11 @@ def command_render(args: argparse.Namespace) -> int:
     _check_render_outputs(args, args.out, "--out")
     config = _config(args)
     if args.plan:
-        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "sensor")
+        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "robot", "sensor")
                  if getattr(args, name) is not None]
         if given:
-            raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose, sensor "
-                             f"and views; {', '.join(given)} cannot be combined with it")
+            raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose, robot, "
+                             f"sensor and views; {', '.join(given)} cannot be combined with it")
         scene, record = episode_from_plan(config, args.plan)
     else:
         options = _planning(args)
@@ -381,8 +383,16 @@ def command_robots_import(args: argparse.Namespace) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line, like every other user error (the usage is
+    for --help); its subcommands' parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vprobot", description="Robot-guided visual inspection planning in MuJoCo."
     )
     commands = parser.add_subparsers(dest="command", required=True)
@@ -390,7 +400,7 @@ def build_parser() -> argparse.ArgumentParser:
     def add(name: str, handler: Callable[[argparse.Namespace], int], help_text: str,
             parent: Any = commands, config: bool = True) -> argparse.ArgumentParser:
         sub = parent.add_parser(name, help=help_text, description=help_text)
-        sub.set_defaults(handler=handler)
+        sub.set_defaults(handler=handler, prog=sub.prog)
         if config:  # train and sweep take their configuration from a profile instead
             sub.add_argument("--config", help="YAML config (default: configs/default.yaml)")
         return sub
@@ -433,7 +443,8 @@ def build_parser() -> argparse.ArgumentParser:
                          help=f"{', '.join(PLANNER_NAMES)} (the bundled trained agent), or "
                          f"agent:PATH (a training run or model .zip); default: bscp")
         sub.add_argument("--views", type=POSITIVE_INT,
-                         help="fixed number of views (bscp); default: until the coverage goal")
+                         help="fixed number of views (bscp, agent); default: until the coverage "
+                         "goal")
         sub.add_argument("--seed", type=NON_NEGATIVE_INT,
                          help="seed of the episode (object pose, initial view); default 0")
         sub.add_argument("--carrier", choices=["robot", "free"],
@@ -461,8 +472,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(evaluation)
     evaluation.add_argument("--planners", nargs="+", default=[
         "random1", "random2", "hrec", "bscp", "bscp4", "bscp5", "oracle"],
-        help="planner names, bscp<N> for B_SCP with N views, agent (the bundled agent) or "
-        "agent:PATH (a training run or model .zip)")
+        help="planner names, bscp<N> / agent<N> for B_SCP / the bundled agent with N views, "
+        "agent (the bundled agent) or agent:PATH (a training run or model .zip)")
     evaluation.add_argument("--episodes", help="episode list (JSON, as written into --out); "
                             "default: the bundled list over the test motors")
     evaluation.add_argument("--motors", nargs="+",
@@ -560,6 +571,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _warning_printer(prog: str) -> Callable[..., None]:
+    """A `warnings.showwarning` that prints one line in the user's terms (not Python's file,
+    line number and source line)."""
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: Any = None, line: str | None = None) -> None:
+        print(f"{prog}: warning: {message}", file=sys.stderr)
+
+    return show
+
+
 def _interrupt(signum: int, frame: object) -> None:
     # SIGTERM takes the Ctrl-C path: partial outputs are cleaned up or saved, not left half.
     raise KeyboardInterrupt
@@ -572,14 +594,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _interrupt) if in_main_thread else None
     try:
-        return args.handler(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_printer(args.prog)
+            return args.handler(args)
     except (ValueError, OSError) as error:
         # ConfigError is a ValueError; OSError covers unreadable inputs and full disks.
         text = str(error).splitlines()[0] if str(error) else type(error).__name__
-        print(f"vprobot {args.command}: error: {text}", file=sys.stderr)
+        print(f"{args.prog}: error: {text}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"vprobot {args.command}: interrupted", file=sys.stderr)
+        print(f"{args.prog}: interrupted", file=sys.stderr)
         return INTERRUPTED
     finally:
         if in_main_thread:

@@ -70,6 +70,13 @@ plus the scan conversion's working arrays, which grow with the pixels the object
 sensors stay below the cap; the `sensors/` presets give their own resolutions."""
 
 
+MAX_FOV_DEG = 120.0
+"""Widest opening angle along either image axis. The widest real depth cameras reach it (Azure
+Kinect's wide mode: 120 x 120 deg; industrial 3D sensors stay near 50). A pinhole grid spreads
+its rays evenly over +-tan(fov / 2), which grows without bound towards 180 deg (1.7 at 120 deg,
+1146 at 179.9 deg): the rays then miss the object, and a plan finds no view."""
+
+
 def check_resolution(resolution: tuple[int, int], key: str) -> None:
     """Raise ConfigError unless both axes lie in 1..MAX_RAYS_PER_AXIS."""
     if not all(1 <= rays <= MAX_RAYS_PER_AXIS for rays in resolution):
@@ -101,15 +108,19 @@ class SensorConfig:
 
     def __post_init__(self) -> None:
         check_resolution(self.resolution, "sensor.resolution")
-        if not all(0.0 < angle < 180.0 for angle in self.fov_deg):
-            raise ConfigError(f"sensor.fov_deg must lie in (0, 180), got {self.fov_deg}")
+        if not all(0.0 < angle <= MAX_FOV_DEG for angle in self.fov_deg):
+            raise ConfigError(f"sensor.fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
+                              f"degrees, got {list(self.fov_deg)}")
         if not 0.0 <= self.near_m < self.far_m:
             raise ConfigError(
                 f"sensor needs 0 <= near_m < far_m, got near_m={self.near_m}, far_m={self.far_m}"
             )
-        if not self.working_distance_m > 0.0:
-            raise ConfigError(f"sensor.working_distance_m must be > 0, got "
-                              f"{self.working_distance_m}")
+        if not self.near_m < self.working_distance_m <= self.far_m:
+            # Views look at the object's centre from this distance: outside the range the
+            # sensor measures nothing of the object's near side.
+            raise ConfigError(f"sensor.working_distance_m must lie in (near_m, far_m] = "
+                              f"({self.near_m:g}, {self.far_m:g}], got "
+                              f"{self.working_distance_m:g}")
 
 
 SENSORS_DIR = CONFIGS_DIR / "sensors"

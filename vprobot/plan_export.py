@@ -13,6 +13,7 @@ from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.files import write_text
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
+from vprobot.robots import is_bundled
 from vprobot.scene import Cell
 
 
@@ -76,10 +77,14 @@ def ground_truth_block(record: EpisodeRecord) -> dict[str, Any]:
 
 
 def robot_block(cell: Cell) -> dict[str, Any]:
-    """The robot: name, base pose, joint names and the sensor mount on the flange frame."""
+    """The robot: name (and folder, for a robot that is not bundled), base pose, joint names and
+    the sensor mount on the flange frame."""
     base, mount = cell.robot_base, cell.sensor_mount
+    # Like the mesh, a robot folder is recorded absolute, so the plan replays from anywhere.
+    folder = {} if is_bundled(cell.robot) else {"folder": str(cell.robot.folder.resolve())}
     return {
         "name": cell.robot.name,
+        **folder,
         "base_position": _floats(base.position),
         "base_quaternion": _floats(base.quaternion),
         "joint_names": list(cell.joints.names),

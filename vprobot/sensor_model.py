@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from vprobot.config import MAX_RAYS_PER_AXIS, SensorConfig
+from vprobot.config import MAX_FOV_DEG, MAX_RAYS_PER_AXIS, SensorConfig
 from vprobot.geometry import Pose
 
 
@@ -43,8 +43,8 @@ class SensorModel:
 
     Raises:
         ValueError: If the resolution is not two integers in 1..MAX_RAYS_PER_AXIS, an opening
-            angle is not in (0, 180) degrees, the range is not 0 <= near < far, or the working
-            distance is not positive.
+            angle is not in (0, MAX_FOV_DEG] degrees, the range is not 0 <= near < far, or the
+            working distance is not positive.
     """
 
     resolution: tuple[int, int]
@@ -56,9 +56,9 @@ class SensorModel:
     def __post_init__(self) -> None:
         object.__setattr__(self, "resolution", _check_resolution(self.resolution))
         angles = tuple(float(angle) for angle in self.fov_deg)
-        if len(angles) != 2 or not all(0.0 < angle < 180.0 for angle in angles):
-            raise ValueError(f"fov_deg must be two opening angles in (0, 180) degrees, got "
-                             f"{self.fov_deg!r}")
+        if len(angles) != 2 or not all(0.0 < angle <= MAX_FOV_DEG for angle in angles):
+            raise ValueError(f"fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
+                             f"degrees, got {list(angles)}")
         object.__setattr__(self, "fov_deg", angles)
         if not (math.isfinite(self.far_m) and 0.0 <= self.near_m < self.far_m):
             raise ValueError(f"the range needs 0 <= near_m < far_m (finite), got "

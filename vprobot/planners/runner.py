@@ -66,21 +66,31 @@ def make_planner(name: str, config: Config, views: int | None = None) -> Planner
     return Random1Planner(config) if name == "random1" else Random2Planner(config)
 
 
-def parse_planner(spec: str) -> tuple[str, int | None]:
+def parse_planner(spec: str, counted: bool = True) -> tuple[str, int | None]:
     """`bscp5` -> ("bscp", 5), `agent6` -> ("agent", 6); a plain name or `agent:PATH` ->
     (spec, None).
 
+    Args:
+        spec: The planner as the user wrote it.
+        counted: Whether a view count may follow the name (`evaluate --planners`); `plan` and
+            `render` take it from `--views` instead, and their messages say so.
+
     Raises:
-        ValueError: If the spec names no planner.
+        ValueError: If the spec names no planner, or carries a view count that `counted`
+            forbids; the message lists the accepted forms.
     """
     if spec in PLANNER_NAMES or (spec.startswith(AGENT_PREFIX) and len(spec) > len(AGENT_PREFIX)):
         return spec, None
     match = _FIXED_COUNT.match(spec)
-    if match is None or int(match[2]) < 1:
-        raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(PLANNER_NAMES)}, "
-                         f"{AGENT_PREFIX}PATH for a trained agent, or bscp<N> / agent<N> for "
-                         f"B_SCP / the bundled agent with N views (e.g. bscp5)")
-    return match[1], int(match[2])
+    if match is not None and int(match[2]) >= 1:
+        if counted:
+            return match[1], int(match[2])
+        raise ValueError(f"give the view count with --views, not in the name: "
+                         f"--planner {match[1]} --views {match[2]}")
+    forms = (", or bscp<N> / agent<N> for B_SCP / the bundled agent with N views (e.g. bscp5)"
+             if counted else "; a fixed number of views (bscp, agent) goes in --views")
+    raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(PLANNER_NAMES)}, "
+                     f"{AGENT_PREFIX}PATH for a trained agent{forms}")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -10,6 +10,7 @@ trusted; unreachable views become records in which the robot stays. A free-flyin
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -17,14 +18,14 @@ import numpy as np
 
 from vprobot.config import Config, replace
 from vprobot.episode import CARRIERS, Episode, EpisodeRecord, MotorScene, ViewRequest
-from vprobot.geometry import Pose, quat_to_matrix
+from vprobot.geometry import Pose, quat_to_matrix, rotation_about_y, rotation_about_z
 from vprobot.kinematics import SensorTarget
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 
-YAW_TOLERANCE = 1e-6
-"""How far the plan's robot base may deviate from a pure rotation about z (the config has only
-a yaw)."""
+BASE_ROTATION_TOLERANCE = 1e-6
+"""How far the plan's robot base may deviate from a yaw about the world z axis followed by a
+tilt about the base's y axis (the only base rotations the cell composes)."""
 
 
 def _field(block: Any, key: str, where: str) -> Any:
@@ -61,36 +62,54 @@ def read_plan(path: str | Path) -> dict[str, Any]:
     return document
 
 
-def _mesh_path(mesh: str, plan_path: Path) -> Path:
-    """The mesh file: as written, else beside the plan (by name), else a bundled motor."""
-    candidates = [Path(mesh), plan_path.parent / Path(mesh).name]
-    if not Path(mesh).is_absolute():
-        candidates.append(MOTORS_DIR / mesh)
+def _locate(recorded: str, plan_path: Path, what: str, found: Callable[[Path], bool],
+            bundled: Path | None = None) -> Path:
+    """A file or folder the plan names: as written, else beside the plan (by name), else in
+    `bundled`."""
+    candidates = [Path(recorded), plan_path.parent / Path(recorded).name]
+    if bundled is not None and not Path(recorded).is_absolute():
+        candidates.append(bundled / recorded)
     for candidate in candidates:
-        if candidate.is_file():
+        if found(candidate):
             return candidate
-    raise ValueError(f"plan's object mesh {mesh} not found (also looked beside the plan and "
-                     f"among the bundled motors)")
+    among = " and among the bundled motors" if bundled is not None else ""
+    raise ValueError(f"plan's {what} {recorded} not found (also looked beside the plan{among})")
 
 
-def _base_yaw_deg(quaternion: np.ndarray) -> float:
+def _robot(block: Any, plan_path: Path) -> str:
+    """The robot of the plan: a bundled robot's name, else the recorded robot folder."""
+    folder = _field(block, "folder", "robot") if "folder" in block else None
+    if folder is None:
+        return str(_field(block, "name", "robot"))
+    return str(_locate(str(folder), plan_path, "robot folder", Path.is_dir))
+
+
+def _base_yaw_tilt_deg(quaternion: np.ndarray) -> tuple[float, float]:
+    """The cell's base yaw and tilt (deg) that give the plan's base rotation.
+
+    The cell rotates the base by Rz(yaw) Ry(tilt): its y axis stays horizontal and carries the
+    yaw, its bottom row the tilt.
+    """
     rotation = quat_to_matrix(quaternion)
-    yaw = float(np.arctan2(rotation[1, 0], rotation[0, 0]))
-    c, s = np.cos(yaw), np.sin(yaw)
-    if np.max(np.abs(rotation - [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])) > YAW_TOLERANCE:
-        raise ValueError(f"plan robot.base_quaternion {quaternion.tolist()} is not a rotation "
-                         "about the vertical; the cell supports a base yaw only")
-    return float(np.rad2deg(yaw))
+    yaw = float(np.arctan2(-rotation[0, 1], rotation[1, 1]))
+    tilt = float(np.arctan2(-rotation[2, 0], rotation[2, 2]))
+    composed = rotation_about_z(yaw) @ rotation_about_y(tilt)
+    if np.max(np.abs(rotation - composed)) > BASE_ROTATION_TOLERANCE:
+        raise ValueError(f"plan robot.base_quaternion {quaternion.tolist()} is not a yaw about the "
+                         f"vertical followed by a tilt about the base's y axis, the base "
+                         f"rotations the cell supports")
+    return float(np.rad2deg(yaw)), float(np.rad2deg(tilt))
 
 
-def plan_config(config: Config, document: dict[str, Any], object_center: np.ndarray) -> Config:
-    """`config` with the cell and sensor the plan was made for."""
+def plan_config(config: Config, document: dict[str, Any], object_center: np.ndarray,
+                plan_path: Path) -> Config:
+    """`config` with the cell and sensor the plan at `plan_path` was made for."""
     robot = _field(document, "robot", "")
     mount = _field(robot, "sensor_mount", "robot")
-    config = replace(config, "cell", robot=str(_field(robot, "name", "robot")),
+    yaw_deg, tilt_deg = _base_yaw_tilt_deg(_vector(robot, "base_quaternion", 4, "robot"))
+    config = replace(config, "cell", robot=_robot(robot, plan_path),
                      robot_base_position_m=tuple(_vector(robot, "base_position", 3, "robot")),
-                     robot_base_yaw_deg=_base_yaw_deg(_vector(robot, "base_quaternion", 4,
-                                                              "robot")),
+                     robot_base_yaw_deg=yaw_deg, robot_base_tilt_deg=tilt_deg,
                      object_center_m=tuple(float(x) for x in object_center))
     sensor: dict[str, Any] = {
         "mount_position_m": tuple(_vector(mount, "position", 3, "robot.sensor_mount")),
@@ -128,14 +147,16 @@ def episode_from_plan(config: Config, plan_path: str | Path,
     plan_path = Path(plan_path)
     document = read_plan(plan_path)
     block = document["object"]
-    mesh_path = _mesh_path(str(_field(block, "mesh", "object")), plan_path)
+    mesh_path = _locate(str(_field(block, "mesh", "object")), plan_path, "object mesh",
+                        Path.is_file, MOTORS_DIR)
     scale = float(block.get("scale", 1.0))
     rotation = quat_to_matrix(_vector(block, "quaternion", 4, "object"))
     # The block places the file's vertices; the cell places the centred mesh (see
     # MotorScene.object_block), so the centre is the file origin moved by the centring offset.
     offset = load_mesh(mesh_path, scale).offset
     center = _vector(block, "position", 3, "object") + rotation @ offset
-    scene = MotorScene.load(plan_config(config, document, center), mesh_path, scale, resolution)
+    scene = MotorScene.load(plan_config(config, document, center, plan_path), mesh_path, scale,
+                            resolution)
     carrier = document.get("carrier", "robot")
     if carrier not in CARRIERS:
         raise ValueError(f"plan carrier must be one of {list(CARRIERS)}, got {carrier!r}")

@@ -11,7 +11,7 @@ from pathlib import Path
 from vprobot.paths import ROBOTS_DIR
 from vprobot.robots.description import DESCRIPTION_FILE, RobotDescription
 
-__all__ = ["RobotDescription", "available_robots", "load_robot", "robot_folder"]
+__all__ = ["RobotDescription", "available_robots", "is_bundled", "load_robot", "robot_folder"]
 
 
 def available_robots() -> list[str]:
@@ -32,6 +32,11 @@ def robot_folder(robot: str) -> Path:
         return path
     raise ValueError(f"unknown robot {robot!r}: neither a bundled robot "
                      f"({', '.join(available_robots())}) nor a robot folder")
+
+
+def is_bundled(robot: RobotDescription) -> bool:
+    """Whether the description is a bundled robot's (which its name alone names)."""
+    return robot.folder.resolve() == (ROBOTS_DIR / robot.name).resolve()
 
 
 def load_robot(robot: str) -> RobotDescription:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import shutil
-import tempfile
+import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -19,6 +19,7 @@ import numpy as np
 import trimesh
 
 from vprobot.robots.description import (
+    DESCRIPTION_FILE,
     SCENE_FILE,
     SENSOR_BODY,
     SENSOR_CAMERA,
@@ -358,8 +359,7 @@ def convert_urdf(
     urdf, out_dir = Path(urdf), Path(out_dir)
     if not name or not name.replace("_", "").replace("-", "").isalnum():
         raise ValueError(f"robot name must be letters, digits, '_' or '-', got {name!r}")
-    if out_dir.exists() and not overwrite:
-        raise ValueError(f"{out_dir} exists; choose another --out or pass --force")
+    _check_replaceable(out_dir, overwrite)
     chain = UrdfChain(urdf, flange)
     provenance = provenance or Provenance(title=name, source=str(urdf))
     lower, upper = chain.limits()
@@ -377,10 +377,17 @@ def convert_urdf(
         base_yaw_deg=float(base_yaw_deg), base_tilt_deg=float(base_tilt_deg))
 
     out_dir.parent.mkdir(parents=True, exist_ok=True)
-    building = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=out_dir.parent))
+    # A hidden sibling, so that the finished folder moves into place; made with mkdir (not
+    # mkdtemp's 700) so that the robot folder gets the umask's mode like its files.
+    building = out_dir.parent / f".{name}.{uuid.uuid4().hex[:8]}.building"
+    building.mkdir()
     try:
-        _build_folder(chain, description, provenance, building, package_paths)
-        _check_folder(building)
+        try:
+            _build_folder(chain, description, provenance, building, package_paths)
+            _check_folder(building, urdf)
+        except ValueError as error:
+            # Messages name the folder the user asked for, not the hidden one being built.
+            raise ValueError(str(error).replace(str(building), str(out_dir))) from None
         if out_dir.exists():
             shutil.rmtree(out_dir)
         building.rename(out_dir)
@@ -389,17 +396,41 @@ def convert_urdf(
     return RobotDescription.load(out_dir)
 
 
+def _check_replaceable(out_dir: Path, overwrite: bool) -> None:
+    """Refuse an `out_dir` whose contents the import would destroy.
+
+    A missing or empty folder is written; an existing robot folder (one with `robot.yaml`) is
+    replaced with `overwrite` only; anything else is refused whatever `overwrite` says.
+
+    Raises:
+        ValueError: Naming `out_dir` and what to do instead.
+    """
+    if not out_dir.exists():
+        return
+    if not out_dir.is_dir():
+        raise ValueError(f"{out_dir} is a file, not a robot folder; choose another --out")
+    if not any(out_dir.iterdir()):
+        return
+    if not (out_dir / DESCRIPTION_FILE).is_file():
+        raise ValueError(f"{out_dir} holds files but is no robot folder (no {DESCRIPTION_FILE}); "
+                         f"--force replaces only a robot folder, so choose another --out")
+    if not overwrite:
+        raise ValueError(f"robot folder {out_dir} exists; choose another --out or pass --force "
+                         f"to replace it")
+
+
 def _build_folder(chain: UrdfChain, description: RobotDescription, provenance: Provenance,
                   folder: Path, package_paths: Mapping[str, Path] | None) -> None:
     (folder / "meshes").mkdir()
-    with tempfile.TemporaryDirectory() as tmp:
-        urdf = Path(tmp) / f"{description.name}.urdf"
-        _prepare_urdf(chain, folder / "meshes", package_paths).write(urdf)
-        shutil.copytree(folder / "meshes", Path(tmp) / "meshes")
-        try:
-            spec = mujoco.MjSpec.from_file(str(urdf))
-        except ValueError as error:
-            raise ValueError(f"MuJoCo cannot compile {chain.urdf}: {error}") from None
+    # The prepared URDF names its meshes relative to the folder, so MuJoCo reads it from there.
+    urdf = folder / f"{description.name}.urdf"
+    _prepare_urdf(chain, folder / "meshes", package_paths).write(urdf)
+    try:
+        spec = mujoco.MjSpec.from_file(str(urdf))
+    except ValueError as error:
+        raise ValueError(f"MuJoCo cannot compile {chain.urdf}: {error}") from None
+    finally:
+        urdf.unlink()
     spec.modelname = description.name
     spec.modelfiledir = str(folder)
     spec.compiler.degree = False
@@ -429,13 +460,21 @@ def _build_folder(chain: UrdfChain, description: RobotDescription, provenance: P
         steps=CONVERSION_STEPS.rstrip()))
 
 
-def _check_folder(folder: Path) -> None:
-    """Compile a cell from the folder: loading it checks the description against the model."""
+def _check_folder(folder: Path, urdf: Path) -> None:
+    """Compile a cell from the folder: loading it checks the description against the model.
+
+    Raises:
+        ValueError: If the folder converted from `urdf` does not make a cell.
+    """
     # Imported here: the cell needs the config, which reads robot folders through this package.
     from vprobot.config import CellConfig, Config
     from vprobot.scene import Cell
 
-    Cell(Config(cell=CellConfig(robot=str(folder))))
+    try:
+        Cell(Config(cell=CellConfig(robot=str(folder))))
+    except ValueError as error:
+        raise ValueError(f"the robot converted from {urdf} does not make a cell: "
+                         f"{error}") from None
 
 
 SCENE_TEMPLATE = """<mujoco model="{name} inspection cell">
