@@ -1,5 +1,6 @@
-"""Ray: a tiny sweep and its resume, distributed evaluation against serial, on a local Ray;
-SIGTERM to either command (exit 130, partial tables, resumable) and bad study files."""
+"""Ray: a tiny sweep stopped and resumed, distributed evaluation against serial, on a local Ray;
+SIGTERM and kill -9 to either command (exit 130, partial tables, resumable) and bad study
+files."""
 
 from __future__ import annotations
 
@@ -51,18 +52,6 @@ def _study(tmp_path: Path, steps: int) -> Path:
     return path
 
 
-def test_tiny_sweep_produces_its_table_and_curves(tmp_path: Path) -> None:
-    table = sweep(_study(tmp_path, 100), tmp_path / "out", progress=False)
-    assert [row["configuration"] for row in table] == ["agent.algorithm=sac",
-                                                       "agent.algorithm=ppo"]
-    assert all(row["seeds"] == 1 and 0 < row["coverage"] <= 1 for row in table)
-    text = (tmp_path / "out" / "study.md").read_text()
-    assert "1 seed(s) (0), 100 steps each. The paper: 75 000 steps, 3 runs" in text
-    assert len(list((tmp_path / "out").glob("*/curves.png"))) == 2
-    with pytest.raises(ValueError, match="--resume"):
-        sweep(_study(tmp_path, 100), tmp_path / "out", progress=False)
-
-
 @pytest.mark.parametrize(("written", "shown"), [
     ("set:\n  agent.eval_freq: 5000\n", "got {agent.eval_freq: 5000}"),
     ("set:\n  - agent.eval_freq: 5000\n", "got {agent.eval_freq: 5000}"),
@@ -106,8 +95,15 @@ def _assert_interrupted_quietly(code: int, stderr: str, command: str) -> None:
     assert "SIGTERM received" not in stderr and "***" not in stderr
 
 
-def test_sigterm_to_sweep_saves_a_partial_table_and_resume_finishes_the_rest(
+def _sessions(run_dir: Path) -> int:
+    """Training sessions a run has started (one `logs/session_N` each)."""
+    return len(list((run_dir / "logs").glob("session_*")))
+
+
+def test_sweep_stopped_by_sigterm_then_killed_resumes_to_its_whole_table(
         tmp_path: Path) -> None:
+    """SIGTERM (exit 130, partial table), then kill -9 of the resume half-way through a trial,
+    then a resume: finished trials are never rerun and the table and curves are whole."""
     study, out = _study(tmp_path, 200), tmp_path / "out"
     trials = read_study(study).trials(out)
     code, stderr = _terminate(["sweep", str(study), "--out", str(out), "--workers", "1"],
@@ -117,32 +113,26 @@ def test_sigterm_to_sweep_saves_a_partial_table_and_resume_finishes_the_rest(
     assert "saved 1 of 2 trials" in stderr
     assert (out / "study.md").read_text().startswith("**Partial: 1 of 2 trials;")
     first = (trials[0].run_dir / "result.json").stat().st_mtime_ns
-    assert main(["sweep", str(study), "--out", str(out), "--resume"]) == 0
-    assert (trials[0].run_dir / "result.json").stat().st_mtime_ns == first  # not rerun
-    assert trials[1].finished and "Partial" not in (out / "study.md").read_text()
+    with pytest.raises(ValueError, match="--resume"):
+        sweep(study, out, progress=False)
 
-
-def test_killed_sweep_resumes_without_rerunning_finished_trials(tmp_path: Path) -> None:
-    study, out = _study(tmp_path, 200), tmp_path / "out"
+    sessions = _sessions(trials[1].run_dir)
     process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", "sweep", str(study),
-                                "--out", str(out), "--workers", "1"],
+                                "--out", str(out), "--resume", "--workers", "1"],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                start_new_session=True)
-    trials = read_study(study).trials(out)
     deadline = time.monotonic() + 300
-    while process.poll() is None and time.monotonic() < deadline:
-        if trials[0].finished:
-            break
-        time.sleep(0.2)
+    while (process.poll() is None and time.monotonic() < deadline
+           and _sessions(trials[1].run_dir) == sessions):
+        time.sleep(0.05)
     # Kill the driver and its Ray (one process group): the second trial dies half-way.
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
-    assert trials[0].finished and not trials[1].finished
-    first = (trials[0].run_dir / "result.json").stat().st_mtime_ns
+    assert not trials[1].finished, "the resume ended before it was killed"
     deadline = time.monotonic() + 60
     while True:
         try:
-            sweep(study, out, resume=True, progress=False)
+            table = sweep(study, out, resume=True, progress=False)
             break
         except InUseError:
             # The killed driver's Ray worker runs in its own session: it outlives the process
@@ -151,6 +141,13 @@ def test_killed_sweep_resumes_without_rerunning_finished_trials(tmp_path: Path) 
             time.sleep(0.5)
     assert (trials[0].run_dir / "result.json").stat().st_mtime_ns == first  # not rerun
     assert trials[1].finished
+    assert [row["configuration"] for row in table] == ["agent.algorithm=sac",
+                                                       "agent.algorithm=ppo"]
+    assert all(row["seeds"] == 1 and 0 < row["coverage"] <= 1 for row in table)
+    text = (out / "study.md").read_text()
+    assert "Partial" not in text
+    assert "1 seed(s) (0), 200 steps each. The paper: 75 000 steps, 3 runs" in text
+    assert len(list(out.glob("*/curves.png"))) == 2
 
 
 def test_a_user_error_in_a_ray_task_reaches_the_user_as_itself() -> None:
@@ -167,56 +164,56 @@ def _rows(folder: Path) -> list[dict[str, str]]:
     return sorted(rows, key=lambda row: (int(row["episode"]), row["carrier"], row["planner"]))
 
 
-def test_distributed_evaluation_gives_the_serial_rows(tmp_path: Path) -> None:
-    config = Config()
-    specs = episode_list(config, [DEFAULT_MOTOR], [0, 1, 2])
-    serial = evaluate(config, ["hrec", "random2"], specs, tmp_path / "serial", progress=False)
-    spread = evaluate(config, ["hrec", "random2"], specs, tmp_path / "ray", progress=False,
-                      workers=2)
-    assert _rows(tmp_path / "serial") == _rows(tmp_path / "ray")
-    assert [row["coverage_pct"] for row in serial] == [row["coverage_pct"] for row in spread]
-
-
-def test_killed_distributed_evaluation_resumes(tmp_path: Path) -> None:
-    """kill -9 of a `vprobot evaluate --workers 2` (driver and its Ray), then the same command:
-    the rows of an uninterrupted serial run, none lost or duplicated."""
-    argv = ["evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
+EVALUATE = ["evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
             "--seeds", "0", "1", "2"]
-    assert main([*argv, "--out", str(tmp_path / "serial")]) == 0
-    killed = tmp_path / "killed"
-    process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", *argv, "--workers", "2",
-                                "--out", str(killed)], stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL, start_new_session=True)
-    rows = killed / "evaluation_episodes.csv"
-    deadline = time.monotonic() + 300
-    while process.poll() is None and time.monotonic() < deadline:
-        if rows.is_file() and rows.read_text().count("\n") >= 4:
-            break
-        time.sleep(0.05)
-    os.killpg(process.pid, signal.SIGKILL)
-    process.wait()
-    assert 4 <= rows.read_text().count("\n") < 13, "killed before the end"
-    assert main([*argv, "--workers", "2", "--out", str(killed)]) == 0
-    assert _rows(tmp_path / "serial") == _rows(killed)
+"""12 episodes: two planners, three seeds, both carriers."""
 
 
-def test_sigterm_to_distributed_evaluation_saves_partial_tables_and_resumes(
-        tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def serial_rows(tmp_path_factory: pytest.TempPathFactory) -> list[dict[str, str]]:
+    """The rows of `EVALUATE` run in this process, without Ray."""
+    folder = tmp_path_factory.mktemp("serial")
+    assert main([*EVALUATE, "--out", str(folder)]) == 0
+    return _rows(folder)
+
+
+def test_distributed_evaluation_gives_the_serial_rows(
+        tmp_path: Path, serial_rows: list[dict[str, str]]) -> None:
+    specs = episode_list(Config(), [DEFAULT_MOTOR], [0, 1, 2])
+    evaluate(Config(), ["hrec", "random2"], specs, tmp_path, progress=False, workers=2)
+    assert _rows(tmp_path) == serial_rows
+
+
+def test_distributed_evaluation_stopped_by_sigterm_then_killed_resumes_to_the_serial_rows(
+        tmp_path: Path, serial_rows: list[dict[str, str]]) -> None:
+    """SIGTERM to `evaluate --workers 2` (exit 130, partial tables), then kill -9 of the rerun
+    (driver and its Ray), then the same command: the serial rows, none lost or duplicated."""
     out = tmp_path / "out"
-    argv = ["evaluate", "--planners", "hrec", "--motors", str(DEFAULT_MOTOR), "--seeds",
-            *map(str, range(6)), "--workers", "2", "--out", str(out)]
+    argv = [*EVALUATE, "--workers", "2", "--out", str(out)]
     rows = out / "evaluation_episodes.csv"
-    code, stderr = _terminate(argv, lambda: rows.is_file() and rows.read_text().count("\n") >= 2,
-                              tmp_path / "stderr.txt")
+
+    def lines() -> int:
+        return rows.read_text().count("\n") if rows.is_file() else 0
+
+    code, stderr = _terminate(argv, lambda: lines() >= 2, tmp_path / "stderr.txt")
     _assert_interrupted_quietly(code, stderr, "evaluate")
     done = len(_rows(out))
     assert 1 <= done < 12
     assert f"Partial: {done} of 12 episodes" in (out / "evaluation.md").read_text()
     with (out / "evaluation.csv").open() as stream:
         assert sum(int(row["episodes"]) for row in csv.DictReader(stream)) == done
+
+    process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", *argv],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                               start_new_session=True)
+    deadline = time.monotonic() + 300
+    while process.poll() is None and time.monotonic() < deadline and lines() < done + 3:
+        time.sleep(0.05)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    assert done + 2 <= lines() < 13, "killed before the end"
     assert main(argv) == 0
-    keys = {(row["episode"], row["carrier"]) for row in _rows(out)}
-    assert len(keys) == len(_rows(out)) == 12
+    assert _rows(out) == serial_rows
     assert "Partial" not in (out / "evaluation.md").read_text()
 
 
@@ -233,8 +230,11 @@ def test_an_interrupted_parallel_map_ends_its_running_workers_before_going_on(
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
     lock = tmp_path / "run.lock"
 
+    interrupted = []
+
     def interrupt_once_locked(signum: int, frame: object) -> None:
-        if lock.is_file() and lock.read_text().strip():
+        if not interrupted and lock.is_file() and lock.read_text().strip():
+            interrupted.append(signum)
             raise KeyboardInterrupt
 
     previous = signal.signal(signal.SIGALRM, interrupt_once_locked)

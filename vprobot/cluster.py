@@ -14,8 +14,6 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 INSTALL_HINT = 'pip install -e ".[cluster]"'
-CANCEL_WAIT_S = 10.0
-"""How long an interrupted `parallel_map` waits for its cancelled tasks' workers to end."""
 
 
 def require_ray() -> Any:
@@ -102,10 +100,9 @@ def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
             (ready,), _ = ray.wait(list(pending), num_returns=1)
             yield pending.pop(ready), _result(ray, ready)
     except BaseException:
-        for reference in pending:
-            ray.cancel(reference, force=True)
         if pending:
-            # Until a killed worker has ended it may hold files a rerun needs at once (a
-            # training run's lock); a cancelled task resolves when its worker is gone.
-            ray.wait(list(pending), num_returns=len(pending), timeout=CANCEL_WAIT_S)
+            # Disconnecting ends this driver's tasks and their workers (all of a local Ray's).
+            # Not ray.cancel(force=True): racing a task that is just finishing, it can abort
+            # the driver in Ray's task manager ("Tried to complete task that was not pending").
+            ray.shutdown()
         raise

@@ -160,9 +160,9 @@ def read_study(path: str | Path) -> Study:
 def run_trial(profile: Path, overrides: Sequence[str], steps: int | None, seed: int,
               run_dir: Path) -> dict[str, Any]:
     """One trial (in a Ray worker): train or resume, then write `result.json`."""
-    from vprobot.agents.training import profile_config, train
+    from vprobot.agents.training import holds_run, profile_config, train
 
-    resume = (run_dir / "config.yaml").is_file()
+    resume = holds_run(run_dir)
     config = None if resume else profile_config(profile, overrides, steps)
     result = train(config, run_dir, seed=seed, resume=resume, progress=False,
                    argv=["vprobot", "train", str(profile), "--set", *overrides, "--seed",

@@ -193,6 +193,9 @@ def load_run_config(run_dir: Path) -> Config:
     path = run_dir / "config.yaml"
     if not path.is_file():
         raise ValueError(f"{run_dir} is not a training run (no config.yaml)")
+    if not holds_run(run_dir):
+        raise ValueError(f"{run_dir} is not a training run: its start was interrupted before "
+                         f"run.json was written; train it again without --resume")
     return from_mapping(Config, yaml.safe_load(path.read_text()))
 
 
@@ -234,9 +237,15 @@ def start_run(config: Config, run_dir: Path, seed: int, argv: Sequence[str]) -> 
     write_text(run_dir / "run.json", json.dumps({"seed": seed, "started": time.time()}) + "\n")
 
 
+def holds_run(run_dir: Path) -> bool:
+    """Whether `run_dir` holds a started run: `run.json`, the last file `start_run` writes, is
+    there (a start killed before it is started again from scratch)."""
+    return (run_dir / "run.json").is_file()
+
+
 def refuse_existing_run(run_dir: Path) -> None:
     """Raise ValueError if `run_dir` already holds a run."""
-    if (run_dir / "config.yaml").exists():
+    if holds_run(run_dir):
         raise ValueError(f"{run_dir} already holds a run; add --resume to go on with it, or "
                          f"choose another --out")
 
