@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -19,12 +18,6 @@ from vprobot.paths import ASSETS_DIR
 
 CENTRE = np.array([0.3, -0.2, 0.1])
 RADIUS = 0.08
-
-
-@pytest.fixture
-def quiet_afterwards() -> Iterator[None]:
-    yield
-    progress.show_progress(False)
 
 
 def _sphere(path: Path) -> Path:
@@ -72,23 +65,23 @@ def test_simplify_refuses_a_face_count_it_cannot_reach(faces: int) -> None:
 
 
 def test_stages_are_silent_unless_progress_is_shown(
-        capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch,
-        quiet_afterwards: None) -> None:
+        capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(progress, "DELAY_S", 0.0)
     assert list(progress.stage("counting", 3, items=range(3))) == [0, 1, 2]
     progress.note("a note")
     assert capsys.readouterr().err == ""
-    progress.show_progress()
-    assert list(progress.stage("counting", 3, items=range(3))) == [0, 1, 2]
-    progress.note("a note")
+    with progress.showing_progress():
+        assert list(progress.stage("counting", 3, items=range(3))) == [0, 1, 2]
+        progress.note("a note")
     err = capsys.readouterr().err
     assert "counting: 100%" in err and "3/3" in err
     assert err.rstrip().endswith("a note")
+    progress.note("after the block")
+    assert capsys.readouterr().err == ""
 
 
 def test_plan_shows_every_long_stage(tmp_path: Path, capsys: pytest.CaptureFixture,
-                                     monkeypatch: pytest.MonkeyPatch,
-                                     quiet_afterwards: None) -> None:
+                                     monkeypatch: pytest.MonkeyPatch) -> None:
     # With no delay every stage draws its bar, as a CAD part's minute-long stages do.
     monkeypatch.setattr(progress, "DELAY_S", 0.0)
     monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path / "cache"))
@@ -98,3 +91,5 @@ def test_plan_shows_every_long_stage(tmp_path: Path, capsys: pytest.CaptureFixtu
     err = capsys.readouterr().err
     for stage in ("ground truth", "reachability of the candidates", "visibility"):
         assert f"{stage}: 100%" in err
+    progress.note("after the command")
+    assert capsys.readouterr().err == ""

@@ -21,6 +21,7 @@ import numpy as np
 
 from vprobot.config import Config, available_sensors, load_config, replace, with_sensor
 from vprobot.outputs import check_output_file, check_output_folder
+from vprobot.progress import showing_progress
 from vprobot.robots import available_robots, load_robot
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -169,9 +170,10 @@ def command_plan(args: argparse.Namespace) -> int:
     check_output_file(args.out, "--out", (".json",))
     _check_render_outputs(args, args.video, "--video")
     options = _planning(args)
-    scene, record, document, summary = plan_motor(
-        _config(args), options["mesh"], options["scale"], options["planner"], options["views"],
-        options["carrier"], options["seed"])
+    with showing_progress():
+        scene, record, document, summary = plan_motor(
+            _config(args), options["mesh"], options["scale"], options["planner"],
+            options["views"], options["carrier"], options["seed"])
     if args.no_timing:
         document.pop("timing")
     print(summary)
@@ -193,12 +195,14 @@ def command_render(args: argparse.Namespace) -> int:
         if given:
             raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose, robot, "
                              f"sensor and views; {', '.join(given)} cannot be combined with it")
-        scene, record = episode_from_plan(config, args.plan)
+        with showing_progress():
+            scene, record = episode_from_plan(config, args.plan)
     else:
         options = _planning(args)
-        scene, record, _, summary = plan_motor(
-            config, options["mesh"], options["scale"], options["planner"], options["views"],
-            options["carrier"], options["seed"])
+        with showing_progress():
+            scene, record, _, summary = plan_motor(
+                config, options["mesh"], options["scale"], options["planner"],
+                options["views"], options["carrier"], options["seed"])
         print(summary)
     _render_outputs(args, scene, record, args.out)
     return 0
@@ -316,6 +320,13 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.render import run_render_benchmark
 
         results = run_render_benchmark(config)
+    elif args.suite == "mesh":
+        from vprobot.benchmarks.large_mesh import run_large_mesh_benchmark
+
+        # The suite runs `vprobot plan` itself, with this command's cell options.
+        results = run_large_mesh_benchmark(config, [
+            item for option in ("config", "robot", "sensor") if getattr(args, option)
+            for item in (f"--{option}", str(getattr(args, option)))])
     else:
         from vprobot.benchmarks.sensor import print_table, run_sensor_benchmark
 
@@ -527,8 +538,8 @@ def build_parser() -> argparse.ArgumentParser:
     benchmark = add("benchmark", command_benchmark, "Measure the speed and quality targets.")
     add_robot(benchmark)
     benchmark.add_argument("suite",
-                           choices=["kinematics", "sensor", "env", "planners", "render",
-                                    "train", "cluster"])
+                           choices=["kinematics", "sensor", "env", "planners", "mesh",
+                                    "render", "train", "cluster"])
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")

@@ -1,14 +1,15 @@
 """Progress of the long stages of a plan (ground truth, candidate screening, visibility).
 
-Library calls stay silent; a command that a person watches (`plan`, `render`) turns the display
-on with `show_progress()`. A stage draws its bar only once it has run for `DELAY_S`, so the
-bundled motor's second-long stages print nothing while a CAD part's minute-long ones do.
+Library calls stay silent; a command that a person watches (`plan`, `render`) shows the display
+while it runs (`showing_progress()`). A stage draws its bar only once it has run for `DELAY_S`,
+so the bundled motor's second-long stages print nothing while a CAD part's minute-long ones do.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from typing import TypeVar
 
 from tqdm import tqdm
@@ -21,10 +22,15 @@ Item = TypeVar("Item")
 _shown = False
 
 
-def show_progress(enabled: bool = True) -> None:
-    """Turn the stage bars (and notes) of this process on or off."""
+@contextlib.contextmanager
+def showing_progress() -> Iterator[None]:
+    """Show the stage bars (and notes) of this process while the block runs."""
     global _shown
-    _shown = enabled
+    before, _shown = _shown, True
+    try:
+        yield
+    finally:
+        _shown = before
 
 
 def stage(description: str, total: int, unit: str = "it",

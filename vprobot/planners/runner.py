@@ -291,4 +291,7 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         # Wall-clock figures in a block of their own, which `plan --no-timing` leaves out.
         "timing": {"plan_s": result.plan_seconds, "episode_s": result.episode_seconds},
     })
-    return scene, result.record, document, summary(result, config)
+    text = summary(result, config)
+    if scene.mesh.simplification is not None:
+        text += f"\n  mesh {scene.mesh.simplification.describe()}"
+    return scene, result.record, document, text
