@@ -4,12 +4,15 @@ Box and Dict observations), resume after kill -9, the model-free premise, profil
 from __future__ import annotations
 
 import json
+import os
 import re
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -19,7 +22,7 @@ import trimesh
 import yaml
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
-from vprobot.agents.callbacks import load_buffer, save_buffer
+from vprobot.agents.callbacks import count_lines, load_buffer, save_buffer
 from vprobot.agents.curves import plot_curves, read_monitor
 from vprobot.agents.extractors import (
     EXTRACTORS,
@@ -114,9 +117,9 @@ def test_training_smoke_run(algorithm: str, encoder: str, robot_state: bool,
                             tmp_path: Path) -> None:
     config = profile_config(PROFILES / "cpu.yaml", [
         *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
-        f"env.robot_state={str(robot_state).lower()}"], steps=200)
+        f"env.robot_state={str(robot_state).lower()}"], steps=100)
     result = train(config, tmp_path / "run", seed=1, progress=False)
-    assert result["steps"] >= 200 and 0.0 < result["coverage"] <= 1.0
+    assert result["steps"] >= 100 and 0.0 < result["coverage"] <= 1.0
     run = tmp_path / "run"
     for name in ("config.yaml", "command.txt", "memory.json", "monitor.csv",
                  "evaluations.csv", "best_model.zip", "final_model.zip", "curves.png",
@@ -126,8 +129,11 @@ def test_training_smoke_run(algorithm: str, encoder: str, robot_state: bool,
     assert (run / "logs" / "session_0" / "progress.csv").stat().st_size > 0
     memory = json.loads((run / "memory.json").read_text())
     assert memory == buffer_memory(config)
-    checkpoint = json.loads((run / "checkpoint.json").read_text())
+    checkpoint = _checkpoint(run)
+    assert checkpoint["steps"] == result["steps"]
     assert (checkpoint["buffer"] is not None) == (algorithm == "sac")
+    if algorithm == "sac":
+        assert _buffer_size(run) == result["steps"]
 
 
 def _buffer_size(run: Path) -> int:
@@ -140,43 +146,82 @@ def _buffer_size(run: Path) -> int:
 
 
 def _train_in_background(run: Path, options: list[str]) -> subprocess.Popen[bytes]:
-    """`vprobot train` of the CPU profile with `options` into `run`, in a subprocess."""
+    """`vprobot train` of the CPU profile with `options` into `run`, in a subprocess leading
+    its own process group."""
     return subprocess.Popen([sys.executable, "-m", "vprobot.cli", "train",
                              str(PROFILES / "cpu.yaml"), *options, "--out", str(run)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
 
 
-def _wait_while_running(process: subprocess.Popen[bytes], path: Path) -> bool:
-    """Wait (4 minutes at most) for `path` to appear; whether `process` still runs then."""
+def _wait_while_running(process: subprocess.Popen[bytes], ready: Callable[[], bool]) -> bool:
+    """Wait (4 minutes at most) until `ready()`; whether `process` still runs then."""
     deadline = time.monotonic() + 240
-    while process.poll() is None and time.monotonic() < deadline and not path.is_file():
+    while process.poll() is None and time.monotonic() < deadline and not ready():
         time.sleep(0.05)
-    return process.poll() is None and path.is_file()
+    return process.poll() is None and ready()
 
 
-def test_resume_after_kill_goes_on_from_the_checkpoint(tmp_path: Path) -> None:
-    steps = ["--steps", "300", "--set", *TINY, "agent.checkpoint_freq=100",
-             "agent.buffer_size=1000"]
-    whole, killed = tmp_path / "whole", tmp_path / "killed"
+def _checkpoint(run: Path) -> dict[str, Any]:
+    """The run's `checkpoint.json` (empty before its first checkpoint)."""
+    path = run / "checkpoint.json"
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def _logged_after_checkpoint(run: Path, steps: int) -> bool:
+    """Whether the checkpoint at `steps` is the run's latest and an episode ended after it."""
+    checkpoint = _checkpoint(run)
+    return checkpoint.get("steps") == steps and count_lines(
+        run / "monitor.csv") > checkpoint["log_lines"]["monitor.csv"]
+
+
+def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """While a training runs (held still at its first checkpoint), a resume of its run is
+    refused at once naming its pid and its curves can be drawn; let go, it trains on to its
+    next checkpoint; killed (kill -9 of its process group) after logging more episodes, a
+    resume goes on from that checkpoint, the logs cut back to it, to the end."""
     from vprobot.cli import main
 
-    assert main(["train", str(PROFILES / "cpu.yaml"), *steps, "--out", str(whole)]) == 0
-    process = _train_in_background(killed, steps)
-    if _wait_while_running(process, killed / "checkpoint.json"):
-        process.send_signal(signal.SIGKILL)
-    process.wait()
+    run = tmp_path / "run"
+    process = _train_in_background(run, ["--steps", "150", "--set", *TINY,
+                                         "agent.checkpoint_freq=50"])
+    try:
+        assert _wait_while_running(process, lambda: "steps" in _checkpoint(run)), (
+            "the run ended early")
+        # Stopped, the run cannot end before the resume is refused (but still holds its lock).
+        os.killpg(process.pid, signal.SIGSTOP)
+        assert (run / "run.lock").read_text().strip() == str(process.pid)
+        assert main(["train", "--resume", "--out", str(run)]) == 2
+        assert f"{run} is in use by pid {process.pid}" in capsys.readouterr().err
+        # Reading a running run is fine.
+        assert main(["curves", str(run), "--out", str(tmp_path / "during.png"),
+                     "--window", "3"]) == 0
+        assert process.poll() is None, "the run ended before the resume was refused"
+        os.killpg(process.pid, signal.SIGCONT)
+        if _wait_while_running(process, lambda: _logged_after_checkpoint(run, 100)):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
     assert process.returncode == -signal.SIGKILL, "the run ended before it was killed"
-    assert json.loads((killed / "checkpoint.json").read_text())["steps"] == 100
-    assert main(["train", "--resume", "--out", str(killed)]) == 0
-    for run in (whole, killed):
-        assert json.loads((run / "checkpoint.json").read_text())["steps"] == 300
-        assert _buffer_size(run) == 300
+    assert b"\0" not in (run / "monitor.csv").read_bytes()
+    assert _checkpoint(run)["steps"] == 100
+    assert main(["train", "--resume", "--out", str(run)]) == 0
+    assert _checkpoint(run)["steps"] == 150
+    assert _buffer_size(run) == 150
     # The monitor keeps the episodes up to the checkpoint, then the resumed ones, no others.
-    lines = (killed / "monitor.csv").read_text().splitlines()
+    monitor = (run / "monitor.csv").read_bytes()
+    assert b"\0" not in monitor
+    lines = monitor.decode().splitlines()
     assert lines[0].startswith("#") and lines[1].startswith("r,l,t,coverage")
     assert all(not line.startswith(("#", "r,")) for line in lines[2:])
     episodes = sum(int(line.split(",")[1]) for line in lines[2:])
-    assert episodes <= 300 and abs(episodes - 300) <= 11
+    assert episodes <= 150 and abs(episodes - 150) <= 11
+    assert len(read_monitor(run)["r"]) > 10
+    assert main(["curves", str(run), "--out", str(tmp_path / "after.png"), "--window", "3"]) == 0
 
 
 def test_agent_given_s_cov_sees_only_acquired_points(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -263,41 +308,13 @@ def test_profiles_and_their_memory() -> None:
 def test_curves_of_two_runs(tmp_path: Path) -> None:
     runs = []
     for seed in (1, 2):
-        config = profile_config(PROFILES / "cpu.yaml", TINY, steps=120)
+        config = profile_config(PROFILES / "cpu.yaml", TINY, steps=50)
         train(config, tmp_path / f"run{seed}", seed=seed, progress=False)
         runs.append(tmp_path / f"run{seed}")
     out = plot_curves(runs, tmp_path / "curves.png", window=3)
     assert out.stat().st_size > 10_000
     with pytest.raises(ValueError, match=r"no monitor\.csv"):
         plot_curves([tmp_path], tmp_path / "x.png")
-
-
-def test_a_run_in_use_refuses_a_resume_at_once_and_trains_on_intact(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from vprobot.cli import main
-
-    run = tmp_path / "run"
-    options = ["--steps", "400", "--set", *TINY]
-    process = _train_in_background(run, options)
-    try:
-        assert _wait_while_running(process, run / "checkpoint.json"), "the run ended early"
-        assert (run / "run.lock").read_text().strip() == str(process.pid)
-        assert main(["train", "--resume", "--out", str(run)]) == 2
-        assert f"{run} is in use by pid {process.pid}" in capsys.readouterr().err
-        # Reading a running run is fine.
-        assert main(["curves", str(run), "--out", str(tmp_path / "during.png"),
-                     "--window", "3"]) == 0
-        assert process.poll() is None, "the run ended before the resume was refused"
-        assert process.wait(timeout=300) == 0
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-    assert b"\0" not in (run / "monitor.csv").read_bytes()
-    assert len(read_monitor(run)["r"]) > 10
-    assert json.loads((run / "checkpoint.json").read_text())["steps"] == 400
-    assert _buffer_size(run) == 400
-    assert main(["curves", str(run), "--out", str(tmp_path / "after.png"), "--window", "3"]) == 0
 
 
 def _filled_buffer(space: gym.Space, size: int, transitions: int) -> ReplayBuffer:
