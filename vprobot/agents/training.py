@@ -193,9 +193,6 @@ def load_run_config(run_dir: Path) -> Config:
     path = run_dir / "config.yaml"
     if not path.is_file():
         raise ValueError(f"{run_dir} is not a training run (no config.yaml)")
-    if not holds_run(run_dir):
-        raise ValueError(f"{run_dir} is not a training run: its start was interrupted before "
-                         f"run.json was written; train it again without --resume")
     return from_mapping(Config, yaml.safe_load(path.read_text()))
 
 
@@ -279,6 +276,9 @@ def train(config: Config | None, run_dir: str | Path, seed: int = 0, resume: boo
     run_dir = Path(run_dir)
     if resume:
         config = load_run_config(run_dir)
+        if not holds_run(run_dir):
+            raise ValueError(f"{run_dir} holds no started run: its start was interrupted "
+                             f"before run.json was written; train it again without --resume")
     elif config is None:
         raise ValueError("a new run needs a config")
     else:
