@@ -20,14 +20,14 @@ from vprobot.planners.agent import AgentPlanner
 
 CONFIG = Config()
 TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=30",
-        "agent.batch_size=32", "agent.buffer_size=300", "agent.eval_freq=100",
-        "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]"]
+        "agent.batch_size=32", "agent.buffer_size=300", "agent.eval_freq=40",
+        "agent.checkpoint_freq=40", "agent.eval_episodes=1", "agent.net_arch=[16,16]"]
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("agent") / "run"
-    train(profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", TINY, steps=100), folder,
+    train(profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", TINY, steps=40), folder,
           progress=False)
     return folder
 
