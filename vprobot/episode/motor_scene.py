@@ -48,7 +48,18 @@ class MotorScene:
                 mesh, or an object too large for the cell (`vprobot.fit`), before any ground
                 truth is built.
         """
-        mesh = load_mesh(mesh_path, scale, scale_option)
+        return cls.build(config, load_mesh(mesh_path, scale, scale_option), resolution,
+                         scale_option)
+
+    @classmethod
+    def build(cls, config: Config, mesh: LoadedMesh,
+              resolution: tuple[int, int] | None = None,
+              scale_option: str = "scale") -> MotorScene:
+        """Build the cell, arm, sensor and ground truth of an already loaded mesh (see `load`).
+
+        Raises:
+            ValueError: For an object too large for the cell, before any ground truth is built.
+        """
         # Up front: an object that does not fit would otherwise cost a ground-truth build and a
         # plan that cannot succeed.
         check_fits(mesh, config, scale_option)

@@ -78,7 +78,7 @@ def _locate(recorded: str, plan_path: Path, what: str, found: Callable[[Path], b
 
 def _robot(block: Any, plan_path: Path) -> str:
     """The robot of the plan: a bundled robot's name, else the recorded robot folder."""
-    folder = _field(block, "folder", "robot") if "folder" in block else None
+    folder = block.get("folder")
     if folder is None:
         return str(_field(block, "name", "robot"))
     return str(_locate(str(folder), plan_path, "robot folder", Path.is_dir))
@@ -153,10 +153,10 @@ def episode_from_plan(config: Config, plan_path: str | Path,
     rotation = quat_to_matrix(_vector(block, "quaternion", 4, "object"))
     # The block places the file's vertices; the cell places the centred mesh (see
     # MotorScene.object_block), so the centre is the file origin moved by the centring offset.
-    offset = load_mesh(mesh_path, scale).offset
-    center = _vector(block, "position", 3, "object") + rotation @ offset
-    scene = MotorScene.load(plan_config(config, document, center, plan_path), mesh_path, scale,
-                            resolution)
+    # Loaded once: a dense mesh costs seconds of simplification.
+    mesh = load_mesh(mesh_path, scale)
+    center = _vector(block, "position", 3, "object") + rotation @ mesh.offset
+    scene = MotorScene.build(plan_config(config, document, center, plan_path), mesh, resolution)
     carrier = document.get("carrier", "robot")
     if carrier not in CARRIERS:
         raise ValueError(f"plan carrier must be one of {list(CARRIERS)}, got {carrier!r}")
