@@ -55,6 +55,8 @@ class Acquisition:
         points_world: Measured points (n, 3) in the world frame.
         points_object: The same points relative to the object centre, axes parallel to the world.
         pixels: Row-major pixel index (n,) of each point.
+        blocked_pixels: Pixels whose ray met the object within range behind the robot or a
+            part of the cell (the sensor sees that occluder, which a cell knows, not the object).
         sensor_pose: Sensor frame in the world (+z viewing direction).
         object_pose: Object (mesh) frame in the world when the frame was taken.
         rays_cast: Rays of the frame (width * height).
@@ -63,6 +65,7 @@ class Acquisition:
     points_world: np.ndarray
     points_object: np.ndarray
     pixels: np.ndarray
+    blocked_pixels: np.ndarray
     sensor_pose: Pose
     object_pose: Pose
     rays_cast: int
@@ -242,6 +245,7 @@ class DepthSensor:
         distance = self._object_depth[pixels] * self._ray_scale[pixels]
         in_range = self.sensor.in_range(distance)
         pixels, distance = pixels[in_range], distance[in_range]
+        in_range_pixels = pixels
         if len(pixels):
             pixels, distance = self._unoccluded_by_meshes(data, pose, pixels, distance)
         directions = self.directions[pixels] @ pose.rotation.T
@@ -251,7 +255,10 @@ class DepthSensor:
                                                    points)
             pixels, points = pixels[visible], points[visible]
         return Acquisition(points_world=points, points_object=points - object_pose.position,
-                           pixels=pixels, sensor_pose=pose, object_pose=object_pose,
+                           pixels=pixels,
+                           blocked_pixels=np.setdiff1d(in_range_pixels, pixels,
+                                                       assume_unique=True),
+                           sensor_pose=pose, object_pose=object_pose,
                            rays_cast=self.rays_per_frame)
 
     def _in_view(self, mesh: _MeshGeom, data: mujoco.MjData, pose: Pose,

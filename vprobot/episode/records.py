@@ -43,6 +43,8 @@ class ViewRecord:
             robot.
         sensor_pose: Sensor pose the acquisition was made from; None when nothing was acquired.
         points_world: Acquired points in the world (0 rows when nothing was acquired).
+        blocked_pixels: Pixels of the frame whose view of the object the robot or the cell
+            blocked (`Acquisition.blocked_pixels`; empty when nothing was acquired).
         coverage: Cumulative coverage after this view.
         travel: Travel from the previous acquisition pose (zero when nothing moved). For the
             episode's first acquisition it is the approach from the start, not a step.
@@ -57,6 +59,8 @@ class ViewRecord:
     points_world: np.ndarray
     coverage: float
     travel: TravelCost = dataclasses.field(default_factory=TravelCost)
+    blocked_pixels: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def acquired(self) -> bool:

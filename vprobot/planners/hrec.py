@@ -19,7 +19,7 @@ import numpy as np
 from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.planners.base import PlanPlanner
-from vprobot.planners.ordering import order_requests
+from vprobot.planners.ordering import fixed_plan
 
 
 def box_views(vertices_world: np.ndarray, center: np.ndarray,
@@ -40,11 +40,5 @@ class BoxFacesPlanner(PlanPlanner):
     def plan(self, episode: Episode) -> list[ViewRequest]:
         scene = episode.scene
         vertices = scene.mesh.mesh.vertices @ episode.object_pose.rotation.T + episode.center
-        targets = box_views(vertices, episode.center, scene.cell.config.sensor.working_distance_m)
-        if not episode.uses_robot:
-            return order_requests(episode, [ViewRequest(target) for target in targets])
-        requests = []
-        for target in targets:
-            result = scene.arm.reach(target, episode.q, episode.carrier.collisions)
-            requests.append(ViewRequest(target, result.q if result.reachable else None))
-        return order_requests(episode, requests)
+        return fixed_plan(episode, box_views(vertices, episode.center,
+                                             scene.cell.config.sensor.working_distance_m))

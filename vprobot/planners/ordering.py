@@ -17,6 +17,7 @@ from typing import TypeVar
 import numpy as np
 
 from vprobot.episode import Episode, ViewRequest
+from vprobot.kinematics import SensorTarget
 from vprobot.kinematics.travel import joint_time, paper_travel
 
 T = TypeVar("T")
@@ -115,3 +116,20 @@ def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[Vi
     costs = cost_matrix([request.target.pose.position for request in requests],
                         lambda a, b: paper_travel(a, b, center))
     return [requests[index] for index in order_views(costs, None, range(len(requests)))]
+
+
+def fixed_plan(episode: Episode, targets: Sequence[SensorTarget]) -> list[ViewRequest]:
+    """The requests of fixed targets in a short travel order (`order_requests`).
+
+    With the robot, each target is first reached from the current configuration; a target the
+    IK misses keeps no configuration, so it comes last and executing it asks the IK once more
+    from wherever the robot then is.
+    """
+    if not episode.uses_robot:
+        return order_requests(episode, [ViewRequest(target) for target in targets])
+    arm, collisions = episode.scene.arm, episode.carrier.collisions
+    requests = []
+    for target in targets:
+        result = arm.reach(target, episode.q, collisions)
+        requests.append(ViewRequest(target, result.q if result.reachable else None))
+    return order_requests(episode, requests)

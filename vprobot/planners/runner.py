@@ -27,14 +27,26 @@ from vprobot.planners.base import Planner
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import CandidateViews
 from vprobot.planners.hrec import BoxFacesPlanner
+from vprobot.planners.nbv import DEFAULT_GAIN, VolumetricPlanner
 from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.random_views import Random1Planner, Random2Planner
+from vprobot.planners.uniform import UniformPlanner
 
-PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle", "agent")
+PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle", "agent", "uniform<k>", "nbv")
+"""The planners; `uniform<k>` stands for uniform1, uniform2, ... (k fixed views)."""
 AGENT_PREFIX = "agent:"
 """`agent:PATH` names a trained agent (a run directory or a model .zip); `agent` the bundled
 one."""
 _FIXED_COUNT = re.compile(r"^(bscp|agent)(\d+)$")
+_UNIFORM = re.compile(r"^uniform([1-9]\d*)$")
+_NBV = re.compile(r"^nbv(?::(?P<gain>\w+))?(?:@(?P<stop>\w+))?$")
+"""`nbv`, `nbv:GAIN` (which gain ranks the views), `nbv@grid` (self-stopped), or both."""
+
+
+def _known(name: str) -> bool:
+    """Whether a planner name (without a view count) names a planner."""
+    return (name in PLANNER_NAMES or name.startswith(AGENT_PREFIX)
+            or _UNIFORM.match(name) is not None or _NBV.match(name) is not None)
 
 
 def make_planner(name: str, config: Config, views: int | None = None) -> Planner:
@@ -46,7 +58,7 @@ def make_planner(name: str, config: Config, views: int | None = None) -> Planner
             agent that cannot be loaded.
     """
     agent = name == "agent" or name.startswith(AGENT_PREFIX)
-    if not agent and name not in PLANNER_NAMES:
+    if not _known(name):
         raise ValueError(f"unknown planner {name!r}; allowed: {', '.join(PLANNER_NAMES)}, "
                          f"{AGENT_PREFIX}PATH")
     if views is not None and name != "bscp" and not agent:
@@ -63,6 +75,12 @@ def make_planner(name: str, config: Config, views: int | None = None) -> Planner
         return OraclePlanner()
     if name == "hrec":
         return BoxFacesPlanner()
+    uniform = _UNIFORM.match(name)
+    if uniform is not None:
+        return UniformPlanner(int(uniform[1]), config.sensor.working_distance_m)
+    nbv = _NBV.match(name)
+    if nbv is not None:
+        return VolumetricPlanner(config, nbv["gain"] or DEFAULT_GAIN, nbv["stop"] or "goal")
     return Random1Planner(config) if name == "random1" else Random2Planner(config)
 
 
@@ -79,7 +97,7 @@ def parse_planner(spec: str, counted: bool = True) -> tuple[str, int | None]:
         ValueError: If the spec names no planner, or carries a view count that `counted`
             forbids; the message lists the accepted forms.
     """
-    if spec in PLANNER_NAMES or (spec.startswith(AGENT_PREFIX) and len(spec) > len(AGENT_PREFIX)):
+    if spec != AGENT_PREFIX and _known(spec):
         return spec, None
     match = _FIXED_COUNT.match(spec)
     if match is not None and int(match[2]) >= 1:

@@ -1,0 +1,227 @@
+"""A voxel occupancy grid built from acquired depth frames, and the gains of candidate views.
+
+This is what a model-free planner knows about the object: the cell says where an object may
+stand (a cube about the fixture's centre, as wide as the largest object the cell accepts,
+`vprobot.fit`); the sensor says what it measured. Every voxel starts `UNKNOWN`. A frame is
+integrated ray by ray (Delmerico et al., 2018):
+
+- a ray that measured a point marks the voxels it crossed from the sensor's near bound up to
+  the point `FREE`, and the voxel of the point `OCCUPIED`;
+- a ray that measured nothing within the range marks its voxels from near to far `FREE`;
+- voxels closer than the near bound are not observed (the sensor cannot tell), and an
+  `OCCUPIED` voxel is never cleared again (a surface seen once stays).
+
+A ray whose view of the object the robot or the cell (fixture, floor) blocked observes nothing:
+a real cell sees the occluder and knows it as its own (a self filter), so it cannot tell what
+lies behind. (The simulated sensor returns object points only; a ray that met an occluder with
+no object behind it counts as one that measured nothing, which is true: that space is free.)
+Rays are integrated in blocks of `stride` x `stride` pixels (one ray per block, as long as the
+block's nearest measurement; none for a block with a blocked pixel), fine enough that
+neighbouring rays are less than half a voxel apart at the far bound.
+
+A candidate view is scored by casting a sparse grid of rays through the grid (`ViewGains`):
+along each ray a sample's visibility is the product of the chances that the samples before it
+let the ray through (1 for free, `UNKNOWN_PASS` per voxel for unknown, 0 for occupied), and a
+gain sums the visibility of the samples of one kind:
+
+- `unknown`: unknown voxels (volumetric information, occlusion aware);
+- `frontier`: unknown voxels next to a free one (the border of the explored space);
+- `rear_side`: unknown voxels next to an occupied one (behind or beside seen surfaces).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Literal
+
+import numpy as np
+
+from vprobot.config import Config
+from vprobot.fit import fit_limit
+from vprobot.geometry import Pose
+from vprobot.sensor_model import SensorModel
+
+UNKNOWN, FREE, OCCUPIED = 0, 1, 2
+VOXEL_M = 0.01
+"""Default voxel edge: 38^3 voxels over the default cell's 0.378 m cube."""
+UNKNOWN_PASS = 0.5
+"""Chance that a ray passes an unknown voxel (an uninformed prior: as likely free as not)."""
+Gain = Literal["unknown", "frontier", "rear_side"]
+GAINS: tuple[Gain, ...] = ("unknown", "frontier", "rear_side")
+_NEIGHBOURS = np.concatenate([np.eye(3, dtype=int), -np.eye(3, dtype=int)])
+
+
+@dataclasses.dataclass
+class OccupancyGrid:
+    """Voxels of an axis-aligned cube in the world, each `UNKNOWN`, `FREE` or `OCCUPIED`.
+
+    Attributes:
+        origin: The cube's lowest corner (world, m).
+        voxel_m: Voxel edge (m).
+        state: Voxel states (nx, ny, nz), int8.
+    """
+
+    origin: np.ndarray
+    voxel_m: float
+    state: np.ndarray
+
+    @classmethod
+    def around(cls, center: np.ndarray, half_size_m: float, voxel_m: float = VOXEL_M
+               ) -> OccupancyGrid:
+        """An all-unknown grid over the cube of half-edge `half_size_m` about `center`.
+
+        Raises:
+            ValueError: If the sizes are not positive or the voxel exceeds the cube.
+        """
+        if not (half_size_m > 0.0 and voxel_m > 0.0):
+            raise ValueError(f"half_size_m and voxel_m must be positive, got {half_size_m!r} "
+                             f"and {voxel_m!r}")
+        if voxel_m > 2.0 * half_size_m:
+            raise ValueError(f"voxel_m {voxel_m:g} exceeds the cube's edge {2 * half_size_m:g}")
+        count = math.ceil(2.0 * half_size_m / voxel_m - 1e-9)
+        half = count * voxel_m / 2.0
+        return cls(np.asarray(center, dtype=float) - half, float(voxel_m),
+                   np.full((count, count, count), UNKNOWN, dtype=np.int8))
+
+    @classmethod
+    def for_cell(cls, config: Config, voxel_m: float = VOXEL_M) -> OccupancyGrid:
+        """The grid over where an object may stand in the configured cell (not from a mesh)."""
+        return cls.around(np.asarray(config.cell.object_center_m, dtype=float),
+                          fit_limit(config).radius_m, voxel_m)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return self.state.shape  # type: ignore[return-value]
+
+    def flat_index(self, points: np.ndarray) -> np.ndarray:
+        """Flat voxel index of each point (..., 3); -1 outside the grid."""
+        cells = np.floor((points - self.origin) / self.voxel_m).astype(np.int64)
+        shape = np.asarray(self.shape)
+        inside = np.all((cells >= 0) & (cells < shape), axis=-1)
+        flat = np.ravel_multi_index(tuple(np.moveaxis(np.clip(cells, 0, shape - 1), -1, 0)),
+                                    self.shape)
+        return np.where(inside, flat, -1)
+
+    def counts(self) -> dict[str, int]:
+        """How many voxels are unknown, free and occupied."""
+        values = np.bincount(self.state.ravel(), minlength=3)
+        return {"unknown": int(values[UNKNOWN]), "free": int(values[FREE]),
+                "occupied": int(values[OCCUPIED])}
+
+    def next_to(self, kind: int) -> np.ndarray:
+        """Whether each voxel has a face neighbour of state `kind` (bool, grid shape)."""
+        padded = np.pad(self.state == kind, 1)
+        near = np.zeros(self.shape, dtype=bool)
+        nx, ny, nz = self.shape
+        for dx, dy, dz in _NEIGHBOURS:
+            near |= padded[1 + dx:1 + dx + nx, 1 + dy:1 + dy + ny, 1 + dz:1 + dz + nz]
+        return near
+
+    def kind_mask(self, gain: Gain) -> np.ndarray:
+        """The voxels a gain counts (bool, grid shape)."""
+        unknown = self.state == UNKNOWN
+        if gain == "unknown":
+            return unknown
+        if gain == "frontier":
+            return unknown & self.next_to(FREE)
+        if gain == "rear_side":
+            return unknown & self.next_to(OCCUPIED)
+        raise ValueError(f"unknown gain {gain!r}; allowed: {', '.join(GAINS)}")
+
+    def integrate(self, sensor: SensorModel, pose: Pose, points_world: np.ndarray,
+                  blocked_pixels: np.ndarray | None = None, stride: int | None = None) -> None:
+        """Integrate one frame: the sensor's pose and the points it measured (world).
+
+        Args:
+            sensor: The sensor's ray grid and range.
+            pose: The sensor pose the frame was taken from.
+            points_world: The measured points (n, 3); each lies on one pixel's ray.
+            blocked_pixels: Row-major pixels whose ray an occluder of the cell blocked.
+            stride: Pixels per block edge (one ray per block); by default the largest that
+                keeps neighbouring rays within half a voxel at the far bound.
+        """
+        width, height = sensor.resolution
+        if stride is None:
+            pixel_at_far = 2.0 * sensor.far_m * sensor.half_tangents[0] / width
+            stride = max(1, int(0.5 * self.voxel_m / pixel_at_far))
+        depth = np.full(height * width, np.inf)
+        points_world = np.asarray(points_world, dtype=float).reshape(-1, 3)
+        if len(points_world):
+            local = (points_world - pose.position) @ pose.rotation
+            u, v = sensor.pixel_tangents
+            column = np.clip(np.rint((local[:, 0] / local[:, 2] - u[0]) / (u[1] - u[0])
+                                     if width > 1 else 0), 0, width - 1).astype(int)
+            row = np.clip(np.rint((local[:, 1] / local[:, 2] - v[0]) / (v[1] - v[0])
+                                  if height > 1 else 0), 0, height - 1).astype(int)
+            np.minimum.at(depth, row * width + column, np.linalg.norm(local, axis=1))
+        if blocked_pixels is not None and len(blocked_pixels):
+            depth[np.asarray(blocked_pixels, dtype=np.int64)] = -np.inf
+        blocks_y, blocks_x = -(-height // stride), -(-width // stride)
+        padded = np.full((blocks_y * stride, blocks_x * stride), np.inf)
+        padded[:height, :width] = depth.reshape(height, width)
+        nearest = padded.reshape(blocks_y, stride, blocks_x, stride).min(axis=(1, 3)).ravel()
+        u, v = sensor.pixel_tangents
+        centre_u = np.array([u[min(i * stride + stride // 2, width - 1)]
+                             for i in range(blocks_x)])
+        centre_v = np.array([v[min(j * stride + stride // 2, height - 1)]
+                             for j in range(blocks_y)])
+        grid_u, grid_v = np.meshgrid(centre_u, centre_v)
+        rays = np.stack([grid_u.ravel(), grid_v.ravel(), np.ones(grid_u.size)], axis=1)
+        rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+        # Free space stops half a voxel short of a measurement, so that the measured surface's
+        # own voxel is never crossed.
+        length = np.where(np.isposinf(nearest), sensor.far_m, nearest - 0.5 * self.voxel_m)
+        step = 0.5 * self.voxel_m
+        distances = np.arange(sensor.near_m, sensor.far_m + step, step)
+        samples = (pose.position + (rays @ pose.rotation.T)[:, None, :]
+                   * distances[None, :, None])
+        index = self.flat_index(samples)
+        crossed = (distances[None, :] <= length[:, None]) & (index >= 0)
+        flat = self.state.reshape(-1)
+        cleared = index[crossed]
+        flat[cleared[flat[cleared] != OCCUPIED]] = FREE
+        hits = self.flat_index(points_world)
+        flat[hits[hits >= 0]] = OCCUPIED
+
+
+class ViewGains:
+    """Gains of a fixed set of candidate sensor poses, scored against a grid.
+
+    The rays of every candidate are sampled once (their voxel indices do not depend on what the
+    grid holds), so that scoring all candidates is a gather and a cumulative product.
+
+    Args:
+        grid: The grid the candidates will be scored against (its geometry only).
+        sensor: The sensor's opening angles and range.
+        poses: Candidate sensor poses (world).
+        rays: Rays per candidate along image x and y.
+    """
+
+    def __init__(self, grid: OccupancyGrid, sensor: SensorModel, poses: list[Pose],
+                 rays: tuple[int, int] = (16, 12)):
+        coarse = sensor.at_resolution(rays)
+        step = 0.5 * grid.voxel_m
+        distances = np.arange(sensor.near_m, sensor.far_m + step, step)
+        directions = coarse.ray_directions
+        samples = np.stack([pose.position + (directions @ pose.rotation.T)[:, None, :]
+                            * distances[None, :, None] for pose in poses])
+        index = grid.flat_index(samples)
+        # Samples outside the grid read an extra last element that counts as free space.
+        self._index = np.where(index >= 0, index, grid.state.size).astype(np.int32)
+        # Two samples per voxel: each passes an unknown voxel with the root of its chance.
+        self._unknown_pass = UNKNOWN_PASS ** (step / grid.voxel_m)
+
+    def __len__(self) -> int:
+        return len(self._index)
+
+    def score(self, grid: OccupancyGrid, gain: Gain) -> np.ndarray:
+        """The gain of every candidate (count,) against the grid's current state."""
+        state = np.append(grid.state.reshape(-1), np.int8(FREE))[self._index]
+        passes = np.where(state == FREE, 1.0,
+                          np.where(state == UNKNOWN, self._unknown_pass, 0.0))
+        visible = np.cumprod(passes, axis=-1)
+        # A sample is seen if everything before it let the ray through (its own state aside).
+        visible = np.concatenate([np.ones_like(visible[..., :1]), visible[..., :-1]], axis=-1)
+        counted = np.append(grid.kind_mask(gain).reshape(-1), False)[self._index]
+        return (visible * counted).sum(axis=(1, 2))

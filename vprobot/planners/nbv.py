@@ -1,0 +1,192 @@
+"""`nbv`: volumetric next-best view on an occupancy grid, model-free (Delmerico et al., 2018).
+
+Like the agents it starts from the episode's initial view. After every acquisition the frame is
+integrated into an occupancy grid over where an object may stand in the cell
+(`vprobot.occupancy`); the candidates are `CANDIDATE_COUNT` look-at views spread evenly over the
+view band at the working distance (as `uniform<k>`), each scored by the expected information of
+its rays through the grid (`DEFAULT_GAIN`). The best candidate is requested next, skipping
+candidates within `EXCLUDE_DEG` of an earlier request (taken or failed) and, with the robot,
+candidates the IK cannot reach from the current configuration or where the arm would hide the
+view (cast against the robot's own geometry; up to `REACH_TRIES` tries per view; a failed
+candidate is not tried again in the episode). The planner never reads the mesh,
+the ground truth or the coverage: only the sensor's poses and points, the cell and the robot.
+
+Stopping: in simulation the runner stops it at the coverage goal (`nbv`). Self-stopped
+(`nbv@grid`) it stops when each of the latest `STOP_QUIET_VIEWS` acquisitions added less than
+`STOP_NEW_SURFACE` to the occupied voxels (the surface seen so far has stopped growing: a
+change rule, as MA-SCVP's; one quiet view is not enough, as a view into empty space is quiet
+too),
+when no candidate adds anything, or at the view budget. The expected gain of the best
+candidate does not serve: unknown space the view band never measures (inside the object, under
+the fixture) keeps it above 60 % of its first value after ten views that saw everything.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from vprobot.config import Config
+from vprobot.episode import Episode, ViewRequest
+from vprobot.ground_truth import MAX_POLAR_DEG
+from vprobot.kinematics import SensorTarget
+from vprobot.occupancy import GAINS, VOXEL_M, Gain, OccupancyGrid, ViewGains
+from vprobot.planners.base import Planner
+from vprobot.sensor_model import SensorModel
+from vprobot.viewsphere import sphere_directions
+
+CANDIDATE_COUNT = 128
+"""Candidate views over the band: about 15 degrees apart."""
+DEFAULT_GAIN: Gain = "unknown"
+EXCLUDE_DEG = 10.0
+"""Candidates this close to an earlier request are not offered again."""
+REACH_TRIES = 40
+"""IK attempts per view at most (best candidates first)."""
+SIGHT_OFFSETS_M = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [-0.04, 0.0, 0.0],
+                            [0.0, 0.04, 0.0], [0.0, -0.04, 0.0]])
+"""Points about the centre, across the image (sensor frame), that the arm must not hide."""
+STOP_NEW_SURFACE = 0.02
+"""The grid stop: the share of occupied voxels an acquisition added (chosen on the training
+motors)."""
+STOP_QUIET_VIEWS = 2
+STOP_RULES = ("goal", "grid")
+
+
+@functools.lru_cache(maxsize=4)
+def _candidates(center: tuple[float, float, float], sensor: SensorModel, voxel_m: float,
+                half_size_m: float) -> tuple[tuple[SensorTarget, ...], np.ndarray, ViewGains]:
+    """The candidate targets, their directions and their rays through the grid; cached, as
+    they depend on the cell only."""
+    directions = sphere_directions(CANDIDATE_COUNT, np.deg2rad(MAX_POLAR_DEG))
+    middle = np.asarray(center)
+    targets = tuple(SensorTarget.look_at(middle + sensor.working_distance_m * direction, middle)
+                    for direction in directions)
+    grid = OccupancyGrid.around(middle, half_size_m, voxel_m)
+    return targets, directions, ViewGains(grid, sensor, [target.pose for target in targets])
+
+
+class VolumetricPlanner(Planner):
+    """Next-best view by information gain on an occupancy grid.
+
+    Args:
+        config: The configuration (cell, sensor, view budget).
+        gain: Which gain ranks the candidates (`vprobot.occupancy.GAINS`).
+        stop: `goal` (the runner stops at the coverage goal) or `grid` (the planner stops
+            itself, see the module docstring).
+        voxel_m: Voxel edge of the grid.
+
+    Raises:
+        ValueError: For an unknown gain or stop rule.
+
+    Attributes:
+        added: Per informative frame of the latest episode (one the cell did not mostly
+            hide), the share of the occupied voxels it added: the stop rule's input.
+        stop_reason: Why the planner stopped itself in the latest episode, else None.
+    """
+
+    name = "nbv"
+    initial_view = True
+
+    def __init__(self, config: Config, gain: Gain = DEFAULT_GAIN, stop: str = "goal",
+                 voxel_m: float = VOXEL_M):
+        if gain not in GAINS:
+            raise ValueError(f"unknown gain {gain!r}; allowed: {', '.join(GAINS)}")
+        if stop not in STOP_RULES:
+            raise ValueError(f"unknown stop rule {stop!r} for nbv; allowed: "
+                             f"{', '.join(STOP_RULES)}")
+        self.config = config
+        self.gain = gain
+        self.stop = stop
+        self.stops_at_goal = stop == "goal"
+        self.voxel_m = voxel_m
+        self.sensor = SensorModel.from_config(config.sensor)
+        self.grid = OccupancyGrid.for_cell(config, voxel_m)
+        self.added: list[float] = []
+        self.stop_reason: str | None = None
+        self._integrated = 0
+        self._failed: set[int] = set()
+
+    def reset(self, episode: Episode, rng: np.random.Generator) -> None:
+        self.grid = OccupancyGrid.for_cell(self.config, self.voxel_m)
+        self.added = []
+        self.stop_reason = None
+        self._integrated = 0
+        self._failed = set()
+
+    def _candidates(self, episode: Episode) -> tuple[tuple[SensorTarget, ...], np.ndarray,
+                                                     ViewGains]:
+        half = float(self.grid.state.shape[0] * self.voxel_m / 2.0)
+        return _candidates(tuple(float(x) for x in episode.center), self.sensor, self.voxel_m,
+                           half)
+
+    def _integrate(self, episode: Episode) -> None:
+        for view in episode.views[self._integrated:]:
+            if view.sensor_pose is None:
+                continue
+            before = self.grid.counts()["occupied"]
+            self.grid.integrate(self.sensor, view.sensor_pose, view.points_world,
+                                view.blocked_pixels)
+            # A frame the cell mostly hid (e.g. by the robot) says nothing about what is left.
+            if len(view.blocked_pixels) < len(view.points_world):
+                after = self.grid.counts()["occupied"]
+                self.added.append((after - before) / max(after, 1))
+        self._integrated = len(episode.views)
+
+    def _offered(self, episode: Episode, directions: np.ndarray) -> np.ndarray:
+        """Candidates not yet tried and not within `EXCLUDE_DEG` of an earlier request."""
+        offered = np.ones(len(directions), dtype=bool)
+        offered[list(self._failed)] = False
+        requested = np.array([view.requested.position - episode.center
+                              for view in episode.views]).reshape(-1, 3)
+        if len(requested):
+            requested /= np.linalg.norm(requested, axis=1, keepdims=True)
+            closest = (directions @ requested.T).max(axis=1)
+            offered &= closest < np.cos(np.deg2rad(EXCLUDE_DEG))
+        return offered
+
+    def next_view(self, episode: Episode) -> ViewRequest | None:
+        self._integrate(episode)
+        if not self.stops_at_goal:
+            self.stop_reason = self._grid_stop(episode)
+            if self.stop_reason is not None:
+                return None
+        targets, directions, gains = self._candidates(episode)
+        scores = np.where(self._offered(episode, directions), gains.score(self.grid, self.gain),
+                          0.0)
+        for index in np.argsort(-scores, kind="stable")[:REACH_TRIES]:
+            if scores[index] <= 0.0:
+                break
+            request = self._reached(episode, targets[index])
+            if request is not None:
+                return request
+            self._failed.add(int(index))
+        self.stop_reason = "no reachable candidate adds anything"
+        return None
+
+    def _grid_stop(self, episode: Episode) -> str | None:
+        """Why the grid rule stops the episode now, else None."""
+        if len(episode.views) > self.config.env.max_acquisitions:
+            return "view budget"
+        recent = self.added[-STOP_QUIET_VIEWS:]
+        if len(self.added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
+            return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "
+                    f"{STOP_NEW_SURFACE:.0%} to the seen surface")
+        return None
+
+    @staticmethod
+    def _reached(episode: Episode, target: SensorTarget) -> ViewRequest | None:
+        """The request of a target the carrier can take, else None: with the robot, an IK
+        solution from the current configuration whose arm does not hide the view's centre."""
+        if not episode.uses_robot:
+            return ViewRequest(target)
+        arm = episode.scene.arm
+        result = arm.reach(target, episode.q, episode.carrier.collisions)
+        if not result.reachable:
+            return None
+        rotation = arm.fk(result.q).rotation
+        sight = episode.center + SIGHT_OFFSETS_M @ rotation.T
+        if episode.carrier.arm_blocks(result.q, sight):
+            return None
+        return ViewRequest(target, result.q)
+
