@@ -1,0 +1,237 @@
+"""Model-free planners (uniform<k>, nbv): what they may read, the occupancy grid, their gains."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+import trimesh
+
+from vprobot.config import Config
+from vprobot.episode import Episode, MotorScene, seeded_episode
+from vprobot.geometry import Pose
+from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN, UNKNOWN_PASS, OccupancyGrid, ViewGains
+from vprobot.planners import make_planner, parse_planner
+from vprobot.planners.base import Planner
+from vprobot.planners.nbv import EXCLUDE_DEG
+from vprobot.sensor_model import SensorModel
+
+CONFIG = Config()
+RESOLUTION = (107, 75)
+VIEW_FIELDS = ("requested", "reachable", "sensor_pose", "points_world", "blocked_pixels",
+               "acquired", "joints")
+"""What a model-free planner may read of a view: where it asked, where the sensor was and
+what it measured, never the coverage."""
+
+
+@pytest.fixture(scope="module")
+def bracket(tmp_path_factory: pytest.TempPathFactory) -> Iterator[MotorScene]:
+    """An L-shaped part (two boxes), its ground truth cached in a temporary folder."""
+    folder = tmp_path_factory.mktemp("model_free")
+    mesh = trimesh.boolean.union([
+        trimesh.creation.box(extents=(0.16, 0.10, 0.03)),
+        trimesh.creation.box(extents=(0.03, 0.10, 0.12),
+                             transform=trimesh.transformations.translation_matrix(
+                                 (0.065, 0.0, 0.045))),
+    ])
+    path = folder / "bracket.stl"
+    mesh.export(path)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("VPROBOT_CACHE_DIR", str(folder / "cache"))
+        yield MotorScene.load(CONFIG, path, resolution=RESOLUTION)
+
+
+class Guarded:
+    """Lets a planner read only the named attributes; reading anything else fails the test."""
+
+    def __init__(self, what: str, **allowed: Any):
+        self._what = what
+        self._allowed = allowed
+
+    def __getattr__(self, name: str) -> Any:
+        if name in self._allowed:
+            return self._allowed[name]
+        raise AssertionError(f"the planner read {self._what}.{name}")
+
+
+def planner_view(episode: Episode) -> Guarded:
+    """The episode as a model-free planner may see it: the views' poses and points, the
+    robot's state and kinematics, the fixture's centre; no mesh, ground truth or coverage."""
+    views = [Guarded("view", **{name: getattr(view, name) for name in VIEW_FIELDS})
+             for view in episode.views]
+    carrier = episode.carrier
+    allowed_carrier = ({"collisions": carrier.collisions, "path_is_free": carrier.path_is_free,
+                        "arm_blocks": carrier.arm_blocks} if episode.uses_robot else {})
+    return Guarded("episode", views=views, q=episode.q.copy(), center=episode.center.copy(),
+                   uses_robot=episode.uses_robot,
+                   scene=Guarded("scene", arm=episode.scene.arm),
+                   carrier=Guarded("carrier", **allowed_carrier))
+
+
+def guarded_run(planner: Planner, scene: MotorScene, carrier: str, seed: int = 0,
+                views: int = 6) -> Episode:
+    """Run a planner for at most `views` requests, handing it only `planner_view`s."""
+    spec = seeded_episode(CONFIG.env, scene.mesh.path, seed)
+    episode = Episode.from_spec(scene, spec, carrier)
+    planner.reset(planner_view(episode), np.random.default_rng(seed))  # type: ignore[arg-type]
+    if planner.initial_view:
+        episode.begin(spec.initial_requests(episode.center, CONFIG.sensor.working_distance_m))
+    while len(episode.views) < views:
+        request = planner.next_view(planner_view(episode))  # type: ignore[arg-type]
+        if request is None:
+            break
+        episode.request(request)
+    return episode
+
+
+@pytest.mark.parametrize("carrier", ["robot", "free"])
+@pytest.mark.parametrize("name", ["uniform4", "nbv", "nbv@grid"])
+def test_model_free_planners_never_read_mesh_ground_truth_or_coverage(
+        bracket: MotorScene, name: str, carrier: str) -> None:
+    episode = guarded_run(make_planner(name, CONFIG), bracket, carrier)
+    assert sum(view.acquired for view in episode.views) >= 3
+
+
+def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene) -> None:
+    with pytest.raises(AssertionError, match="the planner read"):
+        guarded_run(make_planner("hrec", CONFIG), bracket, "free")
+
+
+def test_uniform_views_are_the_same_whatever_the_object_and_its_pose(
+        bracket: MotorScene) -> None:
+    seen = []
+    for seed in (0, 1):
+        episode = guarded_run(make_planner("uniform5", CONFIG), bracket, "free", seed)
+        seen.append(sorted(tuple(np.round(view.requested.position, 9))
+                           for view in episode.views))
+        offsets = [view.requested.position - episode.center for view in episode.views]
+        assert np.allclose(np.linalg.norm(offsets, axis=1), CONFIG.sensor.working_distance_m)
+    assert len(seen[0]) == 5 and seen[0] == seen[1]
+
+
+def test_nbv_never_asks_again_for_a_view_near_an_earlier_one(bracket: MotorScene) -> None:
+    episode = guarded_run(make_planner("nbv", CONFIG), bracket, "free", views=8)
+    directions = np.array([view.requested.position - episode.center for view in episode.views])
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    angles = np.degrees(np.arccos(np.clip(directions @ directions.T, -1.0, 1.0)))
+    np.fill_diagonal(angles, 180.0)
+    assert angles.min() >= EXCLUDE_DEG
+
+
+# The grid against hand-built scenes: a 21 x 21 pinhole sensor seeing 0.3 to 0.5 m.
+SENSOR = SensorModel(resolution=(21, 21), fov_deg=(40.0, 40.0), near_m=0.3, far_m=0.5,
+                     working_distance_m=0.4)
+VOXEL = 0.02
+DOWN = Pose(np.array([0.0, 0.0, 0.4]), np.diag([1.0, -1.0, -1.0]))
+"""The sensor 0.4 m above the origin, looking straight down (+z of the sensor is -z)."""
+
+
+def hits_on_plane(pose: Pose, height: float) -> np.ndarray:
+    """Where every pixel's ray meets the horizontal plane z = height (ray-plane intersection)."""
+    rays = SENSOR.ray_directions @ pose.rotation.T
+    distance = (height - pose.position[2]) / rays[:, 2]
+    return pose.position + rays * distance[:, None]
+
+
+def state_at(grid: OccupancyGrid, point: tuple[float, float, float]) -> int:
+    return int(grid.state.reshape(-1)[grid.flat_index(np.array(point))])
+
+
+def test_a_plane_seen_from_above_is_occupied_free_in_front_unknown_behind() -> None:
+    grid = OccupancyGrid.around(np.zeros(3), 0.2, VOXEL)
+    grid.integrate(SENSOR, DOWN, hits_on_plane(DOWN, 0.0))
+    # The plane z = 0 lies in the voxel layer [0, 0.02): occupied under every ray.
+    assert state_at(grid, (0.01, 0.01, 0.01)) == OCCUPIED
+    assert state_at(grid, (-0.09, 0.07, 0.01)) == OCCUPIED
+    # In front of the plane within range (0.3 m from the sensor is z = 0.1): free.
+    for z in (0.03, 0.05, 0.07):
+        assert state_at(grid, (0.01, 0.01, z)) == FREE
+    # Closer than the near bound: not observed.
+    assert state_at(grid, (0.01, 0.01, 0.15)) == UNKNOWN
+    # Behind the plane, and outside the 40-degree frustum (tan 20 * 0.4 = 0.146 m): unknown.
+    assert state_at(grid, (0.01, 0.01, -0.05)) == UNKNOWN
+    assert state_at(grid, (0.19, 0.19, 0.05)) == UNKNOWN
+    # The plane fills the frustum's cross-section at z = 0: 2 * 0.146 m, about 15 voxels across.
+    occupied = grid.state[:, :, 10] == OCCUPIED
+    assert 14 <= occupied.sum(axis=0).max() <= 16
+    assert grid.counts()["occupied"] == occupied.sum()
+
+
+def test_a_ray_that_measures_nothing_marks_free_space_up_to_the_far_bound() -> None:
+    grid = OccupancyGrid.around(np.zeros(3), 0.2, VOXEL)
+    grid.integrate(SENSOR, DOWN, np.zeros((0, 3)))
+    # Range 0.3-0.5 m below the sensor at z = 0.4: z from 0.1 down to -0.1.
+    assert [state_at(grid, (0.01, 0.01, z)) for z in (0.15, 0.09, 0.0, -0.09, -0.13)] == [
+        UNKNOWN, FREE, FREE, FREE, UNKNOWN]
+    assert grid.counts()["occupied"] == 0
+
+
+def test_a_box_hides_what_is_behind_it_and_blocked_rays_observe_nothing() -> None:
+    box = trimesh.creation.box(extents=(0.07, 0.07, 0.07))
+    grid = OccupancyGrid.around(np.zeros(3), 0.2, VOXEL)
+    rays = SENSOR.ray_directions @ DOWN.rotation.T
+    locations, _, _ = box.ray.intersects_location(
+        np.repeat(DOWN.position[None], len(rays), axis=0), rays, multiple_hits=False)
+    assert len(locations) > 0
+    # The robot blocks the rays of the left third of the image (image x < 0 is world x < 0).
+    columns = np.arange(SENSOR.rays_per_frame) % SENSOR.resolution[0]
+    blocked = np.flatnonzero(columns < 7)
+    grid.integrate(SENSOR, DOWN, locations, blocked)
+    assert state_at(grid, (0.01, 0.01, 0.03)) == OCCUPIED      # the box's top face, z = 0.035
+    assert state_at(grid, (0.01, 0.01, 0.07)) == FREE          # above it
+    assert state_at(grid, (0.01, 0.01, -0.01)) == UNKNOWN      # inside and under the box
+    assert state_at(grid, (0.09, 0.01, -0.05)) == FREE         # beside it, seen past its edge
+    assert state_at(grid, (-0.11, 0.01, 0.05)) == UNKNOWN      # behind the robot's rays
+
+
+def test_unknown_gain_of_a_ray_through_unknown_space_is_the_hand_computed_series() -> None:
+    grid = OccupancyGrid.around(np.zeros(3), 0.4, VOXEL)
+    single = SensorModel(resolution=(1, 1), fov_deg=(1.0, 1.0), near_m=0.3, far_m=0.5,
+                         working_distance_m=0.4)
+    pose = Pose(np.array([0.0, 0.0, 0.39]), np.diag([1.0, -1.0, -1.0]))
+    gains = ViewGains(grid, single, [pose], rays=(1, 1))
+    samples = len(np.arange(0.3, 0.5 + VOXEL / 2, VOXEL / 2))
+    per_sample = UNKNOWN_PASS ** 0.5
+    assert gains.score(grid, "unknown")[0] == pytest.approx(
+        (1 - per_sample ** samples) / (1 - per_sample))
+    # Free space holds nothing to learn; an occupied voxel ends the ray before what it hides.
+    grid.state[:] = FREE
+    assert gains.score(grid, "unknown")[0] == 0.0
+    grid.state[:, :, :] = UNKNOWN
+    grid.state.reshape(-1)[grid.flat_index(np.array([0.0, 0.0, 0.085]))] = OCCUPIED
+    # Samples at 0.300 and 0.310 m lie in z [0.08, 0.10) (occupied): nothing is seen.
+    assert gains.score(grid, "unknown")[0] == 0.0
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("uniform0", "unknown planner 'uniform0'"),
+    ("nbv:bogus", "unknown gain 'bogus'; allowed: unknown, frontier, rear_side"),
+    ("nbv@bogus", "unknown stop rule 'bogus' for nbv; allowed: goal, grid"),
+])
+def test_bad_model_free_planner_names_are_clear_errors(spec: str, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        make_planner(parse_planner(spec)[0], CONFIG)
+
+
+def test_uniform_takes_its_count_from_the_name_not_from_views() -> None:
+    assert parse_planner("uniform6", counted=False) == ("uniform6", None)
+    with pytest.raises(ValueError, match="applies to bscp and agents only"):
+        make_planner("uniform4", CONFIG, views=5)
+
+
+def test_parse_accepts_every_model_free_form() -> None:
+    for spec in ("uniform1", "uniform12", "nbv", "nbv:frontier", "nbv@grid",
+                 "nbv:rear_side@grid"):
+        assert parse_planner(spec) == (spec, None)
+
+
+def test_the_arm_blocks_a_point_behind_its_own_links_but_not_one_in_front_of_the_sensor(
+        bracket: MotorScene) -> None:
+    episode = Episode(bracket, np.eye(3))
+    home = bracket.cell.joints.home
+    sensor = bracket.arm.fk(home)
+    base = bracket.cell.robot_base.position
+    assert episode.carrier.arm_blocks(home, base)
+    assert not episode.carrier.arm_blocks(home, sensor.position + 0.2 * sensor.view_axis)
