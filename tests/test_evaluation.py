@@ -5,24 +5,36 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+import numpy as np
 import pytest
+from PIL import Image
 
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 from vprobot.config import Config
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
+    EpisodeRecord,
+    EpisodeSpec,
+    ViewRecord,
     episode_list,
     read_episode_list,
 )
+from vprobot.episode.specs import BUNDLED_SHAPE_EPISODES
 from vprobot.evaluation import (
     COLUMNS,
+    CURVE_COLUMNS,
     EPISODE_COLUMNS,
+    PLOT_NAME,
+    episode_row,
     evaluate,
     evaluation_episodes,
+    finished_rows,
     held_out_motors,
     summarize,
 )
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.geometry import Pose
+from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
+from vprobot.planners.runner import EpisodeResult
 
 CONFIG = Config()
 
@@ -30,6 +42,12 @@ CONFIG = Config()
 def read_csv(path: Path) -> list[dict[str, str]]:
     with path.open() as stream:
         return list(csv.DictReader(stream))
+
+
+def assert_png(path: Path) -> None:
+    with Image.open(path) as image:
+        assert image.format == "PNG" and image.width > 100 and image.height > 100
+        image.verify()
 
 
 def test_evaluate_writes_markdown_and_csv(tmp_path: Path) -> None:
@@ -44,6 +62,10 @@ def test_evaluate_writes_markdown_and_csv(tmp_path: Path) -> None:
     for row in episodes:
         assert 0.0 <= float(row["coverage_pct"]) <= 100.0
         assert int(row["acquisitions"]) <= int(row["requested"])
+        curve = [float(row[key]) for key in CURVE_COLUMNS]
+        assert curve == sorted(curve)
+        assert curve[-1] == float(row["coverage_pct"]) or int(row["requested"]) > len(curve)
+        assert (row["views_to_goal"] != "") == (row["success"] == "True")
         if row["carrier"] == "free":
             assert row["joint_time_s"] == "" and row["reachable_pct"] == ""
         else:
@@ -54,6 +76,8 @@ def test_evaluate_writes_markdown_and_csv(tmp_path: Path) -> None:
     assert hrec_free["acquisitions"] == 6 and hrec_free["joint_time_s"] is None
     markdown = (tmp_path / "evaluation.md").read_text()
     assert "| hrec | free | 2 |" in markdown and "B_SCP,5 | 98.17" in markdown
+    assert "| area % | views to goal |" in markdown
+    assert_png(tmp_path / PLOT_NAME)
     # The episode list is part of the output, and running it again gives the same rows.
     assert read_episode_list(tmp_path / "episodes.json") == specs
     again = evaluate(CONFIG, ["hrec", "random2"], evaluation_episodes(
@@ -76,10 +100,91 @@ def test_bundled_episode_list_is_what_the_sampler_draws() -> None:
     assert len({spec.object_quaternion for spec in bundled}) == len(bundled) == 15
 
 
+def test_shapes_episode_list_is_what_the_sampler_draws_and_loads_from_anywhere(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    bundled = read_episode_list(BUNDLED_SHAPE_EPISODES)
+    objects = sorted(OBJECTS_DIR.glob("*.stl"))
+    assert [path.stem for path in objects] == ["bracket", "pipe_tee", "torus"]
+    assert bundled == episode_list(CONFIG, objects, range(5))
+    assert evaluation_episodes(CONFIG, episodes="shapes-v1") == bundled
+    assert evaluation_episodes(CONFIG, episodes="test-v1") == read_episode_list(
+        BUNDLED_TEST_EPISODES)
+    # Bundled objects are named inside the assets, not by a path that only works in the repo.
+    monkeypatch.chdir(tmp_path)
+    assert bundled[0].motor == "objects/bracket.stl"
+    assert {spec.motor_path for spec in bundled} == set(objects)
+
+
+def test_an_unknown_episode_list_names_the_bundled_ones(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"'shapes-v2' is neither .* bundled: test-v1, shapes-v1"):
+        evaluation_episodes(CONFIG, episodes="shapes-v2")
+
+
+def _result(coverages: list[float], reachable: list[bool] | None = None) -> EpisodeResult:
+    """A free-flying episode whose views reached `coverages` (unreachable ones acquire
+    nothing)."""
+    pose = Pose(np.zeros(3), np.eye(3))
+    views = [ViewRecord(requested=pose, reachable=ok, reason=None if ok else "collision",
+                        joints=None, path=None, sensor_pose=pose if ok else None,
+                        points_world=np.zeros((0, 3)), coverage=coverage)
+             for coverage, ok in zip(coverages, reachable or [True] * len(coverages),
+                                     strict=True)]
+    record = EpisodeRecord(carrier="free", object_pose=pose, start_joints=np.zeros(6),
+                           views=views, gt_points_world=np.zeros((0, 3)),
+                           first_covered_by=np.zeros(0, dtype=int), epsilon_m=0.001)
+    spec = EpisodeSpec(motor="test/motor_000.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
+                       initial_views=((1.42, 0.71),), seed=0)
+    return EpisodeResult(planner="nbv", carrier="free", spec=spec, record=record, goal=0.9,
+                         plan_seconds=0.1, episode_seconds=0.2)
+
+
+def test_summarize_gives_the_coverage_curve_its_area_and_views_to_goal() -> None:
+    # Reaches the goal exactly at request 3 and stops: 90 % is carried over requests 4..10.
+    stopped = episode_row(0, _result([0.5, 0.8, 0.9]))
+    # Request 2 unreached (it still costs a request); ends at 85 % after 4 requests.
+    failed = episode_row(1, _result([0.4, 0.4, 0.7, 0.85], [True, False, True, True]))
+    # Reaches the goal at request 11, past the curve.
+    late = episode_row(2, _result([0.3, 0.5, 0.6, 0.7, 0.75, 0.8, 0.82, 0.84, 0.86, 0.88,
+                                   0.91]))
+    assert [stopped[key] for key in CURVE_COLUMNS] == pytest.approx([50, 80] + [90] * 8)
+    assert [failed[key] for key in CURVE_COLUMNS] == pytest.approx([40, 40, 70] + [85] * 7)
+    assert (stopped["views_to_goal"], failed["views_to_goal"], late["views_to_goal"]) == (
+        3, None, 11)
+    (row,) = summarize([stopped, failed, late])
+    # Areas per episode: (50 + 80 + 8 * 90) / 10 = 85, (40 + 40 + 70 + 7 * 85) / 10 = 74.5,
+    # (30 + 50 + 60 + 70 + 75 + 80 + 82 + 84 + 86 + 88) / 10 = 70.5.
+    assert row["area_pct"] == pytest.approx((85.0 + 74.5 + 70.5) / 3)
+    assert row["cov_1_pct"] == pytest.approx(40.0)
+    assert row["cov_10_pct"] == pytest.approx((90 + 85 + 88) / 3)
+    assert row["views_to_goal"] == pytest.approx(7.0)  # (3 + 11) / 2: the failed one is out
+    assert row["success_pct"] == pytest.approx(200 / 3)
+    (none_reached,) = summarize([failed])
+    assert none_reached["views_to_goal"] is None
+
+
+def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture) -> None:
+    from vprobot.cli import main
+
+    old = [column for column in EPISODE_COLUMNS
+           if column not in CURVE_COLUMNS and column != "views_to_goal"]
+    rows = tmp_path / "evaluation_episodes.csv"
+    rows.write_text(",".join(old) + "\n")
+    with pytest.raises(ValueError, match="not an episodes table of this vprobot version"):
+        finished_rows(rows)
+    assert main(["evaluate", "--planners", "hrec", "--motors", str(DEFAULT_MOTOR), "--seeds",
+                 "0", "--out", str(tmp_path)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert "use another --out" in line
+    assert rows.read_text() == ",".join(old) + "\n"
+    assert not (tmp_path / "episodes.json").exists()
+
+
 def test_summarize_averages_per_planner_and_carrier() -> None:
-    base = {"acquisitions": 4, "requested": 5, "joint_time_s": None, "joint_path_rad": None,
-            "cartesian_m": None, "paper_m": 1.0, "reachable_pct": None, "plan_s": 0.5,
-            "plan_ms_per_view": 100.0, "episode_s": 1.0}
+    base = {"acquisitions": 4, "requested": 5, "views_to_goal": None, "joint_time_s": None,
+            "joint_path_rad": None, "cartesian_m": None, "paper_m": 1.0, "reachable_pct": None,
+            "plan_s": 0.5, "plan_ms_per_view": 100.0, "episode_s": 1.0,
+            **dict.fromkeys(CURVE_COLUMNS, 50.0)}
     rows = [{**base, "planner": "bscp", "carrier": "free", "coverage_pct": 90.0,
              "success": True},
             {**base, "planner": "bscp", "carrier": "free", "coverage_pct": 80.0,
@@ -179,6 +284,7 @@ def test_interrupted_evaluation_saves_its_tables_and_finishes_later(
                  carriers=["free"])
     assert len(read_csv(tmp_path / "evaluation_episodes.csv")) == 2
     assert "Partial: 2 of 4 episodes" in (tmp_path / "evaluation.md").read_text()
+    assert_png(tmp_path / PLOT_NAME)
     monkeypatch.setattr(evaluation, "run", real_run)
     table = evaluate(CONFIG, ["random2", "hrec"], specs, tmp_path, progress=False,
                      carriers=["free"])

@@ -226,8 +226,9 @@ def _render_outputs(args: argparse.Namespace, scene: Any, record: Any, video: st
 
 
 def command_evaluate(args: argparse.Namespace) -> int:
-    """Compare planners on one episode list; write evaluation.md, .csv and episodes.json."""
-    from vprobot.evaluation import evaluate, evaluation_episodes
+    """Compare planners on one episode list; write evaluation.md, .csv, episodes.json and the
+    coverage curves plot."""
+    from vprobot.evaluation import PLOT_NAME, evaluate, evaluation_episodes
 
     check_output_folder(args.out, "--out")
     config = _config(args)
@@ -235,6 +236,7 @@ def command_evaluate(args: argparse.Namespace) -> int:
     evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers,
              workers=args.workers, address=args.address)
     print((Path(args.out) / "evaluation.md").read_text())
+    print(f"coverage curves: {Path(args.out) / PLOT_NAME}")
     return 0
 
 
@@ -479,14 +481,16 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--plan", help="plan JSON (SPEC section 12) to replay instead")
     render.add_argument("--out", required=True, help="video to write (.mp4 or .gif)")
 
-    evaluation = add("evaluate", command_evaluate, "Compare planners on the test motors.")
+    evaluation = add("evaluate", command_evaluate,
+                     "Compare planners on a fixed episode list (default: the test motors).")
     add_robot(evaluation)
     evaluation.add_argument("--planners", nargs="+", default=[
         "random1", "random2", "hrec", "bscp", "bscp4", "bscp5", "oracle"],
         help="planner names, bscp<N> / agent<N> for B_SCP / the bundled agent with N views, "
         "agent (the bundled agent) or agent:PATH (a training run or model .zip)")
-    evaluation.add_argument("--episodes", help="episode list (JSON, as written into --out); "
-                            "default: the bundled list over the test motors")
+    evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
+                            "the test motors; shapes-v1: the non-motor objects) or a JSON file "
+                            "as written into --out; default: test-v1")
     evaluation.add_argument("--motors", nargs="+",
                             help="mesh files to draw episodes for instead (default: the test "
                             "motors)")

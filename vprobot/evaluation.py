@@ -1,15 +1,21 @@
-"""Compare planners on held-out motors (`vprobot evaluate`): a Markdown and a CSV table.
+"""Compare planners on held-out objects (`vprobot evaluate`): Markdown and CSV tables, a plot.
 
 Every planner runs every episode of one fixed, versioned episode list (`vprobot.episode.specs`;
-by default the bundled list over the test motors) with each carrier, so all planners (and
-agents) are scored on identical episodes; the list is written beside the tables. Carriers:
+by default the bundled list over the test motors, or `shapes-v1` over the non-motor objects)
+with each carrier, so all planners (and agents) are scored on identical episodes; the list is
+written beside the tables. Carriers:
 `robot` (the robot must reach every view; joint-space travel and reachability are measured)
 and `free` (a free-flying sensor as in the paper, for comparison with its Table 9). Per planner
 and carrier the table gives the mean coverage, the acquisitions (views actually acquired, the
 initial view included), the success rate (coverage goal reached), the mean travel between the
 views of an episode (`joint_time` s, `joint_path` rad, `cartesian` m, `paper` m; the approach
 from the start to the first view is not counted, SPEC section 8), the fraction of requested
-views the robot reached and the planning time per episode.
+views the robot reached and the planning time per episode. Beside the final figures, the
+coverage after each of the first 10 requests (the initial view included; an unreached request
+counts, since it costs a request) gives a curve per planner (`coverage_vs_views.png`), its area
+(the mean coverage over those 10 requests) and the number of requests at which the goal was
+reached. An episode that ended earlier keeps its final coverage for the remaining requests: the
+planner stopped there, so that is what it delivers with that many requests.
 """
 
 from __future__ import annotations
@@ -36,17 +42,24 @@ from vprobot.episode import (
     read_episode_list,
     write_episode_list,
 )
-from vprobot.files import append_line, csv_text, write_text
+from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
+from vprobot.files import append_line, atomic_output, csv_text, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
 
+CURVE_VIEWS = 10
+"""Requests (the initial view included) over which the coverage curve and its area run."""
+CURVE_COLUMNS = tuple(f"cov_{n}_pct" for n in range(1, CURVE_VIEWS + 1))
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
-           "requested", "success_pct", "joint_time_s", "joint_path_rad", "cartesian_m",
-           "paper_m", "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s")
+           "requested", "success_pct", "area_pct", "views_to_goal", "joint_time_s",
+           "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct", "plan_s",
+           "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
 EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
-                   "requested", "success", "joint_time_s", "joint_path_rad", "cartesian_m",
-                   "paper_m", "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s")
+                   "requested", "success", "views_to_goal", "joint_time_s", "joint_path_rad",
+                   "cartesian_m", "paper_m", "reachable_pct", "plan_s", "plan_ms_per_view",
+                   "episode_s", *CURVE_COLUMNS)
+PLOT_NAME = "coverage_vs_views.png"
 PAPER_TABLE_9 = (
     ("agent 8 (A_2S0R)", 92.20, 5.26, 0.0521),
     ("agent 9 (A_3S0R)", 92.16, 4.63, 0.0538),
@@ -60,6 +73,23 @@ PAPER_TABLE_9 = (
 def held_out_motors() -> list[Path]:
     """The bundled held-out motors."""
     return sorted((MOTORS_DIR / "test").glob("*.stl"))
+
+
+def coverage_curve(result: EpisodeResult) -> list[float]:
+    """Coverage (%) after each of the first `CURVE_VIEWS` requests, unreached ones included;
+    past the episode's end its final coverage, since the planner stopped there."""
+    curve = [100.0 * view.coverage for view in result.record.views[:CURVE_VIEWS]]
+    return curve + [100.0 * result.coverage] * (CURVE_VIEWS - len(curve))
+
+
+def views_to_goal(result: EpisodeResult) -> int | None:
+    """The 1-based request (the initial view is 1) after which the coverage first reached the
+    goal; None if it never did."""
+    if not result.success:
+        return None
+    # The goal test of `success`; coverage never drops, so a view passing it exists.
+    return next(number for number, view in enumerate(result.record.views, start=1)
+                if view.coverage >= result.goal - 1e-12)
 
 
 def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
@@ -76,6 +106,7 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "acquisitions": result.acquisitions,
         "requested": result.requested,
         "success": result.success,
+        "views_to_goal": views_to_goal(result),
         "joint_time_s": travel.joint_time if robot else None,
         "joint_path_rad": travel.joint_path if robot else None,
         "cartesian_m": travel.cartesian,
@@ -84,6 +115,7 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "plan_s": result.plan_seconds,
         "plan_ms_per_view": 1e3 * result.plan_seconds / max(result.requested, 1),
         "episode_s": result.episode_seconds,
+        **dict(zip(CURVE_COLUMNS, coverage_curve(result), strict=True)),
     }
 
 
@@ -94,13 +126,15 @@ def _mean(rows: list[dict[str, Any]], key: str) -> float | None:
 
 def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """One row per (planner, carrier), in the order they first appear (carrier by carrier,
-    planners in the order given, as `evaluate` runs them)."""
+    planners in the order given, as `evaluate` runs them): means over its episodes, but
+    `views_to_goal` over those that reached the goal only (None if none did)."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["planner"], row["carrier"]), []).append(row)
     table = []
     for (planner, carrier), group in groups.items():
         coverage = [row["coverage_pct"] for row in group]
+        curve = [statistics.fmean(row[key] for row in group) for key in CURVE_COLUMNS]
         table.append({
             "planner": planner,
             "carrier": carrier,
@@ -110,9 +144,12 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "acquisitions": _mean(group, "acquisitions"),
             "requested": _mean(group, "requested"),
             "success_pct": 100.0 * statistics.fmean(row["success"] for row in group),
-            **{key: _mean(group, key) for key in ("joint_time_s", "joint_path_rad",
-                                                  "cartesian_m", "paper_m", "reachable_pct",
-                                                  "plan_s", "plan_ms_per_view", "episode_s")},
+            "area_pct": statistics.fmean(curve),
+            **{key: _mean(group, key) for key in ("views_to_goal", "joint_time_s",
+                                                  "joint_path_rad", "cartesian_m", "paper_m",
+                                                  "reachable_pct", "plan_s", "plan_ms_per_view",
+                                                  "episode_s")},
+            **dict(zip(CURVE_COLUMNS, curve, strict=True)),
         })
     return table
 
@@ -130,12 +167,12 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     motors = sorted({Path(spec.motor).name for spec in specs})
     seeds = sorted({spec.seed for spec in specs})
     header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | success % "
-              "| joint_time s | joint_path rad | cartesian m | paper m | reachable % "
-              "| plan s | ms per view |")
+              "| area % | views to goal | joint_time s | joint_path rad | cartesian m | paper m "
+              "| reachable % | plan s | ms per view |")
     lines = [
         "# Planner evaluation",
         "",
-        f"Episodes: {len(specs)} from `episodes.json` (motors {', '.join(motors)}; seeds "
+        f"Episodes: {len(specs)} from `episodes.json` (objects {', '.join(motors)}; seeds "
         f"{', '.join(map(str, seeds))}: one object pose and initial view per motor and seed, "
         f"the same for every planner); robot {config.cell.robot}; coverage goal "
         f"{config.env.coverage_goal:.0%}; at most {config.env.max_acquisitions} requests after "
@@ -143,7 +180,11 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         f"be reached by the robot; `free`: free-flying sensor as in the paper. Means per "
         f"episode; travel is summed over the moves between an episode's views (the approach "
         f"to the first view is not counted); `plan s` is the time spent planning an episode, "
-        f"`ms per view` that time per requested view (for an agent: its policy's compute).",
+        f"`ms per view` that time per requested view (for an agent: its policy's compute). "
+        f"`area %` is the mean coverage after requests 1 to {CURVE_VIEWS} (the initial view "
+        f"is 1; an episode that ended earlier keeps its final coverage), `views to goal` the "
+        f"mean request at which the goal was reached, over the episodes that reached it; the "
+        f"curves are in `evaluation.csv` and `{PLOT_NAME}`.",
         "",
         header,
         "|" + "---|" * (header.count("|") - 1),
@@ -152,7 +193,8 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         coverage = f"{row['coverage_pct']:.2f} ± {row['coverage_std_pct']:.2f}"
         cells = [row["planner"], row["carrier"], str(row["episodes"]), coverage,
                  _cell(row["acquisitions"], 2), _cell(row["requested"], 2),
-                 _cell(row["success_pct"], 0), _cell(row["joint_time_s"], 2),
+                 _cell(row["success_pct"], 0), _cell(row["area_pct"], 2),
+                 _cell(row["views_to_goal"], 2), _cell(row["joint_time_s"], 2),
                  _cell(row["joint_path_rad"], 2), _cell(row["cartesian_m"], 2),
                  _cell(row["paper_m"], 2), _cell(row["reachable_pct"], 1),
                  _cell(row["plan_s"], 3), _cell(row["plan_ms_per_view"], 1)]
@@ -164,7 +206,7 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     return "\n".join(lines) + "\n"
 
 
-_INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested")
+_INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested", "views_to_goal")
 _TEXT_COLUMNS = ("planner", "carrier", "motor")
 
 
@@ -201,8 +243,9 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     if not lines:
         return []
     if lines[0].split(",") != list(EPISODE_COLUMNS):
-        raise ValueError(f"{path} is not an episodes table of this vprobot version (columns "
-                         f"{', '.join(EPISODE_COLUMNS)}); use another --out")
+        # An older version's table lacks the coverage curve, so its episodes cannot be reused.
+        raise ValueError(f"{path} is not an episodes table of this vprobot version (its columns "
+                         f"differ); use another --out")
     try:
         return [_typed(row) for row in csv.DictReader(lines)]
     except ValueError as error:
@@ -236,30 +279,89 @@ def _start_episode_list(path: Path, specs: Sequence[EpisodeSpec]) -> None:
                          f"--out, or --episodes {path} to resume that one")
 
 
+def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: Path,
+                         title: str) -> Path:
+    """Plot the summary rows' mean coverage curves into a PNG (atomically): one panel per
+    carrier, one line per planner, the coverage goal dashed.
+
+    Raises:
+        ValueError: For an empty table.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    carriers = list(dict.fromkeys(row["carrier"] for row in table))
+    planners = list(dict.fromkeys(row["planner"] for row in table))
+    if not carriers:
+        raise ValueError("no evaluated episodes to plot")
+    names = {"robot": f"robot {config.cell.robot} in the loop", "free": "free-flying sensor"}
+    views = list(range(1, CURVE_VIEWS + 1))
+    figure, axes = plt.subplots(1, len(carriers), figsize=(5.5 * len(carriers) + 1.5, 4.8),
+                                sharey=True, squeeze=False)
+    for axis, carrier in zip(axes[0], carriers, strict=True):
+        for row in (row for row in table if row["carrier"] == carrier):
+            # A planner keeps its colour in every panel; the default cycle has ten colours,
+            # so later planners are told apart by their line.
+            number = planners.index(row["planner"])
+            axis.plot(views, [row[key] for key in CURVE_COLUMNS], marker="o", markersize=3,
+                      color=f"C{number % 10}", linestyle="-" if number < 10 else "-.",
+                      label=row["planner"])
+        axis.axhline(100.0 * config.env.coverage_goal, color="black", linestyle="--",
+                     linewidth=1.0, label=f"goal {config.env.coverage_goal:.0%}")
+        axis.set_title(names.get(carrier, carrier))
+        axis.set_xlabel("requests (the initial view is 1)")
+        axis.set_xticks(views)
+        axis.grid(alpha=0.3)
+    # One legend outside the panels (inside, it would hide the curves of a dozen planners),
+    # from all of them: a partial evaluation may lack a planner in a panel.
+    handles = {line.get_label(): line for axis in axes[0] for line in axis.get_lines()}
+    axes[0][-1].legend(handles.values(), handles.keys(), fontsize="small", loc="upper left",
+                       bbox_to_anchor=(1.02, 1.0))
+    axes[0][0].set_ylabel("mean coverage %")
+    figure.suptitle(title)
+    figure.tight_layout()
+    with atomic_output(path) as temporary:
+        figure.savefig(temporary, dpi=110)
+    plt.close(figure)
+    return path
+
+
 def _write_tables(out: Path, rows: list[dict[str, Any]], specs: Sequence[EpisodeSpec],
                   config: Config, total: int) -> list[dict[str, Any]]:
     table = summarize(rows)
     text = markdown(table, specs, config)
+    title = f"Mean coverage after each request, {len(specs)} episodes"
     if len(rows) < total:
         text = (f"**Partial: {len(rows)} of {total} episodes; run the same command again to "
                 f"finish.**\n\n" + text)
+        title += f" (partial: {len(rows)} of {total} episodes)"
     write_text(out / "evaluation.md", text)
     write_text(out / "evaluation.csv", csv_text(COLUMNS, table))
+    if table:  # an interrupt before the first episode finished leaves nothing to plot
+        plot_coverage_curves(table, config, out / PLOT_NAME, title)
     return table
 
 
 def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = None,
                         seeds: Sequence[int] | None = None,
                         episodes: str | Path | None = None) -> list[EpisodeSpec]:
-    """The episode list of an evaluation: a list file, the episodes of motors x seeds, or the
-    bundled list over the test motors.
+    """The episode list of an evaluation: a bundled list by name (`BUNDLED_EPISODE_LISTS`) or a
+    list file, the episodes of motors x seeds, or the bundled list over the test motors.
 
     Raises:
-        ValueError: For a list file together with motors or seeds, or a bad list.
+        ValueError: For a list together with motors or seeds, a missing list file that is not a
+            bundled name, or a bad list.
     """
     if episodes is not None:
         if motors is not None or seeds is not None:
             raise ValueError("give either an episode list or motors and seeds, not both")
+        if str(episodes) in BUNDLED_EPISODE_LISTS:
+            return read_episode_list(BUNDLED_EPISODE_LISTS[str(episodes)])
+        if not Path(episodes).is_file():
+            raise ValueError(f"episode list {str(episodes)!r} is neither a file nor a bundled "
+                             f"list; bundled: {', '.join(BUNDLED_EPISODE_LISTS)}")
         return read_episode_list(episodes)
     if motors is None and seeds is None:
         return read_episode_list(BUNDLED_TEST_EPISODES)
@@ -311,7 +413,8 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
 
     Resumable: each finished episode is appended to `evaluation_episodes.csv` at once, and a
     rerun into the same folder skips the episodes already there. On Ctrl-C (or SIGTERM via the
-    CLI) the tables of the finished episodes are written before the interrupt goes on.
+    CLI) the tables and the plot of the finished episodes are written before the interrupt
+    goes on.
 
     Args:
         config: The configuration.
@@ -320,7 +423,8 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         specs: The episodes (`evaluation_episodes`).
         out_dir: Folder for `evaluation.md`, `evaluation.csv` (one row per planner and
             carrier), `evaluation_episodes.csv` (one row per episode) and `episodes.json` (the
-            episode list); created if missing.
+            episode list), `coverage_vs_views.png` (the mean coverage curves); created if
+            missing.
         progress: Show a progress bar.
         carriers: `robot` and/or `free`.
         workers: Ray tasks at once (one CPU each); 1 without `address` runs in this process.
@@ -346,12 +450,14 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     _check_inputs(config, specs, parsed)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    _start_episode_list(out / "episodes.json", specs)
     rows_path = out / "evaluation_episodes.csv"
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
               for label, _, _ in parsed}
+    # Read first: a folder holding an older version's table is refused before anything is
+    # written into it.
     rows = [row for row in finished_rows(rows_path)
             if (row["episode"], row["carrier"], row["planner"]) in wanted]
+    _start_episode_list(out / "episodes.json", specs)
     done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
     if done and progress:
         print(f"resuming: {len(done)} of {len(wanted)} episodes already in {rows_path}")

@@ -13,6 +13,8 @@ PACKAGE_DIR = Path(str(files("vprobot")))
 ASSETS_DIR = PACKAGE_DIR / "assets"
 ROBOTS_DIR = ASSETS_DIR / "robots"
 MOTORS_DIR = ASSETS_DIR / "motors"
+OBJECTS_DIR = ASSETS_DIR / "objects"
+"""Bundled non-motor objects (bracket, pipe tee, torus) for testing generalisation."""
 CONFIGS_DIR = PACKAGE_DIR / "configs"
 DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 """The bundled motor that commands use when no mesh is given."""

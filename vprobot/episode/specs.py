@@ -4,8 +4,9 @@ A spec names the motor file, the object's rotation and the initial view, so that
 planner and every agent can be run on exactly the same episodes (SPEC section 9, evaluation
 protocol). `sample_episode` is the one sampler: the env draws from its `np_random`, and
 `episode_list` draws a fixed list over given motors and seeds for `vprobot evaluate`. The list
-format is versioned (`EPISODE_LIST_VERSION`); the bundled list over the test motors is
-`configs/episodes/test-v1.json`, and a test checks that the sampler still reproduces it.
+format is versioned (`EPISODE_LIST_VERSION`); the bundled lists (`BUNDLED_EPISODE_LISTS`) are
+`configs/episodes/test-v1.json` over the test motors and `configs/episodes/shapes-v1.json` over
+the non-motor objects, and a test checks that the sampler still reproduces them.
 """
 
 from __future__ import annotations
@@ -31,12 +32,16 @@ from vprobot.geometry import (
     spherical_position,
 )
 from vprobot.kinematics import SensorTarget
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
 from vprobot.viewsphere import sphere_directions
 
 EPISODE_LIST_VERSION = 1
 BUNDLED_TEST_EPISODES = CONFIGS_DIR / "episodes" / "test-v1.json"
 """The evaluation episodes over the bundled test motors: 3 seeds each (0, 1, 2)."""
+BUNDLED_SHAPE_EPISODES = CONFIGS_DIR / "episodes" / "shapes-v1.json"
+"""The evaluation episodes over the bundled non-motor objects: 5 seeds each (0 to 4)."""
+BUNDLED_EPISODE_LISTS = {"test-v1": BUNDLED_TEST_EPISODES, "shapes-v1": BUNDLED_SHAPE_EPISODES}
+"""The bundled episode lists by name (`vprobot evaluate --episodes NAME`)."""
 RANDOM_INITIAL_VIEWS = 50
 """Initial view directions a `random` initial view draws; the first one reached is taken."""
 RANDOM_INITIAL_MAX_POLAR_RAD = float(np.deg2rad(120.0))
@@ -51,13 +56,21 @@ def random_object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarr
     return tilt_about(tilt) @ rotation_about_z(yaw)
 
 
+_BUNDLED_MESH_DIRS = (MOTORS_DIR, ASSETS_DIR)
+"""Where a spec's relative mesh name is looked up, in this order (first match names it)."""
+
+
 def motor_name(path: str | Path) -> str:
-    """How a spec names a mesh file: relative to the bundled motors folder when inside it."""
+    """How a spec names a mesh file: relative to the bundled motors folder when inside it
+    (`test/motor_020.stl`), else relative to the bundled assets (`objects/bracket.stl`), so that
+    a list of bundled meshes works from any folder; any other file keeps the path as given."""
     path = Path(path)
-    try:
-        return path.resolve().relative_to(MOTORS_DIR.resolve()).as_posix()
-    except ValueError:
-        return str(path)
+    for folder in _BUNDLED_MESH_DIRS:
+        try:
+            return path.resolve().relative_to(folder.resolve()).as_posix()
+        except ValueError:
+            continue
+    return str(path)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,8 +78,9 @@ class EpisodeSpec:
     """One episode, fixed.
 
     Attributes:
-        motor: The mesh file; a relative name is looked up in the bundled motors folder first
-            (`test/motor_020.stl`).
+        motor: The mesh file; a relative name is looked up in the bundled motors folder
+            (`test/motor_020.stl`), then in the bundled assets (`objects/bracket.stl`), then
+            taken as a path.
         object_quaternion: Rotation (w, x, y, z) of the object about its centre.
         initial_views: Look-at directions (phi, theta) in rad at the working distance, tried in
             order: the first the carrier reaches is the initial view (one for `fixed`).
@@ -86,10 +100,12 @@ class EpisodeSpec:
 
     @property
     def motor_path(self) -> Path:
-        """The mesh file: a bundled motor, else the path as given."""
-        bundled = MOTORS_DIR / self.motor
-        return bundled if not Path(self.motor).is_absolute() and bundled.is_file() else Path(
-            self.motor)
+        """The mesh file: a bundled motor or object, else the path as given."""
+        if not Path(self.motor).is_absolute():
+            for folder in _BUNDLED_MESH_DIRS:
+                if (folder / self.motor).is_file():
+                    return folder / self.motor
+        return Path(self.motor)
 
     def initial_requests(self, center: np.ndarray, distance: float) -> list[ViewRequest]:
         """The initial view candidates as look-at requests around `center`."""
