@@ -173,7 +173,7 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         "# Planner evaluation",
         "",
         f"Episodes: {len(specs)} from `episodes.json` (objects {', '.join(motors)}; seeds "
-        f"{', '.join(map(str, seeds))}: one object pose and initial view per motor and seed, "
+        f"{', '.join(map(str, seeds))}: one pose and initial view per object and seed, "
         f"the same for every planner); robot {config.cell.robot}; coverage goal "
         f"{config.env.coverage_goal:.0%}; at most {config.env.max_acquisitions} requests after "
         f"the initial view for planners that stop at the goal. Carrier `robot`: every view must "
