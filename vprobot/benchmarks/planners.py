@@ -3,7 +3,10 @@
 Per test motor and seed (one episode spec each), it runs B_SCP until the coverage goal with the
 robot in the loop (planning time includes the reachability of all 900 candidates), B_SCP,4 and
 B_SCP,5 with the free-flying sensor, H_rec with both carriers, and the bundled agent with the
-robot (coverage, acquisitions, reachable share of its requests, policy time per view).
+robot (coverage, acquisitions, reachable share of its requests, policy time per view), and the
+model-free baselines: uniform4 with both carriers and nbv (goal-stopped) with both carriers, whose
+planning time per view free-flying is the occupancy grid's own cost (integrating the frame,
+scoring every candidate) and with the robot adds the IK of the candidates it tries.
 """
 
 from __future__ import annotations
@@ -28,6 +31,10 @@ RUNS: tuple[tuple[str, str, int | None, CarrierName], ...] = (
     ("hrec_free", "hrec", None, "free"),
     ("hrec_robot", "hrec", None, "robot"),
     ("agent_robot", "agent", None, "robot"),
+    ("uniform4_free", "uniform4", None, "free"),
+    ("uniform4_robot", "uniform4", None, "robot"),
+    ("nbv_free", "nbv", None, "free"),
+    ("nbv_robot", "nbv", None, "robot"),
 )
 """(key, planner, fixed views, carrier) of every benchmarked run."""
 
@@ -50,8 +57,11 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         `bscp_free_coverage_pct`, `bscp4_free_coverage_pct`, `bscp5_free_coverage_pct`,
         `hrec_free_coverage_pct`, `hrec_robot_coverage_pct`, `hrec_robot_reachable_pct`,
         `agent_robot_coverage_pct`, `agent_robot_acquisitions`, `agent_reachable_share`,
-        `agent_ms_per_view` (median), `episodes` (per run) and the paper's figures
-        (`paper_*`).
+        `agent_ms_per_view` (median), `uniform4_free_coverage_pct`,
+        `uniform4_robot_coverage_pct`, `nbv_free_coverage_pct`, `nbv_robot_coverage_pct`,
+        `nbv_free_views`, `nbv_robot_views` (requests, the initial view included),
+        `nbv_free_ms_per_view` and `nbv_robot_ms_per_view` (median planning time per view it
+        chose), `episodes` (per run) and the paper's figures (`paper_*`).
 
     Raises:
         ValueError: If there are no motors or seeds.
@@ -72,6 +82,11 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
 
     def coverage_pct(key: str) -> float:
         return 100.0 * statistics.fmean(result.coverage for result in results[key])
+
+    def ms_per_chosen_view(key: str) -> float:
+        # Next-best-view planners choose every view but the initial one.
+        return 1e3 * statistics.median(result.plan_seconds / max(result.requested - 1, 1)
+                                       for result in results[key])
 
     bscp = results["bscp_robot"]
     candidates = [result.candidates for result in bscp if result.candidates is not None]
@@ -100,9 +115,15 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         "agent_reachable_share": statistics.fmean(
             result.reachability for result in results["agent_robot"]),
         # The agent chooses every view but the initial one.
-        "agent_ms_per_view": 1e3 * statistics.median(
-            result.plan_seconds / max(result.requested - 1, 1)
-            for result in results["agent_robot"]),
+        "agent_ms_per_view": ms_per_chosen_view("agent_robot"),
+        "uniform4_free_coverage_pct": coverage_pct("uniform4_free"),
+        "uniform4_robot_coverage_pct": coverage_pct("uniform4_robot"),
+        "nbv_free_coverage_pct": coverage_pct("nbv_free"),
+        "nbv_robot_coverage_pct": coverage_pct("nbv_robot"),
+        "nbv_free_views": statistics.fmean(r.requested for r in results["nbv_free"]),
+        "nbv_robot_views": statistics.fmean(r.requested for r in results["nbv_robot"]),
+        "nbv_free_ms_per_view": ms_per_chosen_view("nbv_free"),
+        "nbv_robot_ms_per_view": ms_per_chosen_view("nbv_robot"),
         "episodes": len(bscp),
         "paper_bscp4_coverage_pct": paper["B_SCP,4"][0],
         "paper_bscp5_coverage_pct": paper["B_SCP,5"][0],
@@ -130,6 +151,14 @@ def print_table(results: dict[str, Any]) -> None:
          f"{results['agent_robot_acquisitions']:.2f} "
          f"({100 * results['agent_reachable_share']:.0f} % reachable, "
          f"{results['agent_ms_per_view']:.1f} ms per view)", None),
+        ("uniform4", "free", results["uniform4_free_coverage_pct"], "4", None),
+        ("uniform4", "robot", results["uniform4_robot_coverage_pct"], "4", None),
+        ("nbv (90 %)", "free", results["nbv_free_coverage_pct"],
+         f"{results['nbv_free_views']:.2f} ({results['nbv_free_ms_per_view']:.0f} ms per view)",
+         None),
+        ("nbv (90 %)", "robot", results["nbv_robot_coverage_pct"],
+         f"{results['nbv_robot_views']:.2f} ({results['nbv_robot_ms_per_view']:.0f} ms per "
+         f"view)", None),
     ]
     print(f"{'planner':<14}{'carrier':<8}{'coverage %':>11}  {'paper %':>8}  views")
     for name, carrier, coverage, views, paper in rows:

@@ -24,17 +24,20 @@ class Planner(abc.ABC):
     """Chooses the views of an episode.
 
     Attributes:
-        name: Registry name (`random1`, `random2`, `hrec`, `bscp`, `oracle`).
+        name: Registry name (`random1`, `random2`, `hrec`, `bscp`, `oracle`, `uniform`, `nbv`).
         initial_view: Whether the episode starts with the environment's fixed initial view, as
             the next-best-view agents of the paper do (whole-plan baselines do not).
         stops_at_goal: Whether the runner stops at the coverage goal (a fixed plan runs out).
         candidates: The candidate views a model-based planner chose from in its last episode.
+        stop_reason: Why the planner stopped itself in its last episode (None when it did not:
+            the runner stopped it, or a fixed plan ran out).
     """
 
     name: ClassVar[str]
     initial_view: ClassVar[bool] = False
     stops_at_goal: bool = True
     candidates: CandidateViews | None = None
+    stop_reason: str | None = None
 
     @abc.abstractmethod
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:

@@ -82,7 +82,6 @@ class VolumetricPlanner(Planner):
     Attributes:
         added: Per informative frame of the latest episode (one the cell did not mostly
             hide), the share of the occupied voxels it added: the stop rule's input.
-        stop_reason: Why the planner stopped itself in the latest episode, else None.
     """
 
     name = "nbv"
@@ -103,7 +102,6 @@ class VolumetricPlanner(Planner):
         self.sensor = SensorModel.from_config(config.sensor)
         self.grid = OccupancyGrid.for_cell(config, voxel_m)
         self.added: list[float] = []
-        self.stop_reason: str | None = None
         self._integrated = 0
         self._failed: set[int] = set()
 

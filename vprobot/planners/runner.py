@@ -125,6 +125,7 @@ class EpisodeResult:
         plan_seconds: Time spent inside the planner (reset and next-view calls).
         episode_seconds: Wall time of the whole episode (planning and executing views).
         candidates: The candidate views of a model-based planner (bscp, oracle), else None.
+        stop_reason: Why the planner stopped itself (e.g. `nbv@grid`), else None.
     """
 
     planner: str
@@ -135,6 +136,7 @@ class EpisodeResult:
     plan_seconds: float
     episode_seconds: float
     candidates: CandidateViews | None = None
+    stop_reason: str | None = None
 
     @property
     def mesh(self) -> str:
@@ -228,7 +230,7 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
                          carrier=carrier, spec=spec, record=record,
                          goal=config.env.coverage_goal, plan_seconds=planning,
                          episode_seconds=time.perf_counter() - start,
-                         candidates=chosen.candidates)
+                         candidates=chosen.candidates, stop_reason=chosen.stop_reason)
 
 
 def summary(result: EpisodeResult, config: Config) -> str:
@@ -256,6 +258,8 @@ def summary(result: EpisodeResult, config: Config) -> str:
     else:
         lines.append(f"  travel {travel.paper:.2f} m paper approximation, {travel.cartesian:.2f} m "
                      f"sensor path (between views)")
+    if result.stop_reason is not None:
+        lines.append(f"  stopped by the planner: {result.stop_reason}")
     lines.append(f"  planning {result.plan_seconds:.2f} s, episode {result.episode_seconds:.2f} s")
     candidates = result.candidates
     if candidates is not None:
@@ -306,6 +310,7 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
     result = run(config, scene, planner, spec, carrier, views)
     document = episode_document(scene, result.record, metadata={
         "planner": result.planner, "seed": seed, "goal": result.goal,
+        "stop_reason": result.stop_reason,
         # Wall-clock figures in a block of their own, which `plan --no-timing` leaves out.
         "timing": {"plan_s": result.plan_seconds, "episode_s": result.episode_seconds},
     })
