@@ -212,13 +212,16 @@ def test_bad_arguments_are_clear_errors(planners: list[str], carriers: list[str]
 def test_planner_benchmark_reports_the_targets(capsys: pytest.CaptureFixture) -> None:
     results = run_planners_benchmark(CONFIG, motors=[DEFAULT_MOTOR], seeds=[0], progress=False)
     for key in ("bscp_plan_s_median", "bscp5_free_coverage_pct", "bscp_robot_coverage_pct",
-                "hrec_free_coverage_pct", "hrec_robot_coverage_pct"):
+                "hrec_free_coverage_pct", "hrec_robot_coverage_pct", "uniform4_robot_coverage_pct",
+                "nbv_robot_coverage_pct", "nbv_free_ms_per_view"):
         assert key in results
+    assert results["nbv_robot_views"] >= 2 and results["nbv_free_ms_per_view"] > 0.0
     assert results["bscp_robot_coverage_pct"] >= 90.0
     assert results["bscp5_free_coverage_pct"] >= 95.0
     assert 0.0 < results["bscp_plan_s_median"] <= results["bscp_plan_s_max"]
     print_table(results)
-    assert "B_SCP,5" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "B_SCP,5" in printed and "nbv (90 %)" in printed
 
 
 EVAL_ARGS = ["--planners", "random2", "hrec", "--motors", str(DEFAULT_MOTOR), "--seeds", "0",
