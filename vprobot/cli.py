@@ -70,6 +70,11 @@ def _number(kind: type, low: float, strict: bool, what: str) -> Callable[[str], 
     return parse
 
 
+EVALUATED_PLANNERS = ("random1", "random2", "uniform4", "uniform5", "uniform6", "nbv", "nbv@grid",
+                      "agent", "hrec", "bscp", "bscp4", "bscp5", "oracle")
+"""What `evaluate` compares by default: every planner, the model-free ones first."""
+
+
 def _planner_name(text: str) -> str:
     """An argparse type: a planner name, `agent` or `agent:PATH` (the view count goes in
     `--views`)."""
@@ -453,8 +458,9 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--scale", type=POSITIVE_FLOAT,
                          help="file units to metres, e.g. 0.001 for millimetres (default 1)")
         sub.add_argument("--planner", type=_planner_name,
-                         help=f"{', '.join(PLANNER_NAMES)} (the bundled trained agent), or "
-                         f"agent:PATH (a training run or model .zip); default: bscp")
+                         help=f"{', '.join(PLANNER_NAMES)} (the bundled trained agent), "
+                         f"agent:PATH (a training run or model .zip), or nbv@grid (nbv stopping "
+                         f"itself); default: bscp")
         sub.add_argument("--views", type=POSITIVE_INT,
                          help="fixed number of views (bscp, agent); default: until the coverage "
                          "goal")
@@ -484,10 +490,11 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation = add("evaluate", command_evaluate,
                      "Compare planners on a fixed episode list (default: the test motors).")
     add_robot(evaluation)
-    evaluation.add_argument("--planners", nargs="+", default=[
-        "random1", "random2", "hrec", "bscp", "bscp4", "bscp5", "oracle"],
-        help="planner names, bscp<N> / agent<N> for B_SCP / the bundled agent with N views, "
-        "agent (the bundled agent) or agent:PATH (a training run or model .zip)")
+    evaluation.add_argument("--planners", nargs="+", default=list(EVALUATED_PLANNERS),
+        help="planner names: uniform<k> (k fixed views), nbv (volumetric next-best view; "
+        "nbv:GAIN ranks by another gain, nbv@grid stops itself), bscp<N> / agent<N> for B_SCP "
+        "/ the bundled agent with N views, agent (the bundled agent) or agent:PATH (a training "
+        "run or model .zip); default: the model-free planners, then the model-based ones")
     evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
                             "the test motors; shapes-v1: the non-motor objects) or a JSON file "
                             "as written into --out; default: test-v1")
