@@ -7,7 +7,6 @@ the +z side, units are metres and the axis-aligned bounding box is centred at th
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
@@ -16,63 +15,21 @@ import trimesh
 from scipy.spatial import ConvexHull
 from tqdm import tqdm
 
+from vprobot.families.solids import (
+    OVERLAP_M,
+    circle,
+    cylinder_x,
+    polar,
+    prism_x,
+    revolve_x,
+    toothed_outline,
+)
 from vprobot.files import atomic_output
 from vprobot.motors.parameters import MotorParameters, sample_parameters
 
 # Facets around the axis: enough for smooth-looking housings at ~6k faces per motor.
 _SECTIONS_LARGE = 96
 _SECTIONS_SMALL = 24
-# Parts reach this far into their neighbour so unions never meet on coplanar faces.
-_OVERLAP_M = 0.002
-
-
-def _revolve_x(
-    profile: Sequence[tuple[float, float]], sections: int, centre_yz: tuple[float, float] = (0, 0)
-) -> trimesh.Trimesh:
-    """Solid of revolution about an axis parallel to x.
-
-    Args:
-        profile: (x, radius) points by increasing x, starting and ending on the axis (radius 0).
-        sections: Facets around the axis.
-        centre_yz: Where the axis crosses the y-z plane.
-    """
-    # trimesh revolves (radius, height) about z; a +90 degree turn about y takes z to x.
-    turn = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0])
-    turn[1:3, 3] = centre_yz
-    return trimesh.creation.revolve([(r, x) for x, r in profile], sections=sections, transform=turn)
-
-
-def _prism_x(
-    polygon_yz: np.ndarray, centre_yz: tuple[float, float], x0: float, x1: float
-) -> trimesh.Trimesh:
-    """Closed prism from x0 to x1 over a counter-clockwise polygon that is star-shaped about
-    centre_yz (gear, hexagon and flange outlines), so caps can be fanned from that point."""
-    n = len(polygon_yz)
-    ring = np.vstack([polygon_yz, centre_yz])
-    vertices = np.vstack([np.column_stack([np.full(n + 1, x), ring]) for x in (x0, x1)])
-    i = np.arange(n)
-    j = (i + 1) % n
-    top = n + 1  # index offset of the x1 ring
-    faces = np.vstack(
-        [
-            np.column_stack([i, j, top + j]),
-            np.column_stack([i, top + j, top + i]),
-            np.column_stack([np.full(n, n), j, i]),
-            np.column_stack([np.full(n, top + n), top + i, top + j]),
-        ]
-    )
-    return trimesh.Trimesh(vertices, faces)
-
-
-def _cylinder_x(
-    radius: float, x0: float, x1: float, sections: int, centre_yz: tuple[float, float] = (0, 0)
-) -> trimesh.Trimesh:
-    return _revolve_x([(x0, 0), (x0, radius), (x1, radius), (x1, 0)], sections, centre_yz)
-
-
-def _circle(radius: float, count: int, centre: Sequence[float] = (0, 0)) -> np.ndarray:
-    angles = np.linspace(0, 2 * np.pi, count, endpoint=False)
-    return np.column_stack([np.cos(angles), np.sin(angles)]) * radius + np.asarray(centre)
 
 
 def _angles_clear_of_top(count: int) -> np.ndarray:
@@ -81,15 +38,11 @@ def _angles_clear_of_top(count: int) -> np.ndarray:
     return np.deg2rad(90 + (np.arange(count) + 0.5) * 360 / count)
 
 
-def _polar(radius: float, angle: float) -> tuple[float, float]:
-    return radius * np.cos(angle), radius * np.sin(angle)
-
-
 def _housing(p: MotorParameters) -> trimesh.Trimesh:
     r, chamfer = p.housing_radius_m, 0.0015
     x0 = -p.housing_length_m
-    profile = [(x0, 0), (x0, r - chamfer), (x0 + chamfer, r), (_OVERLAP_M, r), (_OVERLAP_M, 0)]
-    return _revolve_x(profile, _SECTIONS_LARGE)
+    profile = [(x0, 0), (x0, r - chamfer), (x0 + chamfer, r), (OVERLAP_M, r), (OVERLAP_M, 0)]
+    return revolve_x(profile, _SECTIONS_LARGE)
 
 
 def _end_cap(p: MotorParameters) -> trimesh.Trimesh:
@@ -98,12 +51,12 @@ def _end_cap(p: MotorParameters) -> trimesh.Trimesh:
     fillet = min(0.35 * p.end_cap_length_m, 0.2 * r)
     t = np.linspace(0, np.pi / 2, 6)
     arc = zip(x0 + fillet * (1 - np.cos(t)), r - fillet * (1 - np.sin(t)), strict=True)
-    x1 = -p.housing_length_m + _OVERLAP_M
-    return _revolve_x([(x0, 0), *arc, (x1, r), (x1, 0)], _SECTIONS_LARGE)
+    x1 = -p.housing_length_m + OVERLAP_M
+    return revolve_x([(x0, 0), *arc, (x1, r), (x1, 0)], _SECTIONS_LARGE)
 
 
 def _brush_holder(p: MotorParameters) -> trimesh.Trimesh:
-    depth = p.brush_holder_depth_m + _OVERLAP_M
+    depth = p.brush_holder_depth_m + OVERLAP_M
     x_rear = -p.housing_length_m - p.end_cap_length_m - p.brush_holder_depth_m
     box = trimesh.creation.box([depth, p.brush_holder_width_m, p.brush_holder_height_m])
     box.apply_translation([x_rear + depth / 2, 0, 0])
@@ -120,11 +73,11 @@ def _bolts(p: MotorParameters) -> list[trimesh.Trimesh]:
         (-p.bolt_length_m, head),
         (x_head, head),
         (x_head, r),
-        (_OVERLAP_M, r),
-        (_OVERLAP_M, 0),
+        (OVERLAP_M, r),
+        (OVERLAP_M, 0),
     ]
     return [
-        _revolve_x(profile, _SECTIONS_SMALL, _polar(pitch, a))
+        revolve_x(profile, _SECTIONS_SMALL, polar(pitch, a))
         for a in _angles_clear_of_top(p.bolt_count)
     ]
 
@@ -136,11 +89,11 @@ def _flange_outline(p: MotorParameters) -> np.ndarray:
     # hulls would stack coincident hub edges, which leaves zero-volume slivers.
     angles = np.linspace(0, 2 * np.pi, 2 * _SECTIONS_LARGE, endpoint=False)
     directions = np.column_stack([np.cos(angles), np.sin(angles)])
-    hub = _circle(p.housing_radius_m + _OVERLAP_M, _SECTIONS_LARGE)
+    hub = circle(p.housing_radius_m + OVERLAP_M, _SECTIONS_LARGE)
     ear_radius = p.flange_radius_m - p.mounting_hole_pitch_radius_m
     radius = np.zeros(len(angles))
     for a in _angles_clear_of_top(p.mounting_hole_count):
-        boss = _circle(ear_radius, 32, _polar(p.mounting_hole_pitch_radius_m, a))
+        boss = circle(ear_radius, 32, polar(p.mounting_hole_pitch_radius_m, a))
         # Facets n . x <= d of the hull; along a direction u the boundary is at min d / (n . u).
         facets = ConvexHull(np.vstack([hub, boss])).equations
         cosines = directions @ facets[:, :2].T
@@ -153,14 +106,14 @@ def _flange_outline(p: MotorParameters) -> np.ndarray:
 
 def _flange(p: MotorParameters) -> trimesh.Trimesh:
     thickness = p.flange_thickness_m
-    plate = _prism_x(_flange_outline(p), (0, 0), 0, thickness)
+    plate = prism_x(_flange_outline(p), (0, 0), 0, thickness)
     holes = [
-        _cylinder_x(
+        cylinder_x(
             p.mounting_hole_radius_m,
-            -_OVERLAP_M,
-            thickness + _OVERLAP_M,
+            -OVERLAP_M,
+            thickness + OVERLAP_M,
             _SECTIONS_SMALL,
-            _polar(p.mounting_hole_pitch_radius_m, a),
+            polar(p.mounting_hole_pitch_radius_m, a),
         )
         for a in _angles_clear_of_top(p.mounting_hole_count)
     ]
@@ -171,26 +124,21 @@ def _nose(p: MotorParameters) -> trimesh.Trimesh:
     x0, length = p.flange_thickness_m, p.nose_length_m
     base, tip = p.nose_base_radius_m, p.nose_tip_radius_m
     profile = [
-        (x0 - _OVERLAP_M, 0),
-        (x0 - _OVERLAP_M, base),
+        (x0 - OVERLAP_M, 0),
+        (x0 - OVERLAP_M, base),
         (x0 + 0.15 * length, base),
         (x0 + 0.85 * length, tip),
         (x0 + 0.85 * length, 0.9 * tip),
         (x0 + length, 0.9 * tip),
         (x0 + length, 0),
     ]
-    return _revolve_x(profile, _SECTIONS_LARGE)
+    return revolve_x(profile, _SECTIONS_LARGE)
 
 
 def _pinion(p: MotorParameters) -> trimesh.Trimesh:
-    teeth = p.pinion_tooth_count
-    pitch = 2 * np.pi / teeth
-    root = 0.82 * p.pinion_radius_m
-    # Trapezoidal teeth: flank up, flat top land, flank down, flat root gap.
-    shape = [(root, 0.0), (p.pinion_radius_m, 0.2), (p.pinion_radius_m, 0.45), (root, 0.65)]
-    outline = np.array([_polar(r, (k + f) * pitch) for k in range(teeth) for r, f in shape])
+    outline = toothed_outline(p.pinion_tooth_count, 0.82 * p.pinion_radius_m, p.pinion_radius_m)
     x0 = p.flange_thickness_m + p.nose_length_m
-    return _prism_x(outline, (0, 0), x0 - _OVERLAP_M, x0 + p.pinion_length_m)
+    return prism_x(outline, (0, 0), x0 - OVERLAP_M, x0 + p.pinion_length_m)
 
 
 def _solenoid_rear_x(p: MotorParameters) -> float:
@@ -213,7 +161,7 @@ def _solenoid(p: MotorParameters) -> list[trimesh.Trimesh]:
         (x1 + plunger, 0.4 * r),
         (x1 + plunger, 0),
     ]
-    body = _revolve_x(profile, _SECTIONS_LARGE, (0, p.solenoid_height_m))
+    body = revolve_x(profile, _SECTIONS_LARGE, (0, p.solenoid_height_m))
     # Mounting saddle from inside the housing up to the solenoid axis; never past the flange.
     saddle_x0 = p.solenoid_offset_m - 0.4 * length
     saddle_x1 = min(p.solenoid_offset_m + 0.4 * length, p.flange_thickness_m)
@@ -229,13 +177,13 @@ def _terminals(p: MotorParameters) -> list[trimesh.Trimesh]:
     r, length = p.terminal_radius_m, p.terminal_length_m
     x_face = _solenoid_rear_x(p)
     x_nut = x_face - 0.35 * length
-    hexagon = _circle(1.8 * r, 6)
+    hexagon = circle(1.8 * r, 6)
     parts = []
     for a in _angles_clear_of_top(p.terminal_count):
-        dy, dz = _polar(0.5 * p.solenoid_radius_m, a)
+        dy, dz = polar(0.5 * p.solenoid_radius_m, a)
         centre = (dy, p.solenoid_height_m + dz)
-        parts.append(_cylinder_x(r, x_face - length, x_nut + 0.001, _SECTIONS_SMALL, centre))
-        parts.append(_prism_x(hexagon + np.asarray(centre), centre, x_nut, x_face + 0.001))
+        parts.append(cylinder_x(r, x_face - length, x_nut + 0.001, _SECTIONS_SMALL, centre))
+        parts.append(prism_x(hexagon + np.asarray(centre), centre, x_nut, x_face + 0.001))
     return parts
 
 

@@ -1,0 +1,108 @@
+"""What a part family is: named parameters with ranges, and a builder of closed meshes.
+
+An instance is fixed by (family, seed): its parameters are drawn uniformly within their ranges
+from a generator seeded by the seed and the family's name, so instances of different families
+never share a random stream and any number of them can be drawn in any order.
+"""
+
+from __future__ import annotations
+
+import abc
+import hashlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import trimesh
+
+Values = Mapping[str, float]
+"""Parameter values of one instance by name (integer parameters hold ints)."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One shape parameter, drawn uniformly from [low, high].
+
+    Attributes:
+        name: Identifier; `_m` marks metres, `_count` an integer, `_ratio` a fraction of
+            another size named in the description.
+        low: Smallest value.
+        high: Largest value.
+        description: What it sets, a few words.
+        integer: Drawn as an integer in low .. high, both included.
+    """
+
+    name: str
+    low: float
+    high: float
+    description: str
+    integer: bool = False
+
+    def range_text(self) -> str:
+        """The range as `vprobot objects list` shows it."""
+        unit = " m" if self.name.endswith("_m") else ""
+        if self.integer:
+            return f"{int(self.low)} .. {int(self.high)}"
+        return f"{self.low:g} .. {self.high:g}{unit}"
+
+
+@dataclass(frozen=True)
+class Instance:
+    """One generated part.
+
+    Attributes:
+        family: Family name.
+        seed: Seed within the family.
+        parameters: The drawn parameter values.
+        mesh: Closed mesh in metres, its bounding box centred at the origin.
+    """
+
+    family: str
+    seed: int
+    parameters: dict[str, float]
+    mesh: trimesh.Trimesh
+
+
+def family_rng(name: str, seed: int) -> np.random.Generator:
+    """The random generator of instance `seed` of family `name`, the same in every process
+    (Python's `hash` of a string is salted per process, a digest is not)."""
+    key = int.from_bytes(hashlib.sha256(name.encode()).digest()[:4], "little")
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
+
+
+class PartFamily(abc.ABC):
+    """A kind of mechanical part; subclasses set the class attributes and `build`."""
+
+    name: ClassVar[str]
+    description: ClassVar[str]
+    """One line for `vprobot objects list`."""
+    parameters: ClassVar[tuple[Parameter, ...]]
+
+    def sample(self, rng: np.random.Generator) -> dict[str, float]:
+        """Draw every parameter uniformly within its range, in declaration order."""
+        return {
+            p.name: int(rng.integers(p.low, p.high + 1)) if p.integer
+            else float(rng.uniform(p.low, p.high))
+            for p in self.parameters
+        }
+
+    @abc.abstractmethod
+    def build(self, values: Values) -> trimesh.Trimesh:
+        """The part's mesh for these parameter values, in metres, anywhere in space."""
+
+    def instance(self, seed: int) -> Instance:
+        """Instance `seed` of this family.
+
+        Raises:
+            ValueError: If seed < 0.
+            RuntimeError: If the build did not give one closed solid (a bug of the family).
+        """
+        if seed < 0:
+            raise ValueError(f"seed must be >= 0, got {seed}")
+        values = self.sample(family_rng(self.name, seed))
+        mesh = self.build(values)
+        if not mesh.is_watertight or mesh.volume <= 0 or mesh.body_count != 1:
+            raise RuntimeError(f"{self.name} seed {seed} is not one closed solid: {values}")
+        mesh.apply_translation(-mesh.bounds.mean(axis=0))
+        return Instance(self.name, seed, values, mesh)

@@ -1,0 +1,68 @@
+"""Writing instances of a family to disk: `NAME_SSSS.stl` (binary, metres) + `NAME_SSSS.json`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from tqdm import tqdm
+
+from vprobot.families.base import PartFamily
+from vprobot.files import atomic_output, write_text
+
+
+def family(name: str) -> PartFamily:
+    """The registered family called `name`.
+
+    Raises:
+        ValueError: If there is none; the message lists the families.
+    """
+    from vprobot.families import FAMILIES
+
+    if name not in FAMILIES:
+        raise ValueError(f"unknown part family {name!r}; families: {', '.join(FAMILIES)}")
+    return FAMILIES[name]
+
+
+def instance_stem(name: str, seed: int) -> str:
+    """File name of instance `seed` of family `name`, without suffix."""
+    return f"{name}_{seed:04d}"
+
+
+def generate_instances(name: str, count: int, seed: int, out_dir: Path,
+                       progress: bool = True) -> list[Path]:
+    """Write instances seed, seed + 1, ..., seed + count - 1 of family `name` into `out_dir`.
+
+    Each file depends only on (name, its seed), so sets of different sizes or starts agree
+    where they overlap.
+
+    Args:
+        name: Family name.
+        count: Number of instances, at least 1.
+        seed: Seed of the first instance, at least 0.
+        out_dir: Folder to write to; created if missing.
+        progress: Show a progress bar.
+
+    Returns:
+        The STL paths, by seed.
+
+    Raises:
+        ValueError: If the family is unknown, count < 1 or seed < 0.
+    """
+    part = family(name)
+    if count < 1:
+        raise ValueError(f"count must be >= 1, got {count}")
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for s in tqdm(range(seed, seed + count), desc=name, unit="part", disable=not progress):
+        instance = part.instance(s)
+        stem = out_dir / instance_stem(name, s)
+        with atomic_output(stem.with_suffix(".stl")) as temporary:
+            temporary.write_bytes(instance.mesh.export(file_type="stl"))
+        meta = {"family": name, "seed": s, "parameters": instance.parameters}
+        write_text(stem.with_suffix(".json"), json.dumps(meta, indent=2) + "\n")
+        paths.append(stem.with_suffix(".stl"))
+    return paths
