@@ -62,8 +62,8 @@ def planner_view(episode: Episode) -> Guarded:
     views = [Guarded("view", **{name: getattr(view, name) for name in VIEW_FIELDS})
              for view in episode.views]
     carrier = episode.carrier
-    allowed_carrier = ({"collisions": carrier.collisions, "path_is_free": carrier.path_is_free,
-                        "arm_blocks": carrier.arm_blocks} if episode.uses_robot else {})
+    allowed_carrier = ({"collisions": carrier.collisions, "path_is_free": carrier.path_is_free}
+                       if episode.uses_robot else {})
     return Guarded("episode", views=views, q=episode.q.copy(), center=episode.center.copy(),
                    uses_robot=episode.uses_robot,
                    scene=Guarded("scene", arm=episode.scene.arm),
@@ -229,9 +229,8 @@ def test_parse_accepts_every_model_free_form() -> None:
 
 def test_the_arm_blocks_a_point_behind_its_own_links_but_not_one_in_front_of_the_sensor(
         bracket: MotorScene) -> None:
-    episode = Episode(bracket, np.eye(3))
     home = bracket.cell.joints.home
     sensor = bracket.arm.fk(home)
     base = bracket.cell.robot_base.position
-    assert episode.carrier.arm_blocks(home, base)
-    assert not episode.carrier.arm_blocks(home, sensor.position + 0.2 * sensor.view_axis)
+    assert bracket.arm.hides(home, base)
+    assert not bracket.arm.hides(home, sensor.position + 0.2 * sensor.view_axis)

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import functools
 from typing import ClassVar, Literal
 
-import mujoco
 import numpy as np
 
 from vprobot.episode.carrier import Carrier, CarrierName, Move
@@ -14,7 +12,6 @@ from vprobot.episode.records import ViewRequest
 from vprobot.geometry import Pose
 from vprobot.kinematics import ReachResult
 from vprobot.kinematics.collision import CollisionChecker
-from vprobot.robots.urdf_import import GEOM_GROUP_ROBOT
 from vprobot.sensor import Acquisition
 
 UnreachablePolicy = Literal["skip", "nearest"]
@@ -51,32 +48,6 @@ class RobotCarrier(Carrier):
     def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
         """Whether the straight joint-space path between two configurations is collision-free."""
         return self.collisions.first_collision(self.arm.path(q_from, q_to)) is None
-
-    @functools.cached_property
-    def _sight_data(self) -> mujoco.MjData:
-        return self.scene.cell.make_data()
-
-    def arm_blocks(self, joints: np.ndarray, points: np.ndarray) -> bool:
-        """Whether the robot at `joints` stands between its sensor and any of `points` (world).
-
-        Only the robot's own geometry is cast against, which a cell knows (a self filter): a
-        view the arm would hide can be told before it is taken.
-        """
-        model, data = self.scene.cell.model, self._sight_data
-        data.qpos[:] = joints
-        mujoco.mj_kinematics(model, data)
-        origin = self.arm.fk(joints).position
-        groups = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
-        groups[GEOM_GROUP_ROBOT] = 1
-        geom = np.zeros(1, dtype=np.int32)
-        for point in np.atleast_2d(points):
-            offset = point - origin
-            distance = float(np.linalg.norm(offset))
-            hit = mujoco.mj_ray(model, data, origin, offset / distance, groups, 1,
-                                self.scene.cell.sensor_body_id, geom)
-            if 0.0 <= hit < distance:
-                return True
-        return False
 
     def drive(self, q_from: np.ndarray, joints: np.ndarray) -> Move:
         """Drive to a given configuration (e.g. a screened candidate or a stored plan).

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Literal
 
+import mujoco
 import numpy as np
 
 from vprobot.config import KinematicsConfig
@@ -26,6 +28,7 @@ from vprobot.kinematics.travel import (
     paper_travel,
     polyline_length,
 )
+from vprobot.robots.urdf_import import GEOM_GROUP_ROBOT
 from vprobot.scene import Cell
 
 FailureReason = Literal["did_not_converge", "joint_limits", "collision", "path_collision"]
@@ -153,6 +156,32 @@ class RobotArm:
     def fk(self, q: np.ndarray) -> Pose:
         """Sensor pose in the world at configuration `q`."""
         return self.forward.sensor_pose(q)
+
+    @functools.cached_property
+    def _sight_data(self) -> mujoco.MjData:
+        return self.cell.make_data()
+
+    def hides(self, q: np.ndarray, points: np.ndarray) -> bool:
+        """Whether the robot at `q` stands between its sensor and any of `points` (world).
+
+        Only the robot's own geometry is cast against, which a cell knows (a self filter): a
+        view the arm would hide can be told before it is taken.
+        """
+        model, data = self.cell.model, self._sight_data
+        data.qpos[:] = self.joints.check(q, "q")
+        mujoco.mj_kinematics(model, data)
+        origin = self.fk(q).position
+        groups = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
+        groups[GEOM_GROUP_ROBOT] = 1
+        geom = np.zeros(1, dtype=np.int32)
+        for point in np.atleast_2d(points):
+            offset = point - origin
+            distance = float(np.linalg.norm(offset))
+            hit = mujoco.mj_ray(model, data, origin, offset / distance, groups, 1,
+                                self.cell.sensor_body_id, geom)
+            if 0.0 <= hit < distance:
+                return True
+        return False
 
     def path(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
         """The sampled joint-space path between two configurations."""

@@ -25,6 +25,7 @@ from __future__ import annotations
 import collections
 import dataclasses
 import time
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -33,7 +34,8 @@ from vprobot.coverage import EPSILON_PER_SPACING
 from vprobot.episode import Episode, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.ground_truth import MAX_POLAR_DEG
-from vprobot.kinematics import SensorTarget
+from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.kinematics.collision import CollisionChecker
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
 from vprobot.progress import stage
@@ -48,6 +50,9 @@ CONFIRMATIONS_PER_PICK = 6
 covers 96.2 % with none, 97.9 % with 4, 98.4 % with 8 and 99.3 % unlimited, which takes 63
 acquisitions a plan on average and up to 150."""
 _NEIGHBOURS = 8
+SIGHT_OFFSETS_M = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [-0.04, 0.0, 0.0],
+                            [0.0, 0.04, 0.0], [0.0, -0.04, 0.0]])
+"""Points about the centre, across the image (sensor frame), that the arm must not hide."""
 
 
 @dataclasses.dataclass
@@ -147,7 +152,8 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
     dof = scene.cell.joints.dof
     start = time.perf_counter()
     if episode.uses_robot:
-        joints, reasons = _screen_reachability(episode, directions, targets)
+        joints, reasons = screen_reachability(scene.arm, episode.carrier.collisions, episode.q,
+                                              directions, targets)
         usable = ~np.isnan(joints).any(axis=1)
         arm = scene.arm
         poses = tuple(arm.fk(q) if ok else None for q, ok in zip(joints, usable, strict=True))
@@ -173,23 +179,33 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
                           visibility_seconds=time.perf_counter() - start)
 
 
-def _screen_reachability(episode: Episode, directions: np.ndarray,
-                         targets: tuple[SensorTarget, ...]) -> tuple[np.ndarray,
-                                                                    tuple[str | None, ...]]:
-    """IK of every candidate for the episode's object pose (see the module docstring).
+def arm_hides_view(arm: RobotArm, q: np.ndarray, center: np.ndarray) -> bool:
+    """Whether the arm at `q` hides the middle of its sensor's view of `center` (the centre
+    and four points 4 cm across the image from it)."""
+    return arm.hides(q, center + SIGHT_OFFSETS_M @ arm.fk(q).rotation.T)
+
+
+def screen_reachability(arm: RobotArm, collisions: CollisionChecker, start_q: np.ndarray,
+                        directions: np.ndarray, targets: Sequence[SensorTarget]
+                        ) -> tuple[np.ndarray, tuple[str | None, ...]]:
+    """IK of every candidate, neighbour after neighbour (see the module docstring).
+
+    Args:
+        arm: The robot.
+        collisions: The checker holding the cell (and the object placement) to avoid.
+        start_q: The configuration the first IK of each connected region starts from.
+        directions: Unit directions of the candidates from the centre (count, 3).
+        targets: The candidates' targets, one per direction.
 
     Returns:
         Configurations (count, dof) with NaN rows for unusable candidates, and the reasons.
     """
-    arm = episode.scene.arm
-    collisions = episode.carrier.collisions
     count = len(targets)
     _, neighbours = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1, count))
     neighbours = np.asarray(neighbours).reshape(count, -1)[:, 1:]
     joints = np.full((count, arm.joints.dof), np.nan)
     reasons: list[str | None] = [None] * count
     visited = np.zeros(count, dtype=bool)
-    start_q = episode.q
     with stage("reachability of the candidates", count, "view") as bar:
         for root in range(count):
             if visited[root]:

@@ -33,6 +33,7 @@ from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import SensorTarget
 from vprobot.occupancy import GAINS, VOXEL_M, Gain, OccupancyGrid, ViewGains
 from vprobot.planners.base import Planner
+from vprobot.planners.candidates import arm_hides_view
 from vprobot.sensor_model import SensorModel
 from vprobot.viewsphere import sphere_directions
 
@@ -43,9 +44,6 @@ EXCLUDE_DEG = 10.0
 """Candidates this close to an earlier request are not offered again."""
 REACH_TRIES = 40
 """IK attempts per view at most (best candidates first)."""
-SIGHT_OFFSETS_M = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [-0.04, 0.0, 0.0],
-                            [0.0, 0.04, 0.0], [0.0, -0.04, 0.0]])
-"""Points about the centre, across the image (sensor frame), that the arm must not hide."""
 STOP_NEW_SURFACE = 0.02
 """The grid stop: the share of occupied voxels an acquisition added (chosen on the training
 motors)."""
@@ -182,9 +180,7 @@ class VolumetricPlanner(Planner):
         result = arm.reach(target, episode.q, episode.carrier.collisions)
         if not result.reachable:
             return None
-        rotation = arm.fk(result.q).rotation
-        sight = episode.center + SIGHT_OFFSETS_M @ rotation.T
-        if episode.carrier.arm_blocks(result.q, sight):
+        if arm_hides_view(arm, result.q, episode.center):
             return None
         return ViewRequest(target, result.q)
 

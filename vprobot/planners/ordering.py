@@ -118,18 +118,21 @@ def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[Vi
     return [requests[index] for index in order_views(costs, None, range(len(requests)))]
 
 
-def fixed_plan(episode: Episode, targets: Sequence[SensorTarget]) -> list[ViewRequest]:
+def fixed_plan(episode: Episode, targets: Sequence[SensorTarget],
+               seeds: Sequence[np.ndarray] | None = None) -> list[ViewRequest]:
     """The requests of fixed targets in a short travel order (`order_requests`).
 
-    With the robot, each target is first reached from the current configuration; a target the
-    IK misses keeps no configuration, so it comes last and executing it asks the IK once more
-    from wherever the robot then is.
+    With the robot, each target is first reached, the IK starting from its seed configuration
+    (e.g. one known to reach it around the cell's object envelope) or else from the current
+    one; a target the IK misses keeps no configuration, so it comes last and executing it asks
+    the IK once more from wherever the robot then is.
     """
     if not episode.uses_robot:
         return order_requests(episode, [ViewRequest(target) for target in targets])
     arm, collisions = episode.scene.arm, episode.carrier.collisions
     requests = []
-    for target in targets:
-        result = arm.reach(target, episode.q, collisions)
+    for index, target in enumerate(targets):
+        start = seeds[index] if seeds is not None else episode.q
+        result = arm.reach(target, start, collisions)
         requests.append(ViewRequest(target, result.q if result.reachable else None))
     return order_requests(episode, requests)

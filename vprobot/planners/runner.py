@@ -77,7 +77,7 @@ def make_planner(name: str, config: Config, views: int | None = None) -> Planner
         return BoxFacesPlanner()
     uniform = _UNIFORM.match(name)
     if uniform is not None:
-        return UniformPlanner(int(uniform[1]), config.sensor.working_distance_m)
+        return UniformPlanner(config, int(uniform[1]))
     nbv = _NBV.match(name)
     if nbv is not None:
         return VolumetricPlanner(config, nbv["gain"] or DEFAULT_GAIN, nbv["stop"] or "goal")

@@ -1,44 +1,127 @@
 """`uniform<k>`: k fixed look-at views spread evenly over the view band, whatever the object.
 
-The views lie on the view sphere at the sensor's working distance about the fixture's centre,
-spread evenly (Fibonacci lattice) from the top down to the band's lowest polar angle
-(`ground_truth.MAX_POLAR_DEG`, 30 degrees below the equator: the band the inspectable surface
-is defined from), each looking at the centre. They depend on k and the cell only: not on the
-object, its pose or its mesh. With the robot, each view is reached from the current
-configuration and the reachable ones are ordered for short joint travel (the others follow and
-are reported unreachable when executed); free-flying, they are ordered for a short sensor path.
-The plan runs to its end: a fixed pattern does not know the coverage.
+The view band is the part of the view sphere (working distance about the fixture's centre,
+from the top down to `ground_truth.MAX_POLAR_DEG`, 30 degrees below the equator: where the
+inspectable surface is defined from) that the cell can use: free-flying, all of it; with the
+robot, the candidates its IK reaches collision-free, with the arm not hiding the view, in the
+cell holding the envelope of every object it accepts instead of a part (a sphere of the fit
+limit's radius about the fixture's centre, `vprobot.fit`: what the cell knows before a part
+arrives). Screened in the empty cell instead, a quarter of the views of `uniform4` collided
+with the training motors (the arm reaches around the part). The k views are the
+subset of those candidates with the least electrostatic energy (sum of 1 / distance: as far from
+each other as the band allows), found by farthest-point sampling and then moving single views to
+neighbouring candidates while the energy drops. They depend on k and the cell only: not on the
+object, its pose or its mesh.
+
+With the robot, each view is reached from the configuration that reached it around the envelope
+(the IK checks it against the part's placement and restarts if need be); the reachable ones are
+ordered for short joint travel (the others follow and are reported unreachable when
+executed); free-flying, they are ordered for a short sensor path. The plan runs to its end: a fixed
+pattern does not know the coverage.
 """
 
 from __future__ import annotations
 
-import numpy as np
+import functools
 
+import numpy as np
+import trimesh
+from scipy.spatial import cKDTree
+
+from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
+from vprobot.fit import fit_limit
 from vprobot.ground_truth import MAX_POLAR_DEG
-from vprobot.kinematics import SensorTarget
+from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.planners.base import PlanPlanner
+from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view, screen_reachability
 from vprobot.planners.ordering import fixed_plan
+from vprobot.scene import Cell
 from vprobot.viewsphere import sphere_directions
 
+_NEIGHBOURS = 8
 
-def uniform_targets(count: int, center: np.ndarray, distance: float) -> list[SensorTarget]:
-    """`count` look-at targets spread evenly over the view band about `center`.
+
+@functools.lru_cache(maxsize=4)
+def view_band(config: Config, robot: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Unit directions (n, 3) of the band's candidates the cell can use (see the module
+    docstring) and, with the robot, a configuration (n, dof) reaching each around the cell's
+    object envelope; cached, as they depend on the cell only."""
+    directions = sphere_directions(CANDIDATE_COUNT, np.deg2rad(MAX_POLAR_DEG))
+    if not robot:
+        return directions, None
+    center = np.asarray(config.cell.object_center_m, dtype=float)
+    distance = config.sensor.working_distance_m
+    targets = [SensorTarget.look_at(center + distance * d, center) for d in directions]
+    envelope = trimesh.creation.icosphere(subdivisions=3, radius=fit_limit(config).radius_m)
+    arm = RobotArm(Cell(config, envelope))
+    joints, _ = screen_reachability(arm, arm.collisions, arm.joints.home, directions, targets)
+    usable = [index for index, q in enumerate(joints)
+              if not np.isnan(q).any() and not arm_hides_view(arm, q, center)]
+    return directions[usable], joints[usable]
+
+
+def _energy(points: np.ndarray) -> float:
+    distance = np.linalg.norm(points[:, None] - points[None], axis=-1)
+    upper = np.triu_indices(len(points), 1)
+    return float(np.sum(1.0 / np.maximum(distance[upper], 1e-12)))
+
+
+def spread(directions: np.ndarray, count: int) -> np.ndarray:
+    """Indices of `count` of `directions` spread evenly: least energy found from farthest-point
+    sampling (started at the topmost) by single moves to neighbouring directions.
 
     Raises:
-        ValueError: If count < 1.
+        ValueError: If count < 1 or exceeds the directions.
     """
-    directions = sphere_directions(count, np.deg2rad(MAX_POLAR_DEG))
-    return [SensorTarget.look_at(center + distance * direction, center)
-            for direction in directions]
+    if not 1 <= count <= len(directions):
+        raise ValueError(f"count must lie in 1..{len(directions)}, got {count}")
+    chosen = [int(np.argmax(directions[:, 2]))]
+    nearest = np.linalg.norm(directions - directions[chosen[0]], axis=1)
+    while len(chosen) < count:
+        chosen.append(int(np.argmax(nearest)))
+        nearest = np.minimum(nearest, np.linalg.norm(directions - directions[chosen[-1]], axis=1))
+    _, neighbours = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1,
+                                                                len(directions)))
+    neighbours = np.asarray(neighbours).reshape(len(directions), -1)[:, 1:]
+    best = _energy(directions[chosen])
+    improved = True
+    while improved:
+        improved = False
+        for slot in range(count):
+            for candidate in neighbours[chosen[slot]]:
+                if candidate in chosen:
+                    continue
+                trial = chosen[:slot] + [int(candidate)] + chosen[slot + 1:]
+                energy = _energy(directions[trial])
+                if energy < best - 1e-12:
+                    chosen, best, improved = trial, energy, True
+    return np.array(chosen)
+
+
+def uniform_targets(config: Config, count: int, robot: bool
+                    ) -> tuple[list[SensorTarget], np.ndarray | None]:
+    """The `count` look-at targets of `uniform<count>` in the configured cell, and with the
+    robot the configurations reaching them around the cell's object envelope.
+
+    Raises:
+        ValueError: If count < 1 or exceeds the band's usable candidates.
+    """
+    band, joints = view_band(config, robot)
+    chosen = spread(band, count)
+    center = np.asarray(config.cell.object_center_m, dtype=float)
+    distance = config.sensor.working_distance_m
+    targets = [SensorTarget.look_at(center + distance * direction, center)
+               for direction in band[chosen]]
+    return targets, None if joints is None else joints[chosen]
 
 
 class UniformPlanner(PlanPlanner):
-    """k fixed views over the view band, in a short travel order.
+    """k fixed views spread over the view band, in a short travel order.
 
     Args:
+        config: The configuration (cell, robot, sensor).
         count: Number of views k.
-        working_distance_m: Distance of the views from the fixture's centre.
 
     Raises:
         ValueError: If count < 1.
@@ -47,13 +130,12 @@ class UniformPlanner(PlanPlanner):
     name = "uniform"
     stops_at_goal = False
 
-    def __init__(self, count: int, working_distance_m: float):
+    def __init__(self, config: Config, count: int):
         if count < 1:
             raise ValueError(f"a uniform pattern needs at least one view, got {count}")
         super().__init__()
+        self.config = config
         self.count = count
-        self.working_distance_m = working_distance_m
 
     def plan(self, episode: Episode) -> list[ViewRequest]:
-        return fixed_plan(episode, uniform_targets(self.count, episode.center,
-                                                   self.working_distance_m))
+        return fixed_plan(episode, *uniform_targets(self.config, self.count, episode.uses_robot))
