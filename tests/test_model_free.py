@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -234,3 +236,15 @@ def test_the_arm_blocks_a_point_behind_its_own_links_but_not_one_in_front_of_the
     base = bracket.cell.robot_base.position
     assert bracket.arm.hides(home, base)
     assert not bracket.arm.hides(home, sensor.position + 0.2 * sensor.view_axis)
+
+
+def test_plan_with_a_self_stopped_nbv_says_why_it_stopped(tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    from vprobot.cli import main
+
+    plan = tmp_path / "plan.json"
+    assert main(["plan", "--planner", "nbv@grid", "--carrier", "free", "--out", str(plan)]) == 0
+    document = json.loads(plan.read_text())
+    assert document["planner"] == "nbv@grid"
+    assert document["stop_reason"].startswith("grid: the latest 2 views")
+    assert "stopped by the planner: grid" in capsys.readouterr().out
