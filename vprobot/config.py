@@ -269,6 +269,9 @@ class EnvConfig:
         object_yaw_range_deg: Object rotation about the vertical, uniform in +-this.
         object_tilt_range_deg: Tilt about x or y, uniform in +-this.
         motors: Bundled split to draw motors from (`train`, `test`) or `mesh` for one file.
+        objects: What training draws from when motors is `train`: `motors` (the bundled
+            training motors) and/or training families of the split (`vprobot.splits`), e.g.
+            `[motors, flange, housing]`; every source is drawn equally often.
         mesh: Mesh file used when motors is `mesh`.
         mesh_scale: Scale applied to that mesh file (e.g. 0.001 for millimetres).
         resolution: Sensor resolution used in the environment; None keeps the sensor's.
@@ -301,6 +304,7 @@ class EnvConfig:
     object_yaw_range_deg: float = 180.0
     object_tilt_range_deg: float = 25.0
     motors: Literal["train", "test", "mesh"] = "train"
+    objects: tuple[str, ...] = ("motors",)
     mesh: str | None = None
     mesh_scale: float = 1.0
     resolution: tuple[int, int] | None = None
@@ -310,6 +314,16 @@ class EnvConfig:
     def __post_init__(self) -> None:
         if self.motors == "mesh" and self.mesh is None:
             raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
+        if self.objects != ("motors",):
+            if self.motors != "train":
+                raise ConfigError(f"env.objects {list(self.objects)} applies to training "
+                                  f"(env.motors: train), not to env.motors {self.motors!r}")
+            from vprobot.splits import Split
+
+            try:
+                Split.load().check_sources(self.objects)
+            except ValueError as error:
+                raise ConfigError(str(error)) from None
         if self.motors != "mesh" and self.mesh is not None:
             raise ConfigError(f"env.mesh is set ({self.mesh!r}) but env.motors is "
                               f"{self.motors!r}, which would ignore it; set env.motors to 'mesh' "
@@ -364,8 +378,11 @@ class AgentConfig:
         n_epochs: PPO epochs per rollout.
         total_steps: Env steps of a training run.
         n_envs: Environments stepped in parallel (subprocesses when more than one).
-        eval_freq: Env steps between evaluations on the shared test episodes.
-        eval_episodes: How many of the shared episodes an evaluation runs (None: all 15).
+        eval_freq: Env steps between evaluations on the validation episodes of what the run
+            trains on (`vprobot.splits.validation_episodes`): they select the best model.
+        eval_episodes: How many of those episodes an evaluation runs (None: all).
+        test_lists: Bundled episode lists a finished run's best model is scored on, once
+            (`vprobot.agents.training.score_test_lists`; None: none); never during training.
         checkpoint_freq: Env steps between checkpoints (with the replay buffer).
         torch_threads: Threads of torch in the training process.
         device: `cpu`, `cuda` or `auto` (cuda when present).
@@ -391,6 +408,7 @@ class AgentConfig:
     n_envs: int = 1
     eval_freq: int = 5_000
     eval_episodes: int | None = None
+    test_lists: tuple[str, ...] | None = ("test-v1", "families-test-v1", "shapes-v1")
     checkpoint_freq: int = 5_000
     torch_threads: int = 1
     device: Literal["cpu", "cuda", "auto"] = "cpu"

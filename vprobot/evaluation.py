@@ -42,7 +42,7 @@ from vprobot.episode import (
     read_episode_list,
     write_episode_list,
 )
-from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
+from vprobot.episode.specs import BUNDLED_EPISODE_LISTS, bundled_episode_list
 from vprobot.files import append_line, atomic_output, csv_text, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
@@ -358,7 +358,7 @@ def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = No
         if motors is not None or seeds is not None:
             raise ValueError("give either an episode list or motors and seeds, not both")
         if str(episodes) in BUNDLED_EPISODE_LISTS:
-            return read_episode_list(BUNDLED_EPISODE_LISTS[str(episodes)])
+            return read_episode_list(bundled_episode_list(str(episodes)))
         if not Path(episodes).is_file():
             raise ValueError(f"episode list {str(episodes)!r} is neither a file nor a bundled "
                              f"list; bundled: {', '.join(BUNDLED_EPISODE_LISTS)}")

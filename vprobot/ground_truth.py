@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
 import warnings
 from pathlib import Path
 
@@ -44,6 +43,7 @@ from scipy.spatial import cKDTree
 from vprobot.config import Config
 from vprobot.files import atomic_output
 from vprobot.geometry import Pose
+from vprobot.paths import CACHE_ENV_VAR, cache_root
 from vprobot.progress import stage
 from vprobot.scene import Cell
 from vprobot.sensor import DepthSensor
@@ -55,7 +55,6 @@ MAX_POLAR_DEG = 120.0
 RESOLUTION = (143, 100)
 ENVIRONMENT_GROUP = 0
 """Geom group of the fixture, floor and robot stand (see `vprobot.scene`)."""
-CACHE_ENV_VAR = "VPROBOT_CACHE_DIR"
 _METHOD_VERSION = 1
 _BISECTION_STEPS = 24
 _FINE_VOXELS = 400
@@ -95,9 +94,7 @@ def mesh_hash(mesh: trimesh.Trimesh) -> str:
 
 def default_cache_dir() -> Path:
     """`$VPROBOT_CACHE_DIR/ground_truth`, or `~/.cache/vprobot/ground_truth`."""
-    root = os.environ.get(CACHE_ENV_VAR)
-    base = Path(root).expanduser() if root else Path.home() / ".cache" / "vprobot"
-    return base / "ground_truth"
+    return cache_root() / "ground_truth"
 
 
 def ground_truth(mesh: trimesh.Trimesh, config: Config, cache_dir: str | Path | None = None,

@@ -6,6 +6,7 @@ editable checkout (where `assets/` and `configs/` at the repository root link he
 
 from __future__ import annotations
 
+import os
 from importlib.resources import files
 from pathlib import Path
 
@@ -18,3 +19,12 @@ OBJECTS_DIR = ASSETS_DIR / "objects"
 CONFIGS_DIR = PACKAGE_DIR / "configs"
 DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 """The bundled motor that commands use when no mesh is given."""
+
+CACHE_ENV_VAR = "VPROBOT_CACHE_DIR"
+
+
+def cache_root() -> Path:
+    """Where vprobot keeps what it builds once (ground truth, generated objects):
+    `$VPROBOT_CACHE_DIR`, or `~/.cache/vprobot`."""
+    root = os.environ.get(CACHE_ENV_VAR)
+    return Path(root).expanduser() if root else Path.home() / ".cache" / "vprobot"

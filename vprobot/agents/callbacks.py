@@ -1,4 +1,4 @@
-"""Training callbacks: evaluation on the shared test episodes with the best model kept, and
+"""Training callbacks: evaluation on the validation episodes with the best model kept, and
 resumable checkpoints (model, replay buffer, episode stream, log lengths)."""
 
 from __future__ import annotations

@@ -8,11 +8,12 @@ A run directory holds everything about one run:
 | `command.txt` | the command line, the seed and the vprobot commit |
 | `memory.json` | the replay (or rollout) buffer in bytes: per transition and in total |
 | `monitor.csv` | a row per training episode: reward, length, coverage, acquisitions, ... |
-| `evaluations.csv` | the periodic evaluations on the shared test episodes |
+| `evaluations.csv` | the periodic evaluations on the validation episodes (model selection) |
 | `logs/` | stable-baselines3's progress CSV and TensorBoard events, one folder per session |
 | `checkpoints/`, `checkpoint.json` | the latest checkpoint (model, replay buffer, episode stream) |
 | `best_model.zip`, `final_model.zip` | the best evaluated and the last model |
 | `curves.png` | the training curves (`vprobot curves`) |
+| `test/<list>/` | the best model on each test list, scored once after training |
 | `run.lock` | locked by the process training in the directory (holds its pid) |
 """
 
@@ -50,11 +51,14 @@ from vprobot.config import Config, ConfigError, from_mapping
 from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
-from vprobot.episode import BUNDLED_TEST_EPISODES, read_episode_list
+from vprobot.episode import read_episode_list
+from vprobot.episode.specs import bundled_episode_list
 from vprobot.files import atomic_output, exclusive_lock, write_text
 from vprobot.fit import check_fits
+from vprobot.generated import is_generated
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.mesh_loading import load_mesh
+from vprobot.splits import validation_episodes
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
                 *(f"travel_sum_{name}" for name in TRAVEL_COSTS))
@@ -206,7 +210,7 @@ def _commit() -> str:
 
 def check_environment(config: Config) -> None:
     """Check what the envs will need before a run folder is touched: the env settings and every
-    motor file episodes draw from (it loads and fits the cell).
+    motor file episodes draw from (it loads and fits the cell; generated objects are made later).
 
     Raises:
         FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, or
@@ -214,9 +218,12 @@ def check_environment(config: Config) -> None:
     """
     env = config.env
     scale = env.mesh_scale if env.motors == "mesh" else 1.0
+    # Generated objects fit by construction (their families' tests check it) and are made only
+    # when an episode draws them.
     for path in InspectEnv(config).motor_files:
-        check_fits(load_mesh(path, scale, scale_option=MESH_SCALE_KEY), config,
-                   scale_option=MESH_SCALE_KEY)
+        if not is_generated(str(path)):
+            check_fits(load_mesh(path, scale, scale_option=MESH_SCALE_KEY), config,
+                       scale_option=MESH_SCALE_KEY)
 
 
 def start_run(config: Config, run_dir: Path, seed: int, argv: Sequence[str]) -> None:
@@ -266,7 +273,7 @@ def train(config: Config | None, run_dir: str | Path, seed: int = 0, resume: boo
         argv: The command line, recorded in the run directory.
 
     Returns:
-        The final evaluation summary on the shared test episodes, plus `steps`, `wall_s` and
+        The final evaluation summary on the validation episodes, plus `steps`, `wall_s` and
         `curves` (the curves.png written, None before the first finished episode).
 
     Raises:
@@ -332,7 +339,7 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
     sessions = sorted((run_dir / "logs").glob("session_*")) if (run_dir / "logs").is_dir() else []
     model.set_logger(configure(str(run_dir / "logs" / f"session_{len(sessions)}"),
                                ["csv", "tensorboard"]))
-    specs = read_episode_list(BUNDLED_TEST_EPISODES)[: agent.eval_episodes]
+    specs = validation_episodes(config)[: agent.eval_episodes]
     evaluation = SharedEpisodeEvaluation(evaluation_env(config), specs, run_dir,
                                          agent.eval_freq, clock_start)
     checkpoints = ResumableCheckpoint(run_dir, agent.checkpoint_freq, logs)
@@ -354,6 +361,25 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
         curves = None
     return {**summary, "steps": model.num_timesteps, "wall_s": time.time() - clock_start,
             "curves": curves}
+
+
+def score_test_lists(config: Config, run_dir: Path, progress: bool = False) -> list[Path]:
+    """Score a finished run's best model once on each of `agent.test_lists`, with the run's
+    carrier, into `test/<list>/` (the tables of `vprobot evaluate`; a rerun resumes them).
+    Training itself never reads a test list.
+
+    Returns:
+        The folders written.
+    """
+    from vprobot.evaluation import evaluate
+
+    folders = []
+    for name in config.agent.test_lists or ():
+        folder = run_dir / "test" / name
+        evaluate(config, [f"agent:{run_dir}"], read_episode_list(bundled_episode_list(name)),
+                 folder, progress=progress, carriers=[config.env.carrier])
+        folders.append(folder)
+    return folders
 
 
 def parse_overrides(pairs: Sequence[str]) -> dict[str, dict[str, Any]]:

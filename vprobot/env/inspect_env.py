@@ -37,13 +37,18 @@ from vprobot.episode import (
 )
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.paths import MOTORS_DIR
+from vprobot.splits import Split
 
+SCENES_KEPT = 64
+"""Scenes an env keeps loaded (each holds a compiled cell): all of the 20 training motors, the
+latest of thousands of family instances."""
 SEED_BOUND = 2**31
 """Episode specs drawn by the env carry a seed below this, drawn from np_random."""
 
 
-def motor_files(config: Config) -> list[Path]:
-    """The mesh files episodes draw from.
+def motor_files(config: Config) -> list[str | Path]:
+    """The objects episodes draw from: mesh files, or generated objects' names (made when an
+    episode first draws them, `vprobot.generated`).
 
     Raises:
         FileNotFoundError: If the split folder holds no STL files or the mesh file is missing.
@@ -54,6 +59,8 @@ def motor_files(config: Config) -> list[Path]:
         if not path.is_file():
             raise FileNotFoundError(f"env.mesh not found: {path}")
         return [path]
+    if env.motors == "train":
+        return Split.load().training_objects(env.objects)
     files = sorted((MOTORS_DIR / env.motors).glob("*.stl"))
     if not files:
         raise FileNotFoundError(f"no motors (*.stl) in {MOTORS_DIR / env.motors}")
@@ -144,9 +151,13 @@ class InspectEnv(gym.Env):
         self.__init__(state["config"], state["render_mode"])
 
     def scene(self, path: Path, scale: float = 1.0) -> MotorScene:
-        """The (cached) scene of one motor file."""
+        """The (cached) scene of one motor file; the `SCENES_KEPT` latest stay loaded."""
         key = (Path(path), scale)
-        if key not in self._scenes:
+        if key in self._scenes:
+            self._scenes[key] = self._scenes.pop(key)
+        else:
+            if len(self._scenes) >= SCENES_KEPT:
+                del self._scenes[next(iter(self._scenes))]
             self._scenes[key] = MotorScene.load(self.config, path, scale,
                                                 self.config.env.resolution)
         return self._scenes[key]

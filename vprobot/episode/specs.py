@@ -23,6 +23,7 @@ import numpy as np
 from vprobot.config import Config, EnvConfig
 from vprobot.episode.records import ViewRequest
 from vprobot.files import write_text
+from vprobot.generated import generated_path, is_generated
 from vprobot.geometry import (
     matrix_to_quat,
     quat_to_matrix,
@@ -40,8 +41,24 @@ BUNDLED_TEST_EPISODES = CONFIGS_DIR / "episodes" / "test-v1.json"
 """The evaluation episodes over the bundled test motors: 3 seeds each (0, 1, 2)."""
 BUNDLED_SHAPE_EPISODES = CONFIGS_DIR / "episodes" / "shapes-v1.json"
 """The evaluation episodes over the bundled non-motor objects: 5 seeds each (0 to 4)."""
-BUNDLED_EPISODE_LISTS = {"test-v1": BUNDLED_TEST_EPISODES, "shapes-v1": BUNDLED_SHAPE_EPISODES}
-"""The bundled episode lists by name (`vprobot evaluate --episodes NAME`)."""
+BUNDLED_EPISODE_LISTS = {
+    name: CONFIGS_DIR / "episodes" / f"{name}.json"
+    for name in ("test-v1", "shapes-v1", "families-test-v1", "validation-v1")}
+"""The bundled episode lists by name (`vprobot evaluate --episodes NAME`): the test motors, the
+non-motor shapes, the test families' instances, and the validation list of split v1
+(`vprobot.splits`)."""
+
+
+def bundled_episode_list(name: str) -> Path:
+    """The file of a bundled episode list.
+
+    Raises:
+        ValueError: For an unknown name; the message lists the bundled ones.
+    """
+    if name not in BUNDLED_EPISODE_LISTS:
+        raise ValueError(f"no bundled episode list {name!r}; bundled: "
+                         f"{', '.join(BUNDLED_EPISODE_LISTS)}")
+    return BUNDLED_EPISODE_LISTS[name]
 RANDOM_INITIAL_VIEWS = 50
 """Initial view directions a `random` initial view draws; the first one reached is taken."""
 RANDOM_INITIAL_MAX_POLAR_RAD = float(np.deg2rad(120.0))
@@ -78,7 +95,8 @@ class EpisodeSpec:
     """One episode, fixed.
 
     Attributes:
-        motor: The mesh file; a relative name is looked up in the bundled motors folder
+        motor: The mesh file; `generated/...` names a generated object (`vprobot.generated`),
+            another relative name is looked up in the bundled motors folder
             (`test/motor_020.stl`), then in the bundled assets (`objects/bracket.stl`), then
             taken as a path.
         object_quaternion: Rotation (w, x, y, z) of the object about its centre.
@@ -100,7 +118,10 @@ class EpisodeSpec:
 
     @property
     def motor_path(self) -> Path:
-        """The mesh file: a bundled motor or object, else the path as given."""
+        """The mesh file: a generated object (made on first use), a bundled motor or object,
+        else the path as given."""
+        if is_generated(self.motor):
+            return generated_path(self.motor)
         if not Path(self.motor).is_absolute():
             for folder in _BUNDLED_MESH_DIRS:
                 if (folder / self.motor).is_file():

@@ -1,0 +1,144 @@
+"""Split v1: what trains, selects and tests agents never overlaps; generated objects; lists."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vprobot.config import Config, ConfigError, replace
+from vprobot.episode import EpisodeSpec, read_episode_list
+from vprobot.episode.specs import bundled_episode_list, motor_name
+from vprobot.families import FAMILIES
+from vprobot.generated import family_of, generated_path, motor_object
+from vprobot.paths import CACHE_ENV_VAR, MOTORS_DIR
+from vprobot.splits import MOTORS, Split, split_lists, validation_episodes
+
+CONFIG = Config()
+SPLIT = Split.load()
+ALL_SOURCES = (MOTORS, *SPLIT.training_families)
+
+
+@pytest.fixture
+def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path))
+    yield tmp_path
+
+
+def names(objects: list) -> set[str]:
+    return {motor_name(item) for item in objects}
+
+
+def episode_key(spec: EpisodeSpec) -> tuple:
+    return spec.motor, spec.object_quaternion
+
+
+def test_no_test_object_family_or_episode_reaches_training_or_validation() -> None:
+    training = names(SPLIT.training_objects(ALL_SOURCES))
+    validation = read_episode_list(bundled_episode_list(SPLIT.validation_list))
+    tests = [spec for name in SPLIT.test_lists
+             for spec in read_episode_list(bundled_episode_list(name))]
+    test_objects = {spec.motor for spec in tests}
+    assert not test_objects & training
+    assert not test_objects & {spec.motor for spec in validation}
+    assert not {episode_key(spec) for spec in tests} & {episode_key(s) for s in validation}
+    # Families: the test families are never trained on or validated on, and the test lists'
+    # generated objects all belong to test families.
+    assert not set(SPLIT.test_families) & set(SPLIT.training_families)
+    trained_families = {family_of(name) for name in training} - {None}
+    assert trained_families == set(SPLIT.training_families)
+    assert {family_of(spec.motor) for spec in validation} <= {*SPLIT.training_families, "motor"}
+    assert {family_of(spec.motor) for spec in tests} - {None} <= set(SPLIT.test_families)
+    # Validation objects are not training objects either (held-out instances, new motors).
+    assert not {spec.motor for spec in validation} & training
+    # The non-motor shapes are kinds of parts held out of training (a bracket, a pipe tee).
+    assert {"bracket", "pipe_fitting"} <= set(SPLIT.test_families)
+    assert set(SPLIT.test_families) | set(SPLIT.training_families) <= set(FAMILIES)
+
+
+def test_split_lists_are_what_the_sampler_draws() -> None:
+    for name, specs in split_lists(CONFIG, SPLIT).items():
+        assert read_episode_list(bundled_episode_list(name)) == specs
+
+
+def test_validation_episodes_are_those_of_the_trained_sources() -> None:
+    motors_only = validation_episodes(CONFIG)
+    assert {family_of(spec.motor) for spec in motors_only} == {"motor"}
+    assert len(motors_only) == SPLIT.validation_motor_count
+    mixed = validation_episodes(replace(CONFIG, "env", objects=("motors", "flange")))
+    assert {family_of(spec.motor) for spec in mixed} == {"motor", "flange"}
+    assert len(mixed) == SPLIT.validation_motor_count + len(SPLIT.validation_instances)
+
+
+def test_training_draws_every_source_equally_often() -> None:
+    objects = SPLIT.training_objects((MOTORS, "flange"))
+    motors = [item for item in objects if not str(item).startswith("generated/")]
+    assert len(motors) == len(objects) - len(motors) == len(SPLIT.training_instances)
+    assert len(set(motors)) == 20
+
+
+def test_a_generated_motor_of_seed_0_is_the_bundled_training_motor_byte_for_byte(
+        cache: Path) -> None:
+    path = generated_path(motor_object(0, 3))
+    assert path.is_relative_to(cache)
+    assert path.read_bytes() == (MOTORS_DIR / "train" / "motor_003.stl").read_bytes()
+
+
+def test_a_generated_instance_is_made_once_then_read_back(cache: Path) -> None:
+    spec = read_episode_list(bundled_episode_list("families-test-v1"))[0]
+    first = spec.motor_path
+    made = first.stat().st_mtime_ns
+    assert spec.motor_path == first and first.stat().st_mtime_ns == made
+    family, seed = first.stem.rsplit("_", 1)
+    expected = FAMILIES[family].instance(int(seed)).mesh.export(file_type="stl")
+    assert first.read_bytes() == expected
+
+
+def test_bad_training_sources_are_one_line_config_errors() -> None:
+    with pytest.raises(ConfigError, match="'pulley' is a test family of split v1"):
+        replace(CONFIG, "env", objects=("motors", "pulley"))
+    with pytest.raises(ConfigError, match="unknown source 'gears'; training sources: motors"):
+        replace(CONFIG, "env", objects=("gears",))
+    with pytest.raises(ConfigError, match="applies to training"):
+        replace(CONFIG, "env", objects=("flange",), motors="test")
+    with pytest.raises(ValueError, match="is not a generated object"):
+        generated_path("generated/nothing.stl")
+
+
+def test_env_draws_family_instances_and_builds_them_on_first_use(cache: Path) -> None:
+    from vprobot.env import InspectEnv
+
+    env = InspectEnv(replace(CONFIG, "env", objects=("spur_gear",), resolution=(64, 45),
+                             state_points=64))
+    env.reset(seed=0)
+    assert family_of(env.spec_of_episode.motor) == "spur_gear"
+    assert env.spec_of_episode.motor_path.is_relative_to(cache)
+    observation, *_ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    assert np.isfinite(observation).all()
+
+
+def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, cache: Path) -> None:
+    import vprobot.agents.training as training
+    import vprobot.splits as splits
+    from vprobot.paths import CONFIGS_DIR
+
+    read: list[Path] = []
+
+    def recording(path: str | Path) -> list[EpisodeSpec]:
+        read.append(Path(path))
+        return read_episode_list(path)
+
+    monkeypatch.setattr(splits, "read_episode_list", recording)
+    monkeypatch.setattr(training, "read_episode_list", recording)
+    config = training.profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", [
+        "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=20",
+        "agent.batch_size=16", "agent.buffer_size=200", "agent.eval_freq=30",
+        "agent.eval_episodes=1", "agent.checkpoint_freq=1000", "agent.net_arch=[16,16]"],
+        steps=30)
+    training.train(config, tmp_path / "run", progress=False)
+    assert read and set(read) == {bundled_episode_list(SPLIT.validation_list)}
+    rows = (tmp_path / "run" / "evaluations.csv").read_text().splitlines()
+    assert len(rows) >= 2

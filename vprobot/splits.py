@@ -1,0 +1,139 @@
+"""The protocol's split: which objects train agents, which select them, which test them.
+
+Written down in `configs/splits/v1.yaml` (versioned): the training objects are the bundled
+training motors and instances 0-199 of five part families; the validation list (model selection
+only: best model, early stop, hyperparameters) holds new motors and held-out instances of the
+same families; the test lists (reported numbers only) are the bundled test motors, instances of
+four families never trained on, and the non-motor shapes. `tests/test_splits.py` checks that no
+test object, family or episode reaches training or validation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from vprobot.config import Config
+from vprobot.episode import EpisodeSpec, episode_list, read_episode_list
+from vprobot.episode.specs import bundled_episode_list
+from vprobot.generated import family_object, family_of, motor_object
+from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+
+SPLIT_FILE = CONFIGS_DIR / "splits" / "v1.yaml"
+MOTORS = "motors"
+"""The source name of the bundled training motors in `env.objects`."""
+
+
+def _seeds(bounds: Sequence[int]) -> range:
+    low, high = bounds
+    return range(int(low), int(high))
+
+
+@dataclasses.dataclass(frozen=True)
+class Split:
+    """A versioned split (see the module docstring and `configs/splits/v1.yaml`)."""
+
+    version: int
+    training_families: tuple[str, ...]
+    training_instances: range
+    validation_motor_seed: int
+    validation_motor_count: int
+    validation_instances: range
+    validation_poses: tuple[int, ...]
+    validation_list: str
+    test_families: tuple[str, ...]
+    test_instances: range
+    test_poses: tuple[int, ...]
+    test_lists: tuple[str, ...]
+
+    @classmethod
+    def load(cls, path: str | Path = SPLIT_FILE) -> Split:
+        """Read a split file.
+
+        Raises:
+            ValueError: If a field is missing or malformed.
+        """
+        try:
+            data: dict[str, Any] = yaml.safe_load(Path(path).read_text())
+            training, validation, test = data["training"], data["validation"], data["test"]
+            return cls(
+                version=int(data["version"]),
+                training_families=tuple(training["families"]),
+                training_instances=_seeds(training["instances"]),
+                validation_motor_seed=int(validation["motors"]["seed"]),
+                validation_motor_count=int(validation["motors"]["count"]),
+                validation_instances=_seeds(validation["instances"]),
+                validation_poses=tuple(int(s) for s in validation["poses"]),
+                validation_list=str(validation["list"]),
+                test_families=tuple(test["families"]),
+                test_instances=_seeds(test["instances"]),
+                test_poses=tuple(int(s) for s in test["poses"]),
+                test_lists=tuple(test["lists"]),
+            )
+        except (KeyError, TypeError, ValueError) as error:
+            raise ValueError(f"{path}: not a split file ({error})") from None
+
+    def check_sources(self, sources: Sequence[str], key: str = "env.objects") -> None:
+        """Refuse training sources that are not the split's training objects.
+
+        Raises:
+            ValueError: For an empty list, a test family or an unknown source; the message
+                names `key` and lists the allowed sources.
+        """
+        allowed = (MOTORS, *self.training_families)
+        if not sources:
+            raise ValueError(f"{key} must name at least one source: {', '.join(allowed)}")
+        for source in sources:
+            if source in self.test_families:
+                raise ValueError(f"{key}: {source!r} is a test family of split v{self.version} "
+                                 f"(never trained on); training sources: {', '.join(allowed)}")
+            if source not in allowed:
+                raise ValueError(f"{key}: unknown source {source!r}; training sources: "
+                                 f"{', '.join(allowed)}")
+
+    def training_objects(self, sources: Sequence[str]) -> list[str | Path]:
+        """The objects training draws from (bundled motor files, generated names), each source
+        repeated to the size of the largest, so that a uniform draw picks every source equally
+        often (20 motors beside 200 instances of a family would otherwise be 1 draw in 11)."""
+        self.check_sources(sources)
+        groups = [sorted((MOTORS_DIR / "train").glob("*.stl")) if source == MOTORS else
+                  [family_object(source, seed) for seed in self.training_instances]
+                  for source in sources]
+        size = max(len(group) for group in groups)
+        return [group[index % len(group)] for group in groups for index in range(size)]
+
+    def validation_objects(self) -> list[str]:
+        """Every object of the validation list: new motors, then held-out family instances."""
+        motors = [motor_object(self.validation_motor_seed, index)
+                  for index in range(self.validation_motor_count)]
+        return motors + [family_object(family, seed) for family in self.training_families
+                         for seed in self.validation_instances]
+
+    def test_family_objects(self) -> list[str]:
+        """The instances of the test families on `families-test-v1`."""
+        return [family_object(family, seed) for family in self.test_families
+                for seed in self.test_instances]
+
+
+def split_lists(config: Config, split: Split) -> dict[str, list[EpisodeSpec]]:
+    """The episode lists the split defines, drawn by the shared sampler: `validation-v1` and
+    `families-test-v1`."""
+    return {
+        split.validation_list: episode_list(config, split.validation_objects(),
+                                            split.validation_poses),
+        "families-test-v1": episode_list(config, split.test_family_objects(), split.test_poses),
+    }
+
+
+def validation_episodes(config: Config, split: Split | None = None) -> list[EpisodeSpec]:
+    """The validation episodes of what a config trains on: those of its sources (new motors
+    for `motors`, held-out instances for a family)."""
+    split = split if split is not None else Split.load()
+    sources = set(config.env.objects)
+    wanted = {"motor" if source == MOTORS else source for source in sources}
+    return [spec for spec in read_episode_list(bundled_episode_list(split.validation_list))
+            if family_of(spec.motor) in wanted]
