@@ -96,16 +96,6 @@ def _family_name(text: str) -> str:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
-def _family_name(text: str) -> str:
-    """An argparse type: a registered part family."""
-    from vprobot.families import family
-
-    try:
-        return family(text).name
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
 NON_NEGATIVE_INT = _number(int, 0, False, "an integer >= 0")
 POSITIVE_INT = _number(int, 0, True, "an integer >= 1")
 POSITIVE_FLOAT = _number(float, 0.0, True, "a number > 0")
@@ -402,23 +392,6 @@ def command_objects(args: argparse.Namespace) -> int:
     return 0
 
 
-def command_objects(args: argparse.Namespace) -> int:
-    """`objects list`: each part family with its parameters; `objects generate`: write
-    instances of one family."""
-    from vprobot.families import FAMILIES, generate_instances
-
-    if args.objects_command == "list":
-        for part in FAMILIES.values():
-            print(f"{part.name}: {part.description}")
-            for p in part.parameters:
-                print(f"  {p.name:24s} {p.range_text():18s} {p.description}")
-        return 0
-    check_output_folder(args.out, "--out")
-    paths = generate_instances(args.family, args.count, args.seed, Path(args.out))
-    print(f"wrote {len(paths)} {args.family} parts to {args.out}")
-    return 0
-
-
 def command_robots_list(args: argparse.Namespace) -> int:
     from vprobot.robots import available_robots, load_robot
 
@@ -618,20 +591,6 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--count", type=POSITIVE_INT, required=True)
     generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0)
     generate.add_argument("--out", required=True, help="output folder")
-
-    objects = commands.add_parser("objects", help="Seeded part families besides motors.")
-    object_commands = objects.add_subparsers(dest="objects_command", required=True)
-    add("list", command_objects, "List the part families and their parameters.",
-        object_commands, config=False)
-    parts = add("generate", command_objects,
-                "Write seeded instances of a part family (STL + parameter JSON).",
-                object_commands, config=False)
-    parts.add_argument("--family", type=_family_name, required=True,
-                       help="part family (see `vprobot objects list`)")
-    parts.add_argument("--count", type=POSITIVE_INT, required=True)
-    parts.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
-                       help="seed of the first instance; the others follow it (default 0)")
-    parts.add_argument("--out", required=True, help="output folder")
 
     objects = commands.add_parser("objects", help="Seeded part families besides motors.")
     object_commands = objects.add_subparsers(dest="objects_command", required=True)
