@@ -35,7 +35,7 @@ class PipeFitting(PartFamily):
         Parameter("kind", 0, 3, "0 tee, 1 elbow, 2 cross, 3 reducer", integer=True),
         Parameter("pipe_radius_m", 0.02, 0.04, "outer radius of the pipe"),
         Parameter("wall_ratio", 0.12, 0.25, "wall thickness / pipe radius"),
-        Parameter("arm_length_m", 0.06, 0.10, "centre to end face"),
+        Parameter("arm_length_m", 0.065, 0.10, "centre to end face"),
         Parameter("reducer_ratio", 0.5, 0.75, "small end radius / pipe radius (reducer)"),
         Parameter("flange_count", 0, 1, "1: a bolted flange on every end", integer=True),
         Parameter("flange_radius_ratio", 1.5, 2.0, "flange radius / pipe radius"),

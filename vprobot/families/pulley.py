@@ -13,7 +13,7 @@ class Pulley(PartFamily):
     name = "pulley"
     description = "V-belt pulley: grooved rim, recessed web with holes, offset hub, keyed bore"
     parameters = (
-        Parameter("outer_radius_m", 0.05, 0.13, "rim radius"),
+        Parameter("outer_radius_m", 0.06, 0.13, "rim radius"),
         Parameter("groove_count", 1, 3, "V grooves", integer=True),
         Parameter("groove_depth_m", 0.006, 0.012, "depth of a groove"),
         Parameter("groove_pitch_m", 0.012, 0.02, "groove centre to centre"),
