@@ -262,12 +262,27 @@ def command_train(args: argparse.Namespace) -> int:
     if args.profile is None and not args.resume:
         raise ValueError("give a profile (e.g. configs/agents/cpu.yaml), or --resume a run")
     if args.resume and (args.profile is not None or args.set or args.steps is not None
-                        or args.seed is not None or args.sensor is not None):
+                        or args.seed is not None or args.sensor is not None
+                        or args.seeds is not None):
         raise ValueError("--resume goes on with the run's own profile, overrides, sensor, steps "
                          "and seed; give only --out (and --device)")
+    if args.seeds is not None and args.seed is not None:
+        raise ValueError("give --seed (one run) or --seeds (one run per seed), not both")
+    if args.seeds is None and (args.workers is not None or args.address is not None):
+        raise ValueError("--workers and --address run the seeds of --seeds on Ray; add --seeds")
     check_output_folder(args.out, "--out")
     config = (None if args.resume
               else _sensor_option(profile_config(args.profile, args.set, args.steps), args))
+    if args.seeds is not None:
+        from vprobot.agents.seeds import train_seeds
+
+        command = ["vprobot", "train", args.profile, *(["--set", *args.set] if args.set else []),
+                   *(["--sensor", args.sensor] if args.sensor else []),
+                   *(["--steps", str(args.steps)] if args.steps is not None else [])]
+        train_seeds(config, args.out, args.seeds, command, device=args.device,
+                    workers=args.workers, address=args.address)
+        print((Path(args.out) / "seeds.md").read_text())
+        return 0
     result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
                    device=args.device, argv=["vprobot", *args.argv])
     print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the shared "
@@ -548,11 +563,19 @@ def build_parser() -> argparse.ArgumentParser:
     add_sensor(training)
     training.add_argument("--steps", type=POSITIVE_INT, help="env steps (agent.total_steps)")
     training.add_argument("--seed", type=NON_NEGATIVE_INT, help="seed of the run (default 0)")
-    training.add_argument("--out", required=True, help="run directory")
+    training.add_argument("--seeds", type=NON_NEGATIVE_INT, nargs="+", metavar="SEED",
+                          help="one run per seed in OUT/seed-<n>/, each scored on the test "
+                          "lists, then mean and min-max over seeds (OUT/seeds.md); rerun to go on")
+    training.add_argument("--out", required=True, help="run directory (with --seeds: the folder "
+                          "of the seeds' runs)")
     training.add_argument("--resume", action="store_true",
                           help="go on from the run's latest checkpoint")
     training.add_argument("--device", choices=["cpu", "cuda", "auto"],
                           help="torch device (default: the profile's, cpu)")
+    training.add_argument("--workers", type=POSITIVE_INT,
+                          help="with --seeds: seeds at once on a local Ray, one CPU each "
+                          "(default: one after another in this process)")
+    training.add_argument("--address", help="with --seeds: run the seeds on this Ray cluster")
 
     study = add("sweep", command_sweep,
                 "Run a study (a grid of agent configurations x seeds) as training runs on Ray.",

@@ -88,8 +88,9 @@ class SharedEpisodeEvaluation(BaseCallback):
         self.latest, self.latest_step = summary, model.num_timesteps
         row = {"step": model.num_timesteps, "wall_s": time.time() - self.clock_start,
                "episodes": len(self.specs), **summary}
+        # A resume from a checkpoint older than the first evaluation leaves an empty file.
         append_line(self.path, csv_text(EVALUATION_COLUMNS, [row],
-                                         header=not self.path.is_file()))
+                                         header=count_lines(self.path) == 0))
         for key, value in summary.items():
             model.logger.record(f"eval/{key}", value)
         score = (summary["coverage"], -summary["acquisitions"])

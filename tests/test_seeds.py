@@ -1,0 +1,156 @@
+"""`vprobot train --seeds`: the spread over seeds against hand-computed numbers, and a two-seed
+run through the CLI (folder layout, resume without retraining, refused option mixes)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from vprobot.agents.callbacks import EVALUATION_COLUMNS
+from vprobot.agents.seeds import seeds_table, write_summary
+from vprobot.cli import main
+from vprobot.config import Config, replace
+from vprobot.evaluation import COLUMNS
+from vprobot.files import csv_text
+from vprobot.paths import CACHE_ENV_VAR, CONFIGS_DIR, MOTORS_DIR
+
+PROFILE = str(CONFIGS_DIR / "agents" / "cpu.yaml")
+# A few env steps on one bundled motor at a small resolution, scored on one validation episode.
+TINY = ["sensor.resolution=[64,45]", "env.resolution=[64,45]", "env.state_points=64",
+        "env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
+        "agent.learning_starts=50", "agent.batch_size=32", "agent.buffer_size=400",
+        "agent.eval_freq=100", "agent.checkpoint_freq=100", "agent.eval_episodes=1",
+        "agent.net_arch=[16,16]", "agent.test_lists=null"]
+
+
+def _validation(run: Path, rows: list[tuple[int, float, float, float]]) -> None:
+    """An `evaluations.csv` of (step, coverage, acquisitions, success) rows."""
+    run.mkdir(parents=True)
+    (run / "result.json").write_text("{}\n")
+    (run / "evaluations.csv").write_text(csv_text(EVALUATION_COLUMNS, [
+        {"step": step, "coverage": coverage, "acquisitions": acquisitions, "success": success}
+        for step, coverage, acquisitions, success in rows]))
+
+
+def _test_list(run: Path, name: str, episodes: int, **row: float | None) -> None:
+    folder = run / "test" / name
+    folder.mkdir(parents=True)
+    (folder / "evaluation.csv").write_text(csv_text(COLUMNS, [
+        {"planner": f"agent:{run}", "carrier": "robot", "episodes": episodes, **row}]))
+
+
+def test_seed_summary_is_mean_min_max_of_best_validation_and_complete_test_lists(
+        tmp_path: Path) -> None:
+    config = replace(Config(), "agent", test_lists=("shapes-v1",))
+    # Best model: highest coverage, fewer acquisitions breaking the tie (seed 0: the middle row).
+    _validation(tmp_path / "seed-0", [(100, 0.80, 9, 0.2), (200, 0.85, 8, 0.4),
+                                      (300, 0.85, 10, 0.6)])
+    _validation(tmp_path / "seed-1", [(100, 0.70, 12, 0.2), (200, 0.90, 11, 0.6)])
+    _validation(tmp_path / "seed-2", [(100, 0.60, 10, 0.0)])
+    # shapes-v1 has 15 episodes: seed 1's table covers 7 (interrupted), so it is left out;
+    # no episode of seed 2 reached the goal, so it has no views to goal.
+    _test_list(tmp_path / "seed-0", "shapes-v1", 15, coverage_pct=92.5, acquisitions=9.2,
+               success_pct=80.0, area_pct=70.5, views_to_goal=7.0)
+    _test_list(tmp_path / "seed-1", "shapes-v1", 7, coverage_pct=99.0, acquisitions=5.0,
+               success_pct=100.0, area_pct=90.0, views_to_goal=3.0)
+    _test_list(tmp_path / "seed-2", "shapes-v1", 15, coverage_pct=88.5, acquisitions=12.0,
+               success_pct=0.0, area_pct=60.5, views_to_goal=None)
+
+    table = seeds_table(config, tmp_path, [0, 1, 2])
+    write_summary(config, tmp_path, [0, 1, 2], table, ["vprobot", "train", "cpu.yaml"])
+
+    rows = {row["evaluation"]: row for row in csv.DictReader((tmp_path / "seeds.csv").open())}
+    assert list(rows) == ["validation", "shapes-v1"]
+    validation, test = rows["validation"], rows["shapes-v1"]
+    assert (validation["seeds"], validation["runs"]) == ("0 1 2", "3")
+    expected = {"coverage_pct": ((85 + 90 + 60) / 3, 60, 90),
+                "acquisitions": ((8 + 11 + 10) / 3, 8, 11),
+                "success_pct": ((40 + 60 + 0) / 3, 0, 60)}
+    for key, (mean, low, high) in expected.items():
+        assert float(validation[key]) == pytest.approx(mean)
+        assert (float(validation[f"{key}_min"]), float(validation[f"{key}_max"])) == (
+            pytest.approx(low), pytest.approx(high))
+    assert validation["area_pct"] == validation["views_to_goal"] == ""
+    assert (test["seeds"], test["runs"]) == ("0 2", "2")
+    expected = {"coverage_pct": (90.5, 88.5, 92.5), "acquisitions": (10.6, 9.2, 12.0),
+                "success_pct": (40.0, 0.0, 80.0), "area_pct": (65.5, 60.5, 70.5),
+                "views_to_goal": (7.0, 7.0, 7.0)}
+    for key, (mean, low, high) in expected.items():
+        assert float(test[key]) == pytest.approx(mean)
+        assert (float(test[f"{key}_min"]), float(test[f"{key}_max"])) == (
+            pytest.approx(low), pytest.approx(high))
+    markdown = (tmp_path / "seeds.md").read_text()
+    assert markdown.startswith("**Partial: 2 of 3 seeds;")
+    assert "Seeds: 0, 1, 2: one run per seed" in markdown
+    assert ("| shapes-v1 | 0 2 | 90.5 (88.5-92.5) | 10.60 (9.20-12.00) | 40 (0-80) "
+            "| 65.5 (60.5-70.5) | 7.00 (7.00-7.00) |") in markdown
+    assert "| validation | 0 1 2 | 78.3 (60.0-90.0) | 9.67 (8.00-11.00) | 33 (0-60) | - | - |" \
+        in markdown
+
+
+def test_train_seeds_makes_one_run_per_seed_and_goes_on_without_retraining(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path / "cache"))
+    out = tmp_path / "seeds"
+    command = ["train", PROFILE, "--seeds", "0", "1", "--set", *TINY, "--out", str(out),
+               "--steps", "5"]
+    assert main(command) == 0
+    for seed in (0, 1):
+        run = out / f"seed-{seed}"
+        for name in ("config.yaml", "evaluations.csv", "best_model.zip", "final_model.zip",
+                     "result.json"):
+            assert (run / name).is_file(), (seed, name)
+        assert json.loads((run / "run.json").read_text())["seed"] == seed
+        assert f"--steps 5 --seed {seed} --out {run}\n" in (run / "command.txt").read_text()
+    coverages = [100 * float(next(csv.DictReader((out / f"seed-{seed}" / "evaluations.csv")
+                                                 .open()))["coverage"]) for seed in (0, 1)]
+    summary = next(csv.DictReader((out / "seeds.csv").open()))
+    assert (summary["evaluation"], summary["seeds"]) == ("validation", "0 1")
+    assert float(summary["coverage_pct"]) == pytest.approx(sum(coverages) / 2)
+    assert (float(summary["coverage_pct_min"]), float(summary["coverage_pct_max"])) == (
+        pytest.approx(min(coverages)), pytest.approx(max(coverages)))
+    assert "Partial" not in (out / "seeds.md").read_text()
+
+    # Seed 1 interrupted after training (no result.json): the rerun goes on with it from its
+    # checkpoint and leaves the finished seed 0 alone.
+    (out / "seed-1" / "result.json").unlink()
+    models = {seed: (out / f"seed-{seed}" / "final_model.zip").stat().st_mtime_ns
+              for seed in (0, 1)}
+    started = (out / "seed-1" / "run.json").read_text()
+    capsys.readouterr()
+    assert main(command) == 0
+    assert "2 seeds, 1 finished, 1 to run" in capsys.readouterr().out
+    assert (out / "seed-0" / "final_model.zip").stat().st_mtime_ns == models[0]
+    assert (out / "seed-1" / "run.json").read_text() == started
+    assert (out / "seed-1" / "result.json").is_file()
+    models[1] = (out / "seed-1" / "final_model.zip").stat().st_mtime_ns
+
+    assert main(command) == 0
+    assert "2 seeds, 2 finished, 0 to run" in capsys.readouterr().out
+    assert {seed: (out / f"seed-{seed}" / "final_model.zip").stat().st_mtime_ns
+            for seed in (0, 1)} == models
+
+    # Other settings into the same folder are refused, naming the setting.
+    assert main([*command[:-1], "6"]) == 2
+    assert capsys.readouterr().err == (
+        f"vprobot train: error: {out / 'seed-0'} holds a run with another agent.total_steps; "
+        f"rerun the command that started it to go on, or choose another --out\n")
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--seeds", "0", "1", "--seed", "0"],
+     "give --seed (one run) or --seeds (one run per seed), not both"),
+    (["--seeds", "0", "0"], "--seeds 0 0: give each seed once"),
+    (["--workers", "2"], "--workers and --address run the seeds of --seeds on Ray; add --seeds"),
+], ids=["seed-and-seeds", "repeated-seed", "workers-without-seeds"])
+def test_train_refuses_seed_option_mixes_before_writing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], options: list[str],
+        message: str) -> None:
+    out = tmp_path / "seeds"
+    assert main(["train", PROFILE, *options, "--out", str(out)]) == 2
+    assert capsys.readouterr().err == f"vprobot train: error: {message}\n"
+    assert not out.exists()
