@@ -15,7 +15,7 @@ from vprobot.families import FAMILIES, family_rng
 from vprobot.fit import check_fits
 from vprobot.mesh_loading import load_mesh
 
-RADIUS_RANGE_M = (0.06, 0.16)
+RADIUS_RANGE_M = (0.055, 0.16)
 """Neither tiny in the cell nor at its limit (0.189 m with the default config)."""
 
 

@@ -22,7 +22,7 @@ class SpurGear(PartFamily):
     description = "spur gear: teeth, recessed web with lightening holes, hub, keyed bore"
     parameters = (
         Parameter("tooth_count", 18, 60, "teeth", integer=True),
-        Parameter("pitch_radius_m", 0.06, 0.12, "pitch circle radius"),
+        Parameter("pitch_radius_m", 0.055, 0.12, "pitch circle radius"),
         Parameter("face_width_m", 0.015, 0.045, "tooth width along the axis"),
         Parameter("hub_radius_ratio", 0.25, 0.4, "hub radius / pitch radius"),
         Parameter("hub_length_m", 0.02, 0.07, "hub length (at least the face width)"),
