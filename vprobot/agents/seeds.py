@@ -240,7 +240,7 @@ def train_seeds(config: Config, out: str | Path, seeds: Sequence[int], command: 
         if workers is None and address is None:
             for item in items:
                 report(item[1], run_seed(*item, progress=progress))
-        else:
+        elif items:
             from vprobot.cluster import parallel_map, require_ray
 
             require_ray()
