@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -142,3 +143,24 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
     assert read and set(read) == {bundled_episode_list(SPLIT.validation_list)}
     rows = (tmp_path / "run" / "evaluations.csv").read_text().splitlines()
     assert len(rows) >= 2
+
+
+PINNED_SHA256 = {
+    "bracket": "aacec58c042cd363", "flange": "c9e9cae60cda6379", "housing": "ffa5cb5974f36a97",
+    "lever": "dadd1e244fd4f1d9", "pipe_fitting": "0a38250d4bac1bf7", "pulley": "85d3eb1371153e3d",
+    "spur_gear": "80872660f6236cf2", "stepped_shaft": "92c102d6c4b503e0",
+    "valve_body": "643fd0356dc084ed", "motor_2": "1e00ba74d244f0a2",
+}
+"""sha256 (first 16 hex digits) of instance 0 of each family and of motor 0 of generator seed
+2, as `vprobot.generated.VERSION` 1 makes them. Cached files are never checked again: if this
+test fails, a generator changed and `VERSION` must be bumped (then update the digests)."""
+
+
+def test_generators_still_make_the_pinned_objects_of_this_cache_version(cache: Path) -> None:
+    from vprobot.generated import VERSION, family_object
+
+    assert VERSION == 1
+    made = {family: generated_path(family_object(family, 0)) for family in FAMILIES}
+    made["motor_2"] = generated_path(motor_object(2, 0))
+    assert {key: hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+            for key, path in made.items()} == PINNED_SHA256

@@ -3,9 +3,11 @@
 An episode spec names such an object `generated/<family>_<SSSS>.stl` (instance SSSS of a part
 family, `vprobot.families`) or `generated/motor_<seed>_<iii>.stl` (motor iii that the motor
 generator draws with `seed`; the bundled training motors are seed 0, the test motors seed 1).
-The file is written on first use into `cache_root()/objects` (atomically) and is the same byte
-for byte on every machine, so lists of thousands of instances cost nothing until an episode
-draws one, and the ground truth of each is then built once and cached as for any mesh.
+The file is written on first use into `cache_root()/objects/v<VERSION>` (atomically) and is the
+same byte for byte on every machine, so lists of thousands of instances cost nothing until an
+episode draws one, and the ground truth of each is then built once and cached as for any mesh.
+A cached file is never checked again: a change to a family or the motor generator must bump
+`VERSION` (a test pins the bytes of one instance of each, and fails until it is bumped).
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from pathlib import Path
 from vprobot.files import atomic_output
 from vprobot.paths import cache_root
 
+VERSION = 1
+"""Version of what the generators make; part of the cache folder."""
 PREFIX = "generated/"
 _FAMILY = re.compile(r"^generated/(?P<family>[a-z_]+?)_(?P<seed>\d{4,})\.stl$")
 _MOTOR = re.compile(r"^generated/motor_(?P<seed>\d+)_(?P<index>\d{3,})\.stl$")
@@ -52,7 +56,7 @@ def generated_path(name: str) -> Path:
     Raises:
         ValueError: If the name is not a generated object's, or names an unknown family.
     """
-    path = cache_root() / "objects" / name.removeprefix(PREFIX)
+    path = cache_root() / "objects" / f"v{VERSION}" / name.removeprefix(PREFIX)
     if path.is_file():
         return path
     if (motor := _MOTOR.match(name)) is not None:
