@@ -26,6 +26,10 @@ TINY = ["sensor.resolution=[64,45]", "env.resolution=[64,45]", "env.state_points
         "agent.net_arch=[16,16]", "agent.test_lists=null"]
 
 
+def _rows(path: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(path.read_text().splitlines()))
+
+
 def _validation(run: Path, rows: list[tuple[int, float, float, float]]) -> None:
     """An `evaluations.csv` of (step, coverage, acquisitions, success) rows."""
     run.mkdir(parents=True)
@@ -62,7 +66,7 @@ def test_seed_summary_is_mean_min_max_of_best_validation_and_complete_test_lists
     table = seeds_table(config, tmp_path, [0, 1, 2])
     write_summary(config, tmp_path, [0, 1, 2], table, ["vprobot", "train", "cpu.yaml"])
 
-    rows = {row["evaluation"]: row for row in csv.DictReader((tmp_path / "seeds.csv").open())}
+    rows = {row["evaluation"]: row for row in _rows(tmp_path / "seeds.csv")}
     assert list(rows) == ["validation", "shapes-v1"]
     validation, test = rows["validation"], rows["shapes-v1"]
     assert (validation["seeds"], validation["runs"]) == ("0 1 2", "3")
@@ -106,9 +110,9 @@ def test_train_seeds_makes_one_run_per_seed_and_goes_on_without_retraining(
             assert (run / name).is_file(), (seed, name)
         assert json.loads((run / "run.json").read_text())["seed"] == seed
         assert f"--steps 5 --seed {seed} --out {run}\n" in (run / "command.txt").read_text()
-    coverages = [100 * float(next(csv.DictReader((out / f"seed-{seed}" / "evaluations.csv")
-                                                 .open()))["coverage"]) for seed in (0, 1)]
-    summary = next(csv.DictReader((out / "seeds.csv").open()))
+    coverages = [100 * float(_rows(out / f"seed-{seed}" / "evaluations.csv")[0]["coverage"])
+                 for seed in (0, 1)]
+    summary = _rows(out / "seeds.csv")[0]
     assert (summary["evaluation"], summary["seeds"]) == ("validation", "0 1")
     assert float(summary["coverage_pct"]) == pytest.approx(sum(coverages) / 2)
     assert (float(summary["coverage_pct_min"]), float(summary["coverage_pct_max"])) == (

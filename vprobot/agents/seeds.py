@@ -50,7 +50,8 @@ def tested(run_dir: Path, test_lists: Sequence[str]) -> bool:
         table = run_dir / "test" / name / "evaluation.csv"
         if not table.is_file():
             return False
-        scored = sum(int(row["episodes"]) for row in csv.DictReader(table.open()))
+        scored = sum(int(row["episodes"])
+                     for row in csv.DictReader(table.read_text().splitlines()))
         if scored < len(read_episode_list(bundled_episode_list(name))):
             return False
     return True
@@ -99,15 +100,12 @@ def best_validation(run_dir: Path) -> dict[str, float]:
             "success_pct": 100.0 * float(best["success"]), "step": float(best["step"])}
 
 
-def test_scores(run_dir: Path, name: str) -> dict[str, float] | None:
-    """The best model's row of a test list's `evaluation.csv` (None while it is missing)."""
+def list_scores(run_dir: Path, name: str) -> dict[str, float]:
+    """The best model's scores on a test list that `tested` found complete (its row of the
+    list's `evaluation.csv`; views to goal missing when no episode reached the goal)."""
     path = run_dir / "test" / name / "evaluation.csv"
-    if not path.is_file():
-        return None
-    row = next(csv.DictReader(path.read_text().splitlines()), None)
-    if row is None:
-        return None
-    return {key: float(row[key]) for key, _, _ in METRICS if row.get(key)}
+    row = next(csv.DictReader(path.read_text().splitlines()))
+    return {key: float(row[key]) for key, _, _ in METRICS if row[key]}
 
 
 def spread(per_seed: dict[int, dict[str, float]]) -> dict[str, Any]:
@@ -129,10 +127,9 @@ def seeds_table(config: Config, out: Path, seeds: Sequence[int]) -> list[dict[st
     validation = {seed: best_validation(seed_dir(out, seed)) for seed in done}
     table = [{"evaluation": VALIDATION, **spread(validation)}]
     for name in config.agent.test_lists or ():
-        scores = {seed: test_scores(seed_dir(out, seed), name) for seed in done
-                  if tested(seed_dir(out, seed), [name])}
         table.append({"evaluation": name, **spread(
-            {seed: value for seed, value in scores.items() if value is not None})})
+            {seed: list_scores(seed_dir(out, seed), name) for seed in done
+             if tested(seed_dir(out, seed), [name])})})
     return table
 
 
