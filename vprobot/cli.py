@@ -285,8 +285,8 @@ def command_train(args: argparse.Namespace) -> int:
         return 0
     result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
                    device=args.device, argv=["vprobot", *args.argv])
-    print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the shared "
-          f"test episodes: coverage {100 * result['coverage']:.1f} %, "
+    print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the "
+          f"validation episodes: coverage {100 * result['coverage']:.1f} %, "
           f"{result['acquisitions']:.2f} acquisitions, {100 * result['success']:.0f} % at the "
           f"goal, {100 * result['reachable_share']:.0f} % of requests reachable")
     if result["curves"] is None:

@@ -43,7 +43,7 @@ def truncate_lines(path: Path, lines: int) -> None:
 
 
 class SharedEpisodeEvaluation(BaseCallback):
-    """Every `frequency` env steps, score the deterministic policy on the shared episodes.
+    """Every `frequency` env steps, score the deterministic policy on the validation episodes.
 
     Appends a row to `evaluations.csv`, records `eval/*` in the logger (TensorBoard, CSV) and
     keeps `best_model.zip`: the highest mean coverage, fewer acquisitions breaking ties.

@@ -191,7 +191,7 @@ TABLE_KEYS = ("train_coverage", "train_acquisitions", "train_reward", "train_tra
 
 def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
     """Per configuration: mean, min and max over its finished seeds of the converged training
-    indicators and the final evaluation on the shared episodes; curves PNG per configuration."""
+    indicators and the final evaluation on the validation episodes; curves PNG per configuration."""
     table = []
     for name, _ in study.configurations():
         runs = [trial.run_dir for trial in study.trials(out)
@@ -232,7 +232,7 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
              f"({', '.join(map(str, study.seeds))}), {steps} steps each. The paper: 75 000 "
              f"steps, 3 runs per configuration. Mean (min-max) over seeds. Converged: the last "
              f"{CONVERGED_EPISODES} training episodes. Evaluation: the final model, "
-             f"deterministic, on the shared test episodes.", "",
+             f"deterministic, on the validation episodes of its training sources (split v1).", "",
              "| configuration | seeds | train coverage % | train acquisitions | eval coverage % "
              "| eval acquisitions | eval success % | reachable % | joint time s | ms per view "
              "| wall min |",
