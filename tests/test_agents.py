@@ -112,7 +112,7 @@ def test_sphere_map_bins_the_directions() -> None:
 
 @pytest.mark.parametrize(("algorithm", "encoder", "robot_state"),
                          [("sac", "sphere", False), ("sac", "pcn", True),
-                          ("ppo", "pointnet", False), ("ppo", "sphere", True)])
+                          ("ppo", "pointnet", True)])
 def test_training_smoke_run(algorithm: str, encoder: str, robot_state: bool,
                             tmp_path: Path) -> None:
     config = profile_config(PROFILES / "cpu.yaml", [

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -29,8 +28,8 @@ what it measured, never the coverage."""
 
 
 @pytest.fixture(scope="module")
-def bracket(tmp_path_factory: pytest.TempPathFactory) -> Iterator[MotorScene]:
-    """An L-shaped part (two boxes), its ground truth cached in a temporary folder."""
+def bracket(tmp_path_factory: pytest.TempPathFactory) -> MotorScene:
+    """An L-shaped part (two boxes)."""
     folder = tmp_path_factory.mktemp("model_free")
     mesh = trimesh.boolean.union([
         trimesh.creation.box(extents=(0.16, 0.10, 0.03)),
@@ -40,9 +39,7 @@ def bracket(tmp_path_factory: pytest.TempPathFactory) -> Iterator[MotorScene]:
     ])
     path = folder / "bracket.stl"
     mesh.export(path)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("VPROBOT_CACHE_DIR", str(folder / "cache"))
-        yield MotorScene.load(CONFIG, path, resolution=RESOLUTION)
+    return MotorScene.load(CONFIG, path, resolution=RESOLUTION)
 
 
 class Guarded:

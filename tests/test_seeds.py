@@ -15,7 +15,7 @@ from vprobot.cli import main
 from vprobot.config import Config, replace
 from vprobot.evaluation import COLUMNS
 from vprobot.files import csv_text
-from vprobot.paths import CACHE_ENV_VAR, CONFIGS_DIR, MOTORS_DIR
+from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILE = str(CONFIGS_DIR / "agents" / "cpu.yaml")
 # A few env steps on one bundled motor at a small resolution, scored on one validation episode.
@@ -96,9 +96,7 @@ def test_seed_summary_is_mean_min_max_of_best_validation_and_complete_test_lists
 
 
 def test_train_seeds_makes_one_run_per_seed_and_goes_on_without_retraining(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
-    monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path / "cache"))
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "seeds"
     command = ["train", PROFILE, "--seeds", "0", "1", "--set", *TINY, "--out", str(out),
                "--steps", "5"]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +13,7 @@ from vprobot.episode import EpisodeSpec, read_episode_list
 from vprobot.episode.specs import bundled_episode_list, motor_name
 from vprobot.families import FAMILIES
 from vprobot.generated import family_of, generated_path, motor_object
-from vprobot.paths import CACHE_ENV_VAR, MOTORS_DIR
+from vprobot.paths import MOTORS_DIR
 from vprobot.splits import MOTORS, Split, split_lists, validation_episodes
 
 CONFIG = Config()
@@ -23,9 +22,9 @@ ALL_SOURCES = (MOTORS, *SPLIT.training_families)
 
 
 @pytest.fixture
-def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
-    monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path))
-    yield tmp_path
+def cache(session_cache: Path) -> Path:
+    """Where generated objects go: the session's cache (`conftest.py`)."""
+    return session_cache
 
 
 def names(objects: list) -> set[str]:
@@ -121,7 +120,7 @@ def test_env_draws_family_instances_and_builds_them_on_first_use(cache: Path) ->
 
 
 def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, cache: Path) -> None:
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import vprobot.agents.training as training
     import vprobot.splits as splits
     from vprobot.paths import CONFIGS_DIR
