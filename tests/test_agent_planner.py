@@ -14,12 +14,15 @@ from vprobot.agents.trained import BUNDLED_AGENT, load_agent
 from vprobot.agents.training import profile_config, train
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.paths import CONFIGS_DIR
+from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 from vprobot.planners import plan_motor
 from vprobot.planners.agent import AgentPlanner
 
 CONFIG = Config()
-TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=30",
+# Training draws from one motor (its ground truth is built once per session, not that of all 20
+# training motors).
+ONE_MOTOR = ["env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}"]
+TINY = [*ONE_MOTOR, "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=30",
         "agent.batch_size=32", "agent.buffer_size=300", "agent.eval_freq=40",
         "agent.checkpoint_freq=40", "agent.eval_episodes=1", "agent.net_arch=[16,16]"]
 

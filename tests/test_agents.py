@@ -43,9 +43,12 @@ from vprobot.config import ConfigError, replace
 from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
-TINY = ["env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
+# Training draws from one motor (its ground truth is built once per session, not that of all 20
+# training motors).
+ONE_MOTOR = ["env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}"]
+TINY = [*ONE_MOTOR, "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
         "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=100",
-        "agent.checkpoint_freq=100", "agent.eval_episodes=2", "agent.net_arch=[16,16]",
+        "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]",
         "agent.encoder_scale=0.05", "agent.n_steps=64", "agent.n_epochs=1"]
 BOX = gym.spaces.Box(-4, 4, (128, 3), np.float32)
 DICT = gym.spaces.Dict({"points": gym.spaces.Box(-4, 4, (128, 4), np.float32),
