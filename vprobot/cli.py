@@ -352,6 +352,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.render import run_render_benchmark
 
         results = run_render_benchmark(config)
+    elif args.suite == "objects":
+        from vprobot.benchmarks.objects import run_objects_benchmark
+
+        results = run_objects_benchmark(config)
     elif args.suite == "mesh":
         from vprobot.benchmarks.large_mesh import run_large_mesh_benchmark
 
@@ -600,7 +604,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(benchmark)
     benchmark.add_argument("suite",
                            choices=["kinematics", "sensor", "env", "planners", "mesh",
-                                    "render", "train", "cluster"])
+                                    "render", "train", "cluster", "objects"])
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
