@@ -98,3 +98,16 @@ def test_unknown_family_is_one_line_listing_the_families(
     assert exit_info.value.code == 2 and len(error.strip().splitlines()) == 1
     assert "'gear'" in error and ", ".join(FAMILIES) in error
     assert not (tmp_path / "parts").exists()
+
+
+def test_objects_benchmark_times_new_instances_and_extrapolates_to_the_split(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    import vprobot.benchmarks.objects as benchmark
+
+    monkeypatch.setattr(benchmark, "FAMILIES", {"lever": FAMILIES["lever"]})
+    results = benchmark.run_objects_benchmark(Config(), per_family=1, progress=False)
+    assert set(results["build_s"]) == set(results["ground_truth_s"]) == {"lever", "motor"}
+    assert all(value > 0 for value in results["ground_truth_s"].values())
+    assert results["split_training_instances"] == 5 * 200
+    assert results["split_training_hours"] == pytest.approx(
+        1000 * results["instance_s_median"] / 3600)
