@@ -104,6 +104,21 @@ def append_line(path: Path, text: str) -> None:
         os.close(descriptor)
 
 
+def batch_folder(out_dir: str | Path, count: int, seed: int) -> Path:
+    """The folder a batch of `count` seeded files (from `seed` on) goes into, created.
+
+    Raises:
+        ValueError: If count < 1 or seed < 0.
+    """
+    if count < 1:
+        raise ValueError(f"count must be >= 1, got {count}")
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
+    folder = Path(out_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
 def write_text(path: Path, text: str) -> Path:
     """Write `text` to `path` atomically (the old file, or none, until it is complete)."""
     with atomic_output(path) as temporary:

@@ -8,7 +8,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from vprobot.families.base import PartFamily
-from vprobot.files import atomic_output, write_text
+from vprobot.files import atomic_output, batch_folder, write_text
 
 
 def family(name: str) -> PartFamily:
@@ -50,12 +50,7 @@ def generate_instances(name: str, count: int, seed: int, out_dir: Path,
         ValueError: If the family is unknown, count < 1 or seed < 0.
     """
     part = family(name)
-    if count < 1:
-        raise ValueError(f"count must be >= 1, got {count}")
-    if seed < 0:
-        raise ValueError(f"seed must be >= 0, got {seed}")
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = batch_folder(out_dir, count, seed)
     paths = []
     for s in tqdm(range(seed, seed + count), desc=name, unit="part", disable=not progress):
         instance = part.instance(s)

@@ -24,7 +24,7 @@ from vprobot.families.solids import (
     revolve_x,
     toothed_outline,
 )
-from vprobot.files import atomic_output
+from vprobot.files import atomic_output, batch_folder
 from vprobot.motors.parameters import MotorParameters, sample_parameters
 
 # Facets around the axis: enough for smooth-looking housings at ~6k faces per motor.
@@ -245,12 +245,7 @@ def generate_motors(count: int, seed: int, out_dir: Path, progress: bool = True)
     Raises:
         ValueError: if count < 1 or seed < 0.
     """
-    if count < 1:
-        raise ValueError(f"count must be >= 1, got {count}")
-    if seed < 0:
-        raise ValueError(f"seed must be >= 0, got {seed}")
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = batch_folder(out_dir, count, seed)
     paths = []
     for index in tqdm(range(count), desc="motors", unit="motor", disable=not progress):
         params = sample_parameters(motor_rng(seed, index))
