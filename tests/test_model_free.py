@@ -206,6 +206,7 @@ def test_unknown_gain_of_a_ray_through_unknown_space_is_the_hand_computed_series
 
 @pytest.mark.parametrize("spec, message", [
     ("uniform0", "unknown planner 'uniform0'"),
+    ("uniform<k>", "unknown planner 'uniform<k>'"),
     ("nbv:bogus", "unknown gain 'bogus'; allowed: unknown, frontier, rear_side"),
     ("nbv@bogus", "unknown stop rule 'bogus' for nbv; allowed: goal, grid"),
 ])

@@ -32,8 +32,10 @@ from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.random_views import Random1Planner, Random2Planner
 from vprobot.planners.uniform import UniformPlanner
 
-PLANNER_NAMES = ("random1", "random2", "hrec", "bscp", "oracle", "agent", "uniform<k>", "nbv")
-"""The planners; `uniform<k>` stands for uniform1, uniform2, ... (k fixed views)."""
+_PLAIN_NAMES = ("random1", "random2", "hrec", "bscp", "oracle", "agent")
+PLANNER_NAMES = (*_PLAIN_NAMES, "uniform<k>", "nbv")
+"""The planners as messages list them; `uniform<k>` stands for uniform1, uniform2, ... (k fixed
+views)."""
 AGENT_PREFIX = "agent:"
 """`agent:PATH` names a trained agent (a run directory or a model .zip); `agent` the bundled
 one."""
@@ -45,7 +47,7 @@ _NBV = re.compile(r"^nbv(?::(?P<gain>\w+))?(?:@(?P<stop>\w+))?$")
 
 def _known(name: str) -> bool:
     """Whether a planner name (without a view count) names a planner."""
-    return (name in PLANNER_NAMES or name.startswith(AGENT_PREFIX)
+    return (name in _PLAIN_NAMES or name.startswith(AGENT_PREFIX)
             or _UNIFORM.match(name) is not None or _NBV.match(name) is not None)
 
 
