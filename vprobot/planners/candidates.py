@@ -148,7 +148,7 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
     center = episode.center
     radius = scene.sensor.sensor.working_distance_m
     directions = sphere_directions(count, np.deg2rad(MAX_POLAR_DEG))
-    targets = tuple(SensorTarget.look_at(center + radius * d, center) for d in directions)
+    targets = look_at_targets(center, radius, directions)
     dof = scene.cell.joints.dof
     start = time.perf_counter()
     if episode.uses_robot:
@@ -177,6 +177,13 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
     return CandidateViews(targets=targets, usable=usable, poses=poses, joints=joints,
                           reasons=reasons, visibility=visibility, reach_seconds=reach_seconds,
                           visibility_seconds=time.perf_counter() - start)
+
+
+def look_at_targets(center: np.ndarray, distance: float,
+                    directions: np.ndarray) -> tuple[SensorTarget, ...]:
+    """Targets `distance` from `center` along each unit direction (n, 3), looking at it."""
+    center = np.asarray(center, dtype=float)
+    return tuple(SensorTarget.look_at(center + distance * d, center) for d in directions)
 
 
 def arm_hides_view(arm: RobotArm, q: np.ndarray, center: np.ndarray) -> bool:

@@ -33,7 +33,7 @@ from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import SensorTarget
 from vprobot.occupancy import GAINS, VOXEL_M, Gain, OccupancyGrid, ViewGains
 from vprobot.planners.base import Planner
-from vprobot.planners.candidates import arm_hides_view
+from vprobot.planners.candidates import arm_hides_view, look_at_targets
 from vprobot.sensor_model import SensorModel
 from vprobot.viewsphere import sphere_directions
 
@@ -52,16 +52,16 @@ STOP_RULES = ("goal", "grid")
 
 
 @functools.lru_cache(maxsize=4)
-def _candidates(center: tuple[float, float, float], sensor: SensorModel, voxel_m: float,
-                half_size_m: float) -> tuple[tuple[SensorTarget, ...], np.ndarray, ViewGains]:
-    """The candidate targets, their directions and their rays through the grid; cached, as
-    they depend on the cell only."""
+def _candidates(config: Config, voxel_m: float) -> tuple[tuple[SensorTarget, ...], np.ndarray,
+                                                        ViewGains]:
+    """The candidate targets, their directions and their rays through the cell's grid; cached,
+    as they depend on the cell only."""
     directions = sphere_directions(CANDIDATE_COUNT, np.deg2rad(MAX_POLAR_DEG))
-    middle = np.asarray(center)
-    targets = tuple(SensorTarget.look_at(middle + sensor.working_distance_m * direction, middle)
-                    for direction in directions)
-    grid = OccupancyGrid.around(middle, half_size_m, voxel_m)
-    return targets, directions, ViewGains(grid, sensor, [target.pose for target in targets])
+    sensor = SensorModel.from_config(config.sensor)
+    targets = look_at_targets(np.asarray(config.cell.object_center_m),
+                              sensor.working_distance_m, directions)
+    return targets, directions, ViewGains(OccupancyGrid.for_cell(config, voxel_m), sensor,
+                                          [target.pose for target in targets])
 
 
 class VolumetricPlanner(Planner):
@@ -94,27 +94,21 @@ class VolumetricPlanner(Planner):
                              f"{', '.join(STOP_RULES)}")
         self.config = config
         self.gain = gain
-        self.stop = stop
         self.stops_at_goal = stop == "goal"
         self.voxel_m = voxel_m
         self.sensor = SensorModel.from_config(config.sensor)
-        self.grid = OccupancyGrid.for_cell(config, voxel_m)
-        self.added: list[float] = []
-        self._integrated = 0
-        self._failed: set[int] = set()
+        self._begin()
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
+        self._begin()
+
+    def _begin(self) -> None:
+        """A new episode: an all-unknown grid, nothing integrated, tried or stopped."""
         self.grid = OccupancyGrid.for_cell(self.config, self.voxel_m)
-        self.added = []
+        self.added: list[float] = []
         self.stop_reason = None
         self._integrated = 0
-        self._failed = set()
-
-    def _candidates(self, episode: Episode) -> tuple[tuple[SensorTarget, ...], np.ndarray,
-                                                     ViewGains]:
-        half = float(self.grid.state.shape[0] * self.voxel_m / 2.0)
-        return _candidates(tuple(float(x) for x in episode.center), self.sensor, self.voxel_m,
-                           half)
+        self._failed: set[int] = set()
 
     def _integrate(self, episode: Episode) -> None:
         for view in episode.views[self._integrated:]:
@@ -147,7 +141,7 @@ class VolumetricPlanner(Planner):
             self.stop_reason = self._grid_stop(episode)
             if self.stop_reason is not None:
                 return None
-        targets, directions, gains = self._candidates(episode)
+        targets, directions, gains = _candidates(self.config, self.voxel_m)
         scores = np.where(self._offered(episode, directions), gains.score(self.grid, self.gain),
                           0.0)
         for index in np.argsort(-scores, kind="stable")[:REACH_TRIES]:

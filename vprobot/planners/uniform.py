@@ -34,7 +34,12 @@ from vprobot.fit import fit_limit
 from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.planners.base import PlanPlanner
-from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view, screen_reachability
+from vprobot.planners.candidates import (
+    CANDIDATE_COUNT,
+    arm_hides_view,
+    look_at_targets,
+    screen_reachability,
+)
 from vprobot.planners.ordering import fixed_plan
 from vprobot.scene import Cell
 from vprobot.viewsphere import sphere_directions
@@ -51,8 +56,7 @@ def view_band(config: Config, robot: bool) -> tuple[np.ndarray, np.ndarray | Non
     if not robot:
         return directions, None
     center = np.asarray(config.cell.object_center_m, dtype=float)
-    distance = config.sensor.working_distance_m
-    targets = [SensorTarget.look_at(center + distance * d, center) for d in directions]
+    targets = look_at_targets(center, config.sensor.working_distance_m, directions)
     envelope = trimesh.creation.icosphere(subdivisions=3, radius=fit_limit(config).radius_m)
     arm = RobotArm(Cell(config, envelope))
     joints, _ = screen_reachability(arm, arm.collisions, arm.joints.home, directions, targets)
@@ -109,11 +113,9 @@ def uniform_targets(config: Config, count: int, robot: bool
     """
     band, joints = view_band(config, robot)
     chosen = spread(band, count)
-    center = np.asarray(config.cell.object_center_m, dtype=float)
-    distance = config.sensor.working_distance_m
-    targets = [SensorTarget.look_at(center + distance * direction, center)
-               for direction in band[chosen]]
-    return targets, None if joints is None else joints[chosen]
+    targets = look_at_targets(np.asarray(config.cell.object_center_m),
+                              config.sensor.working_distance_m, band[chosen])
+    return list(targets), None if joints is None else joints[chosen]
 
 
 class UniformPlanner(PlanPlanner):
