@@ -21,7 +21,7 @@ from vprobot.sensor_model import SensorModel
 
 CONFIG = Config()
 RESOLUTION = (107, 75)
-VIEW_FIELDS = ("requested", "reachable", "sensor_pose", "points_world", "blocked_pixels",
+VIEW_FIELDS = ("requested", "reachable", "sensor_pose", "points_world", "pixels", "blocked_pixels",
                "acquired", "joints")
 """What a model-free planner may read of a view: where it asked, where the sensor was and
 what it measured, never the coverage."""
@@ -140,7 +140,7 @@ def state_at(grid: OccupancyGrid, point: tuple[float, float, float]) -> int:
 
 def test_a_plane_seen_from_above_is_occupied_free_in_front_unknown_behind() -> None:
     grid = OccupancyGrid.around(np.zeros(3), 0.2, VOXEL)
-    grid.integrate(SENSOR, DOWN, hits_on_plane(DOWN, 0.0))
+    grid.integrate(SENSOR, DOWN, hits_on_plane(DOWN, 0.0), np.arange(SENSOR.rays_per_frame))
     # The plane z = 0 lies in the voxel layer [0, 0.02): occupied under every ray.
     assert state_at(grid, (0.01, 0.01, 0.01)) == OCCUPIED
     assert state_at(grid, (-0.09, 0.07, 0.01)) == OCCUPIED
@@ -160,7 +160,7 @@ def test_a_plane_seen_from_above_is_occupied_free_in_front_unknown_behind() -> N
 
 def test_a_ray_that_measures_nothing_marks_free_space_up_to_the_far_bound() -> None:
     grid = OccupancyGrid.around(np.zeros(3), 0.2, VOXEL)
-    grid.integrate(SENSOR, DOWN, np.zeros((0, 3)))
+    grid.integrate(SENSOR, DOWN, np.zeros((0, 3)), np.zeros(0, dtype=int))
     # Range 0.3-0.5 m below the sensor at z = 0.4: z from 0.1 down to -0.1.
     assert [state_at(grid, (0.01, 0.01, z)) for z in (0.15, 0.09, 0.0, -0.09, -0.13)] == [
         UNKNOWN, FREE, FREE, FREE, UNKNOWN]
@@ -171,13 +171,13 @@ def test_a_box_hides_what_is_behind_it_and_blocked_rays_observe_nothing() -> Non
     box = trimesh.creation.box(extents=(0.07, 0.07, 0.07))
     grid = OccupancyGrid.around(np.zeros(3), 0.2, VOXEL)
     rays = SENSOR.ray_directions @ DOWN.rotation.T
-    locations, _, _ = box.ray.intersects_location(
+    locations, pixels, _ = box.ray.intersects_location(
         np.repeat(DOWN.position[None], len(rays), axis=0), rays, multiple_hits=False)
     assert len(locations) > 0
     # The robot blocks the rays of the left third of the image (image x < 0 is world x < 0).
     columns = np.arange(SENSOR.rays_per_frame) % SENSOR.resolution[0]
     blocked = np.flatnonzero(columns < 7)
-    grid.integrate(SENSOR, DOWN, locations, blocked)
+    grid.integrate(SENSOR, DOWN, locations, pixels, blocked)
     assert state_at(grid, (0.01, 0.01, 0.03)) == OCCUPIED      # the box's top face, z = 0.035
     assert state_at(grid, (0.01, 0.01, 0.07)) == FREE          # above it
     assert state_at(grid, (0.01, 0.01, -0.01)) == UNKNOWN      # inside and under the box

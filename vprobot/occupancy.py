@@ -130,13 +130,15 @@ class OccupancyGrid:
         raise ValueError(f"unknown gain {gain!r}; allowed: {', '.join(GAINS)}")
 
     def integrate(self, sensor: SensorModel, pose: Pose, points_world: np.ndarray,
-                  blocked_pixels: np.ndarray | None = None, stride: int | None = None) -> None:
+                  pixels: np.ndarray, blocked_pixels: np.ndarray | None = None,
+                  stride: int | None = None) -> None:
         """Integrate one frame: the sensor's pose and the points it measured (world).
 
         Args:
             sensor: The sensor's ray grid and range.
             pose: The sensor pose the frame was taken from.
-            points_world: The measured points (n, 3); each lies on one pixel's ray.
+            points_world: The measured points (n, 3).
+            pixels: The row-major pixel of each point (n,).
             blocked_pixels: Row-major pixels whose ray an occluder of the cell blocked.
             stride: Pixels per block edge (one ray per block); by default the largest that
                 keeps neighbouring rays within half a voxel at the far bound.
@@ -145,16 +147,10 @@ class OccupancyGrid:
         if stride is None:
             pixel_at_far = 2.0 * sensor.far_m * sensor.half_tangents[0] / width
             stride = max(1, int(0.5 * self.voxel_m / pixel_at_far))
-        depth = np.full(height * width, np.inf)
         points_world = np.asarray(points_world, dtype=float).reshape(-1, 3)
-        if len(points_world):
-            local = (points_world - pose.position) @ pose.rotation
-            u, v = sensor.pixel_tangents
-            column = np.clip(np.rint((local[:, 0] / local[:, 2] - u[0]) / (u[1] - u[0])
-                                     if width > 1 else 0), 0, width - 1).astype(int)
-            row = np.clip(np.rint((local[:, 1] / local[:, 2] - v[0]) / (v[1] - v[0])
-                                  if height > 1 else 0), 0, height - 1).astype(int)
-            np.minimum.at(depth, row * width + column, np.linalg.norm(local, axis=1))
+        depth = np.full(height * width, np.inf)
+        np.minimum.at(depth, np.asarray(pixels, dtype=np.int64),
+                      np.linalg.norm(points_world - pose.position, axis=1))
         if blocked_pixels is not None and len(blocked_pixels):
             depth[np.asarray(blocked_pixels, dtype=np.int64)] = -np.inf
         blocks_y, blocks_x = -(-height // stride), -(-width // stride)
@@ -162,20 +158,15 @@ class OccupancyGrid:
         padded[:height, :width] = depth.reshape(height, width)
         nearest = padded.reshape(blocks_y, stride, blocks_x, stride).min(axis=(1, 3)).ravel()
         u, v = sensor.pixel_tangents
-        centre_u = np.array([u[min(i * stride + stride // 2, width - 1)]
-                             for i in range(blocks_x)])
-        centre_v = np.array([v[min(j * stride + stride // 2, height - 1)]
-                             for j in range(blocks_y)])
+        centre_u = u[np.minimum(np.arange(blocks_x) * stride + stride // 2, width - 1)]
+        centre_v = v[np.minimum(np.arange(blocks_y) * stride + stride // 2, height - 1)]
         grid_u, grid_v = np.meshgrid(centre_u, centre_v)
         rays = np.stack([grid_u.ravel(), grid_v.ravel(), np.ones(grid_u.size)], axis=1)
         rays /= np.linalg.norm(rays, axis=1, keepdims=True)
         # Free space stops half a voxel short of a measurement, so that the measured surface's
         # own voxel is never crossed.
         length = np.where(np.isposinf(nearest), sensor.far_m, nearest - 0.5 * self.voxel_m)
-        step = 0.5 * self.voxel_m
-        distances = np.arange(sensor.near_m, sensor.far_m + step, step)
-        samples = (pose.position + (rays @ pose.rotation.T)[:, None, :]
-                   * distances[None, :, None])
+        distances, samples = ray_samples(pose, rays, sensor, self.voxel_m)
         index = self.flat_index(samples)
         crossed = (distances[None, :] <= length[:, None]) & (index >= 0)
         flat = self.state.reshape(-1)
@@ -183,6 +174,25 @@ class OccupancyGrid:
         flat[cleared[flat[cleared] != OCCUPIED]] = FREE
         hits = self.flat_index(points_world)
         flat[hits[hits >= 0]] = OCCUPIED
+
+
+def ray_samples(pose: Pose, directions: np.ndarray, sensor: SensorModel,
+                voxel_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Samples half a voxel apart along rays from the sensor's near to its far bound.
+
+    Args:
+        pose: The sensor pose.
+        directions: Unit ray directions (n, 3) in the sensor frame.
+        sensor: The sensor's range.
+        voxel_m: Voxel edge of the grid the samples are for.
+
+    Returns:
+        The distances along every ray (k,) and the sample points (n, k, 3) in the world.
+    """
+    step = 0.5 * voxel_m
+    distances = np.arange(sensor.near_m, sensor.far_m + step, step)
+    return distances, (pose.position + (directions @ pose.rotation.T)[:, None, :]
+                       * distances[None, :, None])
 
 
 class ViewGains:
@@ -200,17 +210,13 @@ class ViewGains:
 
     def __init__(self, grid: OccupancyGrid, sensor: SensorModel, poses: list[Pose],
                  rays: tuple[int, int] = (16, 12)):
-        coarse = sensor.at_resolution(rays)
-        step = 0.5 * grid.voxel_m
-        distances = np.arange(sensor.near_m, sensor.far_m + step, step)
-        directions = coarse.ray_directions
-        samples = np.stack([pose.position + (directions @ pose.rotation.T)[:, None, :]
-                            * distances[None, :, None] for pose in poses])
-        index = grid.flat_index(samples)
+        directions = sensor.at_resolution(rays).ray_directions
+        index = grid.flat_index(np.stack([ray_samples(pose, directions, sensor, grid.voxel_m)[1]
+                                          for pose in poses]))
         # Samples outside the grid read an extra last element that counts as free space.
         self._index = np.where(index >= 0, index, grid.state.size).astype(np.int32)
         # Two samples per voxel: each passes an unknown voxel with the root of its chance.
-        self._unknown_pass = UNKNOWN_PASS ** (step / grid.voxel_m)
+        self._unknown_pass = UNKNOWN_PASS ** 0.5
 
     def __len__(self) -> int:
         return len(self._index)

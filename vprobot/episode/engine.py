@@ -141,13 +141,14 @@ class Episode:
 
     def _execute(self, requested: Pose, move: Move) -> ViewRecord:
         points_world = np.zeros((0, 3))
-        blocked = np.zeros(0, dtype=np.int64)
+        pixels = blocked = np.zeros(0, dtype=np.int64)
         if move.executed:
             acquisition = self.carrier.acquire(move)
             before = self.tracker.covered
             self.tracker.update(acquisition.points_mesh, move.pose)
             self._first_covered_by[self.tracker.covered & ~before] = len(self.views)
-            points_world, blocked = acquisition.points_world, acquisition.blocked_pixels
+            points_world, pixels = acquisition.points_world, acquisition.pixels
+            blocked = acquisition.blocked_pixels
             if move.joints is not None:
                 self.q = move.joints.copy()
             self.pose = move.pose
@@ -155,7 +156,7 @@ class Episode:
                           joints=self._joints(), path=move.path,
                           sensor_pose=move.pose if move.executed else None,
                           points_world=points_world, coverage=self.coverage,
-                          travel=move.travel, blocked_pixels=blocked)
+                          travel=move.travel, pixels=pixels, blocked_pixels=blocked)
         self.views.append(view)
         return view
 

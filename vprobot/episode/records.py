@@ -43,6 +43,7 @@ class ViewRecord:
             robot.
         sensor_pose: Sensor pose the acquisition was made from; None when nothing was acquired.
         points_world: Acquired points in the world (0 rows when nothing was acquired).
+        pixels: The row-major pixel of the frame each acquired point was measured on.
         blocked_pixels: Pixels of the frame whose view of the object the robot or the cell
             blocked (`Acquisition.blocked_pixels`; empty when nothing was acquired).
         coverage: Cumulative coverage after this view.
@@ -59,6 +60,7 @@ class ViewRecord:
     points_world: np.ndarray
     coverage: float
     travel: TravelCost = dataclasses.field(default_factory=TravelCost)
+    pixels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     blocked_pixels: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(0, dtype=np.int64))
 

@@ -115,7 +115,7 @@ class VolumetricPlanner(Planner):
             if view.sensor_pose is None:
                 continue
             before = self.grid.counts()["occupied"]
-            self.grid.integrate(self.sensor, view.sensor_pose, view.points_world,
+            self.grid.integrate(self.sensor, view.sensor_pose, view.points_world, view.pixels,
                                 view.blocked_pixels)
             # A frame the cell mostly hid (e.g. by the robot) says nothing about what is left.
             if len(view.blocked_pixels) < len(view.points_world):
