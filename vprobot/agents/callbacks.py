@@ -3,7 +3,6 @@ resumable checkpoints (model, replay buffer, episode stream, log lengths)."""
 
 from __future__ import annotations
 
-import csv
 import json
 import time
 from pathlib import Path
@@ -16,6 +15,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, summarize
+from vprobot.agents.runs import best_evaluation, evaluation_score
 from vprobot.env import InspectEnv
 from vprobot.episode import EpisodeSpec
 from vprobot.files import append_line, atomic_output, csv_text, write_text
@@ -103,12 +103,8 @@ class SharedEpisodeEvaluation(BaseCallback):
 
 def best_so_far(path: Path) -> tuple[float, float] | None:
     """The best (coverage, -acquisitions) in an evaluations file, None when there is none."""
-    if not path.is_file():
-        return None
-    rows = list(csv.DictReader(path.read_text().splitlines()))
-    if not rows:
-        return None
-    return max((float(row["coverage"]), -float(row["acquisitions"])) for row in rows)
+    best = best_evaluation(path)
+    return None if best is None else evaluation_score(best)
 
 
 class ResumableCheckpoint(BaseCallback):

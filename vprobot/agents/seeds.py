@@ -15,7 +15,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
-import json
 import os
 import statistics
 import sys
@@ -23,13 +22,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from vprobot.agents.runs import RESULT_FILE, best_evaluation
 from vprobot.config import Config
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.files import csv_text, write_text
 
-RESULT_FILE = "result.json"
-"""Written into a seed's run directory when its training has finished (as a sweep trial's)."""
 VALIDATION = "validation"
 """The name of the validation row of the summary (the test rows are named by their lists)."""
 METRICS = (("coverage_pct", "coverage %", 1), ("acquisitions", "acquisitions", 2),
@@ -70,14 +68,10 @@ def run_seed(config: Config, seed: int, run_dir: Path, argv: Sequence[str],
     Returns:
         The best validation row of the run (`best_validation`).
     """
-    from vprobot.agents.training import holds_run, score_test_lists, train
+    from vprobot.agents.training import score_test_lists, train_to_result
 
     if not (run_dir / RESULT_FILE).is_file():
-        resume = holds_run(run_dir)
-        result = train(None if resume else config, run_dir, seed=seed, resume=resume,
-                       device=device, progress=progress, argv=argv)
-        # default=str: the result names its curves.png as a Path.
-        write_text(run_dir / RESULT_FILE, json.dumps(result, indent=1, default=str) + "\n")
+        train_to_result(lambda: config, run_dir, seed, argv, device, progress)
     score_test_lists(config, run_dir, progress=progress)
     return best_validation(run_dir)
 
@@ -90,11 +84,9 @@ def best_validation(run_dir: Path) -> dict[str, float]:
     Raises:
         ValueError: If the run has no evaluation.
     """
-    path = run_dir / "evaluations.csv"
-    rows = list(csv.DictReader(path.read_text().splitlines())) if path.is_file() else []
-    if not rows:
+    best = best_evaluation(run_dir / "evaluations.csv")
+    if best is None:
         raise ValueError(f"{run_dir} holds no validation evaluation (evaluations.csv)")
-    best = max(rows, key=lambda row: (float(row["coverage"]), -float(row["acquisitions"])))
     return {"coverage_pct": 100.0 * float(best["coverage"]),
             "acquisitions": float(best["acquisitions"]),
             "success_pct": 100.0 * float(best["success"]), "step": float(best["step"])}

@@ -37,6 +37,7 @@ import numpy as np
 import yaml
 
 from vprobot.agents.curves import plot_curves, read_monitor, travel_column
+from vprobot.agents.runs import RESULT_FILE
 from vprobot.config import ConfigError
 from vprobot.files import csv_text, write_text
 from vprobot.paths import CONFIGS_DIR
@@ -64,7 +65,7 @@ class Trial:
 
     @property
     def finished(self) -> bool:
-        return (self.run_dir / "result.json").is_file()
+        return (self.run_dir / RESULT_FILE).is_file()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -160,16 +161,11 @@ def read_study(path: str | Path) -> Study:
 def run_trial(profile: Path, overrides: Sequence[str], steps: int | None, seed: int,
               run_dir: Path) -> dict[str, Any]:
     """One trial (in a Ray worker): train or resume, then write `result.json`."""
-    from vprobot.agents.training import holds_run, profile_config, train
+    from vprobot.agents.training import profile_config, train_to_result
 
-    resume = holds_run(run_dir)
-    config = None if resume else profile_config(profile, overrides, steps)
-    result = train(config, run_dir, seed=seed, resume=resume, progress=False,
-                   argv=["vprobot", "train", str(profile), "--set", *overrides, "--seed",
-                         str(seed)])
-    # default=str: the result names its curves.png as a Path.
-    write_text(run_dir / "result.json", json.dumps(result, indent=1, default=str) + "\n")
-    return result
+    return train_to_result(lambda: profile_config(profile, overrides, steps), run_dir, seed,
+                           ["vprobot", "train", str(profile), "--set", *overrides, "--seed",
+                            str(seed)])
 
 
 def converged(run_dir: Path) -> dict[str, float]:
@@ -198,7 +194,7 @@ def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
                 if trial.configuration == name and trial.finished]
         row: dict[str, Any] = {"configuration": name, "seeds": len(runs)}
         if runs:
-            values = [{**converged(run), **json.loads((run / "result.json").read_text())}
+            values = [{**converged(run), **json.loads((run / RESULT_FILE).read_text())}
                       for run in runs]
             for key in TABLE_KEYS:
                 column = [float(value[key]) for value in values]

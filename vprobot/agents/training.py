@@ -46,6 +46,7 @@ from vprobot.agents.callbacks import (
 )
 from vprobot.agents.evaluation import evaluation_env
 from vprobot.agents.extractors import EXTRACTORS
+from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
 from vprobot.config import Config, ConfigError, from_mapping
 from vprobot.env import InspectEnv
@@ -361,6 +362,29 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
         curves = None
     return {**summary, "steps": model.num_timesteps, "wall_s": time.time() - clock_start,
             "curves": curves}
+
+
+def train_to_result(config_of: Callable[[], Config], run_dir: Path, seed: int,
+                    argv: Sequence[str], device: str | None = None,
+                    progress: bool = False) -> dict[str, Any]:
+    """Train a run into `run_dir`, or resume the one it holds, then write the result into
+    `RESULT_FILE`, which marks the run finished.
+
+    Args:
+        config_of: Gives the configuration of a new run (not called when resuming, which
+            reads the run's own).
+        run_dir: The run directory.
+        seed: The run's seed.
+        argv: The command line the run records.
+        device: Overrides `agent.device`.
+        progress: Show the progress bar.
+    """
+    resume = holds_run(run_dir)
+    result = train(None if resume else config_of(), run_dir, seed=seed, resume=resume,
+                   device=device, progress=progress, argv=argv)
+    # default=str: the result names its curves.png as a Path.
+    write_text(run_dir / RESULT_FILE, json.dumps(result, indent=1, default=str) + "\n")
+    return result
 
 
 def score_test_lists(config: Config, run_dir: Path, progress: bool = False) -> list[Path]:
