@@ -111,3 +111,21 @@ def test_objects_benchmark_times_new_instances_and_extrapolates_to_the_split(
     assert results["split_training_instances"] == 5 * 200
     assert results["split_training_hours"] == pytest.approx(
         1000 * results["instance_s_median"] / 3600)
+
+
+def test_objects_cache_builds_every_training_object_and_its_ground_truth(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import dataclasses
+
+    from vprobot.paths import CACHE_ENV_VAR
+    from vprobot.splits import Split
+
+    split = dataclasses.replace(Split.load(), training_instances=range(2))
+    monkeypatch.setattr(Split, "load", classmethod(lambda cls, path=None: split))
+    monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path / "cache"))
+    profile = tmp_path / "profile.yaml"
+    profile.write_text("env:\n  objects: [lever]\n")
+    assert main(["objects", "cache", str(profile)]) == 0
+    made = sorted(path.name for path in (tmp_path / "cache" / "objects").rglob("*.stl"))
+    assert made == ["lever_0000.stl", "lever_0001.stl"]
+    assert len(list((tmp_path / "cache" / "ground_truth").glob("*.npz"))) == 2

@@ -405,6 +405,14 @@ def command_objects(args: argparse.Namespace) -> int:
             for p in part.parameters:
                 print(f"  {p.name:24s} {p.range_text():18s} {p.description}")
         return 0
+    if args.objects_command == "cache":
+        from vprobot.agents.training import profile_config
+        from vprobot.generated import build_training_objects
+        from vprobot.paths import cache_root
+
+        count = build_training_objects(profile_config(args.profile, args.set))
+        print(f"{count} training objects and their ground truth are in {cache_root()}")
+        return 0
     check_output_folder(args.out, "--out")
     paths = generate_instances(args.family, args.count, args.seed, Path(args.out))
     print(f"wrote {len(paths)} {args.family} parts to {args.out}")
@@ -632,6 +640,12 @@ def build_parser() -> argparse.ArgumentParser:
     parts.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
                        help="seed of the first instance; the others follow it (default 0)")
     parts.add_argument("--out", required=True, help="output folder")
+    prepare = add("cache", command_objects,
+                  "Build the objects a profile trains on and their ground truth once (training "
+                  "otherwise builds each when it first draws it).", object_commands, config=False)
+    prepare.add_argument("profile", help="agent profile YAML, e.g. configs/agents/cpu-families.yaml")
+    prepare.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
+                         help="override profile settings, as in `vprobot train`")
 
     robots = commands.add_parser("robots", help="Robots: the bundled ones, importing your own.")
     robot_commands = robots.add_subparsers(dest="robots_command", required=True)
