@@ -643,7 +643,8 @@ def build_parser() -> argparse.ArgumentParser:
     prepare = add("cache", command_objects,
                   "Build the objects a profile trains on and their ground truth once (training "
                   "otherwise builds each when it first draws it).", object_commands, config=False)
-    prepare.add_argument("profile", help="agent profile YAML, e.g. configs/agents/cpu-families.yaml")
+    prepare.add_argument("profile",
+                         help="agent profile YAML, e.g. configs/agents/cpu-families.yaml")
     prepare.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
                          help="override profile settings, as in `vprobot train`")
 
