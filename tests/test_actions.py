@@ -1,4 +1,4 @@
-"""Action mappings against hand-computed poses (SPEC section 7)."""
+"""Action mappings against hand-computed poses (docs/states-actions-rewards.md#actions)."""
 
 from __future__ import annotations
 

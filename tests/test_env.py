@@ -150,7 +150,8 @@ def test_bad_configuration_is_a_clear_error() -> None:
 
 def expected_reward(name: str, info: dict, steps: int, done: bool, goal: bool,
                     travel_sum: float, floor: float) -> float:
-    """SPEC section 8, written out from the step's info and the test's own bookkeeping."""
+    """docs/states-actions-rewards.md#rewards, written out from the step's info and the test's
+    own bookkeeping."""
     delta, coverage = info["delta_coverage"], info["coverage"]
     remaining = max(1.0 - (coverage - delta), floor)
     k = max(info["travel_cartesian"], floor)

@@ -246,8 +246,8 @@ def test_kinematics_benchmark_reports_the_cell_targets() -> None:
     results = run_kinematics_benchmark(Config(), robots=("ur10", "panda"), samples=10,
                                        progress=False)
     assert results["ik_success_rate"] == 1.0
-    # SPEC section 3: the default cell reaches >= 80 % of the view sphere; so does the Panda
-    # from its own (ceiling) placement.
+    # docs/cell-and-robots.md#the-view-sphere: the default cell reaches >= 80 % of the view
+    # sphere; so does the Panda from its own (ceiling) placement.
     assert results["view_sphere_reachable"]["ur10"] >= 0.8
     assert results["view_sphere_reachable"]["panda"] >= 0.8
     assert results["ik_reachable_median_ms"] > 0.0

@@ -1,4 +1,4 @@
-"""Rewards R1-R14 against hand-computed values (SPEC section 8)."""
+"""Rewards R1-R14 against hand-computed values (docs/states-actions-rewards.md#rewards)."""
 
 from __future__ import annotations
 

@@ -496,7 +496,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="point the sensor looks at (m)")
     reach.add_argument("--from-joints", type=float, nargs="+", metavar="Q",
                        help="start configuration (rad); default: the home keyframe")
-    reach.add_argument("--json", help="write the plan JSON (SPEC section 12) here")
+    reach.add_argument("--json", help="write the plan JSON (docs/plan-format.md) here")
 
     cell = add("cell", command_cell, "Reachability report of the cell's view sphere.")
     add_robot(cell)
@@ -538,7 +538,7 @@ def build_parser() -> argparse.ArgumentParser:
     render = add("render", command_render,
                  "Render an inspection (a plan JSON or a planner's run) as an MP4 or GIF.")
     add_planning(render)
-    render.add_argument("--plan", help="plan JSON (SPEC section 12) to replay instead")
+    render.add_argument("--plan", help="plan JSON (docs/plan-format.md) to replay instead")
     render.add_argument("--out", required=True, help="video to write (.mp4 or .gif)")
 
     evaluation = add("evaluate", command_evaluate,

@@ -236,14 +236,14 @@ TRAVEL_REWARDS = ("R5", "R6", "R7", "R8", "R11", "R12", "R14")
 
 @dataclasses.dataclass(frozen=True)
 class EnvConfig:
-    """The inspection environment (SPEC sections 6-8; paper Tables 1-4).
+    """The inspection environment (docs/states-actions-rewards.md; paper Tables 1-4).
 
     Attributes:
         carrier: `robot` (the robot must reach every view) or `free` (the paper's free-flying
             sensor: every request is executed; travel is `cartesian` or `paper` only).
         state: `s_cov` (acquired cloud, model-free) or `s_bin` (GT cloud + covered flag).
         robot_state: Add the sensor pose and joints as a second observation entry.
-        action: Action variant of SPEC section 7.
+        action: Action variant (docs/states-actions-rewards.md#actions).
         position_mapping: `npk` (no prior knowledge: r in radius_range_m, x/y/z in
             +-cartesian_range_m) or `wpk` (r = working distance, Cartesian points kept at
             wpk_distance_range_m from the centre).
@@ -251,7 +251,7 @@ class EnvConfig:
         cartesian_range_m: npk half-range of the Cartesian actions.
         wpk_distance_range_m: wpk distance range of the Cartesian actions.
         deviation_limit_deg: Largest deviation of the `_lim` actions from looking at the centre.
-        reward: Reward R1-R14 of SPEC section 8.
+        reward: Reward R1-R14 (docs/states-actions-rewards.md#rewards).
         travel_cost: Which travel cost k_t the rewards use.
         travel_cost_floor: Lower bound of k_t and k_cum in divisions.
         unreachable_penalty: Added to the reward of an unreachable request.
@@ -354,7 +354,7 @@ class EnvConfig:
 
 @dataclasses.dataclass(frozen=True)
 class AgentConfig:
-    """A reinforcement-learning agent and how it is trained (`vprobot train`, SPEC section 9).
+    """A reinforcement-learning agent and how it is trained (`vprobot train`, docs/agents.md).
 
     The defaults are the paper's Table 4 (`configs/agents/paper.yaml`);
     `configs/agents/cpu.yaml` is the profile that trains on a small CPU.

@@ -1,4 +1,5 @@
-"""Coverage of the ground truth by the clouds acquired so far (SPEC §5).
+"""Coverage of the ground truth by the clouds acquired so far
+(docs/ground-truth-and-coverage.md#coverage).
 
 Everything lives in the object's mesh frame, the frame of P_GT, so that coverage does not depend
 on how an episode poses the object: a world-frame cloud is brought there by the object's pose

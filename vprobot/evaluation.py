@@ -9,13 +9,14 @@ and `free` (a free-flying sensor as in the paper, for comparison with its Table 
 and carrier the table gives the mean coverage, the acquisitions (views actually acquired, the
 initial view included), the success rate (coverage goal reached), the mean travel between the
 views of an episode (`joint_time` s, `joint_path` rad, `cartesian` m, `paper` m; the approach
-from the start to the first view is not counted, SPEC section 8), the fraction of requested
-views the robot reached and the planning time per episode. Beside the final figures, the
-coverage after each of the first 10 requests (the initial view included; an unreached request
-counts, since it costs a request) gives a curve per planner (`coverage_vs_views.png`), its area
-(the mean coverage over those 10 requests) and the number of requests at which the goal was
-reached. An episode that ended earlier keeps its final coverage for the remaining requests: the
-planner stopped there, so that is what it delivers with that many requests.
+from the start to the first view is not counted, docs/states-actions-rewards.md#travel-costs),
+the fraction of requested views the robot reached and the planning time per episode. Beside the
+final figures, the coverage after each of the first 10 requests (the initial view included; an
+unreached request counts, since it costs a request) gives a curve per planner
+(`coverage_vs_views.png`), its area (the mean coverage over those 10 requests) and the number of
+requests at which the goal was reached. An episode that ended earlier keeps its final coverage
+for the remaining requests: the planner stopped there, so that is what it delivers with that many
+requests.
 """
 
 from __future__ import annotations

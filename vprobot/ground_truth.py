@@ -6,7 +6,8 @@ mesh frame parallel to the world, the fixture plate under its lowest point):
 
 1. Candidate views: `VIEW_COUNT` sensor poses spread evenly (Fibonacci lattice) over the view
    sphere at the sensor's working distance around the object centre, from the top down to
-   `MAX_POLAR_DEG` = 120° (30° below the equator, the candidate set of SPEC §3), each looking at
+   `MAX_POLAR_DEG` = 120° (30° below the equator, the view band of
+   docs/ground-truth-and-coverage.md#the-view-band), each looking at
    the centre.
 2. From every view the sensor (at the coarser `RESOLUTION`, same opening angles and range)
    measures the object with the fixture plate, pedestal, floor and robot stand occluding; the

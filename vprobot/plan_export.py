@@ -1,4 +1,4 @@
-"""View plans as JSON for a real cell (SPEC section 12)."""
+"""View plans as JSON for a real cell (docs/plan-format.md)."""
 
 from __future__ import annotations
 
@@ -161,7 +161,7 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
 
     `views[i].travel` is the move from the previous view (for the first view: the approach from
     `start_joints`); `approach` repeats the approach and `travel` sums the moves between views
-    (k_cum, SPEC section 8), which exclude it.
+    (k_cum, docs/states-actions-rewards.md#travel-costs), which exclude it.
 
     Args:
         scene: The motor scene the episode ran in.

@@ -1,4 +1,5 @@
-"""The 3D sensor: a pinhole grid of rays cast from the `sensor` site into the cell (SPEC §4).
+"""The 3D sensor: a pinhole grid of rays cast from the `sensor` site into the cell
+(docs/sensor.md).
 
 The grid, its opening angles and range are a `SensorModel` (`vprobot.sensor_model`, which also
 documents the sensor frame). Only a ray's first hit in the whole cell counts: it is kept when it

@@ -1,4 +1,4 @@
-"""The sensor's frustum geometry, in one place: a pinhole grid of rays (SPEC §4).
+"""The sensor's frustum geometry, in one place: a pinhole grid of rays (docs/sensor.md).
 
 Sensor frame, used throughout vprobot: +z is the viewing direction, +x is image right, +y is image
 down. Pixel (row i, column j) of a w x h frame looks along (u_j, v_i, 1), where u and v are the

@@ -22,7 +22,8 @@ from vprobot.scene import Cell
 from vprobot.sensor import TRAINING_RESOLUTION, DepthSensor
 
 MAX_POLAR_DEG = 120.0
-"""Views come from the top down to 30 degrees below the equator (SPEC §3)."""
+"""Views come from the top down to 30 degrees below the equator
+(docs/ground-truth-and-coverage.md#the-view-band)."""
 OTHER_RESOLUTIONS = ((215, 150),)
 """Coarser frames whose coverage error is reported next to the training resolution's."""
 

@@ -1,4 +1,5 @@
-"""Action mappings: an action in [-1, 1]^n to a requested sensor pose (SPEC section 7).
+"""Action mappings: an action in [-1, 1]^n to a requested sensor pose
+(docs/states-actions-rewards.md#actions).
 
 Spherical (phi azimuth, theta polar angle from +z, r) and Cartesian coordinates are in the
 object-centred frame: origin at the object's centre, axes parallel to the world's (z up).

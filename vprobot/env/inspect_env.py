@@ -1,4 +1,5 @@
-"""`vprobot/Inspect-v0`: plan inspection views with the robot in the loop (SPEC sections 6-8).
+"""`vprobot/Inspect-v0`: plan inspection views with the robot in the loop
+(docs/states-actions-rewards.md).
 
 Each episode places a motor (drawn from the train or test split, or one fixed mesh) on the
 fixture, turns it about the vertical by U[-180, 180] deg and tilts it by U[-25, 25] deg about x
@@ -68,7 +69,7 @@ def motor_files(config: Config) -> list[str | Path]:
 
 
 class InspectEnv(gym.Env):
-    """Inspection planning environment (SPEC sections 6-8, the paper's Tables 1-4).
+    """Inspection planning environment (docs/states-actions-rewards.md; the paper's Tables 1-4).
 
     ## Observation
     | state | content |

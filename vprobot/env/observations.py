@@ -1,4 +1,4 @@
-"""Observations of the inspection environment (SPEC section 6).
+"""Observations of the inspection environment (docs/states-actions-rewards.md#states).
 
 Point coordinates are in the object-centred frame: origin at the object's centre, axes parallel
 to the world's (z up), so the episode's random rotation and tilt show in the state. They are
@@ -88,7 +88,7 @@ def robot_state(sensor_pose: Pose, object_center: np.ndarray, joints: np.ndarray
 
 
 def observe(episode: Episode, config: EnvConfig, rng: np.random.Generator) -> Any:
-    """The state of an episode (SPEC section 6): what the agent is given.
+    """The state of an episode (docs/states-actions-rewards.md#states): what the agent is given.
 
     With `s_cov` the points are the accumulated acquired cloud only, posed in the world-aligned
     object frame (the model-free premise: a real cell measures these points in the world and

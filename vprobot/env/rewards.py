@@ -1,4 +1,4 @@
-"""Rewards R1-R14 of the paper's Table 3 (SPEC section 8).
+"""Rewards R1-R14 of the paper's Table 3 (docs/states-actions-rewards.md#rewards).
 
 Dense rewards are paid every step from the coverage gain dCOV_t, the remaining coverage before
 the step COV_rem and the travel cost k_t; sparse rewards pay 0 until the episode's last step T

@@ -118,8 +118,9 @@ class EpisodeRecord:
 def split_travel(views: Sequence[ViewRecord]) -> tuple[TravelCost, TravelCost]:
     """The approach (the move to the first acquisition) and k_cum (all later moves).
 
-    SPEC section 8: k_cum sums the moves between the acquisitions of an episode; the approach
-    from the start configuration to the first view is reported separately.
+    docs/states-actions-rewards.md#travel-costs: k_cum sums the moves between the acquisitions of
+    an episode; the approach from the start configuration to the first view is reported
+    separately.
     """
     approach, total = TravelCost(), TravelCost()
     acquired = False

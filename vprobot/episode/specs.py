@@ -1,12 +1,13 @@
 """Episode specs: everything random about an episode, drawn once from a seed and then fixed.
 
 A spec names the motor file, the object's rotation and the initial view, so that the env, every
-planner and every agent can be run on exactly the same episodes (SPEC section 9, evaluation
-protocol). `sample_episode` is the one sampler: the env draws from its `np_random`, and
-`episode_list` draws a fixed list over given motors and seeds for `vprobot evaluate`. The list
-format is versioned (`EPISODE_LIST_VERSION`); the bundled lists (`BUNDLED_EPISODE_LISTS`) are
-`configs/episodes/test-v1.json` over the test motors and `configs/episodes/shapes-v1.json` over
-the non-motor objects, and a test checks that the sampler still reproduces them.
+planner and every agent can be run on exactly the same episodes
+(docs/evaluation.md#episode-lists). `sample_episode` is the one sampler: the env draws from its
+`np_random`, and `episode_list` draws a fixed list over given motors and seeds for
+`vprobot evaluate`. The list format is versioned (`EPISODE_LIST_VERSION`); the bundled lists
+(`BUNDLED_EPISODE_LISTS`) are `configs/episodes/test-v1.json` over the test motors and
+`configs/episodes/shapes-v1.json` over the non-motor objects, and a test checks that the sampler
+still reproduces them.
 """
 
 from __future__ import annotations
@@ -65,8 +66,9 @@ RANDOM_INITIAL_MAX_POLAR_RAD = float(np.deg2rad(120.0))
 
 
 def random_object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
-    """An episode's object rotation (SPEC section 3): about the vertical by U[-yaw, yaw], then
-    tilted by U[-tilt, tilt] about the world x or y axis (equally likely), drawn in that order."""
+    """An episode's object rotation (docs/episodes-and-carriers.md#object-pose): about the
+    vertical by U[-yaw, yaw], then tilted by U[-tilt, tilt] about the world x or y axis (equally
+    likely), drawn in that order."""
     yaw = np.deg2rad(rng.uniform(-env.object_yaw_range_deg, env.object_yaw_range_deg))
     tilt = np.deg2rad(rng.uniform(-env.object_tilt_range_deg, env.object_tilt_range_deg))
     tilt_about = rotation_about_x if rng.integers(2) == 0 else rotation_about_y

@@ -1,4 +1,4 @@
-"""Travel costs between consecutive views (SPEC section 8)."""
+"""Travel costs between consecutive views (docs/states-actions-rewards.md#travel-costs)."""
 
 from __future__ import annotations
 
@@ -55,7 +55,8 @@ def paper_travel(position_from: np.ndarray, position_to: np.ndarray, center: np.
 
     A great-circle arc on the smaller of the two spheres about `center` through the positions,
     between one position and the radial projection of the other, plus the radius difference:
-    min(r_from, r_to) * angle + |r_to - r_from| (SPEC section 8). The paper draws the case
+    min(r_from, r_to) * angle + |r_to - r_from| (docs/states-actions-rewards.md#travel-costs). The
+    paper draws the case
     r_from < r_to and computes the other "the other way around", so the cost is symmetric.
     """
     offset_from = np.asarray(position_from, dtype=float) - center

@@ -1,4 +1,4 @@
-"""Seeded, parametric synthetic starter motors (SPEC section 11)."""
+"""Seeded, parametric synthetic starter motors (docs/episodes-and-carriers.md#starter-motors)."""
 
 from vprobot.motors.generator import build_motor, generate_motors, motor_rng
 from vprobot.motors.parameters import MotorParameters, sample_parameters

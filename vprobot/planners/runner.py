@@ -299,8 +299,8 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         seed: Seed of the episode (object pose, initial view).
 
     Returns:
-        The motor scene (for rendering), the episode record, the plan JSON document (SPEC
-        section 12) and a summary text.
+        The motor scene (for rendering), the episode record, the plan JSON document
+        (docs/plan-format.md) and a summary text.
 
     Raises:
         FileNotFoundError, ValueError: For a missing or unusable mesh, an unknown planner, or

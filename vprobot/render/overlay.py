@@ -14,7 +14,7 @@ WARN_RGB = (255, 90, 80)
 BAR_RGB = (40, 200, 70)
 BOX_RGBA = (0, 0, 0, 150)
 GOAL_COVERAGE = 0.9
-"""Where the coverage bar marks the episode's goal (SPEC section 1)."""
+"""Where the coverage bar marks the episode's goal (docs/states-actions-rewards.md#episode-end)."""
 COVERAGE_LINE = 1
 """The status line under which the coverage bar goes."""
 MAX_MARKS = 4

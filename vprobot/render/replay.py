@@ -1,4 +1,4 @@
-"""Turn an exported plan JSON (SPEC section 12) back into an episode that can be rendered.
+"""Turn an exported plan JSON (docs/plan-format.md) back into an episode that can be rendered.
 
 The plan fixes the cell (robot, base, sensor mount, sensor) and where the mesh file sits; the
 config supplies everything else (IK and path settings, ground-truth settings). Reachable views
@@ -134,7 +134,7 @@ def episode_from_plan(config: Config, plan_path: str | Path,
 
     Args:
         config: Settings the plan does not fix (kinematics, ground truth).
-        plan_path: The plan (SPEC section 12), e.g. from `vprobot plan --json`.
+        plan_path: The plan (docs/plan-format.md), e.g. from `vprobot plan --json`.
         resolution: Sensor resolution of the replayed acquisitions; the plan's when omitted.
 
     Returns:

@@ -271,7 +271,8 @@ def _add_sensor(spec: mujoco.MjSpec, flange: str) -> None:
         contype=ROBOT_BIT,
         conaffinity=ROBOT_BIT | ENVIRONMENT_BIT,
     )
-    # Sensor frame: +z views, +x is image right, +y image down (SPEC section 3).
+    # Sensor frame: +z views, +x is image right, +y image down
+    # (docs/units-and-frames.md#sensor-frame).
     sensor.add_site(name=SENSOR_SITE, size=[0.01, 0.01, 0.01], rgba=[1.0, 0.5, 0.0, 1.0])
     # A MuJoCo camera looks along its -z with +y up: a half turn about x maps it onto the sensor.
     sensor.add_camera(name=SENSOR_CAMERA, quat=[0.0, 1.0, 0.0, 0.0], fovy=SENSOR_FOVY_DEG)

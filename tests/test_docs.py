@@ -1,0 +1,68 @@
+"""The design document in docs/: every reference to it from the code and between its pages
+leads to a page and a heading that exist, and no reference to the old internal spec is left."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+SOURCES = ("vprobot", "tests", "scripts")
+SUFFIXES = (".py", ".md", ".yaml")
+FROM_CODE = re.compile(r"docs/([\w-]+\.md)(?:#([\w-]+))?")
+"""A reference from the code: `docs/PAGE.md` or `docs/PAGE.md#anchor`."""
+BETWEEN_PAGES = re.compile(r"\]\((?:([\w-]+\.md))?(?:#([\w-]+))?\)")
+"""A Markdown link within docs/: `](PAGE.md)`, `](PAGE.md#anchor)` or `](#anchor)`."""
+OLD_SPEC = re.compile(r"SPEC (?:sections?|§)")
+
+
+def anchor(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces as hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def anchors(page: Path) -> set[str]:
+    return {anchor(line.lstrip("#")) for line in page.read_text().splitlines()
+            if line.startswith("#")}
+
+
+def source_files() -> list[Path]:
+    files = [ROOT / "README.md"]
+    for folder in SOURCES:
+        files += [path for path in sorted((ROOT / folder).rglob("*")) if path.suffix in SUFFIXES]
+    # This file names the patterns it looks for.
+    return [path for path in files if path != Path(__file__).resolve()]
+
+
+def test_anchor_follows_github_rules() -> None:
+    assert anchor("The occupancy grid of `nbv`") == "the-occupancy-grid-of-nbv"
+    assert anchor(" States, actions, rewards") == "states-actions-rewards"
+    assert anchor("Split v1") == "split-v1"
+
+
+def test_code_references_lead_to_existing_pages_and_headings() -> None:
+    references = [(path, page, target) for path in source_files()
+                  for page, target in FROM_CODE.findall(path.read_text(errors="replace"))]
+    assert len(references) >= 31
+    broken = [f"{path.relative_to(ROOT)}: docs/{page}#{target}"
+              for path, page, target in references
+              if not (DOCS / page).is_file() or (target and target not in anchors(DOCS / page))]
+    assert broken == []
+
+
+def test_links_between_pages_lead_to_existing_pages_and_headings() -> None:
+    broken = []
+    for path in sorted(DOCS.glob("*.md")):
+        for page, target in BETWEEN_PAGES.findall(path.read_text()):
+            linked = DOCS / page if page else path
+            if not linked.is_file() or (target and target not in anchors(linked)):
+                broken.append(f"{path.name}: {page}#{target}")
+    assert broken == []
+
+
+def test_no_reference_to_the_internal_spec_remains() -> None:
+    left = [f"{path.relative_to(ROOT)}:{number}" for path in source_files()
+            for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1)
+            if OLD_SPEC.search(line)]
+    assert left == []
