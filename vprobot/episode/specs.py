@@ -81,7 +81,7 @@ _BUNDLED_MESH_DIRS = (MOTORS_DIR, ASSETS_DIR)
 
 def motor_name(path: str | Path) -> str:
     """How a spec names a mesh file: relative to the bundled motors folder when inside it
-    (`test/motor_020.stl`), else relative to the bundled assets (`objects/bracket.stl`), so that
+    (`test/motor_000.stl`), else relative to the bundled assets (`objects/bracket.stl`), so that
     a list of bundled meshes works from any folder; any other file keeps the path as given."""
     path = Path(path)
     for folder in _BUNDLED_MESH_DIRS:
@@ -99,7 +99,7 @@ class EpisodeSpec:
     Attributes:
         motor: The mesh file; `generated/...` names a generated object (`vprobot.generated`),
             another relative name is looked up in the bundled motors folder
-            (`test/motor_020.stl`), then in the bundled assets (`objects/bracket.stl`), then
+            (`test/motor_000.stl`), then in the bundled assets (`objects/bracket.stl`), then
             taken as a path.
         object_quaternion: Rotation (w, x, y, z) of the object about its centre.
         initial_views: Look-at directions (phi, theta) in rad at the working distance, tried in
