@@ -24,8 +24,8 @@ import numpy as np
 
 from vprobot.config import Config, load_config, replace
 from vprobot.env.actions import ActionMapping
-from vprobot.env.observations import observation_space, observe
-from vprobot.env.rewards import Reward, RewardTerms
+from vprobot.env.observations import Observer, observation_space
+from vprobot.env.rewards import Reward, RewardTerms, step_limit
 from vprobot.episode import (
     Episode,
     EpisodeRecord,
@@ -130,10 +130,10 @@ class InspectEnv(gym.Env):
         self.actions = ActionMapping(config.env, config.sensor.working_distance_m)
         self.reward_function = Reward(config.env.reward, config.env.travel_cost_floor,
                                       config.env.unreachable_penalty)
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.size,), dtype=np.float32)
+        self.action_space = self.actions.space
         self.observation_space = observation_space(config)
-        self.step_limit = (config.env.goal_only_step_cap if self.reward_function.goal_only
-                           else config.env.max_acquisitions)
+        self.observer = Observer(config, config.env.resolution)
+        self.step_limit = step_limit(config.env)
         self._scenes: dict[tuple[Path, float], MotorScene] = {}
         self._renderer = None
         self._renderer_cell = None
@@ -190,6 +190,7 @@ class InspectEnv(gym.Env):
             raise ValueError(f"options['episode'] must be an EpisodeSpec or its dict, got "
                              f"{type(spec).__name__}")
         self.spec_of_episode = spec
+        self.observer.reset()
         scene = self.scene(spec.motor_path, spec.scale)
         self.episode = Episode.from_spec(scene, spec, self.config.env.carrier,
                                          self.config.env.unreachable)
@@ -248,7 +249,7 @@ class InspectEnv(gym.Env):
         return self._observation(), reward, True, False, self._info(None, 0.0, terms)
 
     def _observation(self) -> Any:
-        return observe(self.episode, self.config.env, self.np_random)
+        return self.observer.observe(self.episode, self.np_random)
 
     def _info(self, view: ViewRecord | None, delta: float,
               terms: RewardTerms | None) -> dict[str, Any]:
