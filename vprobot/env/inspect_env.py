@@ -75,13 +75,35 @@ class InspectEnv(gym.Env):
     |---|---|
     | `s_cov` | (state_points, 3): the accumulated acquired cloud P_cov, resampled (model-free) |
     | `s_bin` | (state_points, 4): GT points plus a 0/1 "covered" column (needs the model) |
+    | `s_grid` | Dict `candidates` (K, 17), `mask` (K,); K = 128 band candidates (needs `A_view`) |
     | `robot_state` | adds a Dict entry `robot` (15,): sensor position, its x and z axes, joints |
 
     Coordinates are object-centred (world-aligned axes), divided by `state_scale_m`.
 
+    `s_grid` (`env.grid_state`) keeps the episode's occupancy grid, as `nbv` does, and gives one
+    row per band candidate, in the order of the `A_view` actions:
+
+    | column | feature | range |
+    |---|---|---|
+    | 0-2 | gains `unknown`, `frontier`, `rear_side` / (rays x a ray's largest gain) | [0, 1] |
+    | 3-5 | the same / the largest of an offered candidate (1: `nbv`'s pick) | [0, 1] |
+    | 6-8 | the candidate's direction from the centre (object frame, world axes) | [-1, 1] |
+    | 9 | cosine to the closest earlier request, taken or failed (-1: none) | [-1, 1] |
+    | 10 | cosine to the sensor's current direction (how far the move is) | [-1, 1] |
+    | 11 | 1 if the sensor is at the candidate (within 1 deg) | {0, 1} |
+    | 12 | 1 if the carrier failed to reach the candidate earlier in the episode | {0, 1} |
+    | 13 | requests used of the budget (the step limit) | [0, 1] |
+    | 14-16 | shares of the grid's voxels occupied, free, unknown | [0, 1] |
+
+    Columns 13-16 are the same on every row. `mask` is 1 where the candidate may be requested:
+    not within 10 deg (`candidates.EXCLUDE_DEG`) of an earlier request, taken or failed, and not
+    failed; if that leaves none, every candidate that did not fail is unmasked.
+
     ## Action
     Box [-1, 1]^n of the `action` variant: A_2S0R (2), A_3S0R (3), A_2S2R (4), A_2S2R_lim (4),
     A_3S2R (5), A_3S2R_lim (5, paper default), A_3C0R (3), A_3C2R (5); see `env.actions`.
+    `A_view` is Discrete(K): action k requests band candidate k, the look-at view at the working
+    distance that `nbv` requests (not with `stop_action`).
 
     ## Reward
     R1-R8 dense (coverage gain, remaining coverage, travel cost k_t), R9-R14 sparse at the last
