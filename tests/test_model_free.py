@@ -1,4 +1,5 @@
-"""Model-free planners (uniform<k>, nbv): what they may read, the occupancy grid, their gains."""
+"""Model-free planners (uniform<k>, nbv, an s_grid agent): what they may read, the occupancy grid,
+its gains."""
 
 from __future__ import annotations
 
@@ -10,11 +11,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from vprobot.config import Config
+from vprobot.agents.trained import TrainedAgent
+from vprobot.config import Config, replace
 from vprobot.episode import Episode, MotorScene, seeded_episode
 from vprobot.geometry import Pose
 from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN, UNKNOWN_PASS, OccupancyGrid, ViewGains
 from vprobot.planners import make_planner, parse_planner
+from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.sensor_model import SensorModel
@@ -91,6 +94,32 @@ def test_model_free_planners_never_read_mesh_ground_truth_or_coverage(
         bracket: MotorScene, name: str, carrier: str) -> None:
     episode = guarded_run(make_planner(name, CONFIG), bracket, carrier)
     assert sum(view.acquired for view in episode.views) >= 3
+
+
+class MaskedGreedy:
+    """An `s_grid` policy: the offered candidate of the largest unknown gain."""
+
+    def predict(self, observation: dict[str, np.ndarray], deterministic: bool = True) -> tuple:
+        rows, mask = observation["candidates"], observation["mask"]
+        return np.array(np.argmax(np.where(mask > 0, rows[:, 0], -1.0))), None
+
+
+@pytest.mark.parametrize("carrier", ["robot", "free"])
+def test_an_a_view_s_grid_agent_reads_no_model_and_never_asks_near_an_earlier_view(
+        bracket: MotorScene, carrier: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Frames at the scene's resolution, which the planner takes for the sensor's.
+    config = replace(replace(CONFIG, "sensor", resolution=RESOLUTION), "env",
+                     action="A_view", state="s_grid")
+    monkeypatch.setattr("vprobot.agents.trained.load_agent", lambda source: TrainedAgent(
+        model=MaskedGreedy(), config=config, path=Path("stub.zip")))  # type: ignore[arg-type]
+    episode = guarded_run(AgentPlanner("stub"), bracket, carrier)
+    # The greedy stub does not know what the robot reaches: only the count of requests is sure.
+    assert len(episode.views) == 6
+    directions = np.array([view.requested.position - episode.center for view in episode.views])
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    angles = np.degrees(np.arccos(np.clip(directions @ directions.T, -1.0, 1.0)))
+    np.fill_diagonal(angles, 180.0)
+    assert angles.min() >= EXCLUDE_DEG
 
 
 def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene) -> None:

@@ -222,7 +222,8 @@ class KinematicsConfig:
 
 
 ActionName = Literal[
-    "A_2S0R", "A_3S0R", "A_2S2R", "A_2S2R_lim", "A_3S2R", "A_3S2R_lim", "A_3C0R", "A_3C2R"
+    "A_2S0R", "A_3S0R", "A_2S2R", "A_2S2R_lim", "A_3S2R", "A_3S2R_lim", "A_3C0R", "A_3C2R",
+    "A_view",
 ]
 RewardName = Literal[
     "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "R10", "R11", "R12", "R13", "R14"
@@ -241,9 +242,12 @@ class EnvConfig:
     Attributes:
         carrier: `robot` (the robot must reach every view) or `free` (the paper's free-flying
             sensor: every request is executed; travel is `cartesian` or `paper` only).
-        state: `s_cov` (acquired cloud, model-free) or `s_bin` (GT cloud + covered flag).
+        state: `s_cov` (acquired cloud, model-free), `s_bin` (GT cloud + covered flag) or
+            `s_grid` (per band candidate features from an occupancy grid, model-free; needs
+            action `A_view`).
         robot_state: Add the sensor pose and joints as a second observation entry.
-        action: Action variant (docs/states-actions-rewards.md#actions).
+        action: Action variant (docs/states-actions-rewards.md#actions), or `A_view` (choose one of the band
+            candidates; not with `stop_action`).
         position_mapping: `npk` (no prior knowledge: r in radius_range_m, x/y/z in
             +-cartesian_range_m) or `wpk` (r = working distance, Cartesian points kept at
             wpk_distance_range_m from the centre).
@@ -280,7 +284,7 @@ class EnvConfig:
     """
 
     carrier: Literal["robot", "free"] = "robot"
-    state: Literal["s_cov", "s_bin"] = "s_cov"
+    state: Literal["s_cov", "s_bin", "s_grid"] = "s_cov"
     robot_state: bool = False
     action: ActionName = "A_3S2R_lim"
     position_mapping: Literal["npk", "wpk"] = "npk"
@@ -347,6 +351,13 @@ class EnvConfig:
             raise ConfigError(f"env.travel_cost {self.travel_cost!r} needs the robot, but "
                               f"env.carrier is 'free' and env.reward {self.reward} uses the "
                               f"travel cost; use 'cartesian' or 'paper'")
+        if self.state == "s_grid" and self.action != "A_view":
+            raise ConfigError(f"env.state 's_grid' describes the band candidates of env.action "
+                              f"'A_view', not env.action {self.action!r}; set env.action to "
+                              f"'A_view' or env.state to 's_cov' or 's_bin'")
+        if self.action == "A_view" and self.stop_action:
+            raise ConfigError("env.action 'A_view' has no stop decision yet: set "
+                              "env.stop_action to false or choose a continuous env.action")
         if not 0.0 <= self.radius_range_m[0] <= self.radius_range_m[1]:
             raise ConfigError(f"env.radius_range_m must satisfy 0 <= low <= high, got "
                               f"{self.radius_range_m}")

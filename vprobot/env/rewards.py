@@ -10,12 +10,18 @@ from __future__ import annotations
 
 import dataclasses
 
-from vprobot.config import RewardName
+from vprobot.config import EnvConfig, RewardName
 
 DENSE: tuple[str, ...] = ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8")
 SPARSE: tuple[str, ...] = ("R9", "R10", "R11", "R12", "R13", "R14")
 GOAL_ONLY: tuple[str, ...] = ("R13", "R14")
 """Rewards whose episodes end only at the coverage goal (with a safety cap)."""
+
+
+def step_limit(env: EnvConfig) -> int:
+    """Requests an episode may make after its initial view: `goal_only_step_cap` with a reward
+    that ends only at the goal, else `max_acquisitions`."""
+    return env.goal_only_step_cap if env.reward in GOAL_ONLY else env.max_acquisitions
 
 
 @dataclasses.dataclass(frozen=True)

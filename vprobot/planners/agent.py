@@ -2,8 +2,9 @@
 
 Like the paper's agents it starts from the episode's initial view and chooses one view at a time
 from what was acquired so far: the episode's state is built exactly as the env builds it for the
-agent's training (`vprobot.env.observations.observe`), so an `s_cov` agent is handed the acquired
-cloud only, never the mesh or the ground truth. It stops at the coverage goal (a simulation can
+agent's training (`vprobot.env.observations.Observer`), so an `s_cov` agent is handed the
+acquired cloud only, and an `s_grid` agent the features of the band candidates from the acquired
+frames, never the mesh or the ground truth. It stops at the coverage goal (a simulation can
 tell); given `views`, after that many views in all, the initial one included; an agent trained
 with `stop_action` decides itself when to stop (a real cell, where coverage is unknown).
 """
@@ -15,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.env.actions import ActionMapping
-from vprobot.env.observations import observe
+from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
 from vprobot.planners.base import Planner
 
@@ -42,6 +43,9 @@ class AgentPlanner(Planner):
         self.agent = load_agent(source)
         config = self.agent.config
         self.mapping = ActionMapping(config.env, config.sensor.working_distance_m)
+        # The planner's episodes acquire at the sensor's own resolution, not at the coarser one
+        # the agent may have trained at (`env.resolution`).
+        self.observer = Observer(config)
         self.roll_free = config.kinematics.roll == "free"
         self.views = views
         self.decides_stop = config.env.stop_action
@@ -50,6 +54,7 @@ class AgentPlanner(Planner):
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._rng = rng
+        self.observer.reset()
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
         env = self.agent.config.env
@@ -57,7 +62,7 @@ class AgentPlanner(Planner):
             return None
         if self.decides_stop and len(episode.views) > env.max_acquisitions:
             return None
-        observation = observe(episode, env, self._rng)
+        observation = self.observer.observe(episode, self._rng)
         action, _ = self.agent.model.predict(observation, deterministic=True)
         if self.views is None and self.mapping.stops(action):
             return None

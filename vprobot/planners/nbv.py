@@ -2,8 +2,9 @@
 
 Like the agents it starts from the episode's initial view. After every acquisition the frame is
 integrated into an occupancy grid over where an object may stand in the cell
-(`vprobot.occupancy`); the candidates are `CANDIDATE_COUNT` look-at views spread evenly over the
-view band at the working distance (as `uniform<k>`), each scored by the expected information of
+(`vprobot.occupancy`); the candidates are the band candidates (`candidates.band_candidates`:
+look-at views spread evenly over the view band at the working distance, as `uniform<k>`), each
+scored by the expected information of
 its rays through the grid (`DEFAULT_GAIN`). The best candidate is requested next, skipping
 candidates within `EXCLUDE_DEG` of an earlier request (taken or failed) and, with the robot,
 candidates the IK cannot reach from the current configuration or where the arm would hide the
@@ -23,25 +24,22 @@ the fixture) keeps it above 60 % of its first value after ten views that saw eve
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
-from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import SensorTarget
-from vprobot.occupancy import GAINS, VOXEL_M, Gain, OccupancyGrid, ViewGains
+from vprobot.occupancy import GAINS, VOXEL_M, EpisodeGrid, Gain
 from vprobot.planners.base import Planner
-from vprobot.planners.candidates import arm_hides_view, look_at_targets
-from vprobot.sensor_model import SensorModel
-from vprobot.viewsphere import sphere_directions
+from vprobot.planners.candidates import EXCLUDE_DEG as EXCLUDE_DEG
+from vprobot.planners.candidates import (
+    arm_hides_view,
+    band_candidates,
+    offered,
+    request_directions,
+)
 
-CANDIDATE_COUNT = 128
-"""Candidate views over the band: about 15 degrees apart."""
 DEFAULT_GAIN: Gain = "unknown"
-EXCLUDE_DEG = 10.0
-"""Candidates this close to an earlier request are not offered again."""
 REACH_TRIES = 40
 """IK attempts per view at most (best candidates first)."""
 STOP_NEW_SURFACE = 0.02
@@ -49,19 +47,6 @@ STOP_NEW_SURFACE = 0.02
 motors)."""
 STOP_QUIET_VIEWS = 2
 STOP_RULES = ("goal", "grid")
-
-
-@functools.lru_cache(maxsize=4)
-def _candidates(config: Config, voxel_m: float) -> tuple[tuple[SensorTarget, ...], np.ndarray,
-                                                        ViewGains]:
-    """The candidate targets, their directions and their rays through the cell's grid; cached,
-    as they depend on the cell only."""
-    directions = sphere_directions(CANDIDATE_COUNT, np.deg2rad(MAX_POLAR_DEG))
-    sensor = SensorModel.from_config(config.sensor)
-    targets = look_at_targets(np.asarray(config.cell.object_center_m),
-                              sensor.working_distance_m, directions)
-    return targets, directions, ViewGains(OccupancyGrid.for_cell(config, voxel_m), sensor,
-                                          [target.pose for target in targets])
 
 
 class VolumetricPlanner(Planner):
@@ -78,8 +63,8 @@ class VolumetricPlanner(Planner):
         ValueError: For an unknown gain or stop rule.
 
     Attributes:
-        added: Per informative frame of the latest episode (one the cell did not mostly
-            hide), the share of the occupied voxels it added: the stop rule's input.
+        episode_grid: The latest episode's grid; what each of its frames added to the
+            occupied voxels is the stop rule's input.
     """
 
     name = "nbv"
@@ -96,7 +81,6 @@ class VolumetricPlanner(Planner):
         self.gain = gain
         self.stops_at_goal = stop == "goal"
         self.voxel_m = voxel_m
-        self.sensor = SensorModel.from_config(config.sensor)
         self._begin()
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
@@ -104,53 +88,27 @@ class VolumetricPlanner(Planner):
 
     def _begin(self) -> None:
         """A new episode: an all-unknown grid, nothing integrated, tried or stopped."""
-        self.grid = OccupancyGrid.for_cell(self.config, self.voxel_m)
-        self.added: list[float] = []
+        self.episode_grid = EpisodeGrid(self.config, voxel_m=self.voxel_m)
         self.stop_reason = None
-        self._integrated = 0
-        self._failed: set[int] = set()
-
-    def _integrate(self, episode: Episode) -> None:
-        for view in episode.views[self._integrated:]:
-            if view.sensor_pose is None:
-                continue
-            before = self.grid.counts()["occupied"]
-            self.grid.integrate(self.sensor, view.sensor_pose, view.points_world, view.pixels,
-                                view.blocked_pixels)
-            # A frame the cell mostly hid (e.g. by the robot) says nothing about what is left.
-            if len(view.blocked_pixels) < len(view.points_world):
-                after = self.grid.counts()["occupied"]
-                self.added.append((after - before) / max(after, 1))
-        self._integrated = len(episode.views)
-
-    def _offered(self, episode: Episode, directions: np.ndarray) -> np.ndarray:
-        """Candidates not yet tried and not within `EXCLUDE_DEG` of an earlier request."""
-        offered = np.ones(len(directions), dtype=bool)
-        offered[list(self._failed)] = False
-        requested = np.array([view.requested.position - episode.center
-                              for view in episode.views]).reshape(-1, 3)
-        if len(requested):
-            requested /= np.linalg.norm(requested, axis=1, keepdims=True)
-            closest = (directions @ requested.T).max(axis=1)
-            offered &= closest < np.cos(np.deg2rad(EXCLUDE_DEG))
-        return offered
+        self._failed = np.zeros(len(band_candidates(self.config, self.voxel_m)), dtype=bool)
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
-        self._integrate(episode)
+        self.episode_grid.update(episode.views)
         if not self.stops_at_goal:
             self.stop_reason = self._grid_stop(episode)
             if self.stop_reason is not None:
                 return None
-        targets, directions, gains = _candidates(self.config, self.voxel_m)
-        scores = np.where(self._offered(episode, directions), gains.score(self.grid, self.gain),
-                          0.0)
+        band = band_candidates(self.config, self.voxel_m)
+        allowed = offered(band.directions, request_directions(episode.views, episode.center),
+                          self._failed)
+        scores = np.where(allowed, band.gains.score(self.episode_grid.grid, self.gain), 0.0)
         for index in np.argsort(-scores, kind="stable")[:REACH_TRIES]:
             if scores[index] <= 0.0:
                 break
-            request = self._reached(episode, targets[index])
+            request = self._reached(episode, band.targets[index])
             if request is not None:
                 return request
-            self._failed.add(int(index))
+            self._failed[index] = True
         self.stop_reason = "no reachable candidate adds anything"
         return None
 
@@ -158,8 +116,9 @@ class VolumetricPlanner(Planner):
         """Why the grid rule stops the episode now, else None."""
         if len(episode.views) > self.config.env.max_acquisitions:
             return "view budget"
-        recent = self.added[-STOP_QUIET_VIEWS:]
-        if len(self.added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
+        added = self.episode_grid.added
+        recent = added[-STOP_QUIET_VIEWS:]
+        if len(added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
             return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "
                     f"{STOP_NEW_SURFACE:.0%} to the seen surface")
         return None
