@@ -25,7 +25,8 @@ from vprobot.agents.training import (
     config_document,
     train,
 )
-from vprobot.config import Config, ConfigError, replace
+from vprobot.config import AgentConfig, Config, ConfigError, from_mapping, replace
+from vprobot.paths import CONFIGS_DIR
 
 COUNT, FEATURES = 8, 3
 DQN_AGENT = {"algorithm": "dqn", "encoder": "candidates", "net_arch": (16, 16),
@@ -260,3 +261,13 @@ def test_two_env_processes_train_and_store_only_allowed_requests() -> None:
     # The two processes drew different candidate sets.
     candidates = buffer.observations["candidates"][: buffer.pos]
     assert not np.array_equal(candidates[:, 0], candidates[:, 1])
+
+
+def test_the_candidate_profile_agent_section_is_a_valid_dqn() -> None:
+    # Its env section (A_view, s_grid) loads once the candidate env is merged; then load the
+    # whole profile here (profile_config) and check its buffer memory.
+    document = yaml.safe_load((CONFIGS_DIR / "agents" / "cpu-candidates.yaml").read_text())
+    agent = from_mapping(AgentConfig, document["agent"], "agent")
+    assert (agent.algorithm, agent.encoder, agent.gamma, agent.n_envs, agent.total_steps) == (
+        "dqn", "candidates", 0.5, 2, 30_000)
+    assert document["env"]["action"] == "A_view" and document["env"]["state"] == "s_grid"
