@@ -278,7 +278,7 @@ def test_agent_given_s_cov_sees_only_acquired_points(monkeypatch: pytest.MonkeyP
 @pytest.mark.parametrize(
     ("overrides", "message"),
     [(["agent.colour=red"], "unknown key 'colour' in section 'agent'"),
-     (["agent.algorithm=dqn"], "agent.algorithm must be one of"),
+     (["agent.algorithm=a2c"], "agent.algorithm must be one of"),
      (["robot.arm=ur5"], "unknown config section 'robot'"),
      (["agent.encoder"], "section.key=value"),
      (["agent.buffer_size=2000000", "env.state_points=2048"], "GiB"),

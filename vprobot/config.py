@@ -371,20 +371,31 @@ class AgentConfig:
     `configs/agents/cpu.yaml` is the profile that trains on a small CPU.
 
     Attributes:
-        algorithm: `sac` (off-policy, replay buffer) or `ppo` (on-policy).
-        encoder: Point-cloud feature extractor: `pcn`, `pointnet` or `sphere` (CPU budget).
+        algorithm: `sac` (off-policy, replay buffer), `ppo` (on-policy) or `dqn` (off-policy,
+            a Q-value per candidate view: needs `encoder: candidates` and an env whose action
+            is a choice among candidate views, `vprobot.agents.candidate_q`).
+        encoder: Point-cloud feature extractor: `pcn`, `pointnet` or `sphere` (CPU budget); or
+            `candidates`, the Q-network of `dqn` (one shared MLP per candidate row).
         encoder_scale: Multiplies the widths of `pcn` and `pointnet` (1: published sizes).
         sphere_bins: Polar and azimuth bins of the `sphere` encoder's direction map.
         sphere_features: Size of the `sphere` encoding.
-        net_arch: Hidden layers of the regression MLP after the encoder (actor and critics).
+        net_arch: Hidden layers of the regression MLP after the encoder (actor and critics);
+            with `candidates`, of the MLP applied to every candidate row (the first width is
+            also that of the row embedding the pooled context is taken from).
         learning_rate: Initial learning rate.
         learning_rate_schedule: `linear` decays it to 0 over `total_steps`; `constant` keeps it.
         gamma: Discount factor.
         batch_size: Minibatch of a gradient step.
-        buffer_size: Replay buffer transitions (SAC).
-        learning_starts: Env steps before the first SAC update.
-        train_freq: Env steps between SAC updates.
-        gradient_steps: Gradient steps per SAC update.
+        buffer_size: Replay buffer transitions (SAC, DQN).
+        learning_starts: Env steps before the first SAC or DQN update (DQN explores uniformly
+            over the allowed candidates until then).
+        train_freq: Env steps between SAC or DQN updates.
+        gradient_steps: Gradient steps per SAC or DQN update.
+        target_update_interval: Env steps between copies of the DQN Q-network into its target.
+        exploration_fraction: Share of `total_steps` over which DQN's epsilon (the probability
+            of a uniformly drawn allowed candidate) falls from its initial to its final value.
+        exploration_initial_eps: DQN's epsilon at the start.
+        exploration_final_eps: DQN's epsilon after the exploration fraction.
         n_steps: Env steps per PPO rollout (per env).
         n_epochs: PPO epochs per rollout.
         total_steps: Env steps of a training run.
@@ -399,8 +410,8 @@ class AgentConfig:
         device: `cpu`, `cuda` or `auto` (cuda when present).
     """
 
-    algorithm: Literal["sac", "ppo"] = "sac"
-    encoder: Literal["pcn", "pointnet", "sphere"] = "pcn"
+    algorithm: Literal["sac", "ppo", "dqn"] = "sac"
+    encoder: Literal["pcn", "pointnet", "sphere", "candidates"] = "pcn"
     encoder_scale: float = 1.0
     sphere_bins: tuple[int, int] = (8, 16)
     sphere_features: int = 128
@@ -413,6 +424,10 @@ class AgentConfig:
     learning_starts: int = 1_000
     train_freq: int = 1
     gradient_steps: int = 1
+    target_update_interval: int = 1_000
+    exploration_fraction: float = 0.2
+    exploration_initial_eps: float = 1.0
+    exploration_final_eps: float = 0.05
     n_steps: int = 1_024
     n_epochs: int = 10
     total_steps: int = 75_000
@@ -426,7 +441,8 @@ class AgentConfig:
 
     def __post_init__(self) -> None:
         for name in ("sphere_features", "batch_size", "buffer_size", "train_freq",
-                     "gradient_steps", "n_steps", "n_epochs", "total_steps", "n_envs",
+                     "gradient_steps", "target_update_interval", "n_steps", "n_epochs",
+                     "total_steps", "n_envs",
                      "eval_freq", "checkpoint_freq", "torch_threads"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"agent.{name} must be >= 1, got {getattr(self, name)}")
@@ -446,6 +462,17 @@ class AgentConfig:
         if polar < 2 or azimuth < 2 or azimuth % 2:
             raise ConfigError(f"agent.sphere_bins must be (polar >= 2, even azimuth >= 2), got "
                               f"{self.sphere_bins}")
+        if (self.algorithm == "dqn") != (self.encoder == "candidates"):
+            raise ConfigError(f"agent.algorithm dqn and agent.encoder candidates go together "
+                              f"(one Q-value per candidate view), got algorithm "
+                              f"{self.algorithm!r} with encoder {self.encoder!r}")
+        if not 0.0 < self.exploration_fraction <= 1.0:
+            raise ConfigError(f"agent.exploration_fraction must lie in (0, 1], got "
+                              f"{self.exploration_fraction}")
+        if not 0.0 <= self.exploration_final_eps <= self.exploration_initial_eps <= 1.0:
+            raise ConfigError(f"agent needs 0 <= exploration_final_eps <= "
+                              f"exploration_initial_eps <= 1, got "
+                              f"{self.exploration_final_eps}, {self.exploration_initial_eps}")
 
 
 @dataclasses.dataclass(frozen=True)

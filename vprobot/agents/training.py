@@ -1,4 +1,4 @@
-"""`vprobot train`: train a SAC or PPO agent headless, resumably, into a run directory.
+"""`vprobot train`: train a SAC, PPO or DQN agent headless, resumably, into a run directory.
 
 A run directory holds everything about one run:
 
@@ -27,6 +27,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import torch
 import yaml
@@ -35,6 +36,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import CallbackList
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
 from vprobot.agents.callbacks import (
@@ -44,11 +46,12 @@ from vprobot.agents.callbacks import (
     read_checkpoint,
     truncate_lines,
 )
+from vprobot.agents.candidate_q import CandidateDQN, CandidatePolicy, check_candidate_spaces
 from vprobot.agents.evaluation import evaluation_env
-from vprobot.agents.extractors import EXTRACTORS
+from vprobot.agents.extractors import EXTRACTORS, split_space
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
-from vprobot.config import Config, ConfigError, from_mapping
+from vprobot.config import AgentConfig, Config, ConfigError, from_mapping
 from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
@@ -70,6 +73,8 @@ MESH_SCALE_KEY = "env.mesh_scale"
 """How a training config sets the scale of its mesh file, for the hints of unit mistakes."""
 MEMORY_LIMIT_BYTES = 8 * 1024**3
 """No profile may need more than this for its buffer (issue: 8 GB)."""
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"sac": SAC, "ppo": PPO, "dqn": CandidateDQN}
+"""The stable-baselines3 class of each `agent.algorithm`: built, resumed and loaded as this."""
 
 
 class LinearSchedule:
@@ -91,14 +96,16 @@ def _space_bytes(space: Any) -> int:
 def buffer_memory(config: Config) -> dict[str, Any]:
     """The agent's buffer in bytes, from the observation and action spaces.
 
-    SAC's replay buffer stores an observation and the next one per transition, the action, the
-    reward and two flags (float32 each); PPO's rollout buffer one observation, the action and
-    five float32 (reward, return, advantage, value, log-probability) per env step.
+    The replay buffer of SAC and DQN stores an observation and the next one per transition,
+    the action (float32 each for SAC, one int64 candidate index for DQN), the reward and two
+    flags (float32 each); PPO's rollout buffer one observation, the action and five float32
+    (reward, return, advantage, value, log-probability) per env step.
     """
     agent = config.agent
     observation = _space_bytes(observation_space(config))
-    action = 4 * ActionMapping(config.env, config.sensor.working_distance_m).size
-    if agent.algorithm == "sac":
+    action = (np.dtype(np.int64).itemsize if agent.algorithm == "dqn"
+              else 4 * ActionMapping(config.env, config.sensor.working_distance_m).size)
+    if issubclass(ALGORITHMS[agent.algorithm], OffPolicyAlgorithm):
         per_transition = 2 * observation + action + 3 * 4
         transitions = agent.buffer_size
     else:
@@ -160,9 +167,49 @@ def make_vec_env(config: Config, seed: int, starts: Sequence[int],
     return DummyVecEnv(factories) if len(factories) == 1 else SubprocVecEnv(factories)
 
 
+def check_spaces(agent: AgentConfig, observation_space: gym.Space,
+                 action_space: gym.Space) -> None:
+    """Raise ConfigError unless the algorithm can act in an env of these spaces: DQN in one
+    that chooses among candidate views, SAC and PPO in one with a continuous action and a
+    point-cloud state."""
+    if agent.algorithm == "dqn":
+        check_candidate_spaces(observation_space, action_space)
+        return
+    try:
+        split_space(observation_space)
+        continuous = isinstance(action_space, gym.spaces.Box)
+    except ValueError:
+        continuous = False
+    if not continuous:
+        raise ConfigError(f"agent.algorithm {agent.algorithm} needs a continuous action and a "
+                          f"point-cloud state, got action space {action_space} and observation "
+                          f"space {observation_space}; an env choosing among candidate views "
+                          f"(env.action: A_view) needs agent.algorithm dqn with agent.encoder "
+                          f"candidates")
+
+
 def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgorithm:
-    """A fresh SAC or PPO model with the profile's encoder and regression MLP."""
+    """A fresh model: SAC or PPO with the profile's encoder and regression MLP, or DQN with
+    the candidate Q-network (`vprobot.agents.candidate_q`).
+
+    Raises:
+        ConfigError: If the algorithm cannot act in the env's spaces (`check_spaces`).
+    """
     agent = config.agent
+    check_spaces(agent, env.observation_space, env.action_space)
+    rate: Any = (LinearSchedule(agent.learning_rate) if agent.learning_rate_schedule == "linear"
+                 else agent.learning_rate)
+    if agent.algorithm == "dqn":
+        return CandidateDQN(CandidatePolicy, env, learning_rate=rate, gamma=agent.gamma,
+                            batch_size=agent.batch_size, buffer_size=agent.buffer_size,
+                            learning_starts=agent.learning_starts, train_freq=agent.train_freq,
+                            gradient_steps=agent.gradient_steps,
+                            target_update_interval=agent.target_update_interval,
+                            exploration_fraction=agent.exploration_fraction,
+                            exploration_initial_eps=agent.exploration_initial_eps,
+                            exploration_final_eps=agent.exploration_final_eps,
+                            policy_kwargs={"net_arch": list(agent.net_arch)}, seed=seed,
+                            device=device)
     extractor = EXTRACTORS[agent.encoder]
     extractor_kwargs: dict[str, Any] = (
         {"bins": agent.sphere_bins, "features": agent.sphere_features}
@@ -171,8 +218,6 @@ def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgo
     policy_kwargs = {"features_extractor_class": extractor,
                      "features_extractor_kwargs": extractor_kwargs,
                      "net_arch": list(agent.net_arch)}
-    rate: Any = (LinearSchedule(agent.learning_rate) if agent.learning_rate_schedule == "linear"
-                 else agent.learning_rate)
     if agent.algorithm == "sac":
         return SAC(policy, env, learning_rate=rate, gamma=agent.gamma,
                    batch_size=agent.batch_size, buffer_size=agent.buffer_size,
@@ -210,18 +255,21 @@ def _commit() -> str:
 
 
 def check_environment(config: Config) -> None:
-    """Check what the envs will need before a run folder is touched: the env settings and every
-    motor file episodes draw from (it loads and fits the cell; generated objects are made later).
+    """Check what the envs will need before a run folder is touched: the env settings, that the
+    algorithm can act in the env's spaces and every motor file episodes draw from (it loads and
+    fits the cell; generated objects are made later).
 
     Raises:
-        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, or
-            env settings that do not make an env.
+        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, env
+            settings that do not make an env, or an algorithm that cannot act in it.
     """
     env = config.env
     scale = env.mesh_scale if env.motors == "mesh" else 1.0
+    inspect_env = InspectEnv(config)
+    check_spaces(config.agent, inspect_env.observation_space, inspect_env.action_space)
     # Generated objects fit by construction (their families' tests check it) and are made only
     # when an episode draws them.
-    for path in InspectEnv(config).motor_files:
+    for path in inspect_env.motor_files:
         if not is_generated(str(path)):
             check_fits(load_mesh(path, scale, scale_option=MESH_SCALE_KEY), config,
                        scale_option=MESH_SCALE_KEY)
@@ -326,9 +374,8 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
             log.unlink(missing_ok=True)
     env = make_vec_env(config, seed, starts, run_dir)
     if checkpoint is not None:
-        algorithm = SAC if agent.algorithm == "sac" else PPO
-        model = algorithm.load(run_dir / "checkpoints" / checkpoint["model"], env=env,
-                               device=device)
+        model = ALGORITHMS[agent.algorithm].load(
+            run_dir / "checkpoints" / checkpoint["model"], env=env, device=device)
         buffer = checkpoint["buffer"]
         if buffer is not None and buffer.endswith(".pkl"):
             # A checkpoint written before buffers were saved as their filled part.
