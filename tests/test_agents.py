@@ -36,6 +36,7 @@ from vprobot.agents.training import (
     build_model,
     config_document,
     make_vec_env,
+    monitor_file,
     profile_config,
     train,
 )
@@ -434,3 +435,12 @@ def test_an_agent_with_other_observations_than_its_config_names_its_file(
             "agent run/best_model.zip: its run's config.yaml gives observations of shape "
             "(128, 3), but the model was trained on (64, 3)")):
         load_agent("run")
+
+
+def test_the_monitor_file_of_each_env_rank_is_the_name_sb3_writes(tmp_path: Path) -> None:
+    from stable_baselines3.common.monitor import Monitor
+
+    for rank in range(3):
+        Monitor(gym.make("CartPole-v1"), filename=str(tmp_path / monitor_file(rank))).close()
+    assert sorted(path.name for path in tmp_path.iterdir()) == [
+        "monitor.csv", "monitor_1.monitor.csv", "monitor_2.monitor.csv"]

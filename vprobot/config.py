@@ -246,8 +246,8 @@ class EnvConfig:
             `s_grid` (per band candidate features from an occupancy grid, model-free; needs
             action `A_view`).
         robot_state: Add the sensor pose and joints as a second observation entry.
-        action: Action variant (docs/states-actions-rewards.md#actions), or `A_view` (choose one of the band
-            candidates; not with `stop_action`).
+        action: Action variant (docs/states-actions-rewards.md#actions), or `A_view`
+            (choose one of the band candidates; not with `stop_action`).
         position_mapping: `npk` (no prior knowledge: r in radius_range_m, x/y/z in
             +-cartesian_range_m) or `wpk` (r = working distance, Cartesian points kept at
             wpk_distance_range_m from the centre).

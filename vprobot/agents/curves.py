@@ -31,8 +31,8 @@ def _whole_lines(path: Path) -> list[str]:
 
 
 def read_monitor(run_dir: Path) -> dict[str, np.ndarray]:
-    """The per-episode columns of a run's `monitor.csv` (and `monitor_<rank>.csv` of parallel
-    envs, interleaved episode by episode); read-only, so a running run can be read.
+    """The per-episode columns of a run's `monitor.csv` (and `monitor_<rank>.monitor.csv` of
+    parallel envs, interleaved episode by episode); read-only, so a running run can be read.
 
     Raises:
         ValueError: If the run has no monitor file.

@@ -8,6 +8,7 @@ A run directory holds everything about one run:
 | `command.txt` | the command line, the seed and the vprobot commit |
 | `memory.json` | the replay (or rollout) buffer in bytes: per transition and in total |
 | `monitor.csv` | a row per training episode: reward, length, coverage, acquisitions, ... |
+| `monitor_<rank>.monitor.csv` | the same for the env of each further rank (`agent.n_envs`) |
 | `evaluations.csv` | the periodic evaluations on the validation episodes (model selection) |
 | `logs/` | stable-baselines3's progress CSV and TensorBoard events, one folder per session |
 | `checkpoints/`, `checkpoint.json` | the latest checkpoint (model, replay buffer, episode stream) |
@@ -157,12 +158,17 @@ def env_factory(config: Config, seed: int, rank: int, start: int,
     return make
 
 
+def monitor_file(rank: int) -> str:
+    """The monitor file of the env of `rank` (SB3's Monitor appends `.monitor.csv` to a name
+    that does not end with it)."""
+    return "monitor.csv" if rank == 0 else f"monitor_{rank}.monitor.csv"
+
+
 def make_vec_env(config: Config, seed: int, starts: Sequence[int],
                  monitor_dir: Path | None) -> VecEnv:
     """The run's envs: one in-process, several in subprocesses (one monitor file each)."""
-    factories = [env_factory(config, seed, rank, start, None if monitor_dir is None else
-                             monitor_dir / ("monitor.csv" if rank == 0
-                                            else f"monitor_{rank}.csv"))
+    factories = [env_factory(config, seed, rank, start,
+                             None if monitor_dir is None else monitor_dir / monitor_file(rank))
                  for rank, start in enumerate(starts)]
     return DummyVecEnv(factories) if len(factories) == 1 else SubprocVecEnv(factories)
 
@@ -362,7 +368,9 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
     """The training itself, in a run directory this process holds the lock of."""
     agent = config.agent
     torch.set_num_threads(agent.torch_threads)
-    logs = [run_dir / "monitor.csv", run_dir / "evaluations.csv"]
+    # Every env's monitor: a resumed run cuts each back to its checkpoint.
+    logs = [*(run_dir / monitor_file(rank) for rank in range(agent.n_envs)),
+            run_dir / "evaluations.csv"]
     checkpoint = read_checkpoint(run_dir) if resume else None
     starts = [0] * agent.n_envs
     if checkpoint is not None:

@@ -96,7 +96,8 @@ def robot_state(sensor_pose: Pose, object_center: np.ndarray, joints: np.ndarray
 
 
 class Observer:
-    """Builds the state of episodes (docs/states-actions-rewards.md#states): what the agent is given.
+    """Builds the state of episodes: what the agent is given
+    (docs/states-actions-rewards.md#states).
 
     With `s_cov` the points are the accumulated acquired cloud only, posed in the world-aligned
     object frame (the model-free premise: a real cell measures these points in the world and
