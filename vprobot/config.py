@@ -396,6 +396,9 @@ class AgentConfig:
             of a uniformly drawn allowed candidate) falls from its initial to its final value.
         exploration_initial_eps: DQN's epsilon at the start.
         exploration_final_eps: DQN's epsilon after the exploration fraction.
+        pretrain_episodes: With `dqn`: episodes of the model-based teacher whose states the
+            Q-network is fitted to before RL (`vprobot.agents.pretrain`; 0: none).
+        pretrain_epochs: Passes over those states.
         n_steps: Env steps per PPO rollout (per env).
         n_epochs: PPO epochs per rollout.
         total_steps: Env steps of a training run.
@@ -428,6 +431,8 @@ class AgentConfig:
     exploration_fraction: float = 0.2
     exploration_initial_eps: float = 1.0
     exploration_final_eps: float = 0.05
+    pretrain_episodes: int = 0
+    pretrain_epochs: int = 20
     n_steps: int = 1_024
     n_epochs: int = 10
     total_steps: int = 75_000
@@ -442,7 +447,7 @@ class AgentConfig:
     def __post_init__(self) -> None:
         for name in ("sphere_features", "batch_size", "buffer_size", "train_freq",
                      "gradient_steps", "target_update_interval", "n_steps", "n_epochs",
-                     "total_steps", "n_envs",
+                     "total_steps", "n_envs", "pretrain_epochs",
                      "eval_freq", "checkpoint_freq", "torch_threads"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"agent.{name} must be >= 1, got {getattr(self, name)}")
@@ -469,6 +474,12 @@ class AgentConfig:
         if not 0.0 < self.exploration_fraction <= 1.0:
             raise ConfigError(f"agent.exploration_fraction must lie in (0, 1], got "
                               f"{self.exploration_fraction}")
+        if self.pretrain_episodes < 0:
+            raise ConfigError(f"agent.pretrain_episodes must be >= 0, got "
+                              f"{self.pretrain_episodes}")
+        if self.pretrain_episodes and self.algorithm != "dqn":
+            raise ConfigError(f"agent.pretrain_episodes fits a candidate Q-network: it needs "
+                              f"agent.algorithm dqn, got {self.algorithm!r}")
         if not 0.0 <= self.exploration_final_eps <= self.exploration_initial_eps <= 1.0:
             raise ConfigError(f"agent needs 0 <= exploration_final_eps <= "
                               f"exploration_initial_eps <= 1, got "

@@ -49,9 +49,11 @@ from vprobot.agents.callbacks import (
 )
 from vprobot.agents.candidate_q import CandidateDQN, CandidatePolicy, check_candidate_spaces
 from vprobot.agents.evaluation import evaluation_env
+from vprobot.agents.pretrain import pretrain
 from vprobot.agents.extractors import EXTRACTORS, split_space
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
+from vprobot.agents.teacher import check_teacher_reward
 from vprobot.config import AgentConfig, Config, ConfigError, from_mapping
 from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
@@ -273,6 +275,8 @@ def check_environment(config: Config) -> None:
     scale = env.mesh_scale if env.motors == "mesh" else 1.0
     inspect_env = InspectEnv(config)
     check_spaces(config.agent, inspect_env.observation_space, inspect_env.action_space)
+    if config.agent.pretrain_episodes:
+        check_teacher_reward(env)
     # Generated objects fit by construction (their families' tests check it) and are made only
     # when an episode draws them.
     for path in inspect_env.motor_files:
@@ -392,6 +396,8 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
             load_buffer(model.replay_buffer, run_dir / "checkpoints" / buffer)
     else:
         model = build_model(config, env, seed, device)
+        if agent.pretrain_episodes:
+            pretrain(model, config, seed, run_dir, progress)
     sessions = sorted((run_dir / "logs").glob("session_*")) if (run_dir / "logs").is_dir() else []
     model.set_logger(configure(str(run_dir / "logs" / f"session_{len(sessions)}"),
                                ["csv", "tensorboard"]))
