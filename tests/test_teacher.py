@@ -68,7 +68,7 @@ def test_candidates_the_robot_cannot_take_are_worth_a_wasted_request() -> None:
     assert np.all(values[~unusable & (values != WASTED)] > 0.0)
 
 
-def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_best(tmp_path: Path) -> None:
+def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_best() -> None:
     cfg = config("free")
     states = collect(cfg, episodes=2, seed=0)
     model = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")

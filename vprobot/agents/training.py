@@ -49,8 +49,8 @@ from vprobot.agents.callbacks import (
 )
 from vprobot.agents.candidate_q import CandidateDQN, CandidatePolicy, check_candidate_spaces
 from vprobot.agents.evaluation import evaluation_env
-from vprobot.agents.pretrain import pretrain
 from vprobot.agents.extractors import EXTRACTORS, split_space
+from vprobot.agents.pretrain import pretrain
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import check_teacher_reward
