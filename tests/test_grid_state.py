@@ -60,7 +60,7 @@ def test_check_env_passes_for_a_view_and_s_grid_with_the_robot() -> None:
     check_env(env, skip_render_check=True)
 
 
-def test_the_mask_hides_the_requested_candidates_and_those_within_10_deg_of_them(
+def test_the_mask_hides_unreachable_and_requested_candidates_and_those_within_10_deg(
         stepped: tuple) -> None:
     env, observations, reached, failed = stepped
     directions = band_directions()
@@ -68,8 +68,12 @@ def test_the_mask_hides_the_requested_candidates_and_those_within_10_deg_of_them
                                           -1.0, 1.0)))
     # After the step to `reached` (views 0-1), then after the failed one as well (views 0-2).
     for observation, views in ((observations[1], 2), (observations[2], 3)):
-        expected = (angles[:, :views] >= 10.0).all(axis=1)
+        reachable = observation["candidates"][:, COLUMN["reachable"]] == 1
+        expected = (angles[:, :views] >= 10.0).all(axis=1) & reachable
         np.testing.assert_array_equal(observation["mask"], expected)
+    # The screening agrees with what the carrier did: it reached one and failed the other.
+    reachable = observations[2]["candidates"][:, COLUMN["reachable"]]
+    assert reachable[reached] == 1 and reachable[failed] == 0 and 0 < reachable.mean() < 1
     assert observations[1]["mask"][reached] == 0 and observations[2]["mask"][failed] == 0
     assert observations[2]["candidates"][failed, COLUMN["failed"]] == 1
     assert observations[2]["candidates"][:, COLUMN["failed"]].sum() == 1
@@ -123,7 +127,8 @@ def test_when_every_candidate_is_masked_all_that_did_not_fail_are_offered() -> N
     views = [types.SimpleNamespace(requested=Pose(center + 0.47 * d, np.eye(3)),
                                    reachable=index != 5, sensor_pose=None)
              for index, d in enumerate(directions)]
-    episode = types.SimpleNamespace(views=views, center=center)
+    # Free-flying: every candidate is reachable.
+    episode = types.SimpleNamespace(views=views, center=center, uses_robot=False, q=np.zeros(0))
     observation = GridState(CONFIG).observe(episode)  # type: ignore[arg-type]
     expected = np.ones(len(directions))
     expected[5] = 0.0

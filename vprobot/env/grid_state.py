@@ -5,9 +5,12 @@ frame integrated once) and from where views were requested, as `nbv` plans: it r
 requested poses, sensor poses, points, pixels and blocked pixels and the object's centre, never
 the mesh, the ground truth or the coverage. Every row holds the same features (`FEATURES`), so a
 network can score each candidate with one shared function of its row; the episode-wide context
-is repeated on every row. `mask` marks the candidates that may be requested (`offered`: not
-within `EXCLUDE_DEG` of an earlier request, taken or failed, and not failed); should that leave
-none, every candidate that did not fail is offered again, so an action always exists.
+is repeated on every row. With the robot, the candidates' reachability is screened once per
+episode (`screen_reachability`, from the configuration the episode starts in): a row says
+whether the candidate is reachable and how far the joints move to it. `mask` marks the
+candidates that may be requested (`offered`: not within `EXCLUDE_DEG` of an earlier request,
+taken or failed, and not failed; and reachable); should that leave none, every candidate that
+did not fail is offered again, so an action always exists.
 
 A request or a sensor pose belongs to a candidate when its direction from the centre lies within
 `MATCH_DEG` of the candidate's (the robot reaches a target to about 0.1 degrees).
@@ -28,6 +31,7 @@ from vprobot.planners.candidates import (
     band_directions,
     offered,
     request_directions,
+    screen_reachability,
 )
 
 if TYPE_CHECKING:
@@ -41,6 +45,8 @@ FEATURES: tuple[str, ...] = (
     "current_cos",
     "current",
     "failed",
+    "reachable",
+    "joint_move",
     "requests_used",
     "occupied_share", "free_share", "unknown_share",
 )
@@ -79,10 +85,26 @@ class GridState:
         self.step_limit = step_limit(config.env)
         self._match = np.cos(np.deg2rad(MATCH_DEG))
         self._low = grid_spaces(len(self.band))["candidates"].low[0]
+        self._joints: np.ndarray | None = None
 
     def reset(self) -> None:
-        """A new episode: an all-unknown grid."""
+        """A new episode: an all-unknown grid, reachability not screened yet."""
         self.episode_grid.reset()
+        self._joints = None
+
+    def _reachable_joints(self, episode: Episode) -> np.ndarray:
+        """A configuration (count, dof) reaching each candidate, NaN rows for those the robot
+        does not reach (none without the robot: a free sensor takes every view). Screened once
+        per episode from where it starts (the object's placement decides what collides), as
+        B_SCP screens its candidates; nbv tries the IK per request instead."""
+        if self._joints is None:
+            if episode.uses_robot:
+                self._joints, _ = screen_reachability(
+                    episode.scene.arm, episode.carrier.collisions, episode.q,
+                    self.band.directions, self.band.targets)
+            else:
+                self._joints = np.zeros((len(self.band), 0))
+        return self._joints
 
     def observe(self, episode: Episode) -> dict[str, np.ndarray]:
         """The `candidates` and `mask` entries for the episode's views so far."""
@@ -94,7 +116,9 @@ class GridState:
         cosines = directions @ requested.T
         unreached = np.array([not view.reachable for view in views], dtype=bool)
         failed = (cosines[:, unreached] >= self._match).any(axis=1)
-        mask = offered(directions, requested, failed)
+        joints = self._reachable_joints(episode)
+        reachable = ~np.isnan(joints).any(axis=1)
+        mask = offered(directions, requested, failed) & reachable
         if not mask.any():
             mask = ~failed
         gains = self.band.gains
@@ -113,12 +137,22 @@ class GridState:
             current_cos,
             current_cos >= self._match,
             failed,
+            reachable,
+            self._joint_moves(joints, episode),
             np.tile(context, (len(directions), 1)),
         ])
         # Clipped to the declared bounds: an unoffered candidate may gain more than the best
         # offered one, and float32 may round a cosine past 1.
         return {"candidates": np.clip(rows, self._low, 1.0).astype(np.float32),
                 "mask": mask.astype(np.float32)}
+
+    @staticmethod
+    def _joint_moves(joints: np.ndarray, episode: Episode) -> np.ndarray:
+        """The largest joint move from where the robot is to each candidate's screened
+        configuration, in half turns (1 where unreachable, 0 free-flying)."""
+        if joints.shape[1] == 0:
+            return np.zeros(len(joints))
+        return np.nan_to_num(np.abs(joints - episode.q).max(axis=1) / np.pi, nan=1.0)
 
     @staticmethod
     def _sensor_direction(episode: Episode) -> np.ndarray:

@@ -93,12 +93,14 @@ class InspectEnv(gym.Env):
     | 10 | cosine to the sensor's current direction (how far the move is) | [-1, 1] |
     | 11 | 1 if the sensor is at the candidate (within 1 deg) | {0, 1} |
     | 12 | 1 if the carrier failed to reach the candidate earlier in the episode | {0, 1} |
-    | 13 | requests used of the budget (the step limit) | [0, 1] |
-    | 14-16 | shares of the grid's voxels occupied, free, unknown | [0, 1] |
+    | 13 | 1 if the robot reaches it (screened once per episode; always 1 free-flying) | {0, 1} |
+    | 14 | largest joint move to its screened configuration / pi (0 free-flying) | [0, 1] |
+    | 15 | requests used of the budget (the step limit) | [0, 1] |
+    | 16-18 | shares of the grid's voxels occupied, free, unknown | [0, 1] |
 
-    Columns 13-16 are the same on every row. `mask` is 1 where the candidate may be requested:
-    not within 10 deg (`candidates.EXCLUDE_DEG`) of an earlier request, taken or failed, and not
-    failed; if that leaves none, every candidate that did not fail is unmasked.
+    Columns 15-18 are the same on every row. `mask` is 1 where the candidate may be requested:
+    reachable, not within 10 deg (`candidates.EXCLUDE_DEG`) of an earlier request, taken or
+    failed, and not failed; if that leaves none, every candidate that did not fail is unmasked.
 
     ## Action
     Box [-1, 1]^n of the `action` variant: A_2S0R (2), A_3S0R (3), A_2S2R (4), A_2S2R_lim (4),
