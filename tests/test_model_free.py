@@ -1,4 +1,5 @@
-"""Model-free planners (uniform<k>, nbv): what they may read, the occupancy grid, their gains."""
+"""Model-free planners (uniform<k>, nbv) and the coverage estimate's features: what they may
+read, the occupancy grid, the planners' gains."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from vprobot.planners import make_planner, parse_planner
 from vprobot.planners.base import Planner
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.sensor_model import SensorModel
+from vprobot.stopping.features import FEATURES, CoverageFeatures
 
 CONFIG = Config()
 RESOLUTION = (107, 75)
@@ -91,6 +93,16 @@ def test_model_free_planners_never_read_mesh_ground_truth_or_coverage(
         bracket: MotorScene, name: str, carrier: str) -> None:
     episode = guarded_run(make_planner(name, CONFIG), bracket, carrier)
     assert sum(view.acquired for view in episode.views) >= 3
+
+
+def test_the_coverage_estimate_features_never_read_mesh_ground_truth_or_coverage(
+        bracket: MotorScene) -> None:
+    episode = guarded_run(make_planner("nbv", CONFIG), bracket, "robot")
+    views = planner_view(episode).views
+    features = CoverageFeatures(CONFIG)
+    rows = np.array([features.update(views[:count]) for count in range(1, len(views) + 1)])
+    assert np.isfinite(rows).all()
+    assert rows[-1, FEATURES.index("acquired")] == sum(view.acquired for view in episode.views)
 
 
 def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene) -> None:
