@@ -97,6 +97,13 @@ def test_features_of_a_hand_built_episode_match_hand_computed_values() -> None:
     assert last["rear_side"] == pytest.approx(len(rear) / occupied)
     assert last["open_surface"] == pytest.approx(len(open_surface) / occupied)
     assert len(open_surface) <= len(rear)
+    # The bounding box of the occupied voxels, and the unknown voxels inside it, cell by cell.
+    cells = np.array(sorted(first | second))
+    low, high = cells.min(axis=0), cells.max(axis=0)
+    assert last["extent"] == pytest.approx(voxel * np.linalg.norm(high - low + 1))
+    inside = sum(state[cell] == UNKNOWN for cell in itertools.product(
+        *(range(a, b + 1) for a, b in zip(low, high, strict=True))))
+    assert last["hull_unknown"] == pytest.approx(inside / occupied)
     assert 0 < len(second - first) < len(second)
 
 

@@ -12,6 +12,9 @@ of the `nbv` planner (`vprobot.occupancy`), one frame at a time. After each view
   seen surface: what may still hide surface, and the object's inside);
 - `open_surface`: unknown voxels next to both an occupied and a free one, per occupied voxel
   (where a seen surface runs into unexplored space, unlike the closed inside);
+- `extent`: the diagonal of the box that bounds the occupied voxels (m; 0 before any);
+- `hull_unknown`: unknown voxels inside that box, per occupied voxel (the part of the seen
+  object's extent not explored yet);
 - `added_last`, `added_before`: the share of the occupied voxels the latest acquisition and the
   one before added (what `nbv@grid` stops on; 1 before there was one);
 - `novel_last`: the share of the latest acquisition's hit voxels that were not occupied before;
@@ -37,8 +40,8 @@ from vprobot.sensor_model import SensorModel
 from vprobot.viewsphere import sphere_directions
 
 FEATURES = ("requested", "acquired", "occupied", "free", "unknown", "rear_side", "open_surface",
-            "added_last", "added_before", "novel_last", "points", "points_last", "blocked",
-            "blocked_last", "spread", "band_seen")
+            "extent", "hull_unknown", "added_last", "added_before", "novel_last", "points",
+            "points_last", "blocked", "blocked_last", "spread", "band_seen")
 """The features in the order of a feature vector (see the module docstring)."""
 BAND_DIRECTIONS = 128
 BAND_NEAR_DEG = 45.0
@@ -115,6 +118,14 @@ class CoverageFeatures:
         near_occupied = grid.next_to(OCCUPIED)
         rear_side = int((unknown & near_occupied).sum())
         open_surface = int((unknown & near_occupied & grid.next_to(FREE)).sum())
+        cells = np.argwhere(grid.state == OCCUPIED)
+        if len(cells):
+            low, high = cells.min(axis=0), cells.max(axis=0) + 1
+            extent = grid.voxel_m * float(np.linalg.norm(high - low))
+            hull = unknown[low[0]:high[0], low[1]:high[1], low[2]:high[2]]
+            hull_unknown = int(hull.sum())
+        else:
+            extent, hull_unknown = 0.0, 0
         pixels = self.sensor.rays_per_frame
         acquired = len(self._points)
         if acquired:
@@ -132,6 +143,8 @@ class CoverageFeatures:
             "unknown": counts["unknown"] / total,
             "rear_side": rear_side / occupied,
             "open_surface": open_surface / occupied,
+            "extent": extent,
+            "hull_unknown": hull_unknown / occupied,
             "added_last": self._added[1],
             "added_before": self._added[0],
             "novel_last": self._novel,
