@@ -17,6 +17,7 @@ from vprobot.sensor_model import SensorModel
 from vprobot.stopping.calibration import interval_coverage, mae_per_view
 from vprobot.stopping.estimator import CoverageEstimator, fit
 from vprobot.stopping.features import BAND_NEAR_DEG, FEATURES, CoverageFeatures
+from vprobot.stopping.report import fit_estimate
 from vprobot.viewsphere import sphere_directions
 
 CONFIG = Config()
@@ -167,6 +168,13 @@ def test_mae_per_view_averages_each_view_count_apart() -> None:
     rows = mae_per_view(np.array([0.5, 0.6, 0.9]), np.array([0.4, 0.7, 0.95]),
                         np.array([1, 1, 2]))
     assert [(v, round(m, 9), n) for v, m, n in rows] == [(1, 0.1, 2), (2, 0.05, 1)]
+
+
+def test_stop_fit_refuses_a_folder_of_rollouts_drawn_otherwise(tmp_path: Path) -> None:
+    (tmp_path / "dataset.json").write_text('{"split": 1, "episodes": 7}')
+    with pytest.raises(ValueError, match="holds rollouts drawn otherwise"):
+        fit_estimate(CONFIG, tmp_path, episodes=5, progress=False)
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset.json"]
 
 
 @pytest.mark.parametrize("option, message", [

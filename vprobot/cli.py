@@ -652,8 +652,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "objects; validation list for selection and the report).", stop_commands)
     stop_fit.add_argument("--out", required=True,
                           help="folder for the rollouts, the estimator and the report")
-    stop_fit.add_argument("--episodes", type=POSITIVE_INT, default=300,
-                          help="training episodes, one planner each in turn (default 300)")
+    stop_fit.add_argument("--episodes", type=POSITIVE_INT, default=400,
+                          help="training episodes, one planner each in turn (default 400)")
     stop_fit.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
                           help="seed of the training episodes and the networks (default 0)")
     stop_fit.add_argument("--planners", nargs="+", type=_planner_name,

@@ -40,14 +40,12 @@ class Dataset:
         coverage: (n,) the true coverage after the view.
         views: (n,) views requested so far (1 is the first).
         planners: (n,) the planner of the row's episode.
-        episodes: (n,) the row's episode number.
     """
 
     features: np.ndarray
     coverage: np.ndarray
     views: np.ndarray
     planners: np.ndarray
-    episodes: np.ndarray
 
 
 def rollout_config(config: Config) -> Config:
@@ -122,5 +120,4 @@ def read_dataset(path: str | Path) -> Dataset:
                           ).reshape(len(rows), len(FEATURES)),
         coverage=np.array([float(row["coverage"]) for row in rows]),
         views=np.array([int(row["view"]) for row in rows]),
-        planners=np.array([row["planner"] for row in rows]),
-        episodes=np.array([int(row["episode"]) for row in rows]))
+        planners=np.array([row["planner"] for row in rows]))

@@ -3,10 +3,11 @@ and a standard deviation of the current coverage.
 
 An ensemble of `MEMBERS` small networks (two hidden layers of `HIDDEN` tanh units), each
 stating a Gaussian over the coverage (its mean through a sigmoid, inside [0, 1]) and trained
-with the Gaussian negative log-likelihood on standardised features, from its own seed. Each
-member keeps the weights of its best validation likelihood (model selection on the validation
-list, never a test list). The ensemble's estimate is the mixture's mean and standard deviation,
-so that the members' disagreement on unfamiliar inputs widens the stated uncertainty.
+with the Gaussian negative log-likelihood on standardised features, from its own initial
+weights. Each member keeps the weights of its best validation likelihood (model selection on
+the validation list, never a test list). The ensemble's estimate is the mixture's mean and
+standard deviation, so that the members' disagreement on unfamiliar inputs widens the stated
+uncertainty.
 
 Training uses torch; `estimate` is plain numpy, so that a stop rule needs neither torch nor a
 pickle: the weights are stored as arrays in an `.npz` file.

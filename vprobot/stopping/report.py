@@ -47,6 +47,9 @@ def _dataset(out: Path, config: Config, episodes: int, seed: int, planners: Sequ
     """Collect the rollouts that are missing; the seconds each collection took."""
     for planner in planners:
         make_planner(planner, config)
+    # Drawn before anything is written: a bad count is refused with the folder untouched.
+    jobs = {"training": training_jobs(config, episodes, seed, planners, split),
+            "validation": validation_jobs(planners, split)}
     recipe = {"split": split.version, "episodes": episodes, "seed": seed,
               "planners": list(planners), "features": list(FEATURES)}
     meta = out / "dataset.json"
@@ -54,26 +57,24 @@ def _dataset(out: Path, config: Config, episodes: int, seed: int, planners: Sequ
         if json.loads(meta.read_text()) != recipe:
             raise ValueError(f"{out} holds rollouts drawn otherwise ({meta}); use another --out")
     else:
-        for name in ("training.csv", "validation.csv"):
-            (out / name).unlink(missing_ok=True)
+        out.mkdir(parents=True, exist_ok=True)
+        for name in jobs:
+            (out / f"{name}.csv").unlink(missing_ok=True)
         write_text(meta, json.dumps(recipe, indent=1) + "\n")
     seconds = {}
-    for name, jobs in (("training", lambda: training_jobs(config, episodes, seed, planners,
-                                                          split)),
-                       ("validation", lambda: validation_jobs(planners, split))):
+    for name, listed in jobs.items():
         path = out / f"{name}.csv"
         if path.is_file():
             continue
         start = time.perf_counter()
-        rows = collect(config, jobs(), progress)
-        write_text(path, csv_text(COLUMNS, rows))
+        write_text(path, csv_text(COLUMNS, collect(config, listed, progress)))
         seconds[name] = time.perf_counter() - start
     return seconds
 
 
-def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 300, seed: int = 0,
-                 planners: Sequence[str] | None = None, progress: bool = True,
-                 steps: int | None = None) -> dict[str, Any]:
+def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed: int = 0,
+                 planners: Sequence[str] | None = None, progress: bool = True
+                 ) -> dict[str, Any]:
     """Collect the rollouts (if missing), fit the estimator, write the report into `out_dir`.
 
     Args:
@@ -83,7 +84,6 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 300, seed:
         seed: Seeds the training episodes and the networks.
         planners: Model-free planners of the rollouts (default `DEFAULT_PLANNERS`).
         progress: Show progress bars.
-        steps: Training steps per network (default `estimator.STEPS`).
 
     Returns:
         The report's figures: MAE per view count, calibration, collection seconds.
@@ -93,15 +93,13 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 300, seed:
     """
     planners = tuple(planners) if planners is not None else DEFAULT_PLANNERS
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     split = Split.load()
     seconds = _dataset(out, config, episodes, seed, planners, split, progress)
     training = read_dataset(out / "training.csv")
     validation = read_dataset(out / "validation.csv")
     start = time.perf_counter()
     estimator = fit(training.features, training.coverage, validation.features,
-                    validation.coverage, FEATURES, seed,
-                    **({} if steps is None else {"steps": steps}))
+                    validation.coverage, FEATURES, seed)
     seconds["fit"] = time.perf_counter() - start
     estimator.save(out / ESTIMATOR_NAME)
     mean, std = estimator.estimate(validation.features)
