@@ -1,5 +1,5 @@
-"""Model-free planners (uniform<k>, nbv, an s_grid agent): what they may read, the occupancy grid,
-its gains."""
+"""Model-free planners (uniform<k>, nbv, an s_grid agent) and the coverage estimate's features:
+what they may read, the occupancy grid, the planners' gains."""
 
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.sensor_model import SensorModel
+from vprobot.stopping.features import FEATURES, CoverageFeatures
 
 CONFIG = Config()
 RESOLUTION = (107, 75)
@@ -120,6 +121,16 @@ def test_an_a_view_s_grid_agent_reads_no_model_and_never_asks_near_an_earlier_vi
     angles = np.degrees(np.arccos(np.clip(directions @ directions.T, -1.0, 1.0)))
     np.fill_diagonal(angles, 180.0)
     assert angles.min() >= EXCLUDE_DEG
+
+
+def test_the_coverage_estimate_features_never_read_mesh_ground_truth_or_coverage(
+        bracket: MotorScene) -> None:
+    episode = guarded_run(make_planner("nbv", CONFIG), bracket, "robot")
+    views = planner_view(episode).views
+    features = CoverageFeatures(CONFIG)
+    rows = np.array([features.update(views[:count]) for count in range(1, len(views) + 1)])
+    assert np.isfinite(rows).all()
+    assert rows[-1, FEATURES.index("acquired")] == sum(view.acquired for view in episode.views)
 
 
 def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene) -> None:
