@@ -185,3 +185,12 @@ def test_bad_combinations_are_config_errors_naming_both_settings(
         replace(Config(), "env", **changes)
     for name in names:
         assert name in str(error.value)
+
+
+def test_an_a_view_request_drives_to_the_candidates_screened_configuration(
+        stepped: tuple) -> None:
+    env, _, reached, failed = stepped
+    builder = env.observer.grid_state
+    # The failed request left the robot where the first one took it: the screened joints.
+    np.testing.assert_allclose(env.episode.q, builder.joints_of(reached), atol=1e-9)
+    assert builder.joints_of(failed) is None

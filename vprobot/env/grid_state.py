@@ -106,6 +106,14 @@ class GridState:
                 self._joints = np.zeros((len(self.band), 0))
         return self._joints
 
+    def joints_of(self, candidate: int) -> np.ndarray | None:
+        """The configuration the screening found for a candidate; None where it found none,
+        free-flying, or before the episode's first state."""
+        if self._joints is None or self._joints.shape[1] == 0:
+            return None
+        joints = self._joints[candidate]
+        return None if np.isnan(joints).any() else joints.copy()
+
     def observe(self, episode: Episode) -> dict[str, np.ndarray]:
         """The `candidates` and `mask` entries for the episode's views so far."""
         views = episode.views

@@ -33,7 +33,6 @@ from vprobot.episode import (
     EpisodeSpec,
     MotorScene,
     ViewRecord,
-    ViewRequest,
     sample_episode,
 )
 from vprobot.kinematics import TRAVEL_COSTS
@@ -237,10 +236,10 @@ class InspectEnv(gym.Env):
         episode, env = self.episode, self.config.env
         if self.actions.stops(action):
             return self._stop()
-        target = self.actions.target(action, episode.center,
-                                     self.config.kinematics.roll == "free")
+        request = self.observer.request(self.actions, action, episode.center,
+                                        self.config.kinematics.roll == "free")
         coverage_before = episode.coverage
-        view = episode.request(ViewRequest(target))
+        view = episode.request(request)
         self.steps += 1
         # An agent that decides when to stop is not stopped at the goal.
         terminated = episode.coverage >= env.coverage_goal and not env.stop_action

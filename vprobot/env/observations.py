@@ -16,10 +16,12 @@ from gymnasium import spaces
 
 from vprobot.config import Config, EnvConfig
 from vprobot.env.grid_state import GridState, candidate_count, grid_spaces
+from vprobot.episode.records import ViewRequest
 from vprobot.geometry import Pose
 from vprobot.robots import load_robot
 
 if TYPE_CHECKING:
+    from vprobot.env.actions import ActionMapping
     from vprobot.episode import Episode
 
 POINT_BOUND = 4.0
@@ -119,6 +121,17 @@ class Observer:
         """A new episode."""
         if self.grid_state is not None:
             self.grid_state.reset()
+
+    def request(self, mapping: ActionMapping, action: np.ndarray | int, center: np.ndarray,
+                roll_free: bool) -> ViewRequest:
+        """The view request of an action. With `s_grid` an `A_view` request carries the
+        configuration the screening found for its candidate: the robot drives there when the
+        path is free (as B_SCP executes its candidates), else reaches it by IK from where it
+        is, as any request."""
+        target = mapping.target(action, center, roll_free)
+        joints = (None if self.grid_state is None
+                  else self.grid_state.joints_of(mapping.candidate(action)))
+        return ViewRequest(target, joints)
 
     def observe(self, episode: Episode, rng: np.random.Generator) -> Any:
         """The state of the episode so far (`rng` resamples the point states)."""

@@ -66,4 +66,4 @@ class AgentPlanner(Planner):
         action, _ = self.agent.model.predict(observation, deterministic=True)
         if self.views is None and self.mapping.stops(action):
             return None
-        return ViewRequest(self.mapping.target(action, episode.center, self.roll_free))
+        return self.observer.request(self.mapping, action, episode.center, self.roll_free)
