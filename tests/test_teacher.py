@@ -65,7 +65,7 @@ def test_candidates_the_robot_cannot_take_are_worth_a_wasted_request() -> None:
     values = teacher.values(env.episode)
     unusable = ~teacher._views.usable
     assert unusable.any() and np.all(values[unusable] == WASTED)
-    assert np.all(values[~unusable & (values != WASTED)] > 0.0)
+    assert np.all(values[~unusable] >= 0.0) and values[~unusable].max() > 0.0
 
 
 def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_best() -> None:
@@ -99,3 +99,15 @@ def test_pretraining_needs_dqn_and_the_r2_reward(tmp_path: Path) -> None:
             "rewards), got env.reward 'R5'")):
         train(refused, tmp_path / "run", progress=False)
     assert not (tmp_path / "run").exists()
+
+
+def test_a_pretrained_run_evaluates_the_imitation_as_step_0(tmp_path: Path) -> None:
+    cfg = replace(config("free", pretrain_episodes=1, pretrain_epochs=3, total_steps=30,
+                         learning_starts=10, eval_freq=1000, eval_episodes=1,
+                         checkpoint_freq=1000, test_lists=None), "env", resolution=(64, 45))
+    train(cfg, tmp_path / "run", progress=False)
+    epochs = (tmp_path / "run" / "pretrain.csv").read_text().splitlines()
+    assert epochs[0] == "epoch,mse" and len(epochs) == 4
+    steps = [line.split(",")[0] for line in
+             (tmp_path / "run" / "evaluations.csv").read_text().splitlines()[1:]]
+    assert steps == ["0", "30"]

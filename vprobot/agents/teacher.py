@@ -4,9 +4,12 @@ Simulation only, during training: like the `oracle` planner it renders the objec
 from every band candidate of the episode (`vprobot.planners.candidates.candidate_views`, with
 the robot: the candidates the IK reaches from the episode's start, others unusable), so it knows
 the coverage each candidate would add now, and confirms the best ones by simulated acquisitions
-(`CandidateViews.next_best`). The value of a candidate is the reward R2 would pay
-for requesting it: that gain, or -1 where it adds nothing or the robot cannot take it. The agent
-never sees it at run time; `vprobot.agents.pretrain` fits the Q-network to it before RL.
+(`CandidateViews.next_best`). The value of a candidate is the reward R2 pays for requesting it:
+that gain, or -1 where the robot cannot take it. (R2 also pays -1 for a view that adds nothing;
+the values keep 0 there, so that they stay continuous in what a view sees: a candidate that
+would add 0.1 % and one that adds nothing look alike and differ by a thousandth, not by one.)
+The agent never sees them at run time; `vprobot.agents.pretrain` fits the Q-network to them
+before RL.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from vprobot.episode import Episode
 from vprobot.planners.candidates import BAND_COUNT, CandidateViews, candidate_views
 
 WASTED = -1.0
-"""R2's reward for a request that adds nothing (unreachable, or nothing new to see)."""
+"""R2's reward for a request that adds nothing: here, one the robot cannot take."""
 
 
 def check_teacher_reward(env: EnvConfig) -> None:
@@ -48,8 +51,8 @@ class CandidateTeacher:
         self._views = candidate_views(episode, BAND_COUNT)
 
     def values(self, episode: Episode) -> np.ndarray:
-        """R2's reward (BAND_COUNT,) for requesting each candidate now: the predicted coverage
-        gain, `WASTED` where it is zero or the candidate is not usable.
+        """The value (BAND_COUNT,) of requesting each candidate now: the coverage it adds (the
+        best candidates' confirmed), `WASTED` where the robot cannot take it.
 
         Raises:
             RuntimeError: Before `reset`.
@@ -61,4 +64,4 @@ class CandidateTeacher:
         # renderer's prediction overstates what the sensor covers (by about a tenth).
         views.next_best(episode, taken=set())
         gain = (views.known_visibility() & ~episode.covered).mean(axis=1)
-        return np.where(views.usable & (gain > 0.0), gain, WASTED)
+        return np.where(views.usable, gain, WASTED)

@@ -396,14 +396,18 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
             load_buffer(model.replay_buffer, run_dir / "checkpoints" / buffer)
     else:
         model = build_model(config, env, seed, device)
-        if agent.pretrain_episodes:
-            pretrain(model, config, seed, run_dir, progress)
+    pretrained = checkpoint is None and agent.pretrain_episodes > 0
+    if pretrained:
+        pretrain(model, config, seed, run_dir, progress)
     sessions = sorted((run_dir / "logs").glob("session_*")) if (run_dir / "logs").is_dir() else []
     model.set_logger(configure(str(run_dir / "logs" / f"session_{len(sessions)}"),
                                ["csv", "tensorboard"]))
     specs = validation_episodes(config)[: agent.eval_episodes]
     evaluation = SharedEpisodeEvaluation(evaluation_env(config), specs, run_dir,
                                          agent.eval_freq, clock_start)
+    if pretrained:
+        # The imitation alone, as step 0 of the curve: RL must do better to replace it.
+        evaluation.evaluate_model(model)
     checkpoints = ResumableCheckpoint(run_dir, agent.checkpoint_freq, logs)
     remaining = agent.total_steps - model.num_timesteps
     if remaining > 0:
