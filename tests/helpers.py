@@ -9,6 +9,7 @@ import numpy as np
 import trimesh
 
 from vprobot.config import Config
+from vprobot.paths import DEFAULT_MOTOR
 
 
 def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
@@ -46,3 +47,10 @@ def make_scene(mesh: trimesh.Trimesh, boxes: tuple = (), mesh_boxes: tuple = ()
         sensor_body_id=model.body("sensor_body").id, object_body_id=model.body("object").id,
         object_geom_ids=np.array([model.geom("object").id]))
     return scene, data
+
+
+SERIAL_EVALUATION = ("evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
+                     "--seeds", "0", "1", "2")
+"""`vprobot evaluate` (without --out) of two planners, three seeds and both carriers: 12
+episodes. The `serial_evaluation` fixture of conftest.py holds its tables, run once per session
+in the test process."""
