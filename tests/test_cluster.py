@@ -15,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from helpers import SERIAL_EVALUATION
 
 from vprobot.cli import main
 
@@ -167,17 +168,13 @@ def _rows(folder: Path) -> list[dict[str, str]]:
     return sorted(rows, key=lambda row: (int(row["episode"]), row["carrier"], row["planner"]))
 
 
-EVALUATE = ["evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
-            "--seeds", "0", "1", "2"]
-"""12 episodes: two planners, three seeds, both carriers."""
+EVALUATE = list(SERIAL_EVALUATION)
 
 
 @pytest.fixture(scope="module")
-def serial_rows(tmp_path_factory: pytest.TempPathFactory) -> list[dict[str, str]]:
-    """The rows of `EVALUATE` run in this process, without Ray."""
-    folder = tmp_path_factory.mktemp("serial")
-    assert main([*EVALUATE, "--out", str(folder)]) == 0
-    return _rows(folder)
+def serial_rows(serial_evaluation: Path) -> list[dict[str, str]]:
+    """The rows of `EVALUATE` run in the test process, without Ray."""
+    return _rows(serial_evaluation)
 
 
 def test_distributed_evaluation_gives_the_serial_rows(
