@@ -40,7 +40,7 @@ from vprobot.agents.training import (
     profile_config,
     train,
 )
-from vprobot.config import ConfigError, replace
+from vprobot.config import Config, ConfigError, replace
 from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
@@ -114,17 +114,36 @@ def test_sphere_map_bins_the_directions() -> None:
     assert maps[0, 1:3, 6].sum() == pytest.approx(1 / 5)  # -y: three quarters round
 
 
-@pytest.mark.parametrize(("algorithm", "encoder", "robot_state"),
-                         [("sac", "sphere", False), ("sac", "pcn", True),
-                          ("ppo", "pointnet", True)])
+SMOKE_RUNS = [("sac", "sphere", False), ("sac", "pcn", True), ("ppo", "pointnet", True)]
+"""(algorithm, encoder, robot state) of the training smoke runs: SAC and PPO, Box and Dict."""
+SmokeRuns = Callable[[str, str, bool], tuple[Config, dict[str, Any], Path]]
+
+
+@pytest.fixture(scope="module")
+def smoke_runs(tmp_path_factory: pytest.TempPathFactory) -> SmokeRuns:
+    """Trains (once per module) 100 steps of the tiny CPU profile with an algorithm, encoder
+    and robot state; gives its config, result and run folder."""
+    runs: dict[tuple[str, str, bool], tuple[Config, dict[str, Any], Path]] = {}
+
+    def smoke_run(algorithm: str, encoder: str, robot_state: bool
+                  ) -> tuple[Config, dict[str, Any], Path]:
+        key = (algorithm, encoder, robot_state)
+        if key not in runs:
+            config = profile_config(PROFILES / "cpu.yaml", [
+                *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
+                f"env.robot_state={str(robot_state).lower()}"], steps=100)
+            run = tmp_path_factory.mktemp(f"{algorithm}-{encoder}") / "run"
+            runs[key] = config, train(config, run, seed=1, progress=False), run
+        return runs[key]
+
+    return smoke_run
+
+
+@pytest.mark.parametrize(("algorithm", "encoder", "robot_state"), SMOKE_RUNS)
 def test_training_smoke_run(algorithm: str, encoder: str, robot_state: bool,
-                            tmp_path: Path) -> None:
-    config = profile_config(PROFILES / "cpu.yaml", [
-        *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
-        f"env.robot_state={str(robot_state).lower()}"], steps=100)
-    result = train(config, tmp_path / "run", seed=1, progress=False)
+                            smoke_runs: SmokeRuns) -> None:
+    config, result, run = smoke_runs(algorithm, encoder, robot_state)
     assert result["steps"] >= 100 and 0.0 < result["coverage"] <= 1.0
-    run = tmp_path / "run"
     for name in ("config.yaml", "command.txt", "memory.json", "monitor.csv",
                  "evaluations.csv", "best_model.zip", "final_model.zip", "curves.png",
                  "checkpoint.json"):
@@ -309,12 +328,8 @@ def test_profiles_and_their_memory() -> None:
     assert replace(cpu, "env", carrier="free").env.carrier == "free"
 
 
-def test_curves_of_two_runs(tmp_path: Path) -> None:
-    runs = []
-    for seed in (1, 2):
-        config = profile_config(PROFILES / "cpu.yaml", TINY, steps=50)
-        train(config, tmp_path / f"run{seed}", seed=seed, progress=False)
-        runs.append(tmp_path / f"run{seed}")
+def test_curves_of_two_runs(tmp_path: Path, smoke_runs: SmokeRuns) -> None:
+    runs = [smoke_runs(*configuration)[2] for configuration in SMOKE_RUNS[::2]]
     out = plot_curves(runs, tmp_path / "curves.png", window=3)
     assert out.stat().st_size > 10_000
     with pytest.raises(ValueError, match=r"no monitor\.csv"):
