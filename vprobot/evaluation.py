@@ -454,10 +454,14 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     rows_path = out / "evaluation_episodes.csv"
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
               for label, _, _ in parsed}
+
+    def recorded() -> list[dict[str, Any]]:
+        return [row for row in finished_rows(rows_path)
+                if (row["episode"], row["carrier"], row["planner"]) in wanted]
+
     # Read first: a folder holding an older version's table is refused before anything is
     # written into it.
-    rows = [row for row in finished_rows(rows_path)
-            if (row["episode"], row["carrier"], row["planner"]) in wanted]
+    rows = recorded()
     _start_episode_list(out / "episodes.json", specs)
     done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
     if done and progress:
@@ -476,6 +480,8 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
                     rows.append(row)
                     bar.update()
     except KeyboardInterrupt:
+        # From the file: the interrupt may have come between a row's line and `rows.append`.
+        rows = recorded()
         _write_tables(out, rows, specs, config, len(wanted))
         print(f"saved {len(rows)} of {len(wanted)} episodes in {out}; run the same command "
               f"again to resume", file=sys.stderr)
