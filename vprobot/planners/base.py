@@ -31,8 +31,8 @@ class Planner(abc.ABC):
     Attributes:
         name: Its name in `PLANNERS` (`random1`, `hrec`, `uniform`, `nbv`, ...).
         pattern: What may follow `name` in a planner name, a regular expression whose named
-            groups are passed to `from_name` (`uniform` takes `(?P<count>[1-9][0-9]*)`: `uniform12`);
-            empty: the bare name only.
+            groups are passed to `from_name` (`uniform` takes `(?P<count>[1-9][0-9]*)`:
+            `uniform12`); empty: the bare name only.
         usage: The planner name as messages list it (`uniform<k>`); empty: `name`.
         counted: Whether a fixed number of views may be given (`bscp5`, `--views 5`).
         initial_view: Whether the episode starts with the environment's fixed initial view, as
