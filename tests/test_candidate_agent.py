@@ -175,10 +175,11 @@ def test_a_state_with_no_allowed_candidate_keeps_finite_q_values() -> None:
 
 
 @pytest.mark.parametrize(("changes", "message"), [
-    ({"encoder": "candidates"}, "agent.algorithm dqn and agent.encoder candidates go together "
-                                "(one Q-value per candidate view), got algorithm 'sac' with "
-                                "encoder 'candidates'"),
-    ({"algorithm": "dqn"}, "got algorithm 'dqn' with encoder 'pcn'"),
+    ({"encoder": "candidates"}, "agent.encoder 'candidates' serves agent.algorithm ['dqn'], got "
+                                "'sac'; agent.algorithm 'sac' takes agent.encoder ['pcn', "
+                                "'pointnet', 'sphere']"),
+    ({"algorithm": "dqn"}, "agent.encoder 'pcn' serves agent.algorithm ['sac', 'ppo'], got "
+                           "'dqn'; agent.algorithm 'dqn' takes agent.encoder ['candidates']"),
     ({**DQN_AGENT, "exploration_fraction": 0.0},
      "agent.exploration_fraction must lie in (0, 1], got 0.0"),
     ({**DQN_AGENT, "exploration_initial_eps": 0.2, "exploration_final_eps": 0.5},

@@ -88,10 +88,10 @@ def _planner_name(text: str) -> str:
 
 def _family_name(text: str) -> str:
     """An argparse type: a registered part family."""
-    from vprobot.families import family
+    from vprobot.families import FAMILIES
 
     try:
-        return family(text).name
+        return FAMILIES[text].name
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
 
@@ -517,19 +517,19 @@ def build_parser() -> argparse.ArgumentParser:
     cell.add_argument("--json", help="write the report as JSON here")
 
     def add_planning(sub: argparse.ArgumentParser) -> None:
-        from vprobot.planners.runner import PLANNER_NAMES
+        from vprobot.planners.runner import counted_planners, planner_names
 
         add_robot(sub)
         sub.add_argument("--mesh", help="mesh file (STL/OBJ/PLY); default: the bundled motor")
         sub.add_argument("--scale", type=POSITIVE_FLOAT,
                          help="file units to metres, e.g. 0.001 for millimetres (default 1)")
         sub.add_argument("--planner", type=_planner_name,
-                         help=f"{', '.join(PLANNER_NAMES)} (the bundled trained agent), "
-                         f"agent:PATH (a training run or model .zip), or nbv@grid (nbv stopping "
-                         f"itself); default: bscp")
+                         help=f"{', '.join(planner_names())}: agent is the bundled trained "
+                         f"agent, agent:PATH a training run or model .zip, nbv@grid nbv "
+                         f"stopping itself; default: bscp")
         sub.add_argument("--views", type=POSITIVE_INT,
-                         help="fixed number of views (bscp, agent); default: until the coverage "
-                         "goal")
+                         help=f"fixed number of views ({', '.join(counted_planners())}); "
+                         f"default: until the coverage goal")
         sub.add_argument("--seed", type=NON_NEGATIVE_INT,
                          help="seed of the episode (object pose, initial view); default 0")
         sub.add_argument("--carrier", choices=["robot", "free"],

@@ -19,6 +19,7 @@ from typing import Any, Literal
 import yaml
 
 from vprobot.paths import CONFIGS_DIR
+from vprobot.registry import Registry
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -60,6 +61,12 @@ class CellConfig:
             load_robot(self.robot)
         except ValueError as error:
             raise ConfigError(f"cell.robot: {error}") from None
+
+
+def check_registered(name: str, registry: Registry[Any], key: str) -> None:
+    """Raise ConfigError unless `registry` has an entry `name` (the message lists them)."""
+    if name not in registry:
+        raise ConfigError(f"{key} must be one of {list(registry)}, got {name!r}")
 
 
 MAX_RAYS_PER_AXIS = 4096
@@ -225,14 +232,9 @@ ActionName = Literal[
     "A_2S0R", "A_3S0R", "A_2S2R", "A_2S2R_lim", "A_3S2R", "A_3S2R_lim", "A_3C0R", "A_3C2R",
     "A_view",
 ]
-RewardName = Literal[
-    "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "R10", "R11", "R12", "R13", "R14"
-]
 TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper"]
 ROBOT_TRAVEL_COSTS = ("joint_time", "joint_path")
 """Travel costs that exist only with a robot (joint space)."""
-TRAVEL_REWARDS = ("R5", "R6", "R7", "R8", "R11", "R12", "R14")
-"""Rewards that divide by a travel cost."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -255,7 +257,8 @@ class EnvConfig:
         cartesian_range_m: npk half-range of the Cartesian actions.
         wpk_distance_range_m: wpk distance range of the Cartesian actions.
         deviation_limit_deg: Largest deviation of the `_lim` actions from looking at the centre.
-        reward: Reward R1-R14 (docs/states-actions-rewards.md#rewards).
+        reward: Reward R1-R14 (docs/states-actions-rewards.md#rewards): a name in
+            `vprobot.env.rewards.REWARDS`.
         travel_cost: Which travel cost k_t the rewards use.
         travel_cost_floor: Lower bound of k_t and k_cum in divisions.
         unreachable_penalty: Added to the reward of an unreachable request.
@@ -292,7 +295,7 @@ class EnvConfig:
     cartesian_range_m: float = 1.0
     wpk_distance_range_m: tuple[float, float] = (0.20, 0.50)
     deviation_limit_deg: float = 10.0
-    reward: RewardName = "R2"
+    reward: str = "R2"
     travel_cost: TravelCostName = "joint_time"
     travel_cost_floor: float = 1e-3
     unreachable_penalty: float = 0.0
@@ -316,6 +319,10 @@ class EnvConfig:
     state_points: int = 2048
 
     def __post_init__(self) -> None:
+        # Imported here: the rewards are written against this module's EnvConfig.
+        from vprobot.env.rewards import REWARDS
+
+        check_registered(self.reward, REWARDS, "env.reward")
         if self.motors == "mesh" and self.mesh is None:
             raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
         if self.objects != ("motors",):
@@ -347,7 +354,7 @@ class EnvConfig:
             raise ConfigError(f"env.wpk_distance_range_m must satisfy 0 < low <= high, got "
                               f"{self.wpk_distance_range_m}")
         if (self.carrier == "free" and self.travel_cost in ROBOT_TRAVEL_COSTS
-                and self.reward in TRAVEL_REWARDS):
+                and REWARDS[self.reward].uses_travel):
             raise ConfigError(f"env.travel_cost {self.travel_cost!r} needs the robot, but "
                               f"env.carrier is 'free' and env.reward {self.reward} uses the "
                               f"travel cost; use 'cartesian' or 'paper'")
@@ -374,8 +381,9 @@ class AgentConfig:
         algorithm: `sac` (off-policy, replay buffer), `ppo` (on-policy) or `dqn` (off-policy,
             a Q-value per candidate view: needs `encoder: candidates` and an env whose action
             is a choice among candidate views, `vprobot.agents.candidate_q`).
-        encoder: Point-cloud feature extractor: `pcn`, `pointnet` or `sphere` (CPU budget); or
-            `candidates`, the Q-network of `dqn` (one shared MLP per candidate row).
+        encoder: A name in `vprobot.agents.encoders.ENCODERS`: a point-cloud feature extractor,
+            `pcn`, `pointnet` or `sphere` (CPU budget); or `candidates`, the Q-network of `dqn`
+            (one shared MLP per candidate row).
         encoder_scale: Multiplies the widths of `pcn` and `pointnet` (1: published sizes).
         sphere_bins: Polar and azimuth bins of the `sphere` encoder's direction map.
         sphere_features: Size of the `sphere` encoding.
@@ -414,7 +422,7 @@ class AgentConfig:
     """
 
     algorithm: Literal["sac", "ppo", "dqn"] = "sac"
-    encoder: Literal["pcn", "pointnet", "sphere", "candidates"] = "pcn"
+    encoder: str = "pcn"
     encoder_scale: float = 1.0
     sphere_bins: tuple[int, int] = (8, 16)
     sphere_features: int = 128
@@ -445,6 +453,16 @@ class AgentConfig:
     device: Literal["cpu", "cuda", "auto"] = "cpu"
 
     def __post_init__(self) -> None:
+        # Imported here: the encoders read their settings from this class.
+        from vprobot.agents.encoders import ENCODERS
+
+        check_registered(self.encoder, ENCODERS, "agent.encoder")
+        if self.algorithm not in ENCODERS[self.encoder].algorithms:
+            serving = [name for name, encoder in ENCODERS.items()
+                       if self.algorithm in encoder.algorithms]
+            raise ConfigError(f"agent.encoder {self.encoder!r} serves agent.algorithm "
+                              f"{list(ENCODERS[self.encoder].algorithms)}, got {self.algorithm!r}; "
+                              f"agent.algorithm {self.algorithm!r} takes agent.encoder {serving}")
         for name in ("sphere_features", "batch_size", "buffer_size", "train_freq",
                      "gradient_steps", "target_update_interval", "n_steps", "n_epochs",
                      "total_steps", "n_envs", "pretrain_epochs",
@@ -467,10 +485,6 @@ class AgentConfig:
         if polar < 2 or azimuth < 2 or azimuth % 2:
             raise ConfigError(f"agent.sphere_bins must be (polar >= 2, even azimuth >= 2), got "
                               f"{self.sphere_bins}")
-        if (self.algorithm == "dqn") != (self.encoder == "candidates"):
-            raise ConfigError(f"agent.algorithm dqn and agent.encoder candidates go together "
-                              f"(one Q-value per candidate view), got algorithm "
-                              f"{self.algorithm!r} with encoder {self.encoder!r}")
         if not 0.0 < self.exploration_fraction <= 1.0:
             raise ConfigError(f"agent.exploration_fraction must lie in (0, 1], got "
                               f"{self.exploration_fraction}")

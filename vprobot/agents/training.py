@@ -47,9 +47,10 @@ from vprobot.agents.callbacks import (
     read_checkpoint,
     truncate_lines,
 )
-from vprobot.agents.candidate_q import CandidateDQN, CandidatePolicy, check_candidate_spaces
+from vprobot.agents.candidate_q import CandidateDQN, check_candidate_spaces
+from vprobot.agents.encoders import ENCODERS
 from vprobot.agents.evaluation import evaluation_env
-from vprobot.agents.extractors import EXTRACTORS, split_space
+from vprobot.agents.extractors import split_space
 from vprobot.agents.pretrain import pretrain
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
@@ -197,8 +198,8 @@ def check_spaces(agent: AgentConfig, observation_space: gym.Space,
 
 
 def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgorithm:
-    """A fresh model: SAC or PPO with the profile's encoder and regression MLP, or DQN with
-    the candidate Q-network (`vprobot.agents.candidate_q`).
+    """A fresh model: SAC or PPO with the profile's encoder (its features extractor) and
+    regression MLP, or DQN with the encoder's policy (`candidates`: `vprobot.agents.candidate_q`).
 
     Raises:
         ConfigError: If the algorithm cannot act in the env's spaces (`check_spaces`).
@@ -207,8 +208,9 @@ def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgo
     check_spaces(agent, env.observation_space, env.action_space)
     rate: Any = (LinearSchedule(agent.learning_rate) if agent.learning_rate_schedule == "linear"
                  else agent.learning_rate)
+    encoder = ENCODERS[agent.encoder]
     if agent.algorithm == "dqn":
-        return CandidateDQN(CandidatePolicy, env, learning_rate=rate, gamma=agent.gamma,
+        return CandidateDQN(encoder.load(), env, learning_rate=rate, gamma=agent.gamma,
                             batch_size=agent.batch_size, buffer_size=agent.buffer_size,
                             learning_starts=agent.learning_starts, train_freq=agent.train_freq,
                             gradient_steps=agent.gradient_steps,
@@ -216,15 +218,10 @@ def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgo
                             exploration_fraction=agent.exploration_fraction,
                             exploration_initial_eps=agent.exploration_initial_eps,
                             exploration_final_eps=agent.exploration_final_eps,
-                            policy_kwargs={"net_arch": list(agent.net_arch)}, seed=seed,
-                            device=device)
-    extractor = EXTRACTORS[agent.encoder]
-    extractor_kwargs: dict[str, Any] = (
-        {"bins": agent.sphere_bins, "features": agent.sphere_features}
-        if agent.encoder == "sphere" else {"scale": agent.encoder_scale})
+                            policy_kwargs=encoder.settings(agent), seed=seed, device=device)
     policy = "MultiInputPolicy" if config.env.robot_state else "MlpPolicy"
-    policy_kwargs = {"features_extractor_class": extractor,
-                     "features_extractor_kwargs": extractor_kwargs,
+    policy_kwargs = {"features_extractor_class": encoder.load(),
+                     "features_extractor_kwargs": encoder.settings(agent),
                      "net_arch": list(agent.net_arch)}
     if agent.algorithm == "sac":
         return SAC(policy, env, learning_rate=rate, gamma=agent.gamma,

@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.env.actions import ActionMapping
-from vprobot.env.observations import Observer
+from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Planner
+from vprobot.planners.base import Planner, register_planner
 
 
+@register_planner
 class AgentPlanner(Planner):
     """Plans with a trained policy (deterministic).
 
@@ -33,10 +33,17 @@ class AgentPlanner(Planner):
     """
 
     name = "agent"
+    pattern = r"(?::(?P<source>.+))?"
+    usage = "agent, agent:PATH"
+    counted = True
     initial_view = True
 
     def __init__(self, source: str | Path | None = None, views: int | None = None):
+        # Imported here: the env's observations build on the planners' candidates, and the
+        # agent needs torch, which the other planners do not.
         from vprobot.agents.trained import load_agent
+        from vprobot.env.actions import ActionMapping
+        from vprobot.env.observations import Observer
 
         if views is not None and views < 1:
             raise ValueError(f"views must be >= 1, got {views}")
@@ -51,6 +58,11 @@ class AgentPlanner(Planner):
         self.decides_stop = config.env.stop_action
         self.stops_at_goal = views is None and not self.decides_stop
         self._rng = np.random.default_rng(0)
+
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        """The agent of `agent:PATH`, or the bundled one (`agent`)."""
+        return cls(params.get("source"), views)
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._rng = rng

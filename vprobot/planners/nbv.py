@@ -24,13 +24,15 @@ the fixture) keeps it above 60 % of its first value after ten views that saw eve
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.occupancy import GAINS, VOXEL_M, EpisodeGrid, Gain
-from vprobot.planners.base import Planner
+from vprobot.planners.base import Planner, register_planner
 from vprobot.planners.candidates import EXCLUDE_DEG as EXCLUDE_DEG
 from vprobot.planners.candidates import (
     arm_hides_view,
@@ -38,6 +40,7 @@ from vprobot.planners.candidates import (
     offered,
     request_directions,
 )
+from vprobot.registry import Registry
 
 DEFAULT_GAIN: Gain = "unknown"
 REACH_TRIES = 40
@@ -46,17 +49,24 @@ STOP_NEW_SURFACE = 0.02
 """The grid stop: the share of occupied voxels an acquisition added (chosen on the training
 motors)."""
 STOP_QUIET_VIEWS = 2
-STOP_RULES = ("goal", "grid")
+
+StopRule = Callable[["VolumetricPlanner", Episode], "str | None"]
+"""Why the planner stops itself now, else None; from what the planner measured (model-free)."""
+STOP_RULES: Registry[StopRule | None] = Registry("stop rule")
+"""The rules of `nbv@RULE` by name: a new rule is a function registered here. `goal` (None)
+leaves stopping to the runner, at the coverage goal, which only a simulation knows."""
+STOP_RULES.register("goal", None)
 
 
+@register_planner
 class VolumetricPlanner(Planner):
     """Next-best view by information gain on an occupancy grid.
 
     Args:
         config: The configuration (cell, sensor, view budget).
         gain: Which gain ranks the candidates (`vprobot.occupancy.GAINS`).
-        stop: `goal` (the runner stops at the coverage goal) or `grid` (the planner stops
-            itself, see the module docstring).
+        stop: A name in `STOP_RULES`: `goal` (the runner stops at the coverage goal) or `grid`
+            (the planner stops itself, see the module docstring).
         voxel_m: Voxel edge of the grid.
 
     Raises:
@@ -68,6 +78,7 @@ class VolumetricPlanner(Planner):
     """
 
     name = "nbv"
+    pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>\w+))?"
     initial_view = True
 
     def __init__(self, config: Config, gain: Gain = DEFAULT_GAIN, stop: str = "goal",
@@ -79,9 +90,15 @@ class VolumetricPlanner(Planner):
                              f"{', '.join(STOP_RULES)}")
         self.config = config
         self.gain = gain
-        self.stops_at_goal = stop == "goal"
+        self.stop_rule = STOP_RULES[stop]
+        self.stops_at_goal = self.stop_rule is None
         self.voxel_m = voxel_m
         self._begin()
+
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        """`nbv`, `nbv:GAIN` (which gain ranks the views), `nbv@RULE` (a stop rule), or both."""
+        return cls(config, params.get("gain", DEFAULT_GAIN), params.get("stop", "goal"))
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._begin()
@@ -94,8 +111,8 @@ class VolumetricPlanner(Planner):
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
         self.episode_grid.update(episode.views)
-        if not self.stops_at_goal:
-            self.stop_reason = self._grid_stop(episode)
+        if self.stop_rule is not None:
+            self.stop_reason = self.stop_rule(self, episode)
             if self.stop_reason is not None:
                 return None
         band = band_candidates(self.config, self.voxel_m)
@@ -112,17 +129,6 @@ class VolumetricPlanner(Planner):
         self.stop_reason = "no reachable candidate adds anything"
         return None
 
-    def _grid_stop(self, episode: Episode) -> str | None:
-        """Why the grid rule stops the episode now, else None."""
-        if len(episode.views) > self.config.env.max_acquisitions:
-            return "view budget"
-        added = self.episode_grid.added
-        recent = added[-STOP_QUIET_VIEWS:]
-        if len(added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
-            return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "
-                    f"{STOP_NEW_SURFACE:.0%} to the seen surface")
-        return None
-
     @staticmethod
     def _reached(episode: Episode, target: SensorTarget) -> ViewRequest | None:
         """The request of a target the carrier can take, else None: with the robot, an IK
@@ -137,3 +143,16 @@ class VolumetricPlanner(Planner):
             return None
         return ViewRequest(target, result.q)
 
+
+
+@STOP_RULES.register("grid")
+def grid_stop(planner: VolumetricPlanner, episode: Episode) -> str | None:
+    """The grid rule: the surface seen has stopped growing, or the view budget is spent."""
+    if len(episode.views) > planner.config.env.max_acquisitions:
+        return "view budget"
+    added = planner.episode_grid.added
+    recent = added[-STOP_QUIET_VIEWS:]
+    if len(added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
+        return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "
+                f"{STOP_NEW_SURFACE:.0%} to the seen surface")
+    return None
