@@ -23,9 +23,10 @@ from vprobot.agents.training import (
     build_model,
     check_memory,
     config_document,
+    profile_config,
     train,
 )
-from vprobot.config import AgentConfig, Config, ConfigError, from_mapping, replace
+from vprobot.config import Config, ConfigError, replace
 from vprobot.paths import CONFIGS_DIR
 
 COUNT, FEATURES = 8, 3
@@ -264,11 +265,10 @@ def test_two_env_processes_train_and_store_only_allowed_requests() -> None:
     assert not np.array_equal(candidates[:, 0], candidates[:, 1])
 
 
-def test_the_candidate_profile_agent_section_is_a_valid_dqn() -> None:
-    # Its env section (A_view, s_grid) loads once the candidate env is merged; then load the
-    # whole profile here (profile_config) and check its buffer memory.
-    document = yaml.safe_load((CONFIGS_DIR / "agents" / "cpu-candidates.yaml").read_text())
-    agent = from_mapping(AgentConfig, document["agent"], "agent")
-    assert (agent.algorithm, agent.encoder, agent.gamma, agent.n_envs, agent.total_steps) == (
-        "dqn", "candidates", 0.5, 2, 30_000)
-    assert document["env"]["action"] == "A_view" and document["env"]["state"] == "s_grid"
+def test_the_candidate_profile_loads_pretrains_a_dqn_and_passes_the_memory_check() -> None:
+    config = profile_config(CONFIGS_DIR / "agents" / "cpu-candidates.yaml")
+    agent = config.agent
+    assert (agent.algorithm, agent.encoder, config.env.action, config.env.state,
+            config.env.reward) == ("dqn", "candidates", "A_view", "s_grid", "R2")
+    assert agent.pretrain_episodes > 0 and agent.n_envs == 2
+    assert check_memory(config)["total_bytes"] < 2**30
