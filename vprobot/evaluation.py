@@ -44,7 +44,7 @@ from vprobot.episode import (
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS, bundled_episode_list
-from vprobot.files import append_line, atomic_output, csv_text, write_text
+from vprobot.files import append_line, csv_text, save_figure, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -321,12 +321,7 @@ def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: 
     axes[0][-1].legend(handles.values(), handles.keys(), fontsize="small", loc="upper left",
                        bbox_to_anchor=(1.02, 1.0))
     axes[0][0].set_ylabel("mean coverage %")
-    figure.suptitle(title)
-    figure.tight_layout()
-    with atomic_output(path) as temporary:
-        figure.savefig(temporary, dpi=110)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path, title)
 
 
 def _write_tables(out: Path, rows: list[dict[str, Any]], specs: Sequence[EpisodeSpec],

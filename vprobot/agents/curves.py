@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from vprobot.files import atomic_output
+from vprobot.files import save_figure
 
 PANELS = (("coverage", "coverage at episode end", 100.0, "%"),
           ("acquisitions", "acquisitions per episode", 1.0, ""),
@@ -103,11 +103,6 @@ def plot_curves(run_dirs: Sequence[str | Path], out: str | Path, window: int = 5
         axis.grid(alpha=0.3)
     for axis in axes[1]:
         axis.set_xlabel("episode")
-    figure.suptitle(f"{len(runs)} run(s): mean" + (", min-max band" if len(runs) > 1 else "")
-                    + f"; trailing mean over {window} episodes")
-    figure.tight_layout()
-    out = Path(out)
-    with atomic_output(out) as temporary:
-        figure.savefig(temporary, dpi=110)
-    plt.close(figure)
-    return out
+    return save_figure(figure, out, f"{len(runs)} run(s): mean"
+                       + (", min-max band" if len(runs) > 1 else "")
+                       + f"; trailing mean over {window} episodes")

@@ -13,7 +13,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-from vprobot.files import atomic_output
+from vprobot.files import save_figure
 
 LEVELS = (0.5, 0.68, 0.8, 0.9, 0.95)
 """Stated interval levels the calibration table reports."""
@@ -79,9 +79,4 @@ def plot_reliability(std: np.ndarray, error: np.ndarray, observed: Sequence[floa
     right.set_ylabel("truth within the interval (%)")
     right.legend()
     right.grid(alpha=0.3)
-    figure.suptitle(title)
-    figure.tight_layout()
-    with atomic_output(path) as temporary:
-        figure.savefig(temporary, dpi=110)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path, title)
