@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
-from vprobot.config import EnvConfig
+from vprobot.config import Config, EnvConfig
 from vprobot.env.actions import ACTION_SIZES, ActionMapping
+from vprobot.occupancy import VOXEL_M
+from vprobot.planners.candidates import band_candidates
 
 R = 0.47
 
@@ -96,3 +99,24 @@ def test_every_variant_gives_rotations(name: str) -> None:
 def test_bad_actions(action: list, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         mapping("A_3S2R_lim").view(np.array(action))
+
+
+def test_a_view_action_k_requests_the_target_nbv_requests_as_candidate_k() -> None:
+    config = Config()
+    view = ActionMapping(dataclasses.replace(config.env, action="A_view"),
+                         config.sensor.working_distance_m)
+    band = band_candidates(config, VOXEL_M)
+    assert view.space == gym.spaces.Discrete(len(band)) and len(band) == 128
+    center = np.asarray(config.cell.object_center_m)
+    for k in (0, 17, np.int64(127), np.array([64])):
+        target = view.target(k, center, roll_free=True)
+        expected = band.targets[int(np.asarray(k).reshape(-1)[0])]
+        np.testing.assert_allclose(target.pose.position, expected.pose.position, atol=1e-12)
+        np.testing.assert_allclose(target.pose.rotation, expected.pose.rotation, atol=1e-12)
+        assert target.roll_free == expected.roll_free
+
+
+@pytest.mark.parametrize("action", [128, -1, 1.0, [1, 2]])
+def test_bad_a_view_actions_name_what_is_allowed(action: object) -> None:
+    with pytest.raises(ValueError, match=r"A_view must be one integer in \[0, 128\)"):
+        mapping("A_view").view(action)  # type: ignore[arg-type]

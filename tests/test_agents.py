@@ -24,8 +24,8 @@ from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
 from vprobot.agents.callbacks import count_lines, load_buffer, save_buffer
 from vprobot.agents.curves import plot_curves, read_monitor
+from vprobot.agents.encoders import ENCODERS
 from vprobot.agents.extractors import (
-    EXTRACTORS,
     InputTransform,
     PCNExtractor,
     PointNetExtractor,
@@ -36,10 +36,11 @@ from vprobot.agents.training import (
     build_model,
     config_document,
     make_vec_env,
+    monitor_file,
     profile_config,
     train,
 )
-from vprobot.config import ConfigError, replace
+from vprobot.config import Config, ConfigError, replace
 from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
@@ -58,10 +59,11 @@ ACTION = gym.spaces.Box(-1, 1, (5,), np.float32)
 
 def tiny_extractor(name: str, space: gym.Space):
     return (SphereMapExtractor(space) if name == "sphere"
-            else EXTRACTORS[name](space, scale=0.05))
+            else ENCODERS[name].load()(space, scale=0.05))
 
 
-@pytest.mark.parametrize("name", sorted(EXTRACTORS))
+@pytest.mark.parametrize("name", [name for name, encoder in ENCODERS.items()
+                                  if "sac" in encoder.algorithms])
 @pytest.mark.parametrize("space", [BOX, DICT], ids=["box", "dict"])
 def test_extractors_give_features_and_gradients(name: str, space: gym.Space) -> None:
     extractor = tiny_extractor(name, space)
@@ -113,17 +115,36 @@ def test_sphere_map_bins_the_directions() -> None:
     assert maps[0, 1:3, 6].sum() == pytest.approx(1 / 5)  # -y: three quarters round
 
 
-@pytest.mark.parametrize(("algorithm", "encoder", "robot_state"),
-                         [("sac", "sphere", False), ("sac", "pcn", True),
-                          ("ppo", "pointnet", True)])
+SMOKE_RUNS = [("sac", "sphere", False), ("sac", "pcn", True), ("ppo", "pointnet", True)]
+"""(algorithm, encoder, robot state) of the training smoke runs: SAC and PPO, Box and Dict."""
+SmokeRuns = Callable[[str, str, bool], tuple[Config, dict[str, Any], Path]]
+
+
+@pytest.fixture(scope="module")
+def smoke_runs(tmp_path_factory: pytest.TempPathFactory) -> SmokeRuns:
+    """Trains (once per module) 100 steps of the tiny CPU profile with an algorithm, encoder
+    and robot state; gives its config, result and run folder."""
+    runs: dict[tuple[str, str, bool], tuple[Config, dict[str, Any], Path]] = {}
+
+    def smoke_run(algorithm: str, encoder: str, robot_state: bool
+                  ) -> tuple[Config, dict[str, Any], Path]:
+        key = (algorithm, encoder, robot_state)
+        if key not in runs:
+            config = profile_config(PROFILES / "cpu.yaml", [
+                *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
+                f"env.robot_state={str(robot_state).lower()}"], steps=100)
+            run = tmp_path_factory.mktemp(f"{algorithm}-{encoder}") / "run"
+            runs[key] = config, train(config, run, seed=1, progress=False), run
+        return runs[key]
+
+    return smoke_run
+
+
+@pytest.mark.parametrize(("algorithm", "encoder", "robot_state"), SMOKE_RUNS)
 def test_training_smoke_run(algorithm: str, encoder: str, robot_state: bool,
-                            tmp_path: Path) -> None:
-    config = profile_config(PROFILES / "cpu.yaml", [
-        *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
-        f"env.robot_state={str(robot_state).lower()}"], steps=100)
-    result = train(config, tmp_path / "run", seed=1, progress=False)
+                            smoke_runs: SmokeRuns) -> None:
+    config, result, run = smoke_runs(algorithm, encoder, robot_state)
     assert result["steps"] >= 100 and 0.0 < result["coverage"] <= 1.0
-    run = tmp_path / "run"
     for name in ("config.yaml", "command.txt", "memory.json", "monitor.csv",
                  "evaluations.csv", "best_model.zip", "final_model.zip", "curves.png",
                  "checkpoint.json"):
@@ -278,7 +299,7 @@ def test_agent_given_s_cov_sees_only_acquired_points(monkeypatch: pytest.MonkeyP
 @pytest.mark.parametrize(
     ("overrides", "message"),
     [(["agent.colour=red"], "unknown key 'colour' in section 'agent'"),
-     (["agent.algorithm=dqn"], "agent.algorithm must be one of"),
+     (["agent.algorithm=a2c"], "agent.algorithm must be one of"),
      (["robot.arm=ur5"], "unknown config section 'robot'"),
      (["agent.encoder"], "section.key=value"),
      (["agent.buffer_size=2000000", "env.state_points=2048"], "GiB"),
@@ -308,12 +329,8 @@ def test_profiles_and_their_memory() -> None:
     assert replace(cpu, "env", carrier="free").env.carrier == "free"
 
 
-def test_curves_of_two_runs(tmp_path: Path) -> None:
-    runs = []
-    for seed in (1, 2):
-        config = profile_config(PROFILES / "cpu.yaml", TINY, steps=50)
-        train(config, tmp_path / f"run{seed}", seed=seed, progress=False)
-        runs.append(tmp_path / f"run{seed}")
+def test_curves_of_two_runs(tmp_path: Path, smoke_runs: SmokeRuns) -> None:
+    runs = [smoke_runs(*configuration)[2] for configuration in SMOKE_RUNS[::2]]
     out = plot_curves(runs, tmp_path / "curves.png", window=3)
     assert out.stat().st_size > 10_000
     with pytest.raises(ValueError, match=r"no monitor\.csv"):
@@ -434,3 +451,12 @@ def test_an_agent_with_other_observations_than_its_config_names_its_file(
             "agent run/best_model.zip: its run's config.yaml gives observations of shape "
             "(128, 3), but the model was trained on (64, 3)")):
         load_agent("run")
+
+
+def test_the_monitor_file_of_each_env_rank_is_the_name_sb3_writes(tmp_path: Path) -> None:
+    from stable_baselines3.common.monitor import Monitor
+
+    for rank in range(3):
+        Monitor(gym.make("CartPole-v1"), filename=str(tmp_path / monitor_file(rank))).close()
+    assert sorted(path.name for path in tmp_path.iterdir()) == [
+        "monitor.csv", "monitor_1.monitor.csv", "monitor_2.monitor.csv"]

@@ -99,7 +99,7 @@ def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.Captu
         (["plan", "--out", "/nonexistent/plan.json"], "folder /nonexistent does not exist"),
         (["plan", "--out", "plan.json", "--mesh", "missing.stl"], "mesh file not found"),
         (["plan", "--out", "plan.json", "--planner", "hrec", "--views", "3"],
-         "bscp and agents only"),
+         "applies to bscp, agent only"),
         (["render", "--plan", "missing.json", "--out", "video.mp4"], "missing.json"),
     ],
 )

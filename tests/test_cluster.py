@@ -15,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from helpers import SERIAL_EVALUATION
 
 from vprobot.cli import main
 
@@ -22,11 +23,8 @@ pytest.importorskip("ray")
 
 from vprobot.agents.sweep import read_study, sweep
 from vprobot.cluster import parallel_map, start
-from vprobot.config import Config
-from vprobot.episode import episode_list
-from vprobot.evaluation import evaluate
 from vprobot.files import InUseError, exclusive_lock
-from vprobot.paths import DEFAULT_MOTOR, MOTORS_DIR
+from vprobot.paths import MOTORS_DIR
 
 # Training draws from one motor (its ground truth is built once per session, not that of all 20
 # training motors).
@@ -167,30 +165,21 @@ def _rows(folder: Path) -> list[dict[str, str]]:
     return sorted(rows, key=lambda row: (int(row["episode"]), row["carrier"], row["planner"]))
 
 
-EVALUATE = ["evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
-            "--seeds", "0", "1", "2"]
-"""12 episodes: two planners, three seeds, both carriers."""
+EVALUATE = list(SERIAL_EVALUATION)
 
 
 @pytest.fixture(scope="module")
-def serial_rows(tmp_path_factory: pytest.TempPathFactory) -> list[dict[str, str]]:
-    """The rows of `EVALUATE` run in this process, without Ray."""
-    folder = tmp_path_factory.mktemp("serial")
-    assert main([*EVALUATE, "--out", str(folder)]) == 0
-    return _rows(folder)
-
-
-def test_distributed_evaluation_gives_the_serial_rows(
-        tmp_path: Path, serial_rows: list[dict[str, str]]) -> None:
-    specs = episode_list(Config(), [DEFAULT_MOTOR], [0, 1, 2])
-    evaluate(Config(), ["hrec", "random2"], specs, tmp_path, progress=False, workers=2)
-    assert _rows(tmp_path) == serial_rows
+def serial_rows(serial_evaluation: Path) -> list[dict[str, str]]:
+    """The rows of `EVALUATE` run in the test process, without Ray."""
+    return _rows(serial_evaluation)
 
 
 def test_distributed_evaluation_stopped_by_sigterm_then_killed_resumes_to_the_serial_rows(
         tmp_path: Path, serial_rows: list[dict[str, str]]) -> None:
     """SIGTERM to `evaluate --workers 2` (exit 130, partial tables), then kill -9 of the rerun
-    (driver and its Ray), then the same command: the serial rows, none lost or duplicated."""
+    (driver and its Ray), then the same command: the serial rows, none lost or duplicated.
+    Every row is an episode run on a Ray worker, so this also proves that a distributed
+    evaluation gives the serial rows."""
     out = tmp_path / "out"
     argv = [*EVALUATE, "--workers", "2", "--out", str(out)]
     rows = out / "evaluation_episodes.csv"

@@ -6,8 +6,8 @@ import mujoco
 import numpy as np
 import pytest
 import trimesh
+from helpers import make_scene
 from scipy.spatial import cKDTree
-from test_sensor import make_scene
 
 from vprobot.coverage import EPSILON_PER_SPACING, CoverageTracker, to_mesh_frame
 from vprobot.geometry import Pose, matrix_to_quat, rotation_about_z

@@ -13,7 +13,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
 from vprobot.env import ENV_ID, InspectEnv
-from vprobot.env.rewards import DENSE, SPARSE
+from vprobot.env.rewards import REWARDS
 from vprobot.episode import EpisodeSpec
 from vprobot.paths import DEFAULT_MOTOR
 
@@ -171,7 +171,7 @@ def expected_reward(name: str, info: dict, steps: int, done: bool, goal: bool,
             "R14": 1.0 / (steps * k_cum)}[name]
 
 
-@pytest.mark.parametrize("reward", DENSE + SPARSE)
+@pytest.mark.parametrize("reward", list(REWARDS))
 def test_every_reward_matches_its_formula(reward: str) -> None:
     env = make(reward=reward, goal_only_step_cap=4, travel_cost="cartesian")
     _, start = env.reset(seed=5)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import SERIAL_EVALUATION
 from PIL import Image
 
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
@@ -224,8 +225,7 @@ def test_planner_benchmark_reports_the_targets(capsys: pytest.CaptureFixture) ->
     assert "B_SCP,5" in printed and "nbv (90 %)" in printed
 
 
-EVAL_ARGS = ["--planners", "random2", "hrec", "--motors", str(DEFAULT_MOTOR), "--seeds", "0",
-             "1", "2"]
+EVAL_ARGS = list(SERIAL_EVALUATION[1:])
 
 
 def _rows_by_key(path: Path) -> dict[tuple[str, str, str], str]:
@@ -235,7 +235,8 @@ def _rows_by_key(path: Path) -> dict[tuple[str, str, str], str]:
     return {key: row["coverage_pct"] for key, row in zip(keys, rows, strict=True)}
 
 
-def test_killed_evaluation_resumes_without_lost_or_duplicated_rows(tmp_path: Path) -> None:
+def test_killed_evaluation_resumes_without_lost_or_duplicated_rows(
+        tmp_path: Path, serial_evaluation: Path) -> None:
     import signal
     import subprocess
     import sys
@@ -243,9 +244,8 @@ def test_killed_evaluation_resumes_without_lost_or_duplicated_rows(tmp_path: Pat
 
     from vprobot.cli import main
 
-    reference, killed = tmp_path / "reference", tmp_path / "killed"
-    assert main(["evaluate", *EVAL_ARGS, "--out", str(reference)]) == 0
-    expected = _rows_by_key(reference / "evaluation_episodes.csv")
+    killed = tmp_path / "killed"
+    expected = _rows_by_key(serial_evaluation / "evaluation_episodes.csv")
     assert len(expected) == 12
     process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", "evaluate", *EVAL_ARGS,
                                 "--out", str(killed)], stdout=subprocess.DEVNULL,

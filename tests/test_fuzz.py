@@ -15,9 +15,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vprobot.cli import main
-from vprobot.config import TRAVEL_REWARDS
 from vprobot.env import InspectEnv
-from vprobot.env.rewards import DENSE, SPARSE
+from vprobot.env.rewards import REWARDS
 from vprobot.paths import DEFAULT_MOTOR
 
 FUZZ = settings(deadline=None, derandomize=True, database=None,
@@ -31,8 +30,8 @@ REACH = ["reach", "--position", "0.45", "-0.47", "0.75", "--look-at", "0.45", "0
 @st.composite
 def env_settings(draw: st.DrawFn) -> dict:
     carrier = draw(st.sampled_from(["robot", "free"]))
-    reward = draw(st.sampled_from(DENSE + SPARSE))
-    costs = ["cartesian", "paper"] if carrier == "free" and reward in TRAVEL_REWARDS else [
+    reward = draw(st.sampled_from(list(REWARDS)))
+    costs = ["cartesian", "paper"] if carrier == "free" and REWARDS[reward].uses_travel else [
         "joint_time", "joint_path", "cartesian", "paper"]
     return {
         "carrier": carrier,

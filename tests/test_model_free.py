@@ -1,4 +1,5 @@
-"""Model-free planners (uniform<k>, nbv): what they may read, the occupancy grid, their gains."""
+"""Model-free planners (uniform<k>, nbv, an s_grid agent) and the coverage estimate's features:
+what they may read, the occupancy grid, the planners' gains."""
 
 from __future__ import annotations
 
@@ -10,14 +11,17 @@ import numpy as np
 import pytest
 import trimesh
 
-from vprobot.config import Config
+from vprobot.agents.trained import TrainedAgent
+from vprobot.config import Config, replace
 from vprobot.episode import Episode, MotorScene, seeded_episode
 from vprobot.geometry import Pose
 from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN, UNKNOWN_PASS, OccupancyGrid, ViewGains
 from vprobot.planners import make_planner, parse_planner
+from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.sensor_model import SensorModel
+from vprobot.stopping.features import FEATURES, CoverageFeatures
 
 CONFIG = Config()
 RESOLUTION = (107, 75)
@@ -91,6 +95,42 @@ def test_model_free_planners_never_read_mesh_ground_truth_or_coverage(
         bracket: MotorScene, name: str, carrier: str) -> None:
     episode = guarded_run(make_planner(name, CONFIG), bracket, carrier)
     assert sum(view.acquired for view in episode.views) >= 3
+
+
+class MaskedGreedy:
+    """An `s_grid` policy: the offered candidate of the largest unknown gain."""
+
+    def predict(self, observation: dict[str, np.ndarray], deterministic: bool = True) -> tuple:
+        rows, mask = observation["candidates"], observation["mask"]
+        return np.array(np.argmax(np.where(mask > 0, rows[:, 0], -1.0))), None
+
+
+@pytest.mark.parametrize("carrier", ["robot", "free"])
+def test_an_a_view_s_grid_agent_reads_no_model_and_never_asks_near_an_earlier_view(
+        bracket: MotorScene, carrier: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Frames at the scene's resolution, which the planner takes for the sensor's.
+    config = replace(replace(CONFIG, "sensor", resolution=RESOLUTION), "env",
+                     action="A_view", state="s_grid")
+    monkeypatch.setattr("vprobot.agents.trained.load_agent", lambda source: TrainedAgent(
+        model=MaskedGreedy(), config=config, path=Path("stub.zip")))  # type: ignore[arg-type]
+    episode = guarded_run(AgentPlanner("stub"), bracket, carrier)
+    # The greedy stub does not know what the robot reaches: only the count of requests is sure.
+    assert len(episode.views) == 6
+    directions = np.array([view.requested.position - episode.center for view in episode.views])
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    angles = np.degrees(np.arccos(np.clip(directions @ directions.T, -1.0, 1.0)))
+    np.fill_diagonal(angles, 180.0)
+    assert angles.min() >= EXCLUDE_DEG
+
+
+def test_the_coverage_estimate_features_never_read_mesh_ground_truth_or_coverage(
+        bracket: MotorScene) -> None:
+    episode = guarded_run(make_planner("nbv", CONFIG), bracket, "robot")
+    views = planner_view(episode).views
+    features = CoverageFeatures(CONFIG)
+    rows = np.array([features.update(views[:count]) for count in range(1, len(views) + 1)])
+    assert np.isfinite(rows).all()
+    assert rows[-1, FEATURES.index("acquired")] == sum(view.acquired for view in episode.views)
 
 
 def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene) -> None:
@@ -217,7 +257,7 @@ def test_bad_model_free_planner_names_are_clear_errors(spec: str, message: str) 
 
 def test_uniform_takes_its_count_from_the_name_not_from_views() -> None:
     assert parse_planner("uniform6", counted=False) == ("uniform6", None)
-    with pytest.raises(ValueError, match="applies to bscp and agents only"):
+    with pytest.raises(ValueError, match="applies to bscp, agent only"):
         make_planner("uniform4", CONFIG, views=5)
 
 

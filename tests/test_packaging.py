@@ -27,7 +27,9 @@ def _run(argv: list[str], cwd: Path, env: dict[str, str]) -> str:
 @pytest.fixture(scope="module")
 def wheel_venv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]]:
     root = tmp_path_factory.mktemp("packaging")
-    env = {**os.environ, "VPROBOT_CACHE_DIR": str(root / "cache"), "MUJOCO_GL": "egl"}
+    # Without PYTHONPATH, which could put a checkout's vprobot before the wheel's.
+    env = {**{key: value for key, value in os.environ.items() if key != "PYTHONPATH"},
+           "VPROBOT_CACHE_DIR": str(root / "cache"), "MUJOCO_GL": "egl"}
     # Built from a copy: an in-tree build would leave build/ behind, and reuse a stale one.
     source = root / "source"
     shutil.copytree(REPO, source, symlinks=True, ignore=shutil.ignore_patterns(

@@ -264,7 +264,7 @@ def test_predicted_visibility_agrees_with_the_sensor(motor: MotorScene) -> None:
     ("call", "message"),
     [
         (lambda: make_planner("astar", CONFIG), "unknown planner 'astar'"),
-        (lambda: make_planner("hrec", CONFIG, views=4), "bscp and agents only"),
+        (lambda: make_planner("hrec", CONFIG, views=4), "applies to bscp, agent only"),
         (lambda: parse_planner("bscp0"), "unknown planner 'bscp0'"),
         (lambda: SetCoverPlanner(views=0), "views must be >= 1"),
         (lambda: SetCoverPlanner(goal=1.5), "goal must lie in (0, 1]"),

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from test_sensor import make_scene
+from helpers import make_scene
 
 import vprobot.ground_truth as gt_module
 from vprobot.cli import main

@@ -88,10 +88,10 @@ def _planner_name(text: str) -> str:
 
 def _family_name(text: str) -> str:
     """An argparse type: a registered part family."""
-    from vprobot.families import family
+    from vprobot.families import FAMILIES
 
     try:
-        return family(text).name
+        return FAMILIES[text].name
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
 
@@ -419,6 +419,18 @@ def command_objects(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_stop_fit(args: argparse.Namespace) -> int:
+    """Fit the model-free coverage estimate on rollouts of split v1 and report it."""
+    from vprobot.stopping.report import fit_estimate
+
+    check_output_folder(args.out, "--out")
+    figures = fit_estimate(_config(args), args.out, args.episodes, args.seed, args.planners)
+    print((Path(args.out) / "estimate.md").read_text())
+    print(f"estimator: {Path(args.out) / 'estimator.npz'}; validation MAE "
+          f"{figures['mae_pp']:.2f} pp")
+    return 0
+
+
 def command_robots_list(args: argparse.Namespace) -> int:
     from vprobot.robots import available_robots, load_robot
 
@@ -505,19 +517,19 @@ def build_parser() -> argparse.ArgumentParser:
     cell.add_argument("--json", help="write the report as JSON here")
 
     def add_planning(sub: argparse.ArgumentParser) -> None:
-        from vprobot.planners.runner import PLANNER_NAMES
+        from vprobot.planners.runner import counted_planners, planner_names
 
         add_robot(sub)
         sub.add_argument("--mesh", help="mesh file (STL/OBJ/PLY); default: the bundled motor")
         sub.add_argument("--scale", type=POSITIVE_FLOAT,
                          help="file units to metres, e.g. 0.001 for millimetres (default 1)")
         sub.add_argument("--planner", type=_planner_name,
-                         help=f"{', '.join(PLANNER_NAMES)} (the bundled trained agent), "
-                         f"agent:PATH (a training run or model .zip), or nbv@grid (nbv stopping "
-                         f"itself); default: bscp")
+                         help=f"{', '.join(planner_names())}: agent is the bundled trained "
+                         f"agent, agent:PATH a training run or model .zip, nbv@grid nbv "
+                         f"stopping itself; default: bscp")
         sub.add_argument("--views", type=POSITIVE_INT,
-                         help="fixed number of views (bscp, agent); default: until the coverage "
-                         "goal")
+                         help=f"fixed number of views ({', '.join(counted_planners())}); "
+                         f"default: until the coverage goal")
         sub.add_argument("--seed", type=NON_NEGATIVE_INT,
                          help="seed of the episode (object pose, initial view); default 0")
         sub.add_argument("--carrier", choices=["robot", "free"],
@@ -647,6 +659,21 @@ def build_parser() -> argparse.ArgumentParser:
                          help="agent profile YAML, e.g. configs/agents/cpu-families.yaml")
     prepare.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
                          help="override profile settings, as in `vprobot train`")
+
+    stop = commands.add_parser("stop", help="Knowing when to stop without the model.")
+    stop_commands = stop.add_subparsers(dest="stop_command", required=True)
+    stop_fit = add("fit", command_stop_fit,
+                   "Fit the model-free coverage estimate on rollouts of split v1 (training "
+                   "objects; validation list for selection and the report).", stop_commands)
+    stop_fit.add_argument("--out", required=True,
+                          help="folder for the rollouts, the estimator and the report")
+    stop_fit.add_argument("--episodes", type=POSITIVE_INT, default=400,
+                          help="training episodes, one planner each in turn (default 400)")
+    stop_fit.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
+                          help="seed of the training episodes and the networks (default 0)")
+    stop_fit.add_argument("--planners", nargs="+", type=_planner_name,
+                          help="model-free planners of the rollouts (default: random2 "
+                               "uniform4 uniform6 uniform8 nbv)")
 
     robots = commands.add_parser("robots", help="Robots: the bundled ones, importing your own.")
     robot_commands = robots.add_subparsers(dest="robots_command", required=True)

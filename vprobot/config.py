@@ -19,6 +19,7 @@ from typing import Any, Literal
 import yaml
 
 from vprobot.paths import CONFIGS_DIR
+from vprobot.registry import Registry
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -60,6 +61,12 @@ class CellConfig:
             load_robot(self.robot)
         except ValueError as error:
             raise ConfigError(f"cell.robot: {error}") from None
+
+
+def check_registered(name: str, registry: Registry[Any], key: str) -> None:
+    """Raise ConfigError unless `registry` has an entry `name` (the message lists them)."""
+    if name not in registry:
+        raise ConfigError(f"{key} must be one of {list(registry)}, got {name!r}")
 
 
 MAX_RAYS_PER_AXIS = 4096
@@ -222,16 +229,12 @@ class KinematicsConfig:
 
 
 ActionName = Literal[
-    "A_2S0R", "A_3S0R", "A_2S2R", "A_2S2R_lim", "A_3S2R", "A_3S2R_lim", "A_3C0R", "A_3C2R"
-]
-RewardName = Literal[
-    "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "R10", "R11", "R12", "R13", "R14"
+    "A_2S0R", "A_3S0R", "A_2S2R", "A_2S2R_lim", "A_3S2R", "A_3S2R_lim", "A_3C0R", "A_3C2R",
+    "A_view",
 ]
 TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper"]
 ROBOT_TRAVEL_COSTS = ("joint_time", "joint_path")
 """Travel costs that exist only with a robot (joint space)."""
-TRAVEL_REWARDS = ("R5", "R6", "R7", "R8", "R11", "R12", "R14")
-"""Rewards that divide by a travel cost."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -241,9 +244,12 @@ class EnvConfig:
     Attributes:
         carrier: `robot` (the robot must reach every view) or `free` (the paper's free-flying
             sensor: every request is executed; travel is `cartesian` or `paper` only).
-        state: `s_cov` (acquired cloud, model-free) or `s_bin` (GT cloud + covered flag).
+        state: `s_cov` (acquired cloud, model-free), `s_bin` (GT cloud + covered flag) or
+            `s_grid` (per band candidate features from an occupancy grid, model-free; needs
+            action `A_view`).
         robot_state: Add the sensor pose and joints as a second observation entry.
-        action: Action variant (docs/states-actions-rewards.md#actions).
+        action: Action variant (docs/states-actions-rewards.md#actions), or `A_view`
+            (choose one of the band candidates; not with `stop_action`).
         position_mapping: `npk` (no prior knowledge: r in radius_range_m, x/y/z in
             +-cartesian_range_m) or `wpk` (r = working distance, Cartesian points kept at
             wpk_distance_range_m from the centre).
@@ -251,7 +257,8 @@ class EnvConfig:
         cartesian_range_m: npk half-range of the Cartesian actions.
         wpk_distance_range_m: wpk distance range of the Cartesian actions.
         deviation_limit_deg: Largest deviation of the `_lim` actions from looking at the centre.
-        reward: Reward R1-R14 (docs/states-actions-rewards.md#rewards).
+        reward: Reward R1-R14 (docs/states-actions-rewards.md#rewards): a name in
+            `vprobot.env.rewards.REWARDS`.
         travel_cost: Which travel cost k_t the rewards use.
         travel_cost_floor: Lower bound of k_t and k_cum in divisions.
         unreachable_penalty: Added to the reward of an unreachable request.
@@ -280,7 +287,7 @@ class EnvConfig:
     """
 
     carrier: Literal["robot", "free"] = "robot"
-    state: Literal["s_cov", "s_bin"] = "s_cov"
+    state: Literal["s_cov", "s_bin", "s_grid"] = "s_cov"
     robot_state: bool = False
     action: ActionName = "A_3S2R_lim"
     position_mapping: Literal["npk", "wpk"] = "npk"
@@ -288,7 +295,7 @@ class EnvConfig:
     cartesian_range_m: float = 1.0
     wpk_distance_range_m: tuple[float, float] = (0.20, 0.50)
     deviation_limit_deg: float = 10.0
-    reward: RewardName = "R2"
+    reward: str = "R2"
     travel_cost: TravelCostName = "joint_time"
     travel_cost_floor: float = 1e-3
     unreachable_penalty: float = 0.0
@@ -312,6 +319,10 @@ class EnvConfig:
     state_points: int = 2048
 
     def __post_init__(self) -> None:
+        # Imported here: the rewards are written against this module's EnvConfig.
+        from vprobot.env.rewards import REWARDS
+
+        check_registered(self.reward, REWARDS, "env.reward")
         if self.motors == "mesh" and self.mesh is None:
             raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
         if self.objects != ("motors",):
@@ -343,10 +354,17 @@ class EnvConfig:
             raise ConfigError(f"env.wpk_distance_range_m must satisfy 0 < low <= high, got "
                               f"{self.wpk_distance_range_m}")
         if (self.carrier == "free" and self.travel_cost in ROBOT_TRAVEL_COSTS
-                and self.reward in TRAVEL_REWARDS):
+                and REWARDS[self.reward].uses_travel):
             raise ConfigError(f"env.travel_cost {self.travel_cost!r} needs the robot, but "
                               f"env.carrier is 'free' and env.reward {self.reward} uses the "
                               f"travel cost; use 'cartesian' or 'paper'")
+        if self.state == "s_grid" and self.action != "A_view":
+            raise ConfigError(f"env.state 's_grid' describes the band candidates of env.action "
+                              f"'A_view', not env.action {self.action!r}; set env.action to "
+                              f"'A_view' or env.state to 's_cov' or 's_bin'")
+        if self.action == "A_view" and self.stop_action:
+            raise ConfigError("env.action 'A_view' has no stop decision yet: set "
+                              "env.stop_action to false or choose a continuous env.action")
         if not 0.0 <= self.radius_range_m[0] <= self.radius_range_m[1]:
             raise ConfigError(f"env.radius_range_m must satisfy 0 <= low <= high, got "
                               f"{self.radius_range_m}")
@@ -360,20 +378,35 @@ class AgentConfig:
     `configs/agents/cpu.yaml` is the profile that trains on a small CPU.
 
     Attributes:
-        algorithm: `sac` (off-policy, replay buffer) or `ppo` (on-policy).
-        encoder: Point-cloud feature extractor: `pcn`, `pointnet` or `sphere` (CPU budget).
+        algorithm: `sac` (off-policy, replay buffer), `ppo` (on-policy) or `dqn` (off-policy,
+            a Q-value per candidate view: needs `encoder: candidates` and an env whose action
+            is a choice among candidate views, `vprobot.agents.candidate_q`).
+        encoder: A name in `vprobot.agents.encoders.ENCODERS`: a point-cloud feature extractor,
+            `pcn`, `pointnet` or `sphere` (CPU budget); or `candidates`, the Q-network of `dqn`
+            (one shared MLP per candidate row).
         encoder_scale: Multiplies the widths of `pcn` and `pointnet` (1: published sizes).
         sphere_bins: Polar and azimuth bins of the `sphere` encoder's direction map.
         sphere_features: Size of the `sphere` encoding.
-        net_arch: Hidden layers of the regression MLP after the encoder (actor and critics).
+        net_arch: Hidden layers of the regression MLP after the encoder (actor and critics);
+            with `candidates`, of the MLP applied to every candidate row (the first width is
+            also that of the row embedding the pooled context is taken from).
         learning_rate: Initial learning rate.
         learning_rate_schedule: `linear` decays it to 0 over `total_steps`; `constant` keeps it.
         gamma: Discount factor.
         batch_size: Minibatch of a gradient step.
-        buffer_size: Replay buffer transitions (SAC).
-        learning_starts: Env steps before the first SAC update.
-        train_freq: Env steps between SAC updates.
-        gradient_steps: Gradient steps per SAC update.
+        buffer_size: Replay buffer transitions (SAC, DQN).
+        learning_starts: Env steps before the first SAC or DQN update (DQN explores uniformly
+            over the allowed candidates until then).
+        train_freq: Env steps between SAC or DQN updates.
+        gradient_steps: Gradient steps per SAC or DQN update.
+        target_update_interval: Env steps between copies of the DQN Q-network into its target.
+        exploration_fraction: Share of `total_steps` over which DQN's epsilon (the probability
+            of a uniformly drawn allowed candidate) falls from its initial to its final value.
+        exploration_initial_eps: DQN's epsilon at the start.
+        exploration_final_eps: DQN's epsilon after the exploration fraction.
+        pretrain_episodes: With `dqn`: episodes of the model-based teacher whose states the
+            Q-network is fitted to before RL (`vprobot.agents.pretrain`; 0: none).
+        pretrain_epochs: Passes over those states.
         n_steps: Env steps per PPO rollout (per env).
         n_epochs: PPO epochs per rollout.
         total_steps: Env steps of a training run.
@@ -388,8 +421,8 @@ class AgentConfig:
         device: `cpu`, `cuda` or `auto` (cuda when present).
     """
 
-    algorithm: Literal["sac", "ppo"] = "sac"
-    encoder: Literal["pcn", "pointnet", "sphere"] = "pcn"
+    algorithm: Literal["sac", "ppo", "dqn"] = "sac"
+    encoder: str = "pcn"
     encoder_scale: float = 1.0
     sphere_bins: tuple[int, int] = (8, 16)
     sphere_features: int = 128
@@ -402,6 +435,12 @@ class AgentConfig:
     learning_starts: int = 1_000
     train_freq: int = 1
     gradient_steps: int = 1
+    target_update_interval: int = 1_000
+    exploration_fraction: float = 0.2
+    exploration_initial_eps: float = 1.0
+    exploration_final_eps: float = 0.05
+    pretrain_episodes: int = 0
+    pretrain_epochs: int = 20
     n_steps: int = 1_024
     n_epochs: int = 10
     total_steps: int = 75_000
@@ -414,8 +453,19 @@ class AgentConfig:
     device: Literal["cpu", "cuda", "auto"] = "cpu"
 
     def __post_init__(self) -> None:
+        # Imported here: the encoders read their settings from this class.
+        from vprobot.agents.encoders import ENCODERS
+
+        check_registered(self.encoder, ENCODERS, "agent.encoder")
+        if self.algorithm not in ENCODERS[self.encoder].algorithms:
+            serving = [name for name, encoder in ENCODERS.items()
+                       if self.algorithm in encoder.algorithms]
+            raise ConfigError(f"agent.encoder {self.encoder!r} serves agent.algorithm "
+                              f"{list(ENCODERS[self.encoder].algorithms)}, got {self.algorithm!r}; "
+                              f"agent.algorithm {self.algorithm!r} takes agent.encoder {serving}")
         for name in ("sphere_features", "batch_size", "buffer_size", "train_freq",
-                     "gradient_steps", "n_steps", "n_epochs", "total_steps", "n_envs",
+                     "gradient_steps", "target_update_interval", "n_steps", "n_epochs",
+                     "total_steps", "n_envs", "pretrain_epochs",
                      "eval_freq", "checkpoint_freq", "torch_threads"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"agent.{name} must be >= 1, got {getattr(self, name)}")
@@ -435,6 +485,19 @@ class AgentConfig:
         if polar < 2 or azimuth < 2 or azimuth % 2:
             raise ConfigError(f"agent.sphere_bins must be (polar >= 2, even azimuth >= 2), got "
                               f"{self.sphere_bins}")
+        if not 0.0 < self.exploration_fraction <= 1.0:
+            raise ConfigError(f"agent.exploration_fraction must lie in (0, 1], got "
+                              f"{self.exploration_fraction}")
+        if self.pretrain_episodes < 0:
+            raise ConfigError(f"agent.pretrain_episodes must be >= 0, got "
+                              f"{self.pretrain_episodes}")
+        if self.pretrain_episodes and self.algorithm != "dqn":
+            raise ConfigError(f"agent.pretrain_episodes fits a candidate Q-network: it needs "
+                              f"agent.algorithm dqn, got {self.algorithm!r}")
+        if not 0.0 <= self.exploration_final_eps <= self.exploration_initial_eps <= 1.0:
+            raise ConfigError(f"agent needs 0 <= exploration_final_eps <= "
+                              f"exploration_initial_eps <= 1, got "
+                              f"{self.exploration_final_eps}, {self.exploration_initial_eps}")
 
 
 @dataclasses.dataclass(frozen=True)

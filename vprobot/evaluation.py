@@ -44,7 +44,7 @@ from vprobot.episode import (
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS, bundled_episode_list
-from vprobot.files import append_line, atomic_output, csv_text, write_text
+from vprobot.files import append_line, csv_text, save_figure, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -321,12 +321,7 @@ def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: 
     axes[0][-1].legend(handles.values(), handles.keys(), fontsize="small", loc="upper left",
                        bbox_to_anchor=(1.02, 1.0))
     axes[0][0].set_ylabel("mean coverage %")
-    figure.suptitle(title)
-    figure.tight_layout()
-    with atomic_output(path) as temporary:
-        figure.savefig(temporary, dpi=110)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path, title)
 
 
 def _write_tables(out: Path, rows: list[dict[str, Any]], specs: Sequence[EpisodeSpec],
@@ -454,10 +449,14 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     rows_path = out / "evaluation_episodes.csv"
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
               for label, _, _ in parsed}
+
+    def recorded() -> list[dict[str, Any]]:
+        return [row for row in finished_rows(rows_path)
+                if (row["episode"], row["carrier"], row["planner"]) in wanted]
+
     # Read first: a folder holding an older version's table is refused before anything is
     # written into it.
-    rows = [row for row in finished_rows(rows_path)
-            if (row["episode"], row["carrier"], row["planner"]) in wanted]
+    rows = recorded()
     _start_episode_list(out / "episodes.json", specs)
     done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
     if done and progress:
@@ -476,6 +475,8 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
                     rows.append(row)
                     bar.update()
     except KeyboardInterrupt:
+        # From the file: the interrupt may have come between a row's line and `rows.append`.
+        rows = recorded()
         _write_tables(out, rows, specs, config, len(wanted))
         print(f"saved {len(rows)} of {len(wanted)} episodes in {out}; run the same command "
               f"again to resume", file=sys.stderr)

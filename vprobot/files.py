@@ -174,3 +174,16 @@ def exclusive_lock(path: Path, what: str) -> Iterator[None]:
     finally:
         # Closing the descriptor releases the lock.
         os.close(descriptor)
+
+
+def save_figure(figure: Any, path: str | Path, title: str) -> Path:
+    """Title a matplotlib figure, write it as a PNG atomically and close it."""
+    import matplotlib.pyplot as plt
+
+    figure.suptitle(title)
+    figure.tight_layout()
+    path = Path(path)
+    with atomic_output(path) as temporary:
+        figure.savefig(temporary, dpi=110)
+    plt.close(figure)
+    return path

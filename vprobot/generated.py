@@ -66,9 +66,9 @@ def generated_path(name: str) -> Path:
         mesh = build_motor(sample_parameters(motor_rng(int(motor["seed"]),
                                                        int(motor["index"]))))
     elif (part := _FAMILY.match(name)) is not None:
-        from vprobot.families import family
+        from vprobot.families import FAMILIES
 
-        mesh = family(part["family"]).instance(int(part["seed"])).mesh
+        mesh = FAMILIES[part["family"]].instance(int(part["seed"])).mesh
     else:
         raise ValueError(f"{name!r} is not a generated object: expected "
                          f"generated/<family>_<SSSS>.stl or generated/motor_<seed>_<iii>.stl")

@@ -27,13 +27,17 @@ gain sums the visibility of the samples of one kind:
 - `unknown`: unknown voxels (volumetric information, occlusion aware);
 - `frontier`: unknown voxels next to a free one (the border of the explored space);
 - `rear_side`: unknown voxels next to an occupied one (behind or beside seen surfaces).
+
+`EpisodeGrid` keeps the grid of one episode, integrating each acquired frame once: the `nbv`
+planner and the `s_grid` state of the environment both own one.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -41,6 +45,9 @@ from vprobot.config import Config
 from vprobot.fit import fit_limit
 from vprobot.geometry import Pose
 from vprobot.sensor_model import SensorModel
+
+if TYPE_CHECKING:
+    from vprobot.episode import ViewRecord
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 VOXEL_M = 0.01
@@ -50,6 +57,8 @@ UNKNOWN_PASS = 0.5
 Gain = Literal["unknown", "frontier", "rear_side"]
 GAINS: tuple[Gain, ...] = ("unknown", "frontier", "rear_side")
 _NEIGHBOURS = np.concatenate([np.eye(3, dtype=int), -np.eye(3, dtype=int)])
+_KIND_BITS = len(GAINS)
+_CODES = (OCCUPIED + 1) << _KIND_BITS
 
 
 @dataclasses.dataclass
@@ -217,17 +226,93 @@ class ViewGains:
         self._index = np.where(index >= 0, index, grid.state.size).astype(np.int32)
         # Two samples per voxel: each passes an unknown voxel with the root of its chance.
         self._unknown_pass = UNKNOWN_PASS ** 0.5
+        # What `scores` reads of a voxel, by its code (state << 3 | one bit per gain): the
+        # chance to pass it and whether each gain counts it.
+        codes = np.arange(_CODES)
+        self._code_pass = np.select([codes >> _KIND_BITS == FREE, codes >> _KIND_BITS == UNKNOWN],
+                                    [1.0, self._unknown_pass], 0.0).astype(np.float32)
+        self._code_counts = ((codes[:, None] >> np.arange(_KIND_BITS)) & 1).astype(np.float32)
 
     def __len__(self) -> int:
         return len(self._index)
+
+    @property
+    def rays(self) -> int:
+        """Rays per candidate."""
+        return self._index.shape[1]
+
+    @property
+    def ray_bound(self) -> float:
+        """The largest gain of one ray: every sample unknown, inside the grid and counted."""
+        samples = self._index.shape[2]
+        return (1.0 - self._unknown_pass ** samples) / (1.0 - self._unknown_pass)
+
+    @staticmethod
+    def _seen(passes: np.ndarray) -> np.ndarray:
+        """Visibility of every sample: everything before it let the ray through (its own
+        state aside)."""
+        visible = np.cumprod(passes, axis=-1)
+        return np.concatenate([np.ones_like(visible[..., :1]), visible[..., :-1]], axis=-1)
 
     def score(self, grid: OccupancyGrid, gain: Gain) -> np.ndarray:
         """The gain of every candidate (count,) against the grid's current state."""
         state = np.append(grid.state.reshape(-1), np.int8(FREE))[self._index]
         passes = np.where(state == FREE, 1.0,
                           np.where(state == UNKNOWN, self._unknown_pass, 0.0))
-        visible = np.cumprod(passes, axis=-1)
-        # A sample is seen if everything before it let the ray through (its own state aside).
-        visible = np.concatenate([np.ones_like(visible[..., :1]), visible[..., :-1]], axis=-1)
         counted = np.append(grid.kind_mask(gain).reshape(-1), False)[self._index]
-        return (visible * counted).sum(axis=(1, 2))
+        return (self._seen(passes) * counted).sum(axis=(1, 2))
+
+    def scores(self, grid: OccupancyGrid) -> np.ndarray:
+        """Every gain of every candidate (count, len(GAINS)) in one pass over the samples:
+        `score` of each gain, in float32 (for the environment's state, where speed counts)."""
+        code = grid.state.astype(np.uint8) << _KIND_BITS
+        for bit, gain in enumerate(GAINS):
+            code |= grid.kind_mask(gain).astype(np.uint8) << bit
+        codes = np.append(code.reshape(-1), np.uint8(FREE << _KIND_BITS))[self._index]
+        visible = self._seen(self._code_pass[codes]).reshape(len(codes), -1)
+        codes = codes.reshape(len(codes), -1)
+        return np.stack([np.einsum("cn,cn->c", visible, self._code_counts[codes, bit])
+                         for bit in range(_KIND_BITS)], axis=1)
+
+
+class EpisodeGrid:
+    """The occupancy grid of one episode, integrating each acquired frame of it once.
+
+    Args:
+        config: The cell (where the grid stands) and the sensor (its range and angles).
+        resolution: The resolution of the episode's frames; None for the configured sensor's.
+        voxel_m: Voxel edge of the grid.
+
+    Attributes:
+        grid: The grid of the frames integrated so far.
+        added: Per informative frame (one the cell did not mostly hide), the share of the
+            occupied voxels it added.
+    """
+
+    def __init__(self, config: Config, resolution: tuple[int, int] | None = None,
+                 voxel_m: float = VOXEL_M):
+        self.config = config
+        self.voxel_m = voxel_m
+        sensor = SensorModel.from_config(config.sensor)
+        self.sensor = sensor if resolution is None else sensor.at_resolution(resolution)
+        self.reset()
+
+    def reset(self) -> None:
+        """A new episode: an all-unknown grid, nothing integrated."""
+        self.grid = OccupancyGrid.for_cell(self.config, self.voxel_m)
+        self.added: list[float] = []
+        self._integrated = 0
+
+    def update(self, views: Sequence[ViewRecord]) -> None:
+        """Integrate the frames of the views not integrated yet (the episode's views so far)."""
+        for view in views[self._integrated:]:
+            if view.sensor_pose is None:
+                continue
+            before = self.grid.counts()["occupied"]
+            self.grid.integrate(self.sensor, view.sensor_pose, view.points_world, view.pixels,
+                                view.blocked_pixels)
+            # A frame the cell mostly hid (e.g. by the robot) says nothing about what is left.
+            if len(view.blocked_pixels) < len(view.points_world):
+                after = self.grid.counts()["occupied"]
+                self.added.append((after - before) / max(after, 1))
+        self._integrated = len(views)

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from vprobot.files import atomic_output
+from vprobot.files import save_figure
 
 PANELS = (("coverage", "coverage at episode end", 100.0, "%"),
           ("acquisitions", "acquisitions per episode", 1.0, ""),
@@ -31,8 +31,8 @@ def _whole_lines(path: Path) -> list[str]:
 
 
 def read_monitor(run_dir: Path) -> dict[str, np.ndarray]:
-    """The per-episode columns of a run's `monitor.csv` (and `monitor_<rank>.csv` of parallel
-    envs, interleaved episode by episode); read-only, so a running run can be read.
+    """The per-episode columns of a run's `monitor.csv` (and `monitor_<rank>.monitor.csv` of
+    parallel envs, interleaved episode by episode); read-only, so a running run can be read.
 
     Raises:
         ValueError: If the run has no monitor file.
@@ -103,11 +103,6 @@ def plot_curves(run_dirs: Sequence[str | Path], out: str | Path, window: int = 5
         axis.grid(alpha=0.3)
     for axis in axes[1]:
         axis.set_xlabel("episode")
-    figure.suptitle(f"{len(runs)} run(s): mean" + (", min-max band" if len(runs) > 1 else "")
-                    + f"; trailing mean over {window} episodes")
-    figure.tight_layout()
-    out = Path(out)
-    with atomic_output(out) as temporary:
-        figure.savefig(temporary, dpi=110)
-    plt.close(figure)
-    return out
+    return save_figure(figure, out, f"{len(runs)} run(s): mean"
+                       + (", min-max band" if len(runs) > 1 else "")
+                       + f"; trailing mean over {window} episodes")

@@ -8,10 +8,9 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 
-from vprobot.agents.training import load_run_config
+from vprobot.agents.training import ALGORITHMS, load_run_config
 from vprobot.config import Config
 from vprobot.env.observations import observation_space
 from vprobot.paths import ASSETS_DIR
@@ -87,9 +86,8 @@ def _load(model_file: Path, modified: int, shown: Path) -> TrainedAgent:
     # Cached per file and modification time: an evaluation asks for the agent every episode.
     # `shown` is the file as the user named it, for the messages.
     config = _run_config(model_file, shown)
-    algorithm = SAC if config.agent.algorithm == "sac" else PPO
     try:
-        model = algorithm.load(model_file, device="cpu")
+        model = ALGORITHMS[config.agent.algorithm].load(model_file, device="cpu")
     except Exception as error:  # a corrupt zip raises anything from zipfile to pickle
         raise ValueError(f"agent {shown} cannot be loaded as a {config.agent.algorithm} "
                          f"model ({type(error).__name__}: {error})") from None

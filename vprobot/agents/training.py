@@ -1,4 +1,4 @@
-"""`vprobot train`: train a SAC or PPO agent headless, resumably, into a run directory.
+"""`vprobot train`: train a SAC, PPO or DQN agent headless, resumably, into a run directory.
 
 A run directory holds everything about one run:
 
@@ -8,6 +8,7 @@ A run directory holds everything about one run:
 | `command.txt` | the command line, the seed and the vprobot commit |
 | `memory.json` | the replay (or rollout) buffer in bytes: per transition and in total |
 | `monitor.csv` | a row per training episode: reward, length, coverage, acquisitions, ... |
+| `monitor_<rank>.monitor.csv` | the same for the env of each further rank (`agent.n_envs`) |
 | `evaluations.csv` | the periodic evaluations on the validation episodes (model selection) |
 | `logs/` | stable-baselines3's progress CSV and TensorBoard events, one folder per session |
 | `checkpoints/`, `checkpoint.json` | the latest checkpoint (model, replay buffer, episode stream) |
@@ -27,6 +28,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import torch
 import yaml
@@ -35,6 +37,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import CallbackList
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
 from vprobot.agents.callbacks import (
@@ -44,11 +47,15 @@ from vprobot.agents.callbacks import (
     read_checkpoint,
     truncate_lines,
 )
+from vprobot.agents.candidate_q import CandidateDQN, check_candidate_spaces
+from vprobot.agents.encoders import ENCODERS
 from vprobot.agents.evaluation import evaluation_env
-from vprobot.agents.extractors import EXTRACTORS
+from vprobot.agents.extractors import split_space
+from vprobot.agents.pretrain import pretrain
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
-from vprobot.config import Config, ConfigError, from_mapping
+from vprobot.agents.teacher import check_teacher_reward
+from vprobot.config import AgentConfig, Config, ConfigError, from_mapping
 from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
@@ -70,6 +77,8 @@ MESH_SCALE_KEY = "env.mesh_scale"
 """How a training config sets the scale of its mesh file, for the hints of unit mistakes."""
 MEMORY_LIMIT_BYTES = 8 * 1024**3
 """No profile may need more than this for its buffer (issue: 8 GB)."""
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"sac": SAC, "ppo": PPO, "dqn": CandidateDQN}
+"""The stable-baselines3 class of each `agent.algorithm`: built, resumed and loaded as this."""
 
 
 class LinearSchedule:
@@ -91,14 +100,16 @@ def _space_bytes(space: Any) -> int:
 def buffer_memory(config: Config) -> dict[str, Any]:
     """The agent's buffer in bytes, from the observation and action spaces.
 
-    SAC's replay buffer stores an observation and the next one per transition, the action, the
-    reward and two flags (float32 each); PPO's rollout buffer one observation, the action and
-    five float32 (reward, return, advantage, value, log-probability) per env step.
+    The replay buffer of SAC and DQN stores an observation and the next one per transition,
+    the action (float32 each for SAC, one int64 candidate index for DQN), the reward and two
+    flags (float32 each); PPO's rollout buffer one observation, the action and five float32
+    (reward, return, advantage, value, log-probability) per env step.
     """
     agent = config.agent
     observation = _space_bytes(observation_space(config))
-    action = 4 * ActionMapping(config.env, config.sensor.working_distance_m).size
-    if agent.algorithm == "sac":
+    action = (np.dtype(np.int64).itemsize if agent.algorithm == "dqn"
+              else 4 * ActionMapping(config.env, config.sensor.working_distance_m).size)
+    if issubclass(ALGORITHMS[agent.algorithm], OffPolicyAlgorithm):
         per_transition = 2 * observation + action + 3 * 4
         transitions = agent.buffer_size
     else:
@@ -150,29 +161,68 @@ def env_factory(config: Config, seed: int, rank: int, start: int,
     return make
 
 
+def monitor_file(rank: int) -> str:
+    """The monitor file of the env of `rank` (SB3's Monitor appends `.monitor.csv` to a name
+    that does not end with it)."""
+    return "monitor.csv" if rank == 0 else f"monitor_{rank}.monitor.csv"
+
+
 def make_vec_env(config: Config, seed: int, starts: Sequence[int],
                  monitor_dir: Path | None) -> VecEnv:
     """The run's envs: one in-process, several in subprocesses (one monitor file each)."""
-    factories = [env_factory(config, seed, rank, start, None if monitor_dir is None else
-                             monitor_dir / ("monitor.csv" if rank == 0
-                                            else f"monitor_{rank}.csv"))
+    factories = [env_factory(config, seed, rank, start,
+                             None if monitor_dir is None else monitor_dir / monitor_file(rank))
                  for rank, start in enumerate(starts)]
     return DummyVecEnv(factories) if len(factories) == 1 else SubprocVecEnv(factories)
 
 
+def check_spaces(agent: AgentConfig, observation_space: gym.Space,
+                 action_space: gym.Space) -> None:
+    """Raise ConfigError unless the algorithm can act in an env of these spaces: DQN in one
+    that chooses among candidate views, SAC and PPO in one with a continuous action and a
+    point-cloud state."""
+    if agent.algorithm == "dqn":
+        check_candidate_spaces(observation_space, action_space)
+        return
+    try:
+        split_space(observation_space)
+        continuous = isinstance(action_space, gym.spaces.Box)
+    except ValueError:
+        continuous = False
+    if not continuous:
+        raise ConfigError(f"agent.algorithm {agent.algorithm} needs a continuous action and a "
+                          f"point-cloud state, got action space {action_space} and observation "
+                          f"space {observation_space}; an env choosing among candidate views "
+                          f"(env.action: A_view) needs agent.algorithm dqn with agent.encoder "
+                          f"candidates")
+
+
 def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgorithm:
-    """A fresh SAC or PPO model with the profile's encoder and regression MLP."""
+    """A fresh model: SAC or PPO with the profile's encoder (its features extractor) and
+    regression MLP, or DQN with the encoder's policy (`candidates`: `vprobot.agents.candidate_q`).
+
+    Raises:
+        ConfigError: If the algorithm cannot act in the env's spaces (`check_spaces`).
+    """
     agent = config.agent
-    extractor = EXTRACTORS[agent.encoder]
-    extractor_kwargs: dict[str, Any] = (
-        {"bins": agent.sphere_bins, "features": agent.sphere_features}
-        if agent.encoder == "sphere" else {"scale": agent.encoder_scale})
-    policy = "MultiInputPolicy" if config.env.robot_state else "MlpPolicy"
-    policy_kwargs = {"features_extractor_class": extractor,
-                     "features_extractor_kwargs": extractor_kwargs,
-                     "net_arch": list(agent.net_arch)}
+    check_spaces(agent, env.observation_space, env.action_space)
     rate: Any = (LinearSchedule(agent.learning_rate) if agent.learning_rate_schedule == "linear"
                  else agent.learning_rate)
+    encoder = ENCODERS[agent.encoder]
+    if agent.algorithm == "dqn":
+        return CandidateDQN(encoder.load(), env, learning_rate=rate, gamma=agent.gamma,
+                            batch_size=agent.batch_size, buffer_size=agent.buffer_size,
+                            learning_starts=agent.learning_starts, train_freq=agent.train_freq,
+                            gradient_steps=agent.gradient_steps,
+                            target_update_interval=agent.target_update_interval,
+                            exploration_fraction=agent.exploration_fraction,
+                            exploration_initial_eps=agent.exploration_initial_eps,
+                            exploration_final_eps=agent.exploration_final_eps,
+                            policy_kwargs=encoder.settings(agent), seed=seed, device=device)
+    policy = "MultiInputPolicy" if config.env.robot_state else "MlpPolicy"
+    policy_kwargs = {"features_extractor_class": encoder.load(),
+                     "features_extractor_kwargs": encoder.settings(agent),
+                     "net_arch": list(agent.net_arch)}
     if agent.algorithm == "sac":
         return SAC(policy, env, learning_rate=rate, gamma=agent.gamma,
                    batch_size=agent.batch_size, buffer_size=agent.buffer_size,
@@ -210,18 +260,23 @@ def _commit() -> str:
 
 
 def check_environment(config: Config) -> None:
-    """Check what the envs will need before a run folder is touched: the env settings and every
-    motor file episodes draw from (it loads and fits the cell; generated objects are made later).
+    """Check what the envs will need before a run folder is touched: the env settings, that the
+    algorithm can act in the env's spaces and every motor file episodes draw from (it loads and
+    fits the cell; generated objects are made later).
 
     Raises:
-        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, or
-            env settings that do not make an env.
+        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, env
+            settings that do not make an env, or an algorithm that cannot act in it.
     """
     env = config.env
     scale = env.mesh_scale if env.motors == "mesh" else 1.0
+    inspect_env = InspectEnv(config)
+    check_spaces(config.agent, inspect_env.observation_space, inspect_env.action_space)
+    if config.agent.pretrain_episodes:
+        check_teacher_reward(env)
     # Generated objects fit by construction (their families' tests check it) and are made only
     # when an episode draws them.
-    for path in InspectEnv(config).motor_files:
+    for path in inspect_env.motor_files:
         if not is_generated(str(path)):
             check_fits(load_mesh(path, scale, scale_option=MESH_SCALE_KEY), config,
                        scale_option=MESH_SCALE_KEY)
@@ -314,7 +369,9 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
     """The training itself, in a run directory this process holds the lock of."""
     agent = config.agent
     torch.set_num_threads(agent.torch_threads)
-    logs = [run_dir / "monitor.csv", run_dir / "evaluations.csv"]
+    # Every env's monitor: a resumed run cuts each back to its checkpoint.
+    logs = [*(run_dir / monitor_file(rank) for rank in range(agent.n_envs)),
+            run_dir / "evaluations.csv"]
     checkpoint = read_checkpoint(run_dir) if resume else None
     starts = [0] * agent.n_envs
     if checkpoint is not None:
@@ -326,9 +383,8 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
             log.unlink(missing_ok=True)
     env = make_vec_env(config, seed, starts, run_dir)
     if checkpoint is not None:
-        algorithm = SAC if agent.algorithm == "sac" else PPO
-        model = algorithm.load(run_dir / "checkpoints" / checkpoint["model"], env=env,
-                               device=device)
+        model = ALGORITHMS[agent.algorithm].load(
+            run_dir / "checkpoints" / checkpoint["model"], env=env, device=device)
         buffer = checkpoint["buffer"]
         if buffer is not None and buffer.endswith(".pkl"):
             # A checkpoint written before buffers were saved as their filled part.
@@ -337,12 +393,18 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
             load_buffer(model.replay_buffer, run_dir / "checkpoints" / buffer)
     else:
         model = build_model(config, env, seed, device)
+    pretrained = checkpoint is None and agent.pretrain_episodes > 0
+    if pretrained:
+        pretrain(model, config, seed, run_dir, progress)
     sessions = sorted((run_dir / "logs").glob("session_*")) if (run_dir / "logs").is_dir() else []
     model.set_logger(configure(str(run_dir / "logs" / f"session_{len(sessions)}"),
                                ["csv", "tensorboard"]))
     specs = validation_episodes(config)[: agent.eval_episodes]
     evaluation = SharedEpisodeEvaluation(evaluation_env(config), specs, run_dir,
                                          agent.eval_freq, clock_start)
+    if pretrained:
+        # The imitation alone, as step 0 of the curve: RL must do better to replace it.
+        evaluation.evaluate_model(model)
     checkpoints = ResumableCheckpoint(run_dir, agent.checkpoint_freq, logs)
     remaining = agent.total_steps - model.num_timesteps
     if remaining > 0:

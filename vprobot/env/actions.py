@@ -6,12 +6,16 @@ object-centred frame: origin at the object's centre, axes parallel to the world'
 Absolute orientations are ZYZ Euler angles with the roll gamma = 0, R = Rz(alpha) Ry(beta):
 the viewing axis is then (sin b cos a, sin b sin a, cos b). The `_lim` variants look at the
 centre and deviate by d_alpha about the sensor's y axis (pan) and d_beta about its x axis (tilt).
+
+`A_view` is discrete: action k requests the k-th band candidate (`planners.candidates`), the
+look-at view at the working distance that `nbv` requests as its candidate k.
 """
 
 from __future__ import annotations
 
 import dataclasses
 
+import gymnasium as gym
 import numpy as np
 
 from vprobot.config import ActionName, EnvConfig
@@ -29,6 +33,9 @@ ACTION_SIZES: dict[str, int] = {
     "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,
     "A_3S2R": 5, "A_3S2R_lim": 5, "A_3C0R": 3, "A_3C2R": 5,
 }
+"""Components of the continuous (Box) variants."""
+VIEW_ACTION = "A_view"
+"""The discrete variant: the index of a band candidate."""
 
 
 def _unit(value: float, low: float, high: float) -> float:
@@ -66,15 +73,43 @@ class ActionMapping:
     """
 
     def __init__(self, config: EnvConfig, working_distance_m: float):
-        if config.action not in ACTION_SIZES:
-            raise ValueError(f"unknown action {config.action!r}; allowed: {list(ACTION_SIZES)}")
+        if config.action not in (*ACTION_SIZES, VIEW_ACTION):
+            raise ValueError(f"unknown action {config.action!r}; allowed: "
+                             f"{[*ACTION_SIZES, VIEW_ACTION]}")
         self.name: ActionName = config.action
-        self.view_size = ACTION_SIZES[config.action]
+        self.discrete = config.action == VIEW_ACTION
+        if self.discrete:
+            # Imported here: the planners package imports this module.
+            from vprobot.planners.candidates import band_directions
+
+            self.directions = band_directions()
+        self.view_size = 1 if self.discrete else ACTION_SIZES[config.action]
         # With a stop decision the last component says "stop here" when it is > 0.
         self.size = self.view_size + (1 if config.stop_action else 0)
         self.config = config
         self.working_distance_m = working_distance_m
         self.deviation_rad = np.deg2rad(config.deviation_limit_deg)
+
+    @property
+    def space(self) -> gym.spaces.Space:
+        """The action space: Discrete(candidates) for `A_view`, else Box [-1, 1]^size."""
+        if self.discrete:
+            return gym.spaces.Discrete(len(self.directions))
+        return gym.spaces.Box(-1.0, 1.0, (self.size,), dtype=np.float32)
+
+    def candidate(self, action: np.ndarray | int) -> int:
+        """The band candidate an `A_view` action requests: one integer in [0, count).
+
+        Raises:
+            ValueError: Naming the bad action and what is allowed.
+        """
+        array = np.asarray(action)
+        count = len(self.directions)
+        if (array.size != 1 or not np.issubdtype(array.dtype, np.integer)
+                or not 0 <= int(array.reshape(-1)[0]) < count):
+            raise ValueError(f"action for {VIEW_ACTION} must be one integer in [0, {count}), "
+                             f"got {array.tolist()!r}")
+        return int(array.reshape(-1)[0])
 
     def check(self, action: np.ndarray) -> np.ndarray:
         """Validate an action: shape (size,), finite, every component in [-1, 1].
@@ -134,6 +169,9 @@ class ActionMapping:
 
     def view(self, action: np.ndarray) -> RequestedView:
         """The requested view of a (validated) action."""
+        if self.discrete:
+            return self._look_at_center(self.working_distance_m
+                                        * self.directions[self.candidate(action)])
         a = self.check(action)[: self.view_size]
         name = self.name
         if name in ("A_3C0R", "A_3C2R"):

@@ -25,15 +25,14 @@ import numpy as np
 
 from vprobot.config import Config, load_config, replace
 from vprobot.env.actions import ActionMapping
-from vprobot.env.observations import observation_space, observe
-from vprobot.env.rewards import Reward, RewardTerms
+from vprobot.env.observations import Observer, observation_space
+from vprobot.env.rewards import Reward, RewardTerms, step_limit
 from vprobot.episode import (
     Episode,
     EpisodeRecord,
     EpisodeSpec,
     MotorScene,
     ViewRecord,
-    ViewRequest,
     sample_episode,
 )
 from vprobot.kinematics import TRAVEL_COSTS
@@ -76,13 +75,37 @@ class InspectEnv(gym.Env):
     |---|---|
     | `s_cov` | (state_points, 3): the accumulated acquired cloud P_cov, resampled (model-free) |
     | `s_bin` | (state_points, 4): GT points plus a 0/1 "covered" column (needs the model) |
+    | `s_grid` | Dict `candidates` (K, 17), `mask` (K,); K = 128 band candidates (needs `A_view`) |
     | `robot_state` | adds a Dict entry `robot` (15,): sensor position, its x and z axes, joints |
 
     Coordinates are object-centred (world-aligned axes), divided by `state_scale_m`.
 
+    `s_grid` (`env.grid_state`) keeps the episode's occupancy grid, as `nbv` does, and gives one
+    row per band candidate, in the order of the `A_view` actions:
+
+    | column | feature | range |
+    |---|---|---|
+    | 0-2 | gains `unknown`, `frontier`, `rear_side` / (rays x a ray's largest gain) | [0, 1] |
+    | 3-5 | the same / the largest of an offered candidate (1: `nbv`'s pick) | [0, 1] |
+    | 6-8 | the candidate's direction from the centre (object frame, world axes) | [-1, 1] |
+    | 9 | cosine to the closest earlier request, taken or failed (-1: none) | [-1, 1] |
+    | 10 | cosine to the sensor's current direction (how far the move is) | [-1, 1] |
+    | 11 | 1 if the sensor is at the candidate (within 1 deg) | {0, 1} |
+    | 12 | 1 if the carrier failed to reach the candidate earlier in the episode | {0, 1} |
+    | 13 | 1 if the robot reaches it (screened once per episode; always 1 free-flying) | {0, 1} |
+    | 14 | largest joint move to its screened configuration / pi (0 free-flying) | [0, 1] |
+    | 15 | requests used of the budget (the step limit) | [0, 1] |
+    | 16-18 | shares of the grid's voxels occupied, free, unknown | [0, 1] |
+
+    Columns 15-18 are the same on every row. `mask` is 1 where the candidate may be requested:
+    reachable, not within 10 deg (`candidates.EXCLUDE_DEG`) of an earlier request, taken or
+    failed, and not failed; if that leaves none, every candidate that did not fail is unmasked.
+
     ## Action
     Box [-1, 1]^n of the `action` variant: A_2S0R (2), A_3S0R (3), A_2S2R (4), A_2S2R_lim (4),
     A_3S2R (5), A_3S2R_lim (5, paper default), A_3C0R (3), A_3C2R (5); see `env.actions`.
+    `A_view` is Discrete(K): action k requests band candidate k, the look-at view at the working
+    distance that `nbv` requests (not with `stop_action`).
 
     ## Reward
     R1-R8 dense (coverage gain, remaining coverage, travel cost k_t), R9-R14 sparse at the last
@@ -131,10 +154,10 @@ class InspectEnv(gym.Env):
         self.actions = ActionMapping(config.env, config.sensor.working_distance_m)
         self.reward_function = Reward(config.env.reward, config.env.travel_cost_floor,
                                       config.env.unreachable_penalty)
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.size,), dtype=np.float32)
+        self.action_space = self.actions.space
         self.observation_space = observation_space(config)
-        self.step_limit = (config.env.goal_only_step_cap if self.reward_function.goal_only
-                           else config.env.max_acquisitions)
+        self.observer = Observer(config, config.env.resolution)
+        self.step_limit = step_limit(config.env)
         self._scenes: dict[tuple[Path, float], MotorScene] = {}
         self._renderer = None
         self._renderer_cell = None
@@ -191,6 +214,7 @@ class InspectEnv(gym.Env):
             raise ValueError(f"options['episode'] must be an EpisodeSpec or its dict, got "
                              f"{type(spec).__name__}")
         self.spec_of_episode = spec
+        self.observer.reset()
         scene = self.scene(spec.motor_path, spec.scale)
         self.episode = Episode.from_spec(scene, spec, self.config.env.carrier,
                                          self.config.env.unreachable)
@@ -212,10 +236,10 @@ class InspectEnv(gym.Env):
         episode, env = self.episode, self.config.env
         if self.actions.stops(action):
             return self._stop()
-        target = self.actions.target(action, episode.center,
-                                     self.config.kinematics.roll == "free")
+        request = self.observer.request(self.actions, action, episode.center,
+                                        self.config.kinematics.roll == "free")
         coverage_before = episode.coverage
-        view = episode.request(ViewRequest(target))
+        view = episode.request(request)
         self.steps += 1
         # An agent that decides when to stop is not stopped at the goal.
         terminated = episode.coverage >= env.coverage_goal and not env.stop_action
@@ -249,7 +273,7 @@ class InspectEnv(gym.Env):
         return self._observation(), reward, True, False, self._info(None, 0.0, terms)
 
     def _observation(self) -> Any:
-        return observe(self.episode, self.config.env, self.np_random)
+        return self.observer.observe(self.episode, self.np_random)
 
     def _info(self, view: ViewRecord | None, delta: float,
               terms: RewardTerms | None) -> dict[str, Any]:

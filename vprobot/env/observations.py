@@ -3,6 +3,8 @@
 Point coordinates are in the object-centred frame: origin at the object's centre, axes parallel
 to the world's (z up), so the episode's random rotation and tilt show in the state. They are
 divided by a fixed scale from the config (`env.state_scale_m`), not by a per-object min-max.
+The `s_grid` state is built in `vprobot.env.grid_state`. The env and the agent planner each own
+an `Observer`, so that an agent plans from the very state it was trained on.
 """
 
 from __future__ import annotations
@@ -13,10 +15,13 @@ import numpy as np
 from gymnasium import spaces
 
 from vprobot.config import Config, EnvConfig
+from vprobot.env.grid_state import GridState, candidate_count, grid_spaces
+from vprobot.episode.records import ViewRequest
 from vprobot.geometry import Pose
 from vprobot.robots import load_robot
 
 if TYPE_CHECKING:
+    from vprobot.env.actions import ActionMapping
     from vprobot.episode import Episode
 
 POINT_BOUND = 4.0
@@ -42,13 +47,18 @@ def points_space(config: EnvConfig) -> spaces.Box:
 
 def observation_space(config: Config) -> spaces.Space:
     """A Box of points, or a Dict of points and robot state when `env.robot_state` is set (sized
-    by the joints of the configured robot)."""
-    points = points_space(config.env)
-    if not config.env.robot_state:
-        return points
-    size = robot_state_size(load_robot(config.cell.robot).dof)
-    robot = spaces.Box(-POSITION_BOUND, POSITION_BOUND, (size,), dtype=np.float32)
-    return spaces.Dict({"points": points, "robot": robot})
+    by the joints of the configured robot); for `s_grid` a Dict of candidates and mask (and the
+    robot state)."""
+    if config.env.state == "s_grid":
+        entries: dict[str, spaces.Space] = dict(grid_spaces(candidate_count()))
+    elif not config.env.robot_state:
+        return points_space(config.env)
+    else:
+        entries = {"points": points_space(config.env)}
+    if config.env.robot_state:
+        size = robot_state_size(load_robot(config.cell.robot).dof)
+        entries["robot"] = spaces.Box(-POSITION_BOUND, POSITION_BOUND, (size,), dtype=np.float32)
+    return spaces.Dict(entries)
 
 
 def resample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
@@ -87,24 +97,64 @@ def robot_state(sensor_pose: Pose, object_center: np.ndarray, joints: np.ndarray
     ]).astype(np.float32)
 
 
-def observe(episode: Episode, config: EnvConfig, rng: np.random.Generator) -> Any:
-    """The state of an episode (docs/states-actions-rewards.md#states): what the agent is given.
+class Observer:
+    """Builds the state of episodes: what the agent is given
+    (docs/states-actions-rewards.md#states).
 
     With `s_cov` the points are the accumulated acquired cloud only, posed in the world-aligned
     object frame (the model-free premise: a real cell measures these points in the world and
     knows where the fixture holds the object); `s_bin` shows the ground truth and its covered
-    flags, so it needs the object model.
+    flags, so it needs the object model; `s_grid` (model-free) keeps the episode's occupancy
+    grid, so `reset` must start every episode.
+
+    Args:
+        config: The configuration (`env` says which state).
+        resolution: The resolution of the episodes' frames; None for the configured sensor's.
     """
-    rotation = episode.object_pose.rotation
-    if config.state == "s_cov":
-        cloud = episode.tracker.accumulated_cloud @ rotation.T
-        points = scaled(resample(cloud, config.state_points, rng), config)
-    else:
-        rows = gt_rows(len(episode.tracker.gt_points), config.state_points)
-        gt = episode.tracker.gt_points[rows] @ rotation.T
-        points = np.column_stack([scaled(gt, config), episode.tracker.covered[rows]])
-    points = points.astype(np.float32)
-    if not config.robot_state:
-        return points
-    state = robot_state(episode.sensor_pose(), episode.center, episode.q, config)
-    return {"points": points, "robot": state}
+
+    def __init__(self, config: Config, resolution: tuple[int, int] | None = None):
+        self.config = config.env
+        self.grid_state = (GridState(config, resolution) if config.env.state == "s_grid"
+                           else None)
+
+    def reset(self) -> None:
+        """A new episode."""
+        if self.grid_state is not None:
+            self.grid_state.reset()
+
+    def request(self, mapping: ActionMapping, action: np.ndarray | int, center: np.ndarray,
+                roll_free: bool) -> ViewRequest:
+        """The view request of an action. With `s_grid` an `A_view` request carries the
+        configuration the screening found for its candidate: the robot drives there when the
+        path is free (as B_SCP executes its candidates), else reaches it by IK from where it
+        is, as any request."""
+        target = mapping.target(action, center, roll_free)
+        joints = (None if self.grid_state is None
+                  else self.grid_state.joints_of(mapping.candidate(action)))
+        return ViewRequest(target, joints)
+
+    def observe(self, episode: Episode, rng: np.random.Generator) -> Any:
+        """The state of the episode so far (`rng` resamples the point states)."""
+        config = self.config
+        if self.grid_state is not None:
+            state: dict[str, np.ndarray] = self.grid_state.observe(episode)
+        else:
+            points = self._points(episode, rng)
+            if not config.robot_state:
+                return points
+            state = {"points": points}
+        if config.robot_state:
+            state["robot"] = robot_state(episode.sensor_pose(), episode.center, episode.q, config)
+        return state
+
+    def _points(self, episode: Episode, rng: np.random.Generator) -> np.ndarray:
+        config = self.config
+        rotation = episode.object_pose.rotation
+        if config.state == "s_cov":
+            cloud = episode.tracker.accumulated_cloud @ rotation.T
+            points = scaled(resample(cloud, config.state_points, rng), config)
+        else:
+            rows = gt_rows(len(episode.tracker.gt_points), config.state_points)
+            gt = episode.tracker.gt_points[rows] @ rotation.T
+            points = np.column_stack([scaled(gt, config), episode.tracker.covered[rows]])
+        return points.astype(np.float32)

@@ -11,10 +11,12 @@ import abc
 import hashlib
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, TypeVar
 
 import numpy as np
 import trimesh
+
+from vprobot.registry import Registry
 
 Values = Mapping[str, float]
 """Parameter values of one instance by name (integer parameters hold ints)."""
@@ -106,3 +108,19 @@ class PartFamily(abc.ABC):
             raise RuntimeError(f"{self.name} seed {seed} is not one closed solid: {values}")
         mesh.apply_translation(-mesh.bounds.mean(axis=0))
         return Instance(self.name, seed, values, mesh)
+
+
+FAMILIES: Registry[PartFamily] = Registry("part family")
+"""Every family by name (one instance each), in registration order."""
+
+F = TypeVar("F", bound=type[PartFamily])
+
+
+def register_family(cls: F) -> F:
+    """Class decorator: registers an instance of a family under its `name`.
+
+    Raises:
+        ValueError: If a family of that name is already registered.
+    """
+    FAMILIES.register(cls.name, cls())
+    return cls

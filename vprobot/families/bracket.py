@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import OVERLAP_M, box, carve, hull, rod
 
 
+@register_family
 class Bracket(PartFamily):
     name = "bracket"
     description = "L bracket or U channel from plate, bolt-hole rows, optional corner gussets"

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import OVERLAP_M, carve, cylinder_x, polar, revolve_x
 
 
+@register_family
 class Flange(PartFamily):
     name = "flange"
     description = "weld-neck flange: disc, raised face, tapered neck, bore, bolt circle"

@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import OVERLAP_M, box, carve, cylinder_x, rod
 
 
+@register_family
 class Housing(PartFamily):
     name = "housing"
     description = "open-topped gearbox housing: bearing bosses, side ribs, bolted foot lugs"

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import carve, circle, cylinder_x, hull
 
 
@@ -16,6 +16,7 @@ def _stadium(r0: float, r1: float, y0: float, y1: float, x0: float, x1: float) -
     return hull([(x, y, z) for y, z in ring for x in (x0, x1)])
 
 
+@register_family
 class Lever(PartFamily):
     name = "lever"
     description = "lever: flat arm between two bored bosses, optional lightening slot"

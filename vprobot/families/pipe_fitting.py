@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import OVERLAP_M, carve, revolve_x, rod
 
 _KINDS = ("tee", "elbow", "cross", "reducer")
@@ -28,6 +28,7 @@ def _flange(direction: np.ndarray, end: float, pipe: float, radius: float, thick
     return disc, holes
 
 
+@register_family
 class PipeFitting(PartFamily):
     name = "pipe_fitting"
     description = "hollow pipe fitting (tee, elbow, cross, reducer), optional bolted end flanges"

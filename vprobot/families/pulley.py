@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import OVERLAP_M, carve, cylinder_x, keyed_bore_x, revolve_x, web_cuts
 
 
+@register_family
 class Pulley(PartFamily):
     name = "pulley"
     description = "V-belt pulley: grooved rim, recessed web with holes, offset hub, keyed bore"

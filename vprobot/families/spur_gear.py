@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import (
     OVERLAP_M,
     carve,
@@ -17,6 +17,7 @@ from vprobot.families.solids import (
 )
 
 
+@register_family
 class SpurGear(PartFamily):
     name = "spur_gear"
     description = "spur gear: teeth, recessed web with lightening holes, hub, keyed bore"

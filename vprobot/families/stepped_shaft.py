@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import OVERLAP_M, box, carve, revolve_x, rod
 
 
+@register_family
 class SteppedShaft(PartFamily):
     name = "stepped_shaft"
     description = "stepped shaft: journals up to a collar, chamfers, keyway, cross hole"

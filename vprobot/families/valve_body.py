@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from vprobot.families.base import Parameter, PartFamily, Values
+from vprobot.families.base import Parameter, PartFamily, Values, register_family
 from vprobot.families.solids import OVERLAP_M, carve, cylinder_x, polar, rod
 
 
@@ -21,6 +21,7 @@ def _bolt_circle(count: int, pitch: float, radius: float, start: np.ndarray, end
     return holes
 
 
+@register_family
 class ValveBody(PartFamily):
     name = "valve_body"
     description = "globe valve body: hollow ball, flanged ends, bonnet neck with bolted flange"

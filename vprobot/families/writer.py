@@ -7,21 +7,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from vprobot.families.base import PartFamily
+from vprobot.families.base import FAMILIES
 from vprobot.files import atomic_output, batch_folder, write_text
-
-
-def family(name: str) -> PartFamily:
-    """The registered family called `name`.
-
-    Raises:
-        ValueError: If there is none; the message lists the families.
-    """
-    from vprobot.families import FAMILIES
-
-    if name not in FAMILIES:
-        raise ValueError(f"unknown part family {name!r}; families: {', '.join(FAMILIES)}")
-    return FAMILIES[name]
 
 
 def instance_stem(name: str, seed: int) -> str:
@@ -49,7 +36,7 @@ def generate_instances(name: str, count: int, seed: int, out_dir: Path,
     Raises:
         ValueError: If the family is unknown, count < 1 or seed < 0.
     """
-    part = family(name)
+    part = FAMILIES[name]
     out_dir = batch_folder(out_dir, count, seed)
     paths = []
     for s in tqdm(range(seed, seed + count), desc=name, unit="part", disable=not progress):

@@ -6,7 +6,7 @@ episode spec fixes it;
 document and a summary.
 """
 
-from vprobot.planners.base import Planner, PlanPlanner
+from vprobot.planners.base import PLANNERS, Planner, PlanPlanner, register_planner
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import CandidateViews, candidate_views
 from vprobot.planners.greedy import greedy_cover
@@ -15,18 +15,18 @@ from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.ordering import order_requests, order_views
 from vprobot.planners.random_views import Random1Planner, Random2Planner
 from vprobot.planners.runner import (
-    PLANNER_NAMES,
     EpisodeResult,
     make_planner,
     parse_planner,
     plan_motor,
+    planner_names,
     run,
     run_episode,
     summary,
 )
 
 __all__ = [
-    "PLANNER_NAMES",
+    "PLANNERS",
     "BoxFacesPlanner",
     "CandidateViews",
     "EpisodeResult",
@@ -43,6 +43,8 @@ __all__ = [
     "order_views",
     "parse_planner",
     "plan_motor",
+    "planner_names",
+    "register_planner",
     "run",
     "run_episode",
     "summary",

@@ -2,8 +2,9 @@
 
 Like the paper's agents it starts from the episode's initial view and chooses one view at a time
 from what was acquired so far: the episode's state is built exactly as the env builds it for the
-agent's training (`vprobot.env.observations.observe`), so an `s_cov` agent is handed the acquired
-cloud only, never the mesh or the ground truth. It stops at the coverage goal (a simulation can
+agent's training (`vprobot.env.observations.Observer`), so an `s_cov` agent is handed the
+acquired cloud only, and an `s_grid` agent the features of the band candidates from the acquired
+frames, never the mesh or the ground truth. It stops at the coverage goal (a simulation can
 tell); given `views`, after that many views in all, the initial one included; an agent trained
 with `stop_action` decides itself when to stop (a real cell, where coverage is unknown).
 """
@@ -14,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.env.actions import ActionMapping
-from vprobot.env.observations import observe
+from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Planner
+from vprobot.planners.base import Planner, register_planner
 
 
+@register_planner
 class AgentPlanner(Planner):
     """Plans with a trained policy (deterministic).
 
@@ -32,24 +33,40 @@ class AgentPlanner(Planner):
     """
 
     name = "agent"
+    pattern = r"(?::(?P<source>.+))?"
+    usage = "agent, agent:PATH"
+    counted = True
     initial_view = True
 
     def __init__(self, source: str | Path | None = None, views: int | None = None):
+        # Imported here: the env's observations build on the planners' candidates, and the
+        # agent needs torch, which the other planners do not.
         from vprobot.agents.trained import load_agent
+        from vprobot.env.actions import ActionMapping
+        from vprobot.env.observations import Observer
 
         if views is not None and views < 1:
             raise ValueError(f"views must be >= 1, got {views}")
         self.agent = load_agent(source)
         config = self.agent.config
         self.mapping = ActionMapping(config.env, config.sensor.working_distance_m)
+        # The planner's episodes acquire at the sensor's own resolution, not at the coarser one
+        # the agent may have trained at (`env.resolution`).
+        self.observer = Observer(config)
         self.roll_free = config.kinematics.roll == "free"
         self.views = views
         self.decides_stop = config.env.stop_action
         self.stops_at_goal = views is None and not self.decides_stop
         self._rng = np.random.default_rng(0)
 
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        """The agent of `agent:PATH`, or the bundled one (`agent`)."""
+        return cls(params.get("source"), views)
+
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._rng = rng
+        self.observer.reset()
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
         env = self.agent.config.env
@@ -57,8 +74,8 @@ class AgentPlanner(Planner):
             return None
         if self.decides_stop and len(episode.views) > env.max_acquisitions:
             return None
-        observation = observe(episode, env, self._rng)
+        observation = self.observer.observe(episode, self._rng)
         action, _ = self.agent.model.predict(observation, deterministic=True)
         if self.views is None and self.mapping.stops(action):
             return None
-        return ViewRequest(self.mapping.target(action, episode.center, self.roll_free))
+        return self.observer.request(self.mapping, action, episode.center, self.roll_free)

@@ -4,16 +4,21 @@ A `Planner` is asked for one `ViewRequest` at a time for an `Episode` (robot in 
 free-flying sensor, `vprobot.episode`) until it returns None or the runner stops it (coverage
 goal, view budget); planners that compute a whole plan up front (`PlanPlanner`) hand it out
 view by view.
+
+Every planner registers its class in `PLANNERS` under its `name` (`register_planner`); the
+runner builds planners by name from there (`vprobot.planners.runner.make_planner`).
 """
 
 from __future__ import annotations
 
 import abc
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, ClassVar, TypeVar
 
 import numpy as np
 
+from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
+from vprobot.registry import Registry
 
 if TYPE_CHECKING:
     # candidates builds on this module's interface.
@@ -24,7 +29,12 @@ class Planner(abc.ABC):
     """Chooses the views of an episode.
 
     Attributes:
-        name: Registry name (`random1`, `random2`, `hrec`, `bscp`, `oracle`, `uniform`, `nbv`).
+        name: Its name in `PLANNERS` (`random1`, `hrec`, `uniform`, `nbv`, ...).
+        pattern: What may follow `name` in a planner name, a regular expression whose named
+            groups are passed to `from_name` (`uniform` takes `(?P<count>[1-9][0-9]*)`:
+            `uniform12`); empty: the bare name only.
+        usage: The planner name as messages list it (`uniform<k>`); empty: `name`.
+        counted: Whether a fixed number of views may be given (`bscp5`, `--views 5`).
         initial_view: Whether the episode starts with the environment's fixed initial view, as
             the next-best-view agents of the paper do (whole-plan baselines do not).
         stops_at_goal: Whether the runner stops at the coverage goal (a fixed plan runs out).
@@ -34,10 +44,19 @@ class Planner(abc.ABC):
     """
 
     name: ClassVar[str]
+    pattern: ClassVar[str] = ""
+    usage: ClassVar[str] = ""
+    counted: ClassVar[bool] = False
     initial_view: ClassVar[bool] = False
     stops_at_goal: bool = True
     candidates: CandidateViews | None = None
     stop_reason: str | None = None
+
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        """The planner a name selects: `views` is given only to a `counted` planner, `params`
+        are the groups of `pattern` that matched (the default takes neither)."""
+        return cls()
 
     @abc.abstractmethod
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
@@ -63,3 +82,18 @@ class PlanPlanner(Planner):
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
         return self._queue.pop(0) if self._queue else None
+
+
+PLANNERS: Registry[type[Planner]] = Registry("planner")
+"""Every planner class by name, in registration order."""
+
+P = TypeVar("P", bound=type[Planner])
+
+
+def register_planner(cls: P) -> P:
+    """Class decorator: registers a planner under its `name`.
+
+    Raises:
+        ValueError: If a planner of that name is already registered.
+    """
+    return PLANNERS.register(cls.name, cls)

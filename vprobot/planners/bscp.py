@@ -13,8 +13,9 @@ view on the measured coverage until the goal or the view budget is reached.
 
 from __future__ import annotations
 
+from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import PlanPlanner
+from vprobot.planners.base import Planner, PlanPlanner, register_planner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
     CONFIRMATIONS_PER_PICK,
@@ -25,6 +26,7 @@ from vprobot.planners.ordering import order_requests
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 
+@register_planner
 class SetCoverPlanner(PlanPlanner):
     """B_SCP over the usable candidates.
 
@@ -44,6 +46,7 @@ class SetCoverPlanner(PlanPlanner):
     """
 
     name = "bscp"
+    counted = True
 
     def __init__(self, views: int | None = None, goal: float = 0.9, max_views: int = 10,
                  candidate_count: int = CANDIDATE_COUNT,
@@ -64,6 +67,10 @@ class SetCoverPlanner(PlanPlanner):
         self.picks: list[int] = []
         self.gains: list[int] = []
         self._taken: set[int] = set()
+
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        return cls(views, goal=config.env.coverage_goal, max_views=config.env.max_acquisitions)
 
     def plan(self, episode: Episode) -> list[ViewRequest]:
         candidates = candidate_views(episode, self.candidate_count, self.resolution)

@@ -1,4 +1,5 @@
-"""Candidate views of the model-based planners: the view sphere, its reachable part, visibility.
+"""Candidate views: the model-based planners' view sphere, its reachable part and visibility;
+the model-free band candidates of `nbv` and of the environment's `A_view` action.
 
 The candidates are `count` positions spread evenly (Fibonacci lattice) over the sphere of the
 working distance around the object's centre, looking at the centre, from the top down to the
@@ -18,27 +19,36 @@ Without the robot every candidate is usable at its look-at pose.
 Visibility of the ground-truth points from every usable candidate is predicted by
 `VisibilityRenderer` (all candidates in a few numpy passes); planners confirm the candidates they
 are about to take with a simulated acquisition (`measured`).
+
+The band candidates (`band_candidates`) know nothing of the object: `BAND_COUNT` look-at views
+over the same part of the sphere at the working distance around the cell's object centre, with
+their rays through the cell's occupancy grid. `offered` says which of them may still be
+requested: none within `EXCLUDE_DEG` of an earlier request and none that failed.
 """
 
 from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
 import time
 from collections.abc import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from vprobot.config import Config
 from vprobot.coverage import EPSILON_PER_SPACING
-from vprobot.episode import Episode, ViewRequest
+from vprobot.episode import Episode, ViewRecord, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
+from vprobot.occupancy import OccupancyGrid, ViewGains
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
 from vprobot.progress import stage
+from vprobot.sensor_model import SensorModel
 from vprobot.viewsphere import sphere_directions
 
 CANDIDATE_COUNT = 900
@@ -50,6 +60,10 @@ CONFIRMATIONS_PER_PICK = 6
 covers 96.2 % with none, 97.9 % with 4, 98.4 % with 8 and 99.3 % unlimited, which takes 63
 acquisitions a plan on average and up to 150."""
 _NEIGHBOURS = 8
+BAND_COUNT = 128
+"""Band candidates (model-free): about 15 degrees apart."""
+EXCLUDE_DEG = 10.0
+"""Band candidates this close to an earlier request are not offered again."""
 SIGHT_OFFSETS_M = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [-0.04, 0.0, 0.0],
                             [0.0, 0.04, 0.0], [0.0, -0.04, 0.0]])
 """Points about the centre, across the image (sensor frame), that the arm must not hide."""
@@ -234,3 +248,54 @@ def screen_reachability(arm: RobotArm, collisions: CollisionChecker, start_q: np
                         visited[neighbour] = True
                         queue.append(neighbour)
     return joints, tuple(reasons)
+
+
+@dataclasses.dataclass(frozen=True)
+class BandCandidates:
+    """The model-free candidate views of a cell.
+
+    Attributes:
+        targets: Look-at targets at the working distance around the cell's object centre.
+        directions: Their unit directions from the centre (count, 3), world axes.
+        gains: Their rays through the cell's occupancy grid.
+    """
+
+    targets: tuple[SensorTarget, ...]
+    directions: np.ndarray
+    gains: ViewGains
+
+    def __len__(self) -> int:
+        return len(self.targets)
+
+
+def band_directions() -> np.ndarray:
+    """Unit directions (`BAND_COUNT`, 3) of the band candidates from the object's centre."""
+    return sphere_directions(BAND_COUNT, np.deg2rad(MAX_POLAR_DEG))
+
+
+@functools.lru_cache(maxsize=4)
+def band_candidates(config: Config, voxel_m: float) -> BandCandidates:
+    """The band candidates of a cell and their rays through its grid of `voxel_m` voxels;
+    cached, as they depend on the cell and the sensor only."""
+    directions = band_directions()
+    sensor = SensorModel.from_config(config.sensor)
+    targets = look_at_targets(np.asarray(config.cell.object_center_m),
+                              sensor.working_distance_m, directions)
+    return BandCandidates(targets, directions,
+                          ViewGains(OccupancyGrid.for_cell(config, voxel_m), sensor,
+                                    [target.pose for target in targets]))
+
+
+def request_directions(views: Sequence[ViewRecord], center: np.ndarray) -> np.ndarray:
+    """Unit directions (n, 3) from the object's centre to where each view was requested."""
+    requested = np.array([view.requested.position - center for view in views]).reshape(-1, 3)
+    return requested / np.linalg.norm(requested, axis=1, keepdims=True)
+
+
+def offered(directions: np.ndarray, requested: np.ndarray, failed: np.ndarray) -> np.ndarray:
+    """Which candidates may be requested: none that failed (bool, count) and none within
+    `EXCLUDE_DEG` of a requested direction (n, 3; taken or failed)."""
+    allowed = ~failed
+    if len(requested):
+        allowed &= (directions @ requested.T).max(axis=1) < np.cos(np.deg2rad(EXCLUDE_DEG))
+    return allowed

@@ -18,7 +18,7 @@ import numpy as np
 
 from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
-from vprobot.planners.base import PlanPlanner
+from vprobot.planners.base import PlanPlanner, register_planner
 from vprobot.planners.ordering import fixed_plan
 
 
@@ -31,6 +31,7 @@ def box_views(vertices_world: np.ndarray, center: np.ndarray,
     return [SensorTarget.look_at(middle + distance * normal, center) for normal in normals]
 
 
+@register_planner
 class BoxFacesPlanner(PlanPlanner):
     """H_rec: six bounding-box face views."""
 

@@ -2,8 +2,9 @@
 
 Like the agents it starts from the episode's initial view. After every acquisition the frame is
 integrated into an occupancy grid over where an object may stand in the cell
-(`vprobot.occupancy`); the candidates are `CANDIDATE_COUNT` look-at views spread evenly over the
-view band at the working distance (as `uniform<k>`), each scored by the expected information of
+(`vprobot.occupancy`); the candidates are the band candidates (`candidates.band_candidates`:
+look-at views spread evenly over the view band at the working distance, as `uniform<k>`), each
+scored by the expected information of
 its rays through the grid (`DEFAULT_GAIN`). The best candidate is requested next, skipping
 candidates within `EXCLUDE_DEG` of an earlier request (taken or failed) and, with the robot,
 candidates the IK cannot reach from the current configuration or where the arm would hide the
@@ -23,66 +24,61 @@ the fixture) keeps it above 60 % of its first value after ten views that saw eve
 
 from __future__ import annotations
 
-import functools
+from collections.abc import Callable
 
 import numpy as np
 
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
-from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import SensorTarget
-from vprobot.occupancy import GAINS, VOXEL_M, Gain, OccupancyGrid, ViewGains
-from vprobot.planners.base import Planner
-from vprobot.planners.candidates import arm_hides_view, look_at_targets
-from vprobot.sensor_model import SensorModel
-from vprobot.viewsphere import sphere_directions
+from vprobot.occupancy import GAINS, VOXEL_M, EpisodeGrid, Gain
+from vprobot.planners.base import Planner, register_planner
+from vprobot.planners.candidates import EXCLUDE_DEG as EXCLUDE_DEG
+from vprobot.planners.candidates import (
+    arm_hides_view,
+    band_candidates,
+    offered,
+    request_directions,
+)
+from vprobot.registry import Registry
 
-CANDIDATE_COUNT = 128
-"""Candidate views over the band: about 15 degrees apart."""
 DEFAULT_GAIN: Gain = "unknown"
-EXCLUDE_DEG = 10.0
-"""Candidates this close to an earlier request are not offered again."""
 REACH_TRIES = 40
 """IK attempts per view at most (best candidates first)."""
 STOP_NEW_SURFACE = 0.02
 """The grid stop: the share of occupied voxels an acquisition added (chosen on the training
 motors)."""
 STOP_QUIET_VIEWS = 2
-STOP_RULES = ("goal", "grid")
+
+StopRule = Callable[["VolumetricPlanner", Episode], "str | None"]
+"""Why the planner stops itself now, else None; from what the planner measured (model-free)."""
+STOP_RULES: Registry[StopRule | None] = Registry("stop rule")
+"""The rules of `nbv@RULE` by name: a new rule is a function registered here. `goal` (None)
+leaves stopping to the runner, at the coverage goal, which only a simulation knows."""
+STOP_RULES.register("goal", None)
 
 
-@functools.lru_cache(maxsize=4)
-def _candidates(config: Config, voxel_m: float) -> tuple[tuple[SensorTarget, ...], np.ndarray,
-                                                        ViewGains]:
-    """The candidate targets, their directions and their rays through the cell's grid; cached,
-    as they depend on the cell only."""
-    directions = sphere_directions(CANDIDATE_COUNT, np.deg2rad(MAX_POLAR_DEG))
-    sensor = SensorModel.from_config(config.sensor)
-    targets = look_at_targets(np.asarray(config.cell.object_center_m),
-                              sensor.working_distance_m, directions)
-    return targets, directions, ViewGains(OccupancyGrid.for_cell(config, voxel_m), sensor,
-                                          [target.pose for target in targets])
-
-
+@register_planner
 class VolumetricPlanner(Planner):
     """Next-best view by information gain on an occupancy grid.
 
     Args:
         config: The configuration (cell, sensor, view budget).
         gain: Which gain ranks the candidates (`vprobot.occupancy.GAINS`).
-        stop: `goal` (the runner stops at the coverage goal) or `grid` (the planner stops
-            itself, see the module docstring).
+        stop: A name in `STOP_RULES`: `goal` (the runner stops at the coverage goal) or `grid`
+            (the planner stops itself, see the module docstring).
         voxel_m: Voxel edge of the grid.
 
     Raises:
         ValueError: For an unknown gain or stop rule.
 
     Attributes:
-        added: Per informative frame of the latest episode (one the cell did not mostly
-            hide), the share of the occupied voxels it added: the stop rule's input.
+        episode_grid: The latest episode's grid; what each of its frames added to the
+            occupied voxels is the stop rule's input.
     """
 
     name = "nbv"
+    pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>\w+))?"
     initial_view = True
 
     def __init__(self, config: Config, gain: Gain = DEFAULT_GAIN, stop: str = "goal",
@@ -94,74 +90,43 @@ class VolumetricPlanner(Planner):
                              f"{', '.join(STOP_RULES)}")
         self.config = config
         self.gain = gain
-        self.stops_at_goal = stop == "goal"
+        self.stop_rule = STOP_RULES[stop]
+        self.stops_at_goal = self.stop_rule is None
         self.voxel_m = voxel_m
-        self.sensor = SensorModel.from_config(config.sensor)
         self._begin()
+
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        """`nbv`, `nbv:GAIN` (which gain ranks the views), `nbv@RULE` (a stop rule), or both."""
+        return cls(config, params.get("gain", DEFAULT_GAIN), params.get("stop", "goal"))
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._begin()
 
     def _begin(self) -> None:
         """A new episode: an all-unknown grid, nothing integrated, tried or stopped."""
-        self.grid = OccupancyGrid.for_cell(self.config, self.voxel_m)
-        self.added: list[float] = []
+        self.episode_grid = EpisodeGrid(self.config, voxel_m=self.voxel_m)
         self.stop_reason = None
-        self._integrated = 0
-        self._failed: set[int] = set()
-
-    def _integrate(self, episode: Episode) -> None:
-        for view in episode.views[self._integrated:]:
-            if view.sensor_pose is None:
-                continue
-            before = self.grid.counts()["occupied"]
-            self.grid.integrate(self.sensor, view.sensor_pose, view.points_world, view.pixels,
-                                view.blocked_pixels)
-            # A frame the cell mostly hid (e.g. by the robot) says nothing about what is left.
-            if len(view.blocked_pixels) < len(view.points_world):
-                after = self.grid.counts()["occupied"]
-                self.added.append((after - before) / max(after, 1))
-        self._integrated = len(episode.views)
-
-    def _offered(self, episode: Episode, directions: np.ndarray) -> np.ndarray:
-        """Candidates not yet tried and not within `EXCLUDE_DEG` of an earlier request."""
-        offered = np.ones(len(directions), dtype=bool)
-        offered[list(self._failed)] = False
-        requested = np.array([view.requested.position - episode.center
-                              for view in episode.views]).reshape(-1, 3)
-        if len(requested):
-            requested /= np.linalg.norm(requested, axis=1, keepdims=True)
-            closest = (directions @ requested.T).max(axis=1)
-            offered &= closest < np.cos(np.deg2rad(EXCLUDE_DEG))
-        return offered
+        self._failed = np.zeros(len(band_candidates(self.config, self.voxel_m)), dtype=bool)
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
-        self._integrate(episode)
-        if not self.stops_at_goal:
-            self.stop_reason = self._grid_stop(episode)
+        self.episode_grid.update(episode.views)
+        if self.stop_rule is not None:
+            self.stop_reason = self.stop_rule(self, episode)
             if self.stop_reason is not None:
                 return None
-        targets, directions, gains = _candidates(self.config, self.voxel_m)
-        scores = np.where(self._offered(episode, directions), gains.score(self.grid, self.gain),
-                          0.0)
+        band = band_candidates(self.config, self.voxel_m)
+        allowed = offered(band.directions, request_directions(episode.views, episode.center),
+                          self._failed)
+        scores = np.where(allowed, band.gains.score(self.episode_grid.grid, self.gain), 0.0)
         for index in np.argsort(-scores, kind="stable")[:REACH_TRIES]:
             if scores[index] <= 0.0:
                 break
-            request = self._reached(episode, targets[index])
+            request = self._reached(episode, band.targets[index])
             if request is not None:
                 return request
-            self._failed.add(int(index))
+            self._failed[index] = True
         self.stop_reason = "no reachable candidate adds anything"
-        return None
-
-    def _grid_stop(self, episode: Episode) -> str | None:
-        """Why the grid rule stops the episode now, else None."""
-        if len(episode.views) > self.config.env.max_acquisitions:
-            return "view budget"
-        recent = self.added[-STOP_QUIET_VIEWS:]
-        if len(self.added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
-            return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "
-                    f"{STOP_NEW_SURFACE:.0%} to the seen surface")
         return None
 
     @staticmethod
@@ -178,3 +143,16 @@ class VolumetricPlanner(Planner):
             return None
         return ViewRequest(target, result.q)
 
+
+
+@STOP_RULES.register("grid")
+def grid_stop(planner: VolumetricPlanner, episode: Episode) -> str | None:
+    """The grid rule: the surface seen has stopped growing, or the view budget is spent."""
+    if len(episode.views) > planner.config.env.max_acquisitions:
+        return "view budget"
+    added = planner.episode_grid.added
+    recent = added[-STOP_QUIET_VIEWS:]
+    if len(added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
+        return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "
+                f"{STOP_NEW_SURFACE:.0%} to the seen surface")
+    return None

@@ -12,11 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Planner
+from vprobot.planners.base import Planner, register_planner
 from vprobot.planners.candidates import CANDIDATE_COUNT, candidate_views
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 
+@register_planner
 class OraclePlanner(Planner):
     """Greedy next-best-view on the candidates' predicted visibility.
 

@@ -16,7 +16,7 @@ import numpy as np
 from vprobot.config import Config, EnvConfig
 from vprobot.env.actions import ActionMapping
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Planner
+from vprobot.planners.base import Planner, register_planner
 
 
 class RandomPlanner(Planner):
@@ -43,6 +43,7 @@ class RandomPlanner(Planner):
         return ViewRequest(self.mapping.target(action, episode.center, self.roll_free))
 
 
+@register_planner
 class Random1Planner(RandomPlanner):
     """NBV1^rand: A_3S2R, npk radius, absolute orientation."""
 
@@ -52,7 +53,12 @@ class Random1Planner(RandomPlanner):
         env = dataclasses.replace(config.env, action="A_3S2R", position_mapping="npk")
         super().__init__(env, config.sensor.working_distance_m, config.kinematics.roll == "free")
 
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        return cls(config)
 
+
+@register_planner
 class Random2Planner(RandomPlanner):
     """NBV2^rand: A_3S0R looking at the centre, radius over the sensor's range."""
 
@@ -63,3 +69,7 @@ class Random2Planner(RandomPlanner):
         env = dataclasses.replace(config.env, action="A_3S0R", position_mapping="npk",
                                   radius_range_m=(sensor.near_m, sensor.far_m))
         super().__init__(env, sensor.working_distance_m, config.kinematics.roll == "free")
+
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        return cls(config)

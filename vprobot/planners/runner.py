@@ -23,67 +23,50 @@ from vprobot.episode import (
 from vprobot.kinematics import TravelCost
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
-from vprobot.planners.base import Planner
-from vprobot.planners.bscp import SetCoverPlanner
+
+# The planner modules register themselves in PLANNERS when imported.
+from vprobot.planners import agent, bscp, hrec, nbv, oracle, random_views, uniform  # noqa: F401
+from vprobot.planners.base import PLANNERS, Planner
 from vprobot.planners.candidates import CandidateViews
-from vprobot.planners.hrec import BoxFacesPlanner
-from vprobot.planners.nbv import DEFAULT_GAIN, VolumetricPlanner
-from vprobot.planners.oracle import OraclePlanner
-from vprobot.planners.random_views import Random1Planner, Random2Planner
-from vprobot.planners.uniform import UniformPlanner
-
-_PLAIN_NAMES = ("random1", "random2", "hrec", "bscp", "oracle", "agent")
-PLANNER_NAMES = (*_PLAIN_NAMES, "uniform<k>", "nbv")
-"""The planners as messages list them; `uniform<k>` stands for uniform1, uniform2, ... (k fixed
-views)."""
-AGENT_PREFIX = "agent:"
-"""`agent:PATH` names a trained agent (a run directory or a model .zip); `agent` the bundled
-one."""
-_FIXED_COUNT = re.compile(r"^(bscp|agent)(\d+)$")
-_UNIFORM = re.compile(r"^uniform([1-9]\d*)$")
-_NBV = re.compile(r"^nbv(?::(?P<gain>\w+))?(?:@(?P<stop>\w+))?$")
-"""`nbv`, `nbv:GAIN` (which gain ranks the views), `nbv@grid` (self-stopped), or both."""
 
 
-def _known(name: str) -> bool:
-    """Whether a planner name (without a view count) names a planner."""
-    return (name in _PLAIN_NAMES or name.startswith(AGENT_PREFIX)
-            or _UNIFORM.match(name) is not None or _NBV.match(name) is not None)
+def planner_names() -> list[str]:
+    """The planners as messages list them (`uniform<k>` stands for uniform1, uniform2, ...: k
+    fixed views), in registration order."""
+    return [cls.usage or name for name, cls in PLANNERS.items()]
+
+
+def counted_planners() -> list[str]:
+    """The planners that take a fixed number of views (`bscp5`, `--views 5`)."""
+    return [name for name, cls in PLANNERS.items() if cls.counted]
+
+
+def _match(name: str) -> tuple[type[Planner], dict[str, str]] | None:
+    """The planner class a name (without a view count) selects and its pattern's groups."""
+    for registered, cls in PLANNERS.items():
+        match = re.fullmatch(re.escape(registered) + cls.pattern, name)
+        if match is not None:
+            return cls, {key: value for key, value in match.groupdict().items()
+                         if value is not None}
+    return None
 
 
 def make_planner(name: str, config: Config, views: int | None = None) -> Planner:
-    """A planner by name; `views` fixes the number of views of `bscp` (B_SCP,n) or of an agent
-    (the initial view included).
+    """A planner by name; `views` fixes the number of views of a `counted` planner (`bscp`:
+    B_SCP,n; an agent, the initial view included).
 
     Raises:
         ValueError: For an unknown name, `views` with a planner that has no view count, or an
             agent that cannot be loaded.
     """
-    agent = name == "agent" or name.startswith(AGENT_PREFIX)
-    if not _known(name):
-        raise ValueError(f"unknown planner {name!r}; allowed: {', '.join(PLANNER_NAMES)}, "
-                         f"{AGENT_PREFIX}PATH")
-    if views is not None and name != "bscp" and not agent:
-        raise ValueError(f"a fixed number of views applies to bscp and agents only, not to "
-                         f"{name!r}")
-    if agent:
-        from vprobot.planners.agent import AgentPlanner
-
-        return AgentPlanner(name.removeprefix(AGENT_PREFIX) if name != "agent" else None, views)
-    if name == "bscp":
-        return SetCoverPlanner(views, goal=config.env.coverage_goal,
-                               max_views=config.env.max_acquisitions)
-    if name == "oracle":
-        return OraclePlanner()
-    if name == "hrec":
-        return BoxFacesPlanner()
-    uniform = _UNIFORM.match(name)
-    if uniform is not None:
-        return UniformPlanner(config, int(uniform[1]))
-    nbv = _NBV.match(name)
-    if nbv is not None:
-        return VolumetricPlanner(config, nbv["gain"] or DEFAULT_GAIN, nbv["stop"] or "goal")
-    return Random1Planner(config) if name == "random1" else Random2Planner(config)
+    found = _match(name)
+    if found is None:
+        raise ValueError(f"unknown planner {name!r}; allowed: {', '.join(planner_names())}")
+    cls, params = found
+    if views is not None and not cls.counted:
+        raise ValueError(f"a fixed number of views applies to "
+                         f"{', '.join(counted_planners())} only, not to {name!r}")
+    return cls.from_name(config, views, **params)
 
 
 def parse_planner(spec: str, counted: bool = True) -> tuple[str, int | None]:
@@ -99,18 +82,20 @@ def parse_planner(spec: str, counted: bool = True) -> tuple[str, int | None]:
         ValueError: If the spec names no planner, or carries a view count that `counted`
             forbids; the message lists the accepted forms.
     """
-    if spec != AGENT_PREFIX and _known(spec):
+    if _match(spec) is not None:
         return spec, None
-    match = _FIXED_COUNT.match(spec)
-    if match is not None and int(match[2]) >= 1:
-        if counted:
-            return match[1], int(match[2])
-        raise ValueError(f"give the view count with --views, not in the name: "
-                         f"--planner {match[1]} --views {match[2]}")
-    forms = (", or bscp<N> / agent<N> for B_SCP / the bundled agent with N views (e.g. bscp5)"
-             if counted else "; a fixed number of views (bscp, agent) goes in --views")
-    raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(PLANNER_NAMES)}, "
-                     f"{AGENT_PREFIX}PATH for a trained agent{forms}")
+    for name in counted_planners():
+        match = re.fullmatch(re.escape(name) + r"(\d+)", spec)
+        if match is not None and int(match[1]) >= 1:
+            if counted:
+                return name, int(match[1])
+            raise ValueError(f"give the view count with --views, not in the name: "
+                             f"--planner {name} --views {match[1]}")
+    names = counted_planners()
+    forms = (f", or {' / '.join(f'{name}<N>' for name in names)} for these planners with N "
+             f"views (e.g. {names[0]}5)" if counted
+             else f"; a fixed number of views ({', '.join(names)}) goes in --views")
+    raise ValueError(f"unknown planner {spec!r}; allowed: {', '.join(planner_names())}{forms}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -293,7 +278,7 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         config: The configuration (cell, sensor, kinematics, env goal and budget).
         mesh_path: Mesh file; the bundled default motor when omitted.
         scale: Factor from the file's units to metres (0.001 for millimetres).
-        planner: One of `PLANNER_NAMES`.
+        planner: A planner name (`planner_names`).
         views: Fixed number of views for bscp; None plans until the coverage goal.
         carrier: `robot` (robot in the loop) or `free` (free-flying sensor).
         seed: Seed of the episode (object pose, initial view).

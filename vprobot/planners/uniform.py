@@ -33,7 +33,7 @@ from vprobot.episode import Episode, ViewRequest
 from vprobot.fit import fit_limit
 from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
-from vprobot.planners.base import PlanPlanner
+from vprobot.planners.base import Planner, PlanPlanner, register_planner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
     arm_hides_view,
@@ -118,6 +118,7 @@ def uniform_targets(config: Config, count: int, robot: bool
     return list(targets), None if joints is None else joints[chosen]
 
 
+@register_planner
 class UniformPlanner(PlanPlanner):
     """k fixed views spread over the view band, in a short travel order.
 
@@ -130,6 +131,8 @@ class UniformPlanner(PlanPlanner):
     """
 
     name = "uniform"
+    pattern = r"(?P<count>[1-9]\d*)"
+    usage = "uniform<k>"
     stops_at_goal = False
 
     def __init__(self, config: Config, count: int):
@@ -138,6 +141,10 @@ class UniformPlanner(PlanPlanner):
         super().__init__()
         self.config = config
         self.count = count
+
+    @classmethod
+    def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
+        return cls(config, int(params["count"]))
 
     def plan(self, episode: Episode) -> list[ViewRequest]:
         return fixed_plan(episode, *uniform_targets(self.config, self.count, episode.uses_robot))

@@ -1,4 +1,5 @@
-"""Point-cloud feature extractors for stable-baselines3 (`BaseFeaturesExtractor`).
+"""Point-cloud feature extractors for stable-baselines3 (`BaseFeaturesExtractor`), the networks
+of the encoders of `sac` and `ppo` (registered by name in `vprobot.agents.encoders.ENCODERS`).
 
 | name | encoder |
 |---|---|
@@ -12,14 +13,7 @@ from vprobot.agents.extractors.pcn import PCNExtractor
 from vprobot.agents.extractors.pointnet import InputTransform, PointNetExtractor
 from vprobot.agents.extractors.sphere_map import SphereMapExtractor
 
-EXTRACTORS: dict[str, type[PointCloudExtractor]] = {
-    "pcn": PCNExtractor,
-    "pointnet": PointNetExtractor,
-    "sphere": SphereMapExtractor,
-}
-
 __all__ = [
-    "EXTRACTORS",
     "InputTransform",
     "PCNExtractor",
     "PointCloudExtractor",

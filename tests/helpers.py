@@ -1,0 +1,56 @@
+"""Helpers shared by several test modules (test modules never import each other)."""
+
+from __future__ import annotations
+
+import types
+
+import mujoco
+import numpy as np
+import trimesh
+
+from vprobot.config import Config
+from vprobot.paths import DEFAULT_MOTOR
+
+
+def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
+    asset = spec.add_mesh(name=name,
+                          uservert=np.asarray(mesh.vertices, np.float32).ravel().tolist(),
+                          userface=np.asarray(mesh.faces, np.int32).ravel().tolist())
+    asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+
+
+def make_scene(mesh: trimesh.Trimesh, boxes: tuple = (), mesh_boxes: tuple = ()
+               ) -> tuple[types.SimpleNamespace, mujoco.MjData]:
+    """A bare cell: the object at the origin, a free-floating sensor and optional plates.
+
+    `boxes` are primitive box geoms (cast by MuJoCo), `mesh_boxes` box-shaped mesh geoms
+    (scan converted), each as (centre, half sizes).
+    """
+    spec = mujoco.MjSpec()
+    sensor_body = spec.worldbody.add_body(name="sensor_body", mocap=True)
+    sensor_body.add_site(name="sensor")
+    _add_mesh(spec, "object_mesh", mesh)
+    spec.worldbody.add_body(name="object", mocap=True).add_geom(
+        name="object", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="object_mesh", group=1)
+    for index, (center, half) in enumerate(boxes):
+        spec.worldbody.add_geom(name=f"box{index}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                                pos=list(center), size=list(half), group=0)
+    for index, (center, half) in enumerate(mesh_boxes):
+        _add_mesh(spec, f"plate{index}", trimesh.creation.box(2.0 * np.asarray(half)))
+        spec.worldbody.add_geom(name=f"mesh_box{index}", type=mujoco.mjtGeom.mjGEOM_MESH,
+                                meshname=f"plate{index}", pos=list(center), group=2)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    scene = types.SimpleNamespace(
+        model=model, config=Config(), sensor_site_id=model.site("sensor").id,
+        sensor_body_id=model.body("sensor_body").id, object_body_id=model.body("object").id,
+        object_geom_ids=np.array([model.geom("object").id]))
+    return scene, data
+
+
+SERIAL_EVALUATION = ("evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
+                     "--seeds", "0", "1", "2")
+"""`vprobot evaluate` (without --out) of two planners, three seeds and both carriers: 12
+episodes. The `serial_evaluation` fixture of conftest.py holds its tables, run once per session
+in the test process."""

@@ -1,0 +1,196 @@
+"""The `A_view` action and the `s_grid` state: spaces, mask, features, one builder for both."""
+
+from __future__ import annotations
+
+import types
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from vprobot.agents.trained import TrainedAgent
+from vprobot.config import Config, ConfigError, replace
+from vprobot.env import InspectEnv
+from vprobot.env.grid_state import FEATURES, GridState
+from vprobot.episode import Episode
+from vprobot.geometry import Pose
+from vprobot.occupancy import GAINS, OccupancyGrid
+from vprobot.paths import MOTORS_DIR
+from vprobot.planners.agent import AgentPlanner
+from vprobot.planners.candidates import band_directions, offered
+from vprobot.sensor_model import SensorModel
+
+RESOLUTION = (64, 45)
+# The sensor itself at a small resolution: the agent planner integrates frames at the sensor's.
+CONFIG = replace(replace(Config(), "sensor", resolution=RESOLUTION), "env", action="A_view",
+                 state="s_grid", motors="mesh",
+                 mesh=str(MOTORS_DIR / "train" / "motor_000.stl"))
+COLUMN = {name: index for index, name in enumerate(FEATURES)}
+
+
+def unit(vectors: np.ndarray) -> np.ndarray:
+    return vectors / np.linalg.norm(vectors, axis=-1, keepdims=True)
+
+
+def requested_directions(episode: Episode) -> np.ndarray:
+    return unit(np.array([view.requested.position - episode.center for view in episode.views]))
+
+
+@pytest.fixture(scope="module")
+def stepped() -> tuple[InspectEnv, list[dict[str, np.ndarray]], int, int]:
+    """An episode with the robot: the candidate from the top, then the one from -x (where the
+    arm would collide: it stays at the top)."""
+    env = InspectEnv(CONFIG)
+    observations = [env.reset(seed=3)[0]]
+    directions = band_directions()
+    reached, failed = int(np.argmax(directions[:, 2])), int(np.argmin(directions[:, 0]))
+    for action in (reached, failed):
+        observation, _, _, _, info = env.step(action)
+        observations.append(observation)
+    assert env.episode.views[1].reachable and not info["reachable"]
+    return env, observations, reached, failed
+
+
+def test_check_env_passes_for_a_view_and_s_grid_with_the_robot() -> None:
+    env = InspectEnv(CONFIG)
+    assert env.action_space.n == len(band_directions()) == 128
+    assert env.observation_space["candidates"].shape == (128, len(FEATURES))
+    check_env(env, skip_render_check=True)
+
+
+def test_the_mask_hides_unreachable_and_requested_candidates_and_those_within_10_deg(
+        stepped: tuple) -> None:
+    env, observations, reached, failed = stepped
+    directions = band_directions()
+    angles = np.degrees(np.arccos(np.clip(directions @ requested_directions(env.episode).T,
+                                          -1.0, 1.0)))
+    # After the step to `reached` (views 0-1), then after the failed one as well (views 0-2).
+    for observation, views in ((observations[1], 2), (observations[2], 3)):
+        reachable = observation["candidates"][:, COLUMN["reachable"]] == 1
+        expected = (angles[:, :views] >= 10.0).all(axis=1) & reachable
+        np.testing.assert_array_equal(observation["mask"], expected)
+    # The screening agrees with what the carrier did: it reached one and failed the other.
+    reachable = observations[2]["candidates"][:, COLUMN["reachable"]]
+    assert reachable[reached] == 1 and reachable[failed] == 0 and 0 < reachable.mean() < 1
+    assert observations[1]["mask"][reached] == 0 and observations[2]["mask"][failed] == 0
+    assert observations[2]["candidates"][failed, COLUMN["failed"]] == 1
+    assert observations[2]["candidates"][:, COLUMN["failed"]].sum() == 1
+    assert observations[1]["candidates"][reached, COLUMN["current"]] == 1
+    # The failed request left the sensor at `reached`.
+    assert observations[2]["candidates"][:, COLUMN["current"]].tolist().index(1) == reached
+
+
+def test_the_features_are_the_brute_force_values_and_the_gains_of_an_independent_grid(
+        stepped: tuple) -> None:
+    env, observations, _, _ = stepped
+    episode = env.episode
+    rows = observations[-1]["candidates"]
+    directions = band_directions()
+    np.testing.assert_allclose(rows[:, [COLUMN["direction_x"], COLUMN["direction_y"],
+                                        COLUMN["direction_z"]]], directions, atol=1e-7)
+    closest = [max(float(d @ r) for r in requested_directions(episode)) for d in directions]
+    np.testing.assert_allclose(rows[:, COLUMN["closest_request_cos"]], closest, atol=1e-6)
+    # A grid integrated here from every frame at once: the env integrated them one by one.
+    grid = OccupancyGrid.for_cell(CONFIG)
+    sensor = SensorModel.from_config(CONFIG.sensor)
+    for view in episode.views:
+        if view.acquired:
+            grid.integrate(sensor, view.sensor_pose, view.points_world, view.pixels,
+                           view.blocked_pixels)
+    builder = env.observer.grid_state
+    np.testing.assert_array_equal(builder.episode_grid.grid.state, grid.state)
+    gains = builder.band.gains
+    for index, gain in enumerate(GAINS):
+        expected = gains.score(grid, gain) / (gains.rays * gains.ray_bound)
+        np.testing.assert_allclose(rows[:, index], expected, rtol=1e-4, atol=1e-6)
+    counts = grid.counts()
+    np.testing.assert_allclose(rows[0, COLUMN["requests_used"]:], [
+        2 / 10, *(counts[kind] / grid.state.size for kind in ("occupied", "free", "unknown"))],
+        rtol=1e-6)
+    assert (rows[:, COLUMN["requests_used"]:] == rows[0, COLUMN["requests_used"]:]).all()
+
+
+def test_offered_drops_directions_within_10_deg_of_a_request_and_failed_ones() -> None:
+    polar = np.deg2rad([9.9, 10.1, 30.0, 30.0])
+    directions = np.column_stack([np.sin(polar), np.zeros(4), np.cos(polar)])
+    failed = np.array([False, False, True, False])
+    np.testing.assert_array_equal(offered(directions, np.array([[0.0, 0.0, 1.0]]), failed),
+                                  [False, True, False, True])
+    np.testing.assert_array_equal(offered(directions, np.zeros((0, 3)), failed), ~failed)
+
+
+def test_when_every_candidate_is_masked_all_that_did_not_fail_are_offered() -> None:
+    center = np.asarray(CONFIG.cell.object_center_m)
+    directions = band_directions()
+    views = [types.SimpleNamespace(requested=Pose(center + 0.47 * d, np.eye(3)),
+                                   reachable=index != 5, sensor_pose=None)
+             for index, d in enumerate(directions)]
+    # Free-flying: every candidate is reachable.
+    episode = types.SimpleNamespace(views=views, center=center, uses_robot=False, q=np.zeros(0))
+    observation = GridState(CONFIG).observe(episode)  # type: ignore[arg-type]
+    expected = np.ones(len(directions))
+    expected[5] = 0.0
+    np.testing.assert_array_equal(observation["mask"], expected)
+
+
+class Replaying:
+    """A policy that requests given actions in turn and keeps the observations it is handed."""
+
+    def __init__(self, actions: list[int]):
+        self.actions = list(actions)
+        self.handed: list[dict[str, np.ndarray]] = []
+
+    def predict(self, observation: dict[str, np.ndarray], deterministic: bool = True) -> tuple:
+        self.handed.append(observation)
+        return np.array(self.actions.pop(0)), None
+
+
+def test_the_agent_planner_builds_the_env_observation_of_the_same_episode(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    actions = [7, 60, 100]
+    env = InspectEnv(CONFIG)
+    expected = [env.reset(seed=5)[0]]
+    for action in actions[:-1]:
+        expected.append(env.step(action)[0])
+    policy = Replaying(actions)
+
+    def load(source: Any) -> TrainedAgent:
+        return TrainedAgent(model=policy, config=CONFIG, path=Path("stub.zip"))  # type: ignore
+
+    monkeypatch.setattr("vprobot.agents.trained.load_agent", load)
+    planner = AgentPlanner("stub")
+    spec = env.spec_of_episode
+    episode = Episode.from_spec(env.scene(spec.motor_path, spec.scale), spec)
+    planner.reset(episode, np.random.default_rng(0))
+    episode.begin(spec.initial_requests(episode.center, CONFIG.sensor.working_distance_m))
+    for _ in actions:
+        episode.request(planner.next_view(episode))
+    assert len(policy.handed) == len(expected)
+    for handed, observed in zip(policy.handed, expected, strict=True):
+        assert handed.keys() == observed.keys()
+        for key in observed:
+            np.testing.assert_array_equal(handed[key], observed[key])
+
+
+@pytest.mark.parametrize(("changes", "names"), [
+    ({"state": "s_grid", "action": "A_2S0R"}, ("env.state 's_grid'", "env.action 'A_2S0R'")),
+    ({"state": "s_grid", "action": "A_3S2R_lim"}, ("env.state 's_grid'", "'A_3S2R_lim'")),
+    ({"action": "A_view", "stop_action": True}, ("env.action 'A_view'", "env.stop_action")),
+])
+def test_bad_combinations_are_config_errors_naming_both_settings(
+        changes: dict[str, Any], names: tuple[str, ...]) -> None:
+    with pytest.raises(ConfigError) as error:
+        replace(Config(), "env", **changes)
+    for name in names:
+        assert name in str(error.value)
+
+
+def test_an_a_view_request_drives_to_the_candidates_screened_configuration(
+        stepped: tuple) -> None:
+    env, _, reached, failed = stepped
+    builder = env.observer.grid_state
+    # The failed request left the robot where the first one took it: the screened joints.
+    np.testing.assert_allclose(env.episode.q, builder.joints_of(reached), atol=1e-9)
+    assert builder.joints_of(failed) is None

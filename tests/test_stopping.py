@@ -1,0 +1,191 @@
+"""The model-free coverage estimate: its features, its fit, its calibration helpers."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vprobot.cli import main
+from vprobot.config import Config
+from vprobot.episode import ViewRecord
+from vprobot.geometry import Pose
+from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN
+from vprobot.sensor_model import SensorModel
+from vprobot.stopping.calibration import interval_coverage, mae_per_view
+from vprobot.stopping.estimator import CoverageEstimator, fit
+from vprobot.stopping.features import BAND_NEAR_DEG, FEATURES, CoverageFeatures
+from vprobot.stopping.report import fit_estimate
+from vprobot.viewsphere import sphere_directions
+
+CONFIG = Config()
+CENTER = np.asarray(CONFIG.cell.object_center_m, dtype=float)
+SENSOR = SensorModel.from_config(CONFIG.sensor)
+PIXELS = SENSOR.rays_per_frame
+
+
+def view(side: float | None, plane_x: float = 0.0, half: int = 0,
+         blocked: int = 0) -> ViewRecord:
+    """A view from 0.47 m along world x (side +1 or -1) looking at the cell's centre that
+    measured the plane x = centre + `plane_x` on the (2 half + 1)^2 pixels about the image
+    centre, the last `blocked` pixels blocked; side None: an unreached request."""
+    position = CENTER + np.array([0.47 * (side or 1.0), 0.0, 0.0])
+    pose = Pose.look_at(position, CENTER)
+    if side is None:
+        return ViewRecord(requested=pose, reachable=False, reason="collision", joints=None,
+                          path=None, sensor_pose=None, points_world=np.zeros((0, 3)),
+                          coverage=0.0)
+    width, height = SENSOR.resolution
+    rows, columns = np.meshgrid(np.arange(-half, half + 1) + height // 2,
+                                np.arange(-half, half + 1) + width // 2, indexing="ij")
+    pixels = (rows * width + columns).ravel()
+    rays = SENSOR.ray_directions[pixels] @ pose.rotation.T
+    distance = (CENTER[0] + plane_x - position[0]) / rays[:, 0]
+    return ViewRecord(requested=pose, reachable=True, reason=None, joints=None, path=None,
+                      sensor_pose=pose, points_world=position + rays * distance[:, None],
+                      coverage=0.0, pixels=pixels,
+                      blocked_pixels=PIXELS - 1 - np.arange(blocked))
+
+
+def test_features_of_a_hand_built_episode_match_hand_computed_values() -> None:
+    features = CoverageFeatures(CONFIG)
+    origin, voxel = features.grid.origin, features.grid.voxel_m
+
+    def voxels(record: ViewRecord) -> set[tuple[int, ...]]:
+        return {tuple(cell) for cell in np.floor((record.points_world - origin) / voxel)
+                .astype(int)}
+
+    # A plate in the middle of a voxel layer: a square patch of it seen twice from +x, an
+    # unreached request, then a larger patch of it seen from -x, two pixels blocked.
+    front, back = view(1.0, 0.005, 60), view(-1.0, 0.005, 80, blocked=2)
+    views = [front, view(1.0, 0.005, 60), view(None), back]
+    rows = [dict(zip(FEATURES, features.update(views[:n]), strict=True)) for n in range(1, 5)]
+    total, first, second = features.grid.state.size, voxels(front), voxels(back)
+    occupied = len(first | second)
+    assert rows[0]["occupied"] == pytest.approx(len(first) / total)
+    assert (rows[0]["added_last"], rows[0]["novel_last"]) == (1.0, 1.0)
+    assert (rows[1]["added_last"], rows[1]["novel_last"], rows[1]["added_before"]) == (
+        0.0, 0.0, 1.0)
+    assert rows[2] == pytest.approx({**rows[1], "requested": 3})
+    last = rows[3]
+    band = sphere_directions(128, np.deg2rad(120.0))
+    angle_to_x = np.degrees(np.arccos(np.abs(band[:, 0])))
+    assert last == pytest.approx({
+        **last,
+        "requested": 4, "acquired": 3, "occupied": occupied / total,
+        "added_last": len(second - first) / occupied, "added_before": 0.0,
+        "novel_last": len(second - first) / len(second),
+        "points": (2 * 121**2 + 161**2) / PIXELS, "points_last": 161**2 / PIXELS,
+        "blocked": 2 / PIXELS / 3, "blocked_last": 2 / PIXELS,
+        # Directions +x, +x, -x: their mean is (1/3, 0, 0).
+        "spread": 2 / 3, "band_seen": float((angle_to_x <= BAND_NEAR_DEG).mean()),
+    })
+    # Rear side and open surface by brute force over the occupied voxels' neighbours.
+    state = features.grid.state
+    steps = [np.array(step) for step in itertools.product((-1, 0, 1), repeat=3)
+             if sum(map(abs, step)) == 1]
+
+    def neighbours(cell: np.ndarray) -> list[tuple[int, ...]]:
+        return [tuple(cell + step) for step in steps
+                if all(0 <= c < n for c, n in zip(cell + step, state.shape, strict=True))]
+
+    rear = {cell for seen in first | second for cell in neighbours(np.array(seen))
+            if state[cell] == UNKNOWN}
+    open_surface = [cell for cell in rear if any(state[near] == FREE
+                                                 for near in neighbours(np.array(cell)))]
+    assert last["rear_side"] == pytest.approx(len(rear) / occupied)
+    assert last["open_surface"] == pytest.approx(len(open_surface) / occupied)
+    assert len(open_surface) <= len(rear)
+    # The bounding box of the occupied voxels, and the unknown voxels inside it, cell by cell.
+    cells = np.array(sorted(first | second))
+    low, high = cells.min(axis=0), cells.max(axis=0)
+    assert last["extent"] == pytest.approx(voxel * np.linalg.norm(high - low + 1))
+    inside = sum(state[cell] == UNKNOWN for cell in itertools.product(
+        *(range(a, b + 1) for a, b in zip(low, high, strict=True))))
+    assert last["hull_unknown"] == pytest.approx(inside / occupied)
+    assert 0 < len(second - first) < len(second)
+
+
+def test_rear_side_counts_unknown_voxels_by_occupied_ones_open_surface_by_free_ones_too() -> None:
+    features = CoverageFeatures(CONFIG)
+    features.grid.state[10, 10, 10] = OCCUPIED
+    features.grid.state[11, 11, 10] = FREE
+    values = dict(zip(FEATURES, features.update([]), strict=True))
+    # All six face neighbours of the occupied voxel are unknown; two of them, (11, 10, 10) and
+    # (10, 11, 10), are face neighbours of the free voxel too.
+    assert (values["rear_side"], values["open_surface"]) == (6.0, 2.0)
+
+
+def test_features_refuse_fewer_views_than_already_integrated() -> None:
+    features = CoverageFeatures(CONFIG)
+    features.update([view(None)] * 2)
+    with pytest.raises(ValueError, match="call reset"):
+        features.update([])
+
+
+def test_fit_recovers_a_linear_relation_and_its_noise_and_survives_a_save(
+        tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+
+    def sample(count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        x = rng.uniform(0.0, 1.0, size=(count, 2))
+        truth = 0.2 + 0.5 * x[:, 0] + 0.2 * x[:, 1]
+        return x, truth, truth + rng.normal(0.0, 0.02, size=count)
+
+    x, _, y = sample(400)
+    vx, _, vy = sample(200)
+    estimator = fit(x, y, vx, vy, ("a", "b"), seed=0, members=2, hidden=16, steps=800)
+    tx, truth, _ = sample(200)
+    mean, std = estimator.estimate(tx)
+    assert np.abs(mean - truth).mean() < 0.01
+    assert 0.012 < float(np.median(std)) < 0.035
+    loaded = CoverageEstimator.load(estimator.save(tmp_path / "estimator.npz"))
+    assert np.array_equal(loaded.estimate(tx)[0], mean)
+    one_mean, one_std = loaded.estimate(tx[0])
+    assert one_mean.shape == one_std.shape == () and one_mean == pytest.approx(mean[0])
+    with pytest.raises(ValueError, match="expected 2 features"):
+        estimator.estimate(np.zeros(3))
+
+
+def test_interval_coverage_is_the_level_on_gaussian_draws_and_counts_a_hand_case() -> None:
+    rng = np.random.default_rng(1)
+    mean = rng.uniform(0.5, 1.0, size=200_000)
+    std = rng.uniform(0.01, 0.05, size=mean.size)
+    truth = mean + std * rng.standard_normal(mean.size)
+    levels = (0.5, 0.9, 0.95)
+    assert interval_coverage(mean, std, truth, levels) == pytest.approx(levels, abs=0.005)
+    # Errors of 0.5, 1.5 and 2.5 std: within 1 std (68.27 %) one, within 2.576 (99 %) all.
+    hand = interval_coverage(np.zeros(3), np.ones(3), np.array([0.5, -1.5, 2.5]),
+                             (0.6827, 0.99))
+    assert hand == pytest.approx([1 / 3, 1.0])
+    with pytest.raises(ValueError, match=r"levels must lie in \(0, 1\)"):
+        interval_coverage(np.zeros(1), np.ones(1), np.zeros(1), (1.0,))
+
+
+def test_mae_per_view_averages_each_view_count_apart() -> None:
+    rows = mae_per_view(np.array([0.5, 0.6, 0.9]), np.array([0.4, 0.7, 0.95]),
+                        np.array([1, 1, 2]))
+    assert [(v, round(m, 9), n) for v, m, n in rows] == [(1, 0.1, 2), (2, 0.05, 1)]
+
+
+def test_stop_fit_refuses_a_folder_of_rollouts_drawn_otherwise(tmp_path: Path) -> None:
+    (tmp_path / "dataset.json").write_text('{"split": 1, "episodes": 7}')
+    with pytest.raises(ValueError, match="holds rollouts drawn otherwise"):
+        fit_estimate(CONFIG, tmp_path, episodes=5, progress=False)
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset.json"]
+
+
+@pytest.mark.parametrize("option, message", [
+    (["--episodes", "0"], "--episodes: must be an integer >= 1"),
+    (["--planners", "bogus"], "unknown planner 'bogus'"),
+])
+def test_stop_fit_refuses_bad_options_with_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture, option: list[str], message: str) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["stop", "fit", "--out", str(tmp_path / "out"), *option])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err
+    assert message in error and len(error.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()

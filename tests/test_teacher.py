@@ -1,0 +1,113 @@
+"""The candidate agent's teacher and the imitation before RL (`agent.pretrain_episodes`)."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from vprobot.agents.pretrain import collect, fit
+from vprobot.agents.teacher import WASTED, CandidateTeacher
+from vprobot.agents.training import build_model, train
+from vprobot.config import Config, ConfigError, replace
+from vprobot.env import InspectEnv
+from vprobot.paths import MOTORS_DIR
+
+ENV = {"action": "A_view", "state": "s_grid", "motors": "mesh",
+       "mesh": str(MOTORS_DIR / "train" / "motor_000.stl"), "resolution": (96, 67)}
+AGENT = {"algorithm": "dqn", "encoder": "candidates", "net_arch": (32, 32), "batch_size": 16,
+         "learning_rate": 3e-3, "buffer_size": 1000}
+
+
+def config(carrier: str = "robot", **agent: object) -> Config:
+    return replace(replace(Config(), "env", carrier=carrier, **ENV), "agent",
+                   **{**AGENT, **agent})
+
+
+TRAINING_RESOLUTION = (320, 224)
+"""cpu.yaml's: fine enough for an acquisition to cover what the renderer predicts it sees."""
+
+
+@pytest.fixture(scope="module", autouse=True)
+def one_torch_thread() -> Iterator[None]:
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def test_the_teachers_best_value_is_the_coverage_its_request_then_adds() -> None:
+    """The env's step measures the gain itself: the teacher's confirmation must agree."""
+    env = InspectEnv(replace(config("free"), "env", resolution=TRAINING_RESOLUTION))
+    env.reset(seed=5)
+    teacher = CandidateTeacher()
+    teacher.reset(env.episode)
+    for _ in range(2):
+        values = teacher.values(env.episode)
+        best = int(np.argmax(values))
+        before = env.episode.coverage
+        env.step(best)
+        assert env.episode.coverage - before == pytest.approx(values[best], abs=1e-6)
+        # The view just taken has next to nothing left to add.
+        assert teacher.values(env.episode)[best] < 0.02
+
+
+def test_candidates_the_robot_cannot_take_are_worth_a_wasted_request() -> None:
+    env = InspectEnv(config("robot"))
+    env.reset(seed=5)
+    teacher = CandidateTeacher()
+    teacher.reset(env.episode)
+    values = teacher.values(env.episode)
+    unusable = ~teacher._views.usable
+    assert unusable.any() and np.all(values[unusable] == WASTED)
+    assert np.all(values[~unusable] >= 0.0) and values[~unusable].max() > 0.0
+
+
+def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_best() -> None:
+    cfg = config("free")
+    states = collect(cfg, episodes=2, seed=0)
+    model = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")
+    losses = fit(model, states, epochs=150, seed=0)
+    assert losses[-1] < 0.2 * losses[0]
+    q_net, target = model.policy.q_net, model.policy.q_net_target
+    assert all(torch.equal(a, b) for a, b in zip(q_net.state_dict().values(),
+                                                  target.state_dict().values(), strict=True))
+    actions, _ = model.predict(states.observations, deterministic=True)
+    allowed = states.observations["mask"] > 0.5
+    values = np.where(allowed, states.values, np.nan)
+    best = np.nanmax(values, axis=1)
+    chosen = states.values[np.arange(len(actions)), actions]
+    regret, uniform_regret = np.mean(best - chosen), np.mean(best - np.nanmean(values, axis=1))
+    assert regret < 0.35 * uniform_regret, (regret, uniform_regret)
+
+
+def test_pretraining_needs_dqn_and_the_r2_reward(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=re.escape(
+            "agent.pretrain_episodes fits a candidate Q-network: it needs agent.algorithm dqn, "
+            "got 'sac'")):
+        replace(Config(), "agent", pretrain_episodes=3)
+    with pytest.raises(ConfigError, match=re.escape("agent.pretrain_episodes must be >= 0")):
+        config(pretrain_episodes=-1)
+    refused = replace(config(pretrain_episodes=2), "env", reward="R5")
+    with pytest.raises(ConfigError, match=re.escape(
+            "agent.pretrain_episodes needs env.reward R2 (the teacher's values are R2's "
+            "rewards), got env.reward 'R5'")):
+        train(refused, tmp_path / "run", progress=False)
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_pretrained_run_evaluates_the_imitation_as_step_0(tmp_path: Path) -> None:
+    cfg = replace(config("free", pretrain_episodes=1, pretrain_epochs=3, total_steps=30,
+                         learning_starts=10, eval_freq=1000, eval_episodes=1,
+                         checkpoint_freq=1000, test_lists=None), "env", resolution=(64, 45))
+    train(cfg, tmp_path / "run", progress=False)
+    epochs = (tmp_path / "run" / "pretrain.csv").read_text().splitlines()
+    assert epochs[0] == "epoch,mse" and len(epochs) == 4
+    steps = [line.split(",")[0] for line in
+             (tmp_path / "run" / "evaluations.csv").read_text().splitlines()[1:]]
+    assert steps == ["0", "30"]

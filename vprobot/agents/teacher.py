@@ -1,0 +1,67 @@
+"""The teacher of the candidate-view agent: what each candidate would pay, known from the model.
+
+Simulation only, during training: like the `oracle` planner it renders the object's ground truth
+from every band candidate of the episode (`vprobot.planners.candidates.candidate_views`, with
+the robot: the candidates the IK reaches from the episode's start, others unusable), so it knows
+the coverage each candidate would add now, and confirms the best ones by simulated acquisitions
+(`CandidateViews.next_best`). The value of a candidate is the reward R2 pays for requesting it:
+that gain, or -1 where the robot cannot take it. (R2 also pays -1 for a view that adds nothing;
+the values keep 0 there, so that they stay continuous in what a view sees: a candidate that
+would add 0.1 % and one that adds nothing look alike and differ by a thousandth, not by one.)
+The agent never sees them at run time; `vprobot.agents.pretrain` fits the Q-network to them
+before RL.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vprobot.config import ConfigError, EnvConfig
+from vprobot.episode import Episode
+from vprobot.planners.candidates import BAND_COUNT, CandidateViews, candidate_views
+
+WASTED = -1.0
+"""R2's reward for a request that adds nothing: here, one the robot cannot take."""
+
+
+def check_teacher_reward(env: EnvConfig) -> None:
+    """The teacher's values are R2's rewards: refuse another reward.
+
+    Raises:
+        ConfigError: Naming the reward and what pretraining needs.
+    """
+    if env.reward != "R2":
+        raise ConfigError(f"agent.pretrain_episodes needs env.reward R2 (the teacher's values "
+                          f"are R2's rewards), got env.reward {env.reward!r}")
+
+
+class CandidateTeacher:
+    """Values of the band candidates in the current state of an episode.
+
+    Call `reset` at the start of every episode (the object's pose changes the candidates'
+    visibility), then `values` after every step.
+    """
+
+    def __init__(self) -> None:
+        self._views: CandidateViews | None = None
+
+    def reset(self, episode: Episode) -> None:
+        """Render the ground truth from every band candidate of the episode (and, with the
+        robot, screen their reachability)."""
+        self._views = candidate_views(episode, BAND_COUNT)
+
+    def values(self, episode: Episode) -> np.ndarray:
+        """The value (BAND_COUNT,) of requesting each candidate now: the coverage it adds (the
+        best candidates' confirmed), `WASTED` where the robot cannot take it.
+
+        Raises:
+            RuntimeError: Before `reset`.
+        """
+        if self._views is None:
+            raise RuntimeError("call reset() before values()")
+        views = self._views
+        # Confirms the best candidates by simulated acquisitions, as the oracle does: the
+        # renderer's prediction overstates what the sensor covers (by about a tenth).
+        views.next_best(episode, taken=set())
+        gain = (views.known_visibility() & ~episode.covered).mean(axis=1)
+        return np.where(views.usable, gain, WASTED)
