@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from vprobot.config import Config
+from vprobot.config import Config, replace
 from vprobot.episode import EpisodeSpec, MotorScene, read_episode_list, seeded_episode
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.generated import family_of
@@ -50,7 +50,7 @@ class Dataset:
 
 def rollout_config(config: Config) -> Config:
     """The config of the rollouts: no coverage goal (planners run to the view budget)."""
-    return dataclasses.replace(config, env=dataclasses.replace(config.env, coverage_goal=1.0))
+    return replace(config, "env", coverage_goal=1.0)
 
 
 def training_jobs(config: Config, count: int, seed: int,

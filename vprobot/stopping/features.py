@@ -22,8 +22,8 @@ of the `nbv` planner (`vprobot.occupancy`), one frame at a time. After each view
 - `blocked`, `blocked_last`: blocked pixels per sensor pixel, mean over frames and the latest;
 - `spread`: one minus the length of the mean direction from the cell's centre to the sensor
   over the acquisitions (0: all from one side);
-- `band_seen`: the share of `BAND_DIRECTIONS` directions over the view band within
-  `BAND_NEAR_DEG` of an acquisition's direction.
+- `band_seen`: the share of the band candidates' directions (`candidates.band_directions`)
+  within `BAND_NEAR_DEG` of an acquisition's direction.
 """
 
 from __future__ import annotations
@@ -34,16 +34,14 @@ import numpy as np
 
 from vprobot.config import Config
 from vprobot.episode import ViewRecord
-from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN, VOXEL_M, OccupancyGrid
+from vprobot.planners.candidates import band_directions
 from vprobot.sensor_model import SensorModel
-from vprobot.viewsphere import sphere_directions
 
 FEATURES = ("requested", "acquired", "occupied", "free", "unknown", "rear_side", "open_surface",
             "extent", "hull_unknown", "added_last", "added_before", "novel_last", "points",
             "points_last", "blocked", "blocked_last", "spread", "band_seen")
 """The features in the order of a feature vector (see the module docstring)."""
-BAND_DIRECTIONS = 128
 BAND_NEAR_DEG = 45.0
 
 
@@ -60,7 +58,7 @@ class CoverageFeatures:
         self.voxel_m = voxel_m
         self.sensor = SensorModel.from_config(config.sensor)
         self.center = np.asarray(config.cell.object_center_m, dtype=float)
-        self._band = sphere_directions(BAND_DIRECTIONS, np.deg2rad(MAX_POLAR_DEG))
+        self._band = band_directions()
         self.reset()
 
     def reset(self) -> None:
