@@ -10,12 +10,13 @@ from pathlib import Path
 import pytest
 
 from vprobot.agents.callbacks import EVALUATION_COLUMNS
+from vprobot.agents.runs import best_evaluation
 from vprobot.agents.seeds import seeds_table, write_summary
 from vprobot.cli import main
 from vprobot.config import Config, replace
 from vprobot.evaluation import COLUMNS
 from vprobot.files import csv_text
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
 
 PROFILE = str(CONFIGS_DIR / "agents" / "cpu.yaml")
 # A few env steps on one bundled motor at a small resolution, scored on one validation episode.
@@ -156,3 +157,16 @@ def test_train_refuses_seed_option_mixes_before_writing(
     assert main(["train", PROFILE, *options, "--out", str(out)]) == 2
     assert capsys.readouterr().err == f"vprobot train: error: {message}\n"
     assert not out.exists()
+
+
+def test_committed_runs_naming_k_cum_travel_are_read_as_travel_sum() -> None:
+    # The bundled agent's evaluations.csv predates the one name: k_cum is `travel_<cost>` there.
+    path = ASSETS_DIR / "agents" / "cpu" / "evaluations.csv"
+    raw = _rows(path)
+    assert "travel_joint_time" in raw[0]
+    best = best_evaluation(path)
+    assert best is not None and "travel_joint_time" not in best
+    (row,) = [row for row in raw if row["step"] == best["step"]]
+    for cost in ("joint_time", "joint_path", "cartesian", "paper"):
+        assert best[f"travel_sum_{cost}"] == row[f"travel_{cost}"]
+    assert float(best["coverage"]) == max(float(row["coverage"]) for row in raw)

@@ -15,7 +15,7 @@ from vprobot.episode import EpisodeSpec
 from vprobot.kinematics import TRAVEL_COSTS
 
 SUMMARY_KEYS = ("coverage", "acquisitions", "success", "reachable_share", "ms_per_view",
-                *(f"travel_{name}" for name in TRAVEL_COSTS))
+                *(f"travel_sum_{name}" for name in TRAVEL_COSTS))
 
 
 def evaluation_env(config: Config) -> InspectEnv:
@@ -47,7 +47,7 @@ def evaluate_policy(model: BaseAlgorithm, env: InspectEnv, specs: Sequence[Episo
             "acquisitions": info["acquisitions"], "success": info["coverage"] >= goal,
             "reachable_share": info["reachable_share"],
             "ms_per_view": 1e3 * thinking / requests,
-            **{f"travel_{name}": info[f"travel_sum_{name}"] for name in TRAVEL_COSTS},
+            **{f"travel_sum_{name}": info[f"travel_sum_{name}"] for name in TRAVEL_COSTS},
         })
     return rows
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import itertools
-import json
 import statistics
 import sys
 from collections.abc import Sequence
@@ -37,7 +36,7 @@ import numpy as np
 import yaml
 
 from vprobot.agents.curves import plot_curves, read_monitor, travel_column
-from vprobot.agents.runs import RESULT_FILE
+from vprobot.agents.runs import RESULT_FILE, read_result
 from vprobot.config import ConfigError
 from vprobot.files import csv_text, write_text
 from vprobot.paths import CONFIGS_DIR
@@ -182,7 +181,7 @@ def converged(run_dir: Path) -> dict[str, float]:
 
 TABLE_KEYS = ("train_coverage", "train_acquisitions", "train_reward", "train_travel",
               "train_reachable", "coverage", "acquisitions", "success", "reachable_share",
-              "travel_joint_time", "ms_per_view", "wall_s")
+              "travel_sum_joint_time", "ms_per_view", "wall_s")
 
 
 def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
@@ -194,7 +193,7 @@ def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
                 if trial.configuration == name and trial.finished]
         row: dict[str, Any] = {"configuration": name, "seeds": len(runs)}
         if runs:
-            values = [{**converged(run), **json.loads((run / RESULT_FILE).read_text())}
+            values = [{**converged(run), **read_result(run)}
                       for run in runs]
             for key in TABLE_KEYS:
                 column = [float(value[key]) for value in values]
@@ -238,7 +237,7 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
             f"| {row['configuration']}", str(row["seeds"]), cell(row, "train_coverage", 100),
             cell(row, "train_acquisitions", 1, 2), cell(row, "coverage", 100),
             cell(row, "acquisitions", 1, 2), cell(row, "success", 100, 0),
-            cell(row, "reachable_share", 100, 0), cell(row, "travel_joint_time", 1, 2),
+            cell(row, "reachable_share", 100, 0), cell(row, "travel_sum_joint_time", 1, 2),
             cell(row, "ms_per_view", 1, 1), cell(row, "wall_s", 1 / 60, 1)]) + " |")
     write_text(out / "study.md", "\n".join(lines) + "\n")
 

@@ -114,7 +114,7 @@ class EpisodeRecord:
         return split_travel(self.views)[0]
 
     @property
-    def travel(self) -> TravelCost:
+    def travel_sum(self) -> TravelCost:
         """k_cum: the moves between the episode's acquisitions (the approach excluded)."""
         return split_travel(self.views)[1]
 
