@@ -286,9 +286,10 @@ def command_train(args: argparse.Namespace) -> int:
     result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
                    device=args.device, argv=["vprobot", *args.argv])
     print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the "
-          f"validation episodes: coverage {100 * result['coverage']:.1f} %, "
-          f"{result['acquisitions']:.2f} acquisitions, {100 * result['success']:.0f} % at the "
-          f"goal, {100 * result['reachable_share']:.0f} % of requests reachable")
+          f"validation episodes: coverage {result['coverage_pct']:.1f} %, "
+          f"{result['acquisitions']:.2f} acquisitions, {result['success_pct']:.0f} % at the "
+          f"goal" + ("" if result["reachable_pct"] is None
+                     else f", {result['reachable_pct']:.0f} % of requests reachable"))
     if result["curves"] is None:
         print(f"run directory: {args.out} (evaluations.csv, best_model.zip); no finished "
               f"episodes yet, so no curves.png: more --steps, or `vprobot curves` later")
