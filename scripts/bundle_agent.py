@@ -11,6 +11,7 @@ import csv
 import shutil
 from pathlib import Path
 
+from vprobot.agents.runs import current_names, evaluation_score
 from vprobot.agents.trained import BUNDLED_AGENT
 from vprobot.agents.training import load_run_config
 
@@ -24,9 +25,10 @@ def main() -> None:
     shutil.copy(args.run / "best_model.zip", args.out / "model.zip")
     for name in ("config.yaml", "command.txt", "curves.png", "evaluations.csv"):
         shutil.copy(args.run / name, args.out / name)
-    rows = list(csv.DictReader((args.run / "evaluations.csv").read_text().splitlines()))
-    best = max(rows, key=lambda row: (float(row["coverage"]), -float(row["acquisitions"])))
-    first = next((row for row in rows if float(row["coverage"]) >= 0.9), None)
+    rows = [current_names(row) for row in
+            csv.DictReader((args.run / "evaluations.csv").read_text().splitlines())]
+    best = max(rows, key=evaluation_score)
+    first = next((row for row in rows if float(row["coverage_pct"]) >= 90.0), None)
     reached = (f"first at or above 90 % after {int(first['step']):,} steps, "
                f"{float(first['wall_s']) / 60:.1f} min" if first else "never at 90 %")
     command = (args.run / "command.txt").read_text().splitlines()
@@ -39,8 +41,8 @@ Trained by `{command[0]}` ({command[1]}, {command[2]}): {config.agent.algorithm.
 {config.env.action}, {config.env.reward}, carrier `{config.env.carrier}`{decides}.
 `model.zip` is the run's best evaluated model (step {int(best['step']):,}):
 on the 15 shared test episodes, deterministic, at full sensor resolution, it covered
-{100 * float(best['coverage']):.1f} % with {float(best['acquisitions']):.2f} acquisitions,
-{100 * float(best['reachable_share']):.0f} % of its requests reachable. Evaluations during
+{float(best['coverage_pct']):.1f} % with {float(best['acquisitions']):.2f} acquisitions,
+{float(best['reachable_pct'] or 100):.0f} % of its requests reachable. Evaluations during
 training ({reached}): `evaluations.csv`; curves: `curves.png`; the resolved configuration
 (`config.yaml`) tells the planner how the agent sees and acts.
 

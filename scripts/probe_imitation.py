@@ -25,7 +25,7 @@ import torch
 from stable_baselines3.common.utils import obs_as_tensor
 
 from vprobot.agents.candidate_q import MASK_KEY, allowed_rows
-from vprobot.agents.evaluation import evaluate_policy, evaluation_env, summarize
+from vprobot.agents.evaluation import evaluate_policy, evaluation_env, policy_summary
 from vprobot.agents.pretrain import TeacherStates, collect, fit
 from vprobot.agents.training import build_model, make_vec_env, profile_config
 from vprobot.splits import validation_episodes
@@ -112,8 +112,8 @@ def main() -> None:
         print(f"states {len(states)} fit {time.perf_counter() - start:.0f}s", flush=True)
         print("regret, uniform regret: fitted", regrets(model, states, rows), "held out",
               regrets(model, states, held_out), flush=True)
-    print(json.dumps(summarize(evaluate_policy(model, evaluation_env(config),
-                                               validation_episodes(config)))))
+    print(json.dumps(policy_summary(evaluate_policy(model, evaluation_env(config),
+                                                    validation_episodes(config)))))
 
 
 if __name__ == "__main__":

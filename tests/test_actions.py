@@ -25,7 +25,8 @@ def test_a2s0r_zero_looks_at_centre_from_phi_pi_theta_half_pi() -> None:
     # phi = pi, theta = pi / 2 at 0.47 m: on the -x axis, level with the centre.
     np.testing.assert_allclose(view.pose.position, [-R, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(view.pose.view_axis, [1.0, 0.0, 0.0], atol=1e-12)
-    assert view.looks_at_center
+    np.testing.assert_array_equal(view.look_at_point, [0.0, 0.0, 0.0])
+    assert view.roll_free
 
 
 def test_a2s0r_extremes() -> None:
@@ -48,7 +49,7 @@ def test_absolute_euler_angles() -> None:
     view = mapping("A_2S2R").view(np.array([0.0, 0.0, -0.5, 0.0]))
     np.testing.assert_allclose(view.pose.view_axis, [0.0, 1.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(view.pose.position, [-R, 0.0, 0.0], atol=1e-12)
-    assert not view.looks_at_center
+    assert view.look_at_point is None and not view.roll_free
     view = mapping("A_3S2R").view(np.array([0.0, 0.0, 1.0, -1.0, 1.0]))  # alpha 0, beta pi
     np.testing.assert_allclose(view.pose.view_axis, [0.0, 0.0, -1.0], atol=1e-12)
     np.testing.assert_allclose(view.pose.position, [-1.0, 0.0, 0.0], atol=1e-12)

@@ -78,8 +78,8 @@ def test_record_reports_the_first_covering_view(scene: MotorScene) -> None:
         reached = (record.first_covered_by >= 0) & (record.first_covered_by <= index)
         assert reached.mean() == pytest.approx(view.coverage)
     assert record.approach == record.views[0].travel
-    assert record.travel == sum((view.travel for view in record.views[1:]),
-                                start=type(record.travel)())
+    assert record.travel_sum == sum((view.travel for view in record.views[1:]),
+                                    start=type(record.travel_sum)())
 
 
 def test_spec_round_trip_and_clear_errors() -> None:

@@ -10,6 +10,7 @@ import pytest
 from helpers import SERIAL_EVALUATION
 from PIL import Image
 
+from vprobot.agents.evaluation import SUMMARY_KEYS, policy_summary
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 from vprobot.config import Config
 from vprobot.episode import (
@@ -193,6 +194,34 @@ def test_summarize_averages_per_planner_and_carrier() -> None:
     (row,) = summarize(rows)
     assert row["coverage_pct"] == 85.0 and row["coverage_std_pct"] == 5.0
     assert row["success_pct"] == 50.0 and row["joint_time_s"] is None and row["episodes"] == 2
+
+
+def test_a_policys_summary_is_the_one_summary_by_hand() -> None:
+    # Two robot episodes of a policy, as `evaluate_policy` rows them; the values by hand.
+    reached = {"episode": 0, "planner": "policy", "carrier": "robot", "motor": "m.stl",
+               "seed": 0, "coverage_pct": 95.0, "acquisitions": 5, "requested": 6,
+               "success": True, "views_to_goal": 5, "joint_time_s": 2.0, "joint_path_rad": 3.0,
+               "cartesian_m": 1.0, "paper_m": 0.8, "reachable_pct": 500 / 6, "plan_s": 0.3,
+               "plan_ms_per_view": 50.0, "episode_s": 2.0,
+               **dict(zip(CURVE_COLUMNS, [40, 60, 80, 90] + [95] * 6, strict=True))}
+    missed = {**reached, "episode": 1, "coverage_pct": 75.0, "acquisitions": 3, "requested": 4,
+              "success": False, "views_to_goal": None, "joint_time_s": 1.0,
+              "joint_path_rad": 1.0, "cartesian_m": 0.5, "paper_m": 0.4, "reachable_pct": 75.0,
+              "plan_s": 0.1, "plan_ms_per_view": 25.0, "episode_s": 1.0,
+              **dict(zip(CURVE_COLUMNS, [30, 50, 70] + [75] * 7, strict=True))}
+    summary = policy_summary([reached, missed])
+    assert tuple(summary) == SUMMARY_KEYS
+    expected = {"episodes": 2, "coverage_pct": 85.0, "coverage_std_pct": 10.0,
+                "acquisitions": 4.0, "requested": 5.0, "success_pct": 50.0,
+                "views_to_goal": 5.0, "joint_time_s": 1.5, "joint_path_rad": 2.0,
+                "cartesian_m": 0.75, "paper_m": 0.6, "reachable_pct": (500 / 6 + 75) / 2,
+                "plan_s": 0.2, "plan_ms_per_view": 37.5, "episode_s": 1.5,
+                "cov_1_pct": 35.0, "cov_4_pct": 82.5, "cov_10_pct": 85.0,
+                # The mean of the ten mean curve points: (35 + 55 + 75 + 82.5 + 6 * 85) / 10.
+                "area_pct": 75.75}
+    assert {key: summary[key] for key in expected} == pytest.approx(expected)
+    with pytest.raises(ValueError, match="at least one episode"):
+        policy_summary([])
 
 
 @pytest.mark.parametrize(

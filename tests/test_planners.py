@@ -119,7 +119,7 @@ def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: MotorScene) -> 
     greedy = [record.start_joints, *(candidates.joints[i] for i in planner.picks)]
     unordered = sum(joint_time(a, b, velocity) for a, b in itertools.pairwise(greedy))
     assert all(view.reachable for view in record.views)
-    assert (record.approach + record.travel).joint_time <= unordered + 1e-9
+    assert (record.approach + record.travel_sum).joint_time <= unordered + 1e-9
 
 
 @pytest.fixture(scope="module")

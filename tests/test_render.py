@@ -15,7 +15,7 @@ from vprobot.config import load_config
 from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.plan_export import PlannedView, plan_document, write_json
+from vprobot.plan_export import plan_document, planned_views, write_json
 from vprobot.render import EpisodeRenderer, render_episode
 from vprobot.render.output import VideoWriter
 from vprobot.render.overlay import OverlayStatus, draw_status, inset
@@ -153,10 +153,8 @@ def test_summary_png(scene, record, tmp_path):
 
 
 def test_episode_from_plan_replays_the_views(config, scene, record, tmp_path):
-    views = [PlannedView(view.sensor_pose or view.requested,
-                         view.joints if view.reachable else None, view.reachable, view.reason,
-                         view.coverage, view.travel) for view in record.views]
-    document = plan_document(scene.cell, views, scene.object_block(record.object_pose),
+    document = plan_document(scene.cell, planned_views(record),
+                             scene.object_block(record.object_pose),
                              record.coverage)
     plan = write_json(tmp_path / "plan.json", document)
     replayed_scene, replayed = episode_from_plan(config, plan, resolution=(86, 60))

@@ -10,12 +10,13 @@ from pathlib import Path
 import pytest
 
 from vprobot.agents.callbacks import EVALUATION_COLUMNS
+from vprobot.agents.runs import best_evaluation
 from vprobot.agents.seeds import seeds_table, write_summary
 from vprobot.cli import main
 from vprobot.config import Config, replace
 from vprobot.evaluation import COLUMNS
 from vprobot.files import csv_text
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
 
 PROFILE = str(CONFIGS_DIR / "agents" / "cpu.yaml")
 # A few env steps on one bundled motor at a small resolution, scored on one validation episode.
@@ -31,11 +32,12 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 
 def _validation(run: Path, rows: list[tuple[int, float, float, float]]) -> None:
-    """An `evaluations.csv` of (step, coverage, acquisitions, success) rows."""
+    """An `evaluations.csv` of (step, coverage, acquisitions, success) rows, as fractions."""
     run.mkdir(parents=True)
     (run / "result.json").write_text("{}\n")
     (run / "evaluations.csv").write_text(csv_text(EVALUATION_COLUMNS, [
-        {"step": step, "coverage": coverage, "acquisitions": acquisitions, "success": success}
+        {"step": step, "coverage_pct": 100 * coverage, "acquisitions": acquisitions,
+         "success_pct": 100 * success}
         for step, coverage, acquisitions, success in rows]))
 
 
@@ -108,7 +110,7 @@ def test_train_seeds_makes_one_run_per_seed_and_goes_on_without_retraining(
             assert (run / name).is_file(), (seed, name)
         assert json.loads((run / "run.json").read_text())["seed"] == seed
         assert f"--steps 5 --seed {seed} --out {run}\n" in (run / "command.txt").read_text()
-    coverages = [100 * float(_rows(out / f"seed-{seed}" / "evaluations.csv")[0]["coverage"])
+    coverages = [float(_rows(out / f"seed-{seed}" / "evaluations.csv")[0]["coverage_pct"])
                  for seed in (0, 1)]
     summary = _rows(out / "seeds.csv")[0]
     assert (summary["evaluation"], summary["seeds"]) == ("validation", "0 1")
@@ -156,3 +158,21 @@ def test_train_refuses_seed_option_mixes_before_writing(
     assert main(["train", PROFILE, *options, "--out", str(out)]) == 2
     assert capsys.readouterr().err == f"vprobot train: error: {message}\n"
     assert not out.exists()
+
+
+def test_committed_runs_in_the_old_columns_are_read_in_todays() -> None:
+    # The bundled agent's evaluations.csv predates the one summary: fractions, and k_cum as
+    # `travel_<cost>` (today one step's travel in the env's info).
+    path = ASSETS_DIR / "agents" / "cpu" / "evaluations.csv"
+    raw = _rows(path)
+    assert {"coverage", "travel_joint_time"} <= set(raw[0])
+    best = best_evaluation(path)
+    assert best is not None and not {"coverage", "travel_joint_time"} & set(best)
+    (row,) = [row for row in raw if row["step"] == best["step"]]
+    assert best["coverage_pct"] == 100 * max(float(row["coverage"]) for row in raw)
+    assert best["success_pct"] == 100 * float(row["success"])
+    assert best["reachable_pct"] == 100 * float(row["reachable_share"])
+    assert best["plan_ms_per_view"] == float(row["ms_per_view"])
+    for cost, column in (("joint_time", "joint_time_s"), ("joint_path", "joint_path_rad"),
+                         ("cartesian", "cartesian_m"), ("paper", "paper_m")):
+        assert best[column] == float(row[f"travel_{cost}"])

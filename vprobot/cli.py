@@ -105,7 +105,7 @@ def command_reach(args: argparse.Namespace) -> int:
     """Answer "can the cell reach this view?" and optionally write the plan JSON."""
     from vprobot.geometry import Pose
     from vprobot.kinematics import RobotArm, SensorTarget
-    from vprobot.plan_export import PlannedView, plan_document
+    from vprobot.plan_export import plan_document, view_entry
     from vprobot.scene import Cell
 
     check_output_file(args.json, "--json", (".json",))
@@ -126,14 +126,14 @@ def command_reach(args: argparse.Namespace) -> int:
           f"looking at {np.round(args.look_at, 4).tolist()}: {verdict}")
     print(f"  IK: {result.attempts} attempt(s), {result.iterations} iterations, residual "
           f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
-    view = PlannedView(pose=target.pose, joints=None, reachable=False, reason=result.reason)
+    view = view_entry(pose=target.pose, joints=None, reachable=False, reason=result.reason)
     if result.reachable:
         travel = arm.travel(q_from, result.q, cell.object_center)
         print(f"  joints [rad]: {np.round(result.q, 4).tolist()}")
         print(f"  travel from start: {travel.joint_time:.3f} s joint time, "
               f"{travel.joint_path:.3f} rad joint path, {travel.cartesian:.3f} m sensor path")
         reached: Pose = arm.fk(result.q)
-        view = PlannedView(pose=reached, joints=result.q, reachable=True, travel=travel)
+        view = view_entry(pose=reached, joints=result.q, reachable=True, travel=travel)
     _write_json(args.json, plan_document(cell, [view]))
     return 0 if result.reachable else 1
 
@@ -286,9 +286,10 @@ def command_train(args: argparse.Namespace) -> int:
     result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
                    device=args.device, argv=["vprobot", *args.argv])
     print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the "
-          f"validation episodes: coverage {100 * result['coverage']:.1f} %, "
-          f"{result['acquisitions']:.2f} acquisitions, {100 * result['success']:.0f} % at the "
-          f"goal, {100 * result['reachable_share']:.0f} % of requests reachable")
+          f"validation episodes: coverage {result['coverage_pct']:.1f} %, "
+          f"{result['acquisitions']:.2f} acquisitions, {result['success_pct']:.0f} % at the "
+          f"goal" + ("" if result["reachable_pct"] is None
+                     else f", {result['reachable_pct']:.0f} % of requests reachable"))
     if result["curves"] is None:
         print(f"run directory: {args.out} (evaluations.csv, best_model.zip); no finished "
               f"episodes yet, so no curves.png: more --steps, or `vprobot curves` later")

@@ -96,7 +96,7 @@ def views_to_goal(result: EpisodeResult) -> int | None:
 def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
     """One CSV row of an episode (`index` into the episode list; joint-space figures and
     reachability are None for the free sensor)."""
-    travel, robot = result.travel, result.carrier == "robot"
+    travel, robot = result.travel_sum, result.carrier == "robot"
     return {
         "episode": index,
         "planner": result.planner,

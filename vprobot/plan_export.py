@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -17,11 +16,12 @@ from vprobot.robots import is_bundled
 from vprobot.scene import Cell
 
 
-@dataclasses.dataclass(frozen=True)
-class PlannedView:
-    """One view of a plan: the requested sensor pose and what the robot made of it.
+def view_entry(pose: Pose, joints: np.ndarray | None, reachable: bool | None,
+               reason: str | None = None, coverage: float | None = None,
+               travel: TravelCost | None = None) -> dict[str, Any]:
+    """One entry of the plan's `views` (docs/plan-format.md#views).
 
-    Attributes:
+    Args:
         pose: Sensor pose in the world (reached pose when reachable, else the requested one).
         joints: Joint configuration reaching it (None when unreachable).
         reachable: Whether the robot reaches it collision-free; None when no robot was involved
@@ -30,27 +30,18 @@ class PlannedView:
         coverage: Cumulative coverage after this view, when known.
         travel: Travel from the previous view, when known.
     """
-
-    pose: Pose
-    joints: np.ndarray | None
-    reachable: bool | None
-    reason: str | None = None
-    coverage: float | None = None
-    travel: TravelCost | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        view: dict[str, Any] = {
-            "position": _floats(self.pose.position),
-            "quaternion": _floats(self.pose.quaternion),
-            "joints": None if self.joints is None else _floats(self.joints),
-            "reachable": self.reachable,
-            "reason": self.reason,
-        }
-        if self.coverage is not None:
-            view["coverage"] = float(self.coverage)
-        if self.travel is not None:
-            view["travel"] = self.travel.as_dict()
-        return view
+    view: dict[str, Any] = {
+        "position": _floats(pose.position),
+        "quaternion": _floats(pose.quaternion),
+        "joints": None if joints is None else _floats(joints),
+        "reachable": reachable,
+        "reason": reason,
+    }
+    if coverage is not None:
+        view["coverage"] = float(coverage)
+    if travel is not None:
+        view["travel"] = travel.as_dict()
+    return view
 
 
 def _floats(values: np.ndarray) -> list[float]:
@@ -109,7 +100,7 @@ def sensor_block(cell: Cell) -> dict[str, Any]:
 
 def plan_document(
     cell: Cell,
-    views: list[PlannedView],
+    views: list[dict[str, Any]],
     object_block: dict[str, Any] | None = None,
     coverage: float | None = None,
 ) -> dict[str, Any]:
@@ -117,7 +108,7 @@ def plan_document(
 
     Args:
         cell: The cell the plan was made in.
-        views: The views in execution order.
+        views: The views in execution order (`view_entry`).
         object_block: How the object's mesh file is placed in the world, when there is one.
         coverage: Final cumulative coverage, when known.
     """
@@ -125,14 +116,14 @@ def plan_document(
         "object": object_block,
         "robot": robot_block(cell),
         "sensor": sensor_block(cell),
-        "views": [view.as_dict() for view in views],
+        "views": views,
         "coverage": coverage,
     }
     return document
 
 
-def planned_views(record: EpisodeRecord) -> list[PlannedView]:
-    """The views of an episode as plan views.
+def planned_views(record: EpisodeRecord) -> list[dict[str, Any]]:
+    """The views of an episode as plan entries.
 
     A reached view carries the sensor pose it was acquired from and the joints that reach it; an
     unreached one its requested pose and no joints. Without the robot (a free-flying sensor)
@@ -143,7 +134,7 @@ def planned_views(record: EpisodeRecord) -> list[PlannedView]:
     for view in record.views:
         reached = robot and view.reachable
         pose = view.sensor_pose if view.sensor_pose is not None else view.requested
-        views.append(PlannedView(
+        views.append(view_entry(
             pose=pose,
             joints=view.joints if reached else None,
             reachable=view.reachable if robot else None,
@@ -173,7 +164,7 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
     document["carrier"] = record.carrier
     document["start_joints"] = _floats(record.start_joints)
     document["approach"] = record.approach.as_dict()
-    document["travel"] = record.travel.as_dict()
+    document["travel"] = record.travel_sum.as_dict()
     document["ground_truth"] = ground_truth_block(record)
     document.update(metadata or {})
     return document

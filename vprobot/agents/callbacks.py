@@ -14,13 +14,13 @@ from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
-from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, summarize
+from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.agents.runs import best_evaluation, evaluation_score
 from vprobot.env import InspectEnv
 from vprobot.episode import EpisodeSpec
 from vprobot.files import append_line, atomic_output, csv_text, write_text
 
-EVALUATION_COLUMNS = ("step", "wall_s", "episodes", *SUMMARY_KEYS)
+EVALUATION_COLUMNS = ("step", "wall_s", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
 BUFFER_ARRAYS = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
 """A replay buffer's per-transition arrays (Dict observations: one array per key)."""
@@ -67,7 +67,7 @@ class SharedEpisodeEvaluation(BaseCallback):
         self.path = run_dir / "evaluations.csv"
         self.best = best_so_far(self.path)
         self.last = 0
-        self.latest: dict[str, float] = {}
+        self.latest: dict[str, Any] = {}
         self.latest_step = -1
 
     def _init_callback(self) -> None:
@@ -79,21 +79,21 @@ class SharedEpisodeEvaluation(BaseCallback):
             self.evaluate()
         return True
 
-    def evaluate(self) -> dict[str, float]:
+    def evaluate(self) -> dict[str, Any]:
         return self.evaluate_model(self.model)
 
-    def evaluate_model(self, model: BaseAlgorithm) -> dict[str, float]:
+    def evaluate_model(self, model: BaseAlgorithm) -> dict[str, Any]:
         """Evaluate `model` (at its step count), log the row, keep it if it is the best."""
-        summary = summarize(evaluate_policy(model, self.eval_env, self.specs))
+        summary = policy_summary(evaluate_policy(model, self.eval_env, self.specs))
         self.latest, self.latest_step = summary, model.num_timesteps
-        row = {"step": model.num_timesteps, "wall_s": time.time() - self.clock_start,
-               "episodes": len(self.specs), **summary}
+        row = {"step": model.num_timesteps, "wall_s": time.time() - self.clock_start, **summary}
         # A resume from a checkpoint older than the first evaluation leaves an empty file.
         append_line(self.path, csv_text(EVALUATION_COLUMNS, [row],
                                          header=count_lines(self.path) == 0))
         for key, value in summary.items():
-            model.logger.record(f"eval/{key}", value)
-        score = (summary["coverage"], -summary["acquisitions"])
+            if value is not None:  # e.g. joint travel without the robot
+                model.logger.record(f"eval/{key}", value)
+        score = evaluation_score(summary)
         if self.best is None or score > self.best:
             self.best = score
             with atomic_output(self.run_dir / "best_model.zip") as temporary:

@@ -16,7 +16,7 @@ from vprobot.files import save_figure
 PANELS = (("coverage", "coverage at episode end", 100.0, "%"),
           ("acquisitions", "acquisitions per episode", 1.0, ""),
           ("r", "episode reward", 1.0, ""),
-          ("travel", "travel between views per episode", 1.0, ""))
+          ("travel_sum", "travel between views per episode", 1.0, ""))
 
 
 class NoEpisodesError(ValueError):
@@ -91,7 +91,7 @@ def plot_curves(run_dirs: Sequence[str | Path], out: str | Path, window: int = 5
     figure, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     episodes = np.arange(1, length + 1)
     for axis, (key, title, factor, label) in zip(axes.ravel(), PANELS, strict=True):
-        column = travel if key == "travel" else key
+        column = travel if key == "travel_sum" else key
         curves = np.array([smooth(monitor[column][:length], window) * factor
                            for monitor in monitors])
         axis.plot(episodes, curves.mean(axis=0), color="tab:blue")
@@ -99,7 +99,7 @@ def plot_curves(run_dirs: Sequence[str | Path], out: str | Path, window: int = 5
             axis.fill_between(episodes, curves.min(axis=0), curves.max(axis=0),
                               color="tab:blue", alpha=0.25, linewidth=0)
         axis.set_title(title)
-        axis.set_ylabel(unit if key == "travel" else label)
+        axis.set_ylabel(unit if key == "travel_sum" else label)
         axis.grid(alpha=0.3)
     for axis in axes[1]:
         axis.set_xlabel("episode")

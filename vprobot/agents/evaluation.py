@@ -1,8 +1,12 @@
-"""Scoring a policy on fixed episodes (the shared evaluation list), deterministic by default."""
+"""Scoring a policy on fixed episodes (the shared evaluation list), deterministic by default.
+
+Each episode gives the row `vprobot evaluate` writes (`vprobot.evaluation.episode_row`) and the
+episodes are summarized by its `summarize`: a training's evaluations and the evaluation tables
+have the same columns, units and definitions.
+"""
 
 from __future__ import annotations
 
-import statistics
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -12,10 +16,13 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from vprobot.config import Config, replace
 from vprobot.env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.kinematics import TRAVEL_COSTS
+from vprobot.evaluation import COLUMNS, episode_row, summarize
+from vprobot.planners.runner import EpisodeResult
 
-SUMMARY_KEYS = ("coverage", "acquisitions", "success", "reachable_share", "ms_per_view",
-                *(f"travel_{name}" for name in TRAVEL_COSTS))
+SUMMARY_KEYS = tuple(key for key in COLUMNS if key not in ("planner", "carrier"))
+"""The columns of a policy's summary: `vprobot evaluate`'s table without planner and carrier."""
+POLICY = "policy"
+"""The planner column of a policy's episode rows."""
 
 
 def evaluation_env(config: Config) -> InspectEnv:
@@ -25,33 +32,34 @@ def evaluation_env(config: Config) -> InspectEnv:
 
 def evaluate_policy(model: BaseAlgorithm, env: InspectEnv, specs: Sequence[EpisodeSpec],
                     deterministic: bool = True) -> list[dict[str, Any]]:
-    """Run the policy on every spec; one row per episode.
-
-    A row holds coverage, acquisitions (the initial view included), success (coverage goal),
-    the reachable share of the requested views, travel between the views (k_cum, four costs)
-    and the policy's compute time per view (ms).
-    """
+    """Run the policy on every spec; one `episode_row` per episode, its planning time the
+    policy's compute."""
     rows = []
-    goal = env.config.env.coverage_goal
-    for spec in specs:
-        observation, info = env.reset(options={"episode": spec})
-        done, thinking, requests = False, 0.0, 0
+    for index, spec in enumerate(specs):
+        start = time.perf_counter()
+        observation, _ = env.reset(options={"episode": spec})
+        done, thinking = False, 0.0
         while not done:
-            start = time.perf_counter()
+            before = time.perf_counter()
             action, _ = model.predict(observation, deterministic=deterministic)
-            thinking += time.perf_counter() - start
-            observation, _, terminated, truncated, info = env.step(action)
-            done, requests = terminated or truncated, requests + 1
-        rows.append({
-            "motor": spec.motor, "seed": spec.seed, "coverage": info["coverage"],
-            "acquisitions": info["acquisitions"], "success": info["coverage"] >= goal,
-            "reachable_share": info["reachable_share"],
-            "ms_per_view": 1e3 * thinking / requests,
-            **{f"travel_{name}": info[f"travel_sum_{name}"] for name in TRAVEL_COSTS},
-        })
+            thinking += time.perf_counter() - before
+            observation, _, terminated, truncated, _ = env.step(action)
+            done = terminated or truncated
+        assert env.episode is not None  # reset made it
+        rows.append(episode_row(index, EpisodeResult(
+            planner=POLICY, carrier=env.config.env.carrier, spec=spec,
+            record=env.episode.record(), goal=env.config.env.coverage_goal,
+            plan_seconds=thinking, episode_seconds=time.perf_counter() - start)))
     return rows
 
 
-def summarize(rows: Sequence[dict[str, Any]]) -> dict[str, float]:
-    """Means over episodes of the `SUMMARY_KEYS`."""
-    return {key: statistics.fmean(float(row[key]) for row in rows) for key in SUMMARY_KEYS}
+def policy_summary(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The summary (`vprobot.evaluation.summarize`) of one policy's rows.
+
+    Raises:
+        ValueError: For no rows.
+    """
+    if not rows:
+        raise ValueError("a policy's summary needs at least one episode")
+    (table_row,) = summarize(list(rows))
+    return {key: table_row[key] for key in SUMMARY_KEYS}

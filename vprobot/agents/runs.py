@@ -4,19 +4,50 @@ finished, and which of its evaluations its best model is."""
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
+from typing import Any
 
 RESULT_FILE = "result.json"
 """Written into a run directory when its training has finished (sweep trials, seed runs)."""
 
 
-def evaluation_score(row: dict[str, str]) -> tuple[float, float]:
+OLD_COLUMNS = {"coverage": ("coverage_pct", 100.0), "success": ("success_pct", 100.0),
+               "reachable_share": ("reachable_pct", 100.0),
+               "ms_per_view": ("plan_ms_per_view", 1.0),
+               "travel_joint_time": ("joint_time_s", 1.0),
+               "travel_joint_path": ("joint_path_rad", 1.0),
+               "travel_cartesian": ("cartesian_m", 1.0), "travel_paper": ("paper_m", 1.0)}
+"""Column of an older `evaluations.csv` or `result.json`: (today's column, factor)."""
+
+
+def current_names(row: dict[str, Any]) -> dict[str, Any]:
+    """A row of `evaluations.csv` or `result.json` in today's columns (those of `vprobot
+    evaluate`'s table, `vprobot.agents.evaluation.SUMMARY_KEYS`).
+
+    Runs written before the one summary had their own columns: fractions (`coverage`,
+    `success`, `reachable_share`), `ms_per_view`, and k_cum as `travel_<cost>` (today one step's
+    travel in the env's info). The committed runs under results/ and the bundled agents keep
+    those files; they are read here, and only here, in today's columns and units.
+    """
+    return {OLD_COLUMNS[key][0] if key in OLD_COLUMNS else key:
+            float(value) * OLD_COLUMNS[key][1] if key in OLD_COLUMNS and value not in (None, "")
+            else value for key, value in row.items()}
+
+
+def read_result(run_dir: Path) -> dict[str, Any]:
+    """The `RESULT_FILE` of a finished run (the final evaluation, steps, wall time)."""
+    return current_names(json.loads((run_dir / RESULT_FILE).read_text()))
+
+
+def evaluation_score(row: dict[str, Any]) -> tuple[float, float]:
     """How evaluations rank: the higher coverage, then the fewer acquisitions."""
-    return float(row["coverage"]), -float(row["acquisitions"])
+    return float(row["coverage_pct"]), -float(row["acquisitions"])
 
 
-def best_evaluation(path: Path) -> dict[str, str] | None:
+def best_evaluation(path: Path) -> dict[str, Any] | None:
     """The row of an evaluations file whose model `best_model.zip` is (the earliest of equal
-    ones), None when there is none."""
-    rows = list(csv.DictReader(path.read_text().splitlines())) if path.is_file() else []
+    ones), in today's columns (`current_names`), None when there is none."""
+    rows = ([current_names(row) for row in csv.DictReader(path.read_text().splitlines())]
+            if path.is_file() else [])
     return max(rows, key=evaluation_score) if rows else None

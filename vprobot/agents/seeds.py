@@ -87,9 +87,8 @@ def best_validation(run_dir: Path) -> dict[str, float]:
     best = best_evaluation(run_dir / "evaluations.csv")
     if best is None:
         raise ValueError(f"{run_dir} holds no validation evaluation (evaluations.csv)")
-    return {"coverage_pct": 100.0 * float(best["coverage"]),
-            "acquisitions": float(best["acquisitions"]),
-            "success_pct": 100.0 * float(best["success"]), "step": float(best["step"])}
+    return {key: float(best[key])
+            for key in ("coverage_pct", "acquisitions", "success_pct", "step")}
 
 
 def list_scores(run_dir: Path, name: str) -> dict[str, float]:

@@ -26,7 +26,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import itertools
-import json
 import statistics
 import sys
 from collections.abc import Sequence
@@ -37,7 +36,7 @@ import numpy as np
 import yaml
 
 from vprobot.agents.curves import plot_curves, read_monitor, travel_column
-from vprobot.agents.runs import RESULT_FILE
+from vprobot.agents.runs import RESULT_FILE, read_result
 from vprobot.config import ConfigError
 from vprobot.files import csv_text, write_text
 from vprobot.paths import CONFIGS_DIR
@@ -181,8 +180,8 @@ def converged(run_dir: Path) -> dict[str, float]:
 
 
 TABLE_KEYS = ("train_coverage", "train_acquisitions", "train_reward", "train_travel",
-              "train_reachable", "coverage", "acquisitions", "success", "reachable_share",
-              "travel_joint_time", "ms_per_view", "wall_s")
+              "train_reachable", "coverage_pct", "acquisitions", "success_pct", "reachable_pct",
+              "joint_time_s", "plan_ms_per_view", "wall_s")
 
 
 def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
@@ -194,10 +193,13 @@ def study_table(study: Study, out: Path) -> list[dict[str, Any]]:
                 if trial.configuration == name and trial.finished]
         row: dict[str, Any] = {"configuration": name, "seeds": len(runs)}
         if runs:
-            values = [{**converged(run), **json.loads((run / RESULT_FILE).read_text())}
+            values = [{**converged(run), **read_result(run)}
                       for run in runs]
             for key in TABLE_KEYS:
-                column = [float(value[key]) for value in values]
+                # Without the robot the joint-space figures and reachability are None.
+                column = [float(value[key]) for value in values if value[key] is not None]
+                if not column:
+                    continue
                 row[key] = statistics.fmean(column)
                 row[f"{key}_min"], row[f"{key}_max"] = min(column), max(column)
             plot_curves(runs, out / _slug(name) / "curves.png")
@@ -236,10 +238,10 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
     for row in table:
         lines.append(" | ".join([
             f"| {row['configuration']}", str(row["seeds"]), cell(row, "train_coverage", 100),
-            cell(row, "train_acquisitions", 1, 2), cell(row, "coverage", 100),
-            cell(row, "acquisitions", 1, 2), cell(row, "success", 100, 0),
-            cell(row, "reachable_share", 100, 0), cell(row, "travel_joint_time", 1, 2),
-            cell(row, "ms_per_view", 1, 1), cell(row, "wall_s", 1 / 60, 1)]) + " |")
+            cell(row, "train_acquisitions", 1, 2), cell(row, "coverage_pct"),
+            cell(row, "acquisitions", 1, 2), cell(row, "success_pct", 1, 0),
+            cell(row, "reachable_pct", 1, 0), cell(row, "joint_time_s", 1, 2),
+            cell(row, "plan_ms_per_view", 1, 1), cell(row, "wall_s", 1 / 60, 1)]) + " |")
     write_text(out / "study.md", "\n".join(lines) + "\n")
 
 
@@ -289,7 +291,7 @@ def sweep(study_path: str | Path, out: str | Path, resume: bool = False,
                 if progress:
                     trial = pending[index]
                     print(f"finished {trial.configuration} seed {trial.seed}: coverage "
-                          f"{100 * result['coverage']:.1f} %, {result['acquisitions']:.2f} "
+                          f"{result['coverage_pct']:.1f} %, {result['acquisitions']:.2f} "
                           f"acquisitions ({result['wall_s'] / 60:.1f} min)")
     except KeyboardInterrupt:
         table = study_table(study, out)

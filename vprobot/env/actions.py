@@ -13,8 +13,6 @@ look-at view at the working distance that `nbv` requests as its candidate k.
 
 from __future__ import annotations
 
-import dataclasses
-
 import gymnasium as gym
 import numpy as np
 
@@ -46,19 +44,6 @@ def _unit(value: float, low: float, high: float) -> float:
 def euler_rotation(alpha: float, beta: float) -> np.ndarray:
     """Sensor rotation of ZYZ Euler angles (alpha, beta, gamma=0)."""
     return rotation_about_z(alpha) @ rotation_about_y(beta)
-
-
-@dataclasses.dataclass(frozen=True)
-class RequestedView:
-    """A requested sensor pose in the object-centred frame.
-
-    Attributes:
-        pose: Sensor position and orientation (object-centred, world-aligned axes).
-        looks_at_center: The viewing axis passes through the object's centre.
-    """
-
-    pose: Pose
-    looks_at_center: bool
 
 
 class ActionMapping:
@@ -155,7 +140,7 @@ class ActionMapping:
         """
         requested = self.view(action)
         pose = Pose(requested.pose.position + center, requested.pose.rotation)
-        if requested.looks_at_center and roll_free:
+        if requested.look_at_point is not None and roll_free:
             return SensorTarget.look_at(pose.position, center)
         return SensorTarget(pose, roll_free=roll_free)
 
@@ -167,8 +152,9 @@ class ActionMapping:
         """
         return bool(self.config.stop_action and self.check(action)[-1] > 0.0)
 
-    def view(self, action: np.ndarray) -> RequestedView:
-        """The requested view of a (validated) action."""
+    def view(self, action: np.ndarray) -> SensorTarget:
+        """The requested view of a (validated) action, in the object-centred frame: a look-at
+        view (its roll left free) looks at the origin, the object's centre."""
         if self.discrete:
             return self._look_at_center(self.working_distance_m
                                         * self.directions[self.candidate(action)])
@@ -191,14 +177,15 @@ class ActionMapping:
             pan = angles[0] * self.deviation_rad
             tilt = angles[1] * self.deviation_rad
             rotation = looking.pose.rotation @ rotation_about_y(pan) @ rotation_about_x(tilt)
-            return RequestedView(Pose(position, rotation), looks_at_center=False)
+            return SensorTarget(Pose(position, rotation), roll_free=False)
         alpha = _unit(angles[0], 0.0, 2.0 * np.pi)
         beta = _unit(angles[1], 0.0, np.pi)
-        return RequestedView(Pose(position, euler_rotation(alpha, beta)), looks_at_center=False)
+        return SensorTarget(Pose(position, euler_rotation(alpha, beta)), roll_free=False)
 
     @staticmethod
-    def _look_at_center(position: np.ndarray) -> RequestedView:
+    def _look_at_center(position: np.ndarray) -> SensorTarget:
         if np.linalg.norm(position) < 1e-9:
             # At the centre there is nothing to look at: look down by convention.
-            return RequestedView(Pose(position, np.diag([1.0, -1.0, -1.0])), False)
-        return RequestedView(Pose(position, look_at_rotation(position, np.zeros(3))), True)
+            return SensorTarget(Pose(position, np.diag([1.0, -1.0, -1.0])), roll_free=False)
+        return SensorTarget(Pose(position, look_at_rotation(position, np.zeros(3))),
+                            roll_free=True, look_at_point=np.zeros(3))

@@ -1,6 +1,6 @@
 """The inspection engine: motor scenes, sensor carriers, episodes, their specs and records."""
 
-from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName, Move, make_carrier
+from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName, make_carrier
 from vprobot.episode.engine import Episode
 from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
@@ -29,7 +29,6 @@ __all__ = [
     "EpisodeSpec",
     "FreeCarrier",
     "MotorScene",
-    "Move",
     "RobotCarrier",
     "ViewRecord",
     "ViewRequest",

@@ -10,44 +10,17 @@ state), so that the episode only keeps where the sensor is.
 from __future__ import annotations
 
 import abc
-import dataclasses
 from typing import ClassVar, Literal
 
 import numpy as np
 
 from vprobot.episode.motor_scene import MotorScene
-from vprobot.episode.records import ViewRequest
+from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.geometry import Pose
-from vprobot.kinematics import TravelCost
 from vprobot.sensor import Acquisition
 
 CarrierName = Literal["robot", "free"]
 CARRIERS: tuple[CarrierName, ...] = ("robot", "free")
-
-
-@dataclasses.dataclass(frozen=True)
-class Move:
-    """How a carrier executes one request.
-
-    Attributes:
-        executed: Whether the sensor moved and acquires (False: it stays, nothing is acquired).
-        reachable: Whether the requested view itself was reached (a `nearest` fallback executes
-            an unreachable request).
-        reason: Why the request was not reached, else None.
-        joints: The robot's configuration after the move (the start one when it stayed); None
-            without a robot.
-        path: The joint-space path moved along; None when nothing moved or without a robot.
-        pose: The sensor pose to acquire from; None when not executed.
-        travel: The move's travel costs (zero when not executed).
-    """
-
-    executed: bool
-    reachable: bool
-    reason: str | None
-    joints: np.ndarray | None
-    path: np.ndarray | None
-    pose: Pose | None
-    travel: TravelCost = dataclasses.field(default_factory=TravelCost)
 
 
 class Carrier(abc.ABC):
@@ -74,8 +47,9 @@ class Carrier(abc.ABC):
 
     @abc.abstractmethod
     def move(self, request: ViewRequest, joints: np.ndarray,
-             pose: Pose | None) -> Move:
-        """Execute `request` from the current state.
+             pose: Pose | None) -> ViewRecord:
+        """Execute `request` from the current state: the record of the motion (the sensor pose
+        to acquire from, None when the sensor stays), without the acquisition.
 
         Args:
             request: The requested view.
@@ -84,8 +58,8 @@ class Carrier(abc.ABC):
         """
 
     @abc.abstractmethod
-    def acquire(self, move: Move) -> Acquisition:
-        """The sensor's frame at the end of an executed move."""
+    def acquire(self, move: ViewRecord) -> Acquisition:
+        """The sensor's frame at the end of a move that reached a sensor pose."""
 
     @abc.abstractmethod
     def preview(self, request: ViewRequest) -> Acquisition:

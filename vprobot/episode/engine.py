@@ -7,12 +7,13 @@ everywhere, with the robot in the loop (`carrier="robot"`) or a free-flying sens
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable
 
 import numpy as np
 
 from vprobot.coverage import CoverageTracker
-from vprobot.episode.carrier import Carrier, CarrierName, Move, make_carrier
+from vprobot.episode.carrier import Carrier, CarrierName, make_carrier
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest, split_travel
 from vprobot.episode.robot_carrier import RobotCarrier
@@ -99,8 +100,8 @@ class Episode:
         reasons = []
         for request in requests:
             move = self.carrier.move(request, self.q, self.pose)
-            if move.reachable and move.executed:
-                return self._execute(request.target.pose, move)
+            if move.reachable and move.acquired:
+                return self._execute(move)
             reasons.append(move.reason)
         why = ", ".join(sorted(set(map(str, reasons))))
         raise ValueError(f"none of the {len(reasons)} initial views is reachable ({why}); check "
@@ -109,7 +110,7 @@ class Episode:
     def request(self, request: ViewRequest) -> ViewRecord:
         """Move to the view if the carrier can and acquire there; never acquires from an
         unreached pose (unless the robot's `nearest` policy moved it elsewhere)."""
-        return self._execute(request.target.pose, self.carrier.move(request, self.q, self.pose))
+        return self._execute(self.carrier.move(request, self.q, self.pose))
 
     def replay(self, joints: np.ndarray, requested: Pose | None = None) -> ViewRecord:
         """Drive the robot to a given configuration (e.g. from a plan) and acquire there.
@@ -120,13 +121,12 @@ class Episode:
         """
         if not isinstance(self.carrier, RobotCarrier):
             raise ValueError("joints can be replayed only with the robot carrier")
-        move = self.carrier.drive(self.q, joints)
-        return self._execute(requested if requested is not None else move.pose, move)
+        return self._execute(self.carrier.drive(self.q, joints, requested))
 
     def skip(self, requested: Pose, reason: str) -> ViewRecord:
         """Record a request that was not executed (e.g. a plan's unreachable view)."""
-        return self._execute(requested, Move(executed=False, reachable=False, reason=reason,
-                                             joints=self._joints(), path=None, pose=None))
+        return self._execute(ViewRecord(requested=requested, reachable=False, reason=reason,
+                                        joints=self._joints(), path=None, sensor_pose=None))
 
     def preview(self, request: ViewRequest) -> np.ndarray:
         """Which GT points the view alone would cover, simulated without executing it.
@@ -139,24 +139,22 @@ class Episode:
     def _joints(self) -> np.ndarray | None:
         return self.q.copy() if self.uses_robot else None
 
-    def _execute(self, requested: Pose, move: Move) -> ViewRecord:
+    def _execute(self, move: ViewRecord) -> ViewRecord:
+        """Acquire at the end of a carrier's move, score and record the view."""
         points_world = np.zeros((0, 3))
         pixels = blocked = np.zeros(0, dtype=np.int64)
-        if move.executed:
+        if move.acquired:
             acquisition = self.carrier.acquire(move)
             before = self.tracker.covered
-            self.tracker.update(acquisition.points_mesh, move.pose)
+            self.tracker.update(acquisition.points_mesh, move.sensor_pose)
             self._first_covered_by[self.tracker.covered & ~before] = len(self.views)
             points_world, pixels = acquisition.points_world, acquisition.pixels
             blocked = acquisition.blocked_pixels
             if move.joints is not None:
                 self.q = move.joints.copy()
-            self.pose = move.pose
-        view = ViewRecord(requested=requested, reachable=move.reachable, reason=move.reason,
-                          joints=self._joints(), path=move.path,
-                          sensor_pose=move.pose if move.executed else None,
-                          points_world=points_world, coverage=self.coverage,
-                          travel=move.travel, pixels=pixels, blocked_pixels=blocked)
+            self.pose = move.sensor_pose
+        view = dataclasses.replace(move, joints=self._joints(), points_world=points_world,
+                                   coverage=self.coverage, pixels=pixels, blocked_pixels=blocked)
         self.views.append(view)
         return view
 

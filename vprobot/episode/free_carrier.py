@@ -6,8 +6,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from vprobot.episode.carrier import Carrier, CarrierName, Move
-from vprobot.episode.records import ViewRequest
+from vprobot.episode.carrier import Carrier, CarrierName
+from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.travel import paper_travel
@@ -22,16 +22,16 @@ class FreeCarrier(Carrier):
     name: ClassVar[CarrierName] = "free"
     uses_robot: ClassVar[bool] = False
 
-    def move(self, request: ViewRequest, joints: np.ndarray, pose: Pose | None) -> Move:
+    def move(self, request: ViewRequest, joints: np.ndarray, pose: Pose | None) -> ViewRecord:
         target = request.target.pose
         travel = TravelCost() if pose is None else TravelCost(
             cartesian=float(np.linalg.norm(target.position - pose.position)),
             paper=paper_travel(pose.position, target.position, self.center))
-        return Move(executed=True, reachable=True, reason=None, joints=None, path=None,
-                    pose=target, travel=travel)
+        return ViewRecord(requested=target, reachable=True, reason=None, joints=None, path=None,
+                          sensor_pose=target, travel=travel)
 
-    def acquire(self, move: Move) -> Acquisition:
-        return self.scene.free_sensor.acquire_at(move.pose, self.object_pose.rotation)
+    def acquire(self, move: ViewRecord) -> Acquisition:
+        return self.scene.free_sensor.acquire_at(move.sensor_pose, self.object_pose.rotation)
 
     def preview(self, request: ViewRequest) -> Acquisition:
         return self.scene.free_sensor.acquire_at(request.target.pose, self.object_pose.rotation)

@@ -33,6 +33,9 @@ class ViewRequest:
 class ViewRecord:
     """One view request and its outcome.
 
+    A carrier's move gives the record of the motion (the fields up to `sensor_pose`, and
+    `travel`); the episode then adds what the sensor acquired there and the coverage.
+
     Attributes:
         requested: The requested sensor pose in the world.
         reachable: Whether the carrier took the view (a free-flying sensor takes every view).
@@ -42,11 +45,12 @@ class ViewRecord:
         path: Joint-space path (n, dof) the robot moved along; None when it stayed or without a
             robot.
         sensor_pose: Sensor pose the acquisition was made from; None when nothing was acquired.
-        points_world: Acquired points in the world (0 rows when nothing was acquired).
+        points_world: Acquired points in the world (0 rows when nothing was acquired, or not
+            yet).
         pixels: The row-major pixel of the frame each acquired point was measured on.
         blocked_pixels: Pixels of the frame whose view of the object the robot or the cell
             blocked (`Acquisition.blocked_pixels`; empty when nothing was acquired).
-        coverage: Cumulative coverage after this view.
+        coverage: Cumulative coverage after this view (0 until the episode scored it).
         travel: Travel from the previous acquisition pose (zero when nothing moved). For the
             episode's first acquisition it is the approach from the start, not a step.
     """
@@ -57,8 +61,8 @@ class ViewRecord:
     joints: np.ndarray | None
     path: np.ndarray | None
     sensor_pose: Pose | None
-    points_world: np.ndarray
-    coverage: float
+    points_world: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
+    coverage: float = 0.0
     travel: TravelCost = dataclasses.field(default_factory=TravelCost)
     pixels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     blocked_pixels: np.ndarray = dataclasses.field(
@@ -110,7 +114,7 @@ class EpisodeRecord:
         return split_travel(self.views)[0]
 
     @property
-    def travel(self) -> TravelCost:
+    def travel_sum(self) -> TravelCost:
         """k_cum: the moves between the episode's acquisitions (the approach excluded)."""
         return split_travel(self.views)[1]
 

@@ -6,9 +6,9 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
-from vprobot.episode.carrier import Carrier, CarrierName, Move
+from vprobot.episode.carrier import Carrier, CarrierName
 from vprobot.episode.motor_scene import MotorScene
-from vprobot.episode.records import ViewRequest
+from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.kinematics import ReachResult
 from vprobot.kinematics.collision import CollisionChecker
@@ -49,8 +49,10 @@ class RobotCarrier(Carrier):
         """Whether the straight joint-space path between two configurations is collision-free."""
         return self.collisions.first_collision(self.arm.path(q_from, q_to)) is None
 
-    def drive(self, q_from: np.ndarray, joints: np.ndarray) -> Move:
-        """Drive to a given configuration (e.g. a screened candidate or a stored plan).
+    def drive(self, q_from: np.ndarray, joints: np.ndarray,
+              requested: Pose | None = None) -> ViewRecord:
+        """Drive to a given configuration (e.g. a screened candidate or a stored plan);
+        `requested` is the pose asked for (by default the one the configuration reaches).
 
         Raises:
             ValueError: If the configuration is outside the limits or the straight path to it
@@ -63,13 +65,15 @@ class RobotCarrier(Carrier):
         path = arm.path(q_from, joints)
         if self.collisions.first_collision(path) is not None:
             raise ValueError(f"the path to joints {np.round(joints, 4).tolist()} collides")
-        return self._executed(q_from, joints, path, reachable=True, reason=None)
+        return self._executed(requested, q_from, joints, path, reachable=True, reason=None)
 
-    def _executed(self, q_from: np.ndarray, joints: np.ndarray, path: np.ndarray,
-                  reachable: bool, reason: str | None) -> Move:
-        return Move(executed=True, reachable=reachable, reason=reason, joints=joints.copy(),
-                    path=path, pose=self.arm.fk(joints),
-                    travel=self.arm.travel(q_from, joints, self.center, path))
+    def _executed(self, requested: Pose | None, q_from: np.ndarray, joints: np.ndarray,
+                  path: np.ndarray, reachable: bool, reason: str | None) -> ViewRecord:
+        pose = self.arm.fk(joints)
+        return ViewRecord(requested=pose if requested is None else requested,
+                          reachable=reachable, reason=reason, joints=joints.copy(), path=path,
+                          sensor_pose=pose,
+                          travel=self.arm.travel(q_from, joints, self.center, path))
 
     def _feasible_nearest(self, result: ReachResult, q_from: np.ndarray) -> bool:
         """Whether the configuration a failed IK ended in can be driven to and used."""
@@ -78,26 +82,29 @@ class RobotCarrier(Carrier):
                 and not self.collisions.in_collision(result.q)
                 and self.path_is_free(q_from, result.q))
 
-    def move(self, request: ViewRequest, joints: np.ndarray, pose: Pose | None = None) -> Move:
+    def move(self, request: ViewRequest, joints: np.ndarray,
+             pose: Pose | None = None) -> ViewRecord:
         """Drive to the request's known configuration, or let the IK reach it from here."""
+        requested = request.target.pose
         if request.joints is not None:
             try:
-                return self.drive(joints, request.joints)
+                return self.drive(joints, request.joints, requested)
             except ValueError:
                 # The straight joint-space path from here collides; the IK may find another
                 # configuration (its restarts) with a free path.
                 pass
         result = self.arm.reach(request.target, joints, self.collisions)
         if result.reachable:
-            return self._executed(joints, result.q, result.path, True, None)
+            return self._executed(requested, joints, result.q, result.path, True, None)
         if self.unreachable == "nearest" and self._feasible_nearest(result, joints):
-            return self._executed(joints, result.q, self.arm.path(joints, result.q), False,
-                                  result.reason)
-        return Move(executed=False, reachable=False, reason=result.reason, joints=joints.copy(),
-                    path=None, pose=None)
+            return self._executed(requested, joints, result.q, self.arm.path(joints, result.q),
+                                  False, result.reason)
+        return ViewRecord(requested=requested, reachable=False, reason=result.reason,
+                          joints=joints.copy(), path=None, sensor_pose=None)
 
-    def acquire(self, move: Move) -> Acquisition:
-        return self.scene.sensor.acquire_at(move.pose, self.object_pose.rotation, move.joints)
+    def acquire(self, move: ViewRecord) -> Acquisition:
+        return self.scene.sensor.acquire_at(move.sensor_pose, self.object_pose.rotation,
+                                            move.joints)
 
     def preview(self, request: ViewRequest) -> Acquisition:
         """Acquire from the request's configuration (the arm occluding as it would)."""

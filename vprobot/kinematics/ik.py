@@ -19,7 +19,12 @@ STALL_FACTOR = 0.95
 
 @dataclasses.dataclass(frozen=True)
 class SensorTarget:
-    """A requested sensor pose in the world.
+    """A requested sensor pose, as the IK demands it: which pose, and which of its degrees of
+    freedom count (docs/episodes-and-carriers.md#views-requests-and-records).
+
+    In the world, except from `ActionMapping.view`, which gives it in the object-centred frame
+    (a look-at view looking at the origin) before `ActionMapping.target` places it. A planner
+    wraps it in a `ViewRequest`, which may add a configuration known to reach it.
 
     Attributes:
         pose: Position and orientation of the sensor frame (+z viewing direction).

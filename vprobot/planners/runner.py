@@ -159,9 +159,9 @@ class EpisodeResult:
         return self.coverage >= self.goal - 1e-12
 
     @property
-    def travel(self) -> TravelCost:
+    def travel_sum(self) -> TravelCost:
         """k_cum: the moves between acquisitions (the approach to the first one excluded)."""
-        return self.record.travel
+        return self.record.travel_sum
 
 
 def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: Config,
@@ -222,7 +222,7 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
 
 def summary(result: EpisodeResult, config: Config) -> str:
     """A short human-readable report of an episode."""
-    record, travel = result.record, result.travel
+    record, travel = result.record, result.travel_sum
     robot = result.carrier == "robot"
     where = (f"robot {config.cell.robot} in the loop" if robot
              else "free-flying sensor (no robot)")

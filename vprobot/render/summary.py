@@ -143,7 +143,7 @@ def _caption(image: np.ndarray, record: EpisodeRecord) -> np.ndarray:
     """The episode's totals across the top."""
     covered = int(np.count_nonzero(record.covered))
     reached = sum(view.reachable for view in record.views)
-    travel = record.travel
+    travel = record.travel_sum
     lines = [
         f"coverage {100.0 * record.coverage:.1f} %: {covered} of {len(record.covered)} "
         "ground-truth points covered (green), the rest not (red)",
