@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 from pathlib import Path
 
 import pytest
 
-from vprobot.agents.callbacks import EVALUATION_COLUMNS
+from vprobot.agents.callbacks import EVALUATION_COLUMNS, upgrade_evaluations
 from vprobot.agents.runs import best_evaluation
 from vprobot.agents.seeds import seeds_table, write_summary
 from vprobot.cli import main
@@ -176,3 +177,18 @@ def test_committed_runs_in_the_old_columns_are_read_in_todays() -> None:
     for cost, column in (("joint_time", "joint_time_s"), ("joint_path", "joint_path_rad"),
                          ("cartesian", "cartesian_m"), ("paper", "paper_m")):
         assert best[column] == float(row[f"travel_{cost}"])
+
+
+def test_a_run_resumed_by_this_version_rewrites_old_evaluations_in_todays_columns(
+        tmp_path: Path) -> None:
+    old = ASSETS_DIR / "agents" / "cpu" / "evaluations.csv"
+    path = tmp_path / "evaluations.csv"
+    shutil.copy(old, path)
+    upgrade_evaluations(path)
+    rows = _rows(path)
+    assert path.read_text().splitlines()[0].split(",") == list(EVALUATION_COLUMNS)
+    assert [float(row["coverage_pct"]) for row in rows] == [
+        100 * float(row["coverage"]) for row in _rows(old)]
+    before = path.read_text()
+    upgrade_evaluations(path)  # today's file: left as it is
+    assert path.read_text() == before

@@ -3,6 +3,7 @@ resumable checkpoints (model, replay buffer, episode stream, log lengths)."""
 
 from __future__ import annotations
 
+import csv
 import json
 import time
 from pathlib import Path
@@ -15,7 +16,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
-from vprobot.agents.runs import best_evaluation, evaluation_score
+from vprobot.agents.runs import best_evaluation, current_names, evaluation_score
 from vprobot.env import InspectEnv
 from vprobot.episode import EpisodeSpec
 from vprobot.files import append_line, atomic_output, csv_text, write_text
@@ -24,6 +25,15 @@ EVALUATION_COLUMNS = ("step", "wall_s", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
 BUFFER_ARRAYS = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
 """A replay buffer's per-transition arrays (Dict observations: one array per key)."""
+
+
+def upgrade_evaluations(path: Path) -> None:
+    """Rewrite an `evaluations.csv` written before the one summary in today's columns, so that
+    a run resumed by this version appends rows under the header they belong to."""
+    lines = path.read_text().splitlines() if path.is_file() else []
+    if lines and lines[0].split(",") != list(EVALUATION_COLUMNS):
+        rows = [current_names(row) for row in csv.DictReader(lines)]
+        write_text(path, csv_text(EVALUATION_COLUMNS, rows))
 
 
 def count_lines(path: Path) -> int:

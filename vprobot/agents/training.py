@@ -46,6 +46,7 @@ from vprobot.agents.callbacks import (
     load_buffer,
     read_checkpoint,
     truncate_lines,
+    upgrade_evaluations,
 )
 from vprobot.agents.candidate_q import CandidateDQN, check_candidate_spaces
 from vprobot.agents.encoders import ENCODERS
@@ -377,6 +378,7 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
     if checkpoint is not None:
         for log in logs:
             truncate_lines(log, checkpoint["log_lines"].get(log.name, 0))
+        upgrade_evaluations(run_dir / "evaluations.csv")
         starts = checkpoint["episodes_started"]
     elif resume:
         for log in logs:
