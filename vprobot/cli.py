@@ -25,7 +25,7 @@ from vprobot.progress import showing_progress
 from vprobot.robots import available_robots, load_robot
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
-PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier")
+PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
 """Options that choose what `plan` or `render` plans; a replayed `--plan` fixes them all."""
 INTERRUPTED = 130
 
@@ -84,6 +84,17 @@ def _planner_name(text: str) -> str:
         return parse_planner(text, counted=False)[0]
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _stop_rule(text: str) -> str:
+    """An argparse type: a stop rule (`goal`, `estimate:0.9`, `views:5`, ...)."""
+    from vprobot.stopping.rules import parse_stop
+
+    try:
+        parse_stop(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return text
 
 
 def _family_name(text: str) -> str:
@@ -172,7 +183,7 @@ def command_cell(args: argparse.Namespace) -> int:
 def _planning(args: argparse.Namespace) -> dict[str, Any]:
     """The planning options of `plan` / `render`, defaults filled in."""
     chosen = {name: getattr(args, name) for name in PLANNING_OPTIONS}
-    defaults = {"scale": 1.0, "planner": "bscp", "seed": 0, "carrier": "robot"}
+    defaults = {"scale": 1.0, "planner": "bscp", "seed": 0, "carrier": "robot", "stop": "goal"}
     return {name: defaults.get(name) if value is None else value
             for name, value in chosen.items()}
 
@@ -188,7 +199,8 @@ def command_plan(args: argparse.Namespace) -> int:
     with showing_progress():
         scene, record, document, summary = plan_motor(
             _config(args), options["mesh"], options["scale"], options["planner"],
-            options["views"], options["carrier"], options["seed"])
+            options["views"], options["carrier"], options["seed"], options["stop"],
+            options["estimator"])
     if args.no_timing:
         document.pop("timing")
     print(summary)
@@ -217,7 +229,8 @@ def command_render(args: argparse.Namespace) -> int:
         with showing_progress():
             scene, record, _, summary = plan_motor(
                 config, options["mesh"], options["scale"], options["planner"],
-                options["views"], options["carrier"], options["seed"])
+                options["views"], options["carrier"], options["seed"], options["stop"],
+                options["estimator"])
         print(summary)
     _render_outputs(args, scene, record, args.out)
     return 0
@@ -249,7 +262,8 @@ def command_evaluate(args: argparse.Namespace) -> int:
     config = _config(args)
     specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
     evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers,
-             workers=args.workers, address=args.address)
+             workers=args.workers, address=args.address, stops=args.stop,
+             estimator=args.estimator)
     print((Path(args.out) / "evaluation.md").read_text())
     print(f"coverage curves: {Path(args.out) / PLOT_NAME}")
     return 0
@@ -500,6 +514,21 @@ def build_parser() -> argparse.ArgumentParser:
                          help="sensor preset (configs/sensors/) to use instead of the config's "
                          "sensor, on the config's mount")
 
+    def add_stop(sub: argparse.ArgumentParser, many: bool = False) -> None:
+        from vprobot.stopping.rules import stop_names
+
+        sub.add_argument("--stop", type=_stop_rule, nargs="+" if many else None,
+                         default=["goal"] if many else None,
+                         help=f"when to stop{' (each rule in turn)' if many else ''}: "
+                         f"{', '.join(stop_names())}; goal: the simulator's stop at the "
+                         f"coverage goal (default), estimate: the model-free coverage estimate "
+                         f"reaches it with confidence C, grid: the seen surface stops growing, "
+                         f"views:N: after N acquisitions, agent: the agent's learned stop "
+                         f"action (docs/planners.md#stop-rules)")
+        sub.add_argument("--estimator", metavar="PATH",
+                         help="coverage estimator (estimator.npz of `vprobot stop fit`) for "
+                         "--stop estimate and the per-view estimates; default: the bundled one")
+
     reach = add("reach", command_reach, "Can the cell reach this sensor view?")
     add_robot(reach)
     reach.add_argument("--position", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
@@ -534,6 +563,7 @@ def build_parser() -> argparse.ArgumentParser:
                          help="seed of the episode (object pose, initial view); default 0")
         sub.add_argument("--carrier", choices=["robot", "free"],
                          help="robot in the loop (default), or a free-flying sensor (the paper)")
+        add_stop(sub)
         sub.add_argument("--summary", help="also write a summary PNG here")
         sub.add_argument("--width", type=POSITIVE_INT, default=640, help="video width (pixels)")
         sub.add_argument("--height", type=POSITIVE_INT, default=480,
@@ -571,6 +601,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
                             default=["robot", "free"])
+    add_stop(evaluation, many=True)
     evaluation.add_argument("--out", default="results", help="folder for the tables")
     evaluation.add_argument("--workers", type=POSITIVE_INT, default=1,
                             help="episodes at once on Ray (one CPU each); 1: in this process")
