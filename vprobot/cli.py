@@ -445,6 +445,20 @@ def command_stop_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_stop_study(args: argparse.Namespace) -> int:
+    """Run the stop study: every stop rule with every planner it applies to, robot in the
+    loop, on the episode lists."""
+    from vprobot.stopping.study import stop_study
+
+    check_output_folder(args.out, "--out")
+    with showing_progress():
+        stop_study(_config(args), args.out, args.episodes, args.planners, args.stop,
+                   args.estimator, args.workers)
+    print((Path(args.out) / "study.md").read_text())
+    print(f"plot: {Path(args.out) / 'study.png'}")
+    return 0
+
+
 def command_robots_list(args: argparse.Namespace) -> int:
     from vprobot.robots import available_robots, load_robot
 
@@ -514,17 +528,19 @@ def build_parser() -> argparse.ArgumentParser:
                          help="sensor preset (configs/sensors/) to use instead of the config's "
                          "sensor, on the config's mount")
 
-    def add_stop(sub: argparse.ArgumentParser, many: bool = False) -> None:
+    def add_stop(sub: argparse.ArgumentParser, many: Sequence[str] | None = None) -> None:
+        """`--stop RULE`, or with `many` (their default) `--stop RULE [RULE ...]`."""
         from vprobot.stopping.rules import stop_names
 
-        sub.add_argument("--stop", type=_stop_rule, nargs="+" if many else None,
-                         default=["goal"] if many else None,
-                         help=f"when to stop{' (each rule in turn)' if many else ''}: "
+        sub.add_argument("--stop", type=_stop_rule, nargs=None if many is None else "+",
+                         default=None if many is None else list(many),
+                         help=f"when to stop{'' if many is None else ' (each rule in turn)'}: "
                          f"{', '.join(stop_names())}; goal: the simulator's stop at the "
-                         f"coverage goal (default), estimate: the model-free coverage estimate "
-                         f"reaches it with confidence C, grid: the seen surface stops growing, "
-                         f"views:N: after N acquisitions, agent: the agent's learned stop "
-                         f"action (docs/planners.md#stop-rules)")
+                         f"coverage goal, estimate: the model-free coverage estimate reaches it "
+                         f"with confidence C, grid: the seen surface stops growing, views:N: "
+                         f"after N acquisitions, agent: the agent's learned stop action "
+                         f"(docs/planners.md#stop-rules); default: "
+                         f"{'goal' if many is None else ' '.join(many)}")
         sub.add_argument("--estimator", metavar="PATH",
                          help="coverage estimator (estimator.npz of `vprobot stop fit`) for "
                          "--stop estimate and the per-view estimates; default: the bundled one")
@@ -601,7 +617,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
                             default=["robot", "free"])
-    add_stop(evaluation, many=True)
+    add_stop(evaluation, many=["goal"])
     evaluation.add_argument("--out", default="results", help="folder for the tables")
     evaluation.add_argument("--workers", type=POSITIVE_INT, default=1,
                             help="episodes at once on Ray (one CPU each); 1: in this process")
@@ -705,6 +721,26 @@ def build_parser() -> argparse.ArgumentParser:
     stop_fit.add_argument("--planners", nargs="+", type=_planner_name,
                           help="model-free planners of the rollouts (default: random2 "
                                "uniform4 uniform6 uniform8 nbv)")
+
+    from vprobot.stopping import study as study_defaults
+
+    stop_study = add("study", command_stop_study,
+                     "Run the stop study: each stop rule with each planner it applies to, robot "
+                     "in the loop, on episode lists (resumable).", stop_commands)
+    add_robot(stop_study)
+    stop_study.add_argument("--out", required=True,
+                            help="folder for the study (study.md, .csv, .png; LIST/RULE/ "
+                            "evaluations)")
+    stop_study.add_argument("--episodes", nargs="+", default=list(study_defaults.DEFAULT_LISTS),
+                            help=f"episode lists, bundled names or files (default: "
+                            f"{' '.join(study_defaults.DEFAULT_LISTS)})")
+    stop_study.add_argument("--planners", nargs="+", type=_planner_name,
+                            default=list(study_defaults.DEFAULT_PLANNERS),
+                            help=f"planners (default: the bundled agent, nbv and the bundled "
+                            f"agent with a stop action, {study_defaults.CPU_STOP_AGENT})")
+    add_stop(stop_study, many=study_defaults.DEFAULT_RULES)
+    stop_study.add_argument("--workers", type=POSITIVE_INT, default=1,
+                            help="episodes at once on Ray (one CPU each); 1: in this process")
 
     robots = commands.add_parser("robots", help="Robots: the bundled ones, importing your own.")
     robot_commands = robots.add_subparsers(dest="robots_command", required=True)
