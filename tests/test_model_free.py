@@ -1,5 +1,6 @@
-"""Model-free planners (uniform<k>, nbv, an s_grid agent) and the coverage estimate's features:
-what they may read, the occupancy grid, the planners' gains."""
+"""Model-free planners (uniform<k>, nbv, an s_grid agent), the coverage estimate's features and
+the stop rules a real cell can apply: what they may read, the occupancy grid, the planners'
+gains."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from vprobot.planners.base import Planner
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
+from vprobot.stopping.rules import make_stop_rule
 
 CONFIG = Config()
 RESOLUTION = (107, 75)
@@ -131,6 +133,27 @@ def test_the_coverage_estimate_features_never_read_mesh_ground_truth_or_coverage
     rows = np.array([features.update(views[:count]) for count in range(1, len(views) + 1)])
     assert np.isfinite(rows).all()
     assert rows[-1, FEATURES.index("acquired")] == sum(view.acquired for view in episode.views)
+
+
+@pytest.mark.parametrize(("rule", "decides"), [("estimate:0.5", True), ("grid", False),
+                                               ("views:3", True)])
+def test_the_model_free_stop_rules_never_read_mesh_ground_truth_or_coverage(
+        bracket: MotorScene, rule: str, decides: bool) -> None:
+    # A goal the estimate can pass, so that the rule runs to its decision, not only up to it
+    # (the grid rule needs more quiet views than the episode has: it reads every frame anyway).
+    config = replace(CONFIG, "env", coverage_goal=0.3)
+    views = planner_view(guarded_run(make_planner("nbv", CONFIG), bracket, "robot")).views
+    stop = make_stop_rule(rule, config)
+    stop.reset()
+    decisions = [stop.check(Guarded("episode", views=views[:count]))  # type: ignore[arg-type]
+                 for count in range(len(views) + 1)]
+    assert decisions[0] is None and any(decisions) == decides
+
+
+def test_the_guard_catches_the_goal_rule_reading_the_coverage(bracket: MotorScene) -> None:
+    views = planner_view(guarded_run(make_planner("nbv", CONFIG), bracket, "robot")).views
+    with pytest.raises(AssertionError, match=r"read episode\.coverage"):
+        make_stop_rule("goal", CONFIG).check(Guarded("episode", views=views))  # type: ignore
 
 
 def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene) -> None:

@@ -64,7 +64,7 @@ def test_bscp_free_flying_covers_a_cube(millimetre_cube: Path) -> None:
     scene = MotorScene.load(CONFIG, millimetre_cube, scale=0.001)
     episode, spec, rng = episode_of(scene, seed=0, robot=False)
     planner = SetCoverPlanner(goal=0.95, max_views=6, candidate_count=300)
-    record, _ = run_episode(planner, episode, spec, CONFIG, rng)
+    record = run_episode(planner, episode, spec, CONFIG, rng).record
     assert record.coverage >= 0.95
     assert len(record.views) <= 6
     # Every pick was confirmed by a simulated acquisition: the plan measured what it predicted.
@@ -113,7 +113,7 @@ def test_ordering_never_lengthens_travel() -> None:
 def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: MotorScene) -> None:
     episode, spec, rng = episode_of(motor, seed=1, robot=True)
     planner = SetCoverPlanner(views=5, candidate_count=300)
-    record, _ = run_episode(planner, episode, spec, CONFIG, rng)
+    record = run_episode(planner, episode, spec, CONFIG, rng).record
     candidates = planner.candidates
     velocity = motor.cell.joints.velocity_limits
     greedy = [record.start_joints, *(candidates.joints[i] for i in planner.picks)]
@@ -207,7 +207,7 @@ PLANNERS = {
 def test_no_planner_reports_an_unreachable_view_as_executed(name: str,
                                                             motor: MotorScene) -> None:
     episode, spec, rng = episode_of(motor, seed=2, robot=True)
-    record, _ = run_episode(PLANNERS[name](), episode, spec, CONFIG, rng)
+    record = run_episode(PLANNERS[name](), episode, spec, CONFIG, rng).record
     arm = motor.arm
     joints, coverage = record.start_joints, 0.0
     for view in record.views:

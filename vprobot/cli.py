@@ -25,7 +25,7 @@ from vprobot.progress import showing_progress
 from vprobot.robots import available_robots, load_robot
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
-PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier")
+PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
 """Options that choose what `plan` or `render` plans; a replayed `--plan` fixes them all."""
 INTERRUPTED = 130
 
@@ -84,6 +84,17 @@ def _planner_name(text: str) -> str:
         return parse_planner(text, counted=False)[0]
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _stop_rule(text: str) -> str:
+    """An argparse type: a stop rule (`goal`, `estimate:0.9`, `views:5`, ...)."""
+    from vprobot.stopping.rules import parse_stop
+
+    try:
+        parse_stop(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return text
 
 
 def _family_name(text: str) -> str:
@@ -172,7 +183,7 @@ def command_cell(args: argparse.Namespace) -> int:
 def _planning(args: argparse.Namespace) -> dict[str, Any]:
     """The planning options of `plan` / `render`, defaults filled in."""
     chosen = {name: getattr(args, name) for name in PLANNING_OPTIONS}
-    defaults = {"scale": 1.0, "planner": "bscp", "seed": 0, "carrier": "robot"}
+    defaults = {"scale": 1.0, "planner": "bscp", "seed": 0, "carrier": "robot", "stop": "goal"}
     return {name: defaults.get(name) if value is None else value
             for name, value in chosen.items()}
 
@@ -188,7 +199,8 @@ def command_plan(args: argparse.Namespace) -> int:
     with showing_progress():
         scene, record, document, summary = plan_motor(
             _config(args), options["mesh"], options["scale"], options["planner"],
-            options["views"], options["carrier"], options["seed"])
+            options["views"], options["carrier"], options["seed"], options["stop"],
+            options["estimator"])
     if args.no_timing:
         document.pop("timing")
     print(summary)
@@ -217,7 +229,8 @@ def command_render(args: argparse.Namespace) -> int:
         with showing_progress():
             scene, record, _, summary = plan_motor(
                 config, options["mesh"], options["scale"], options["planner"],
-                options["views"], options["carrier"], options["seed"])
+                options["views"], options["carrier"], options["seed"], options["stop"],
+                options["estimator"])
         print(summary)
     _render_outputs(args, scene, record, args.out)
     return 0
@@ -249,7 +262,8 @@ def command_evaluate(args: argparse.Namespace) -> int:
     config = _config(args)
     specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
     evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers,
-             workers=args.workers, address=args.address)
+             workers=args.workers, address=args.address, stops=args.stop,
+             estimator=args.estimator)
     print((Path(args.out) / "evaluation.md").read_text())
     print(f"coverage curves: {Path(args.out) / PLOT_NAME}")
     return 0
@@ -432,6 +446,20 @@ def command_stop_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_stop_study(args: argparse.Namespace) -> int:
+    """Run the stop study: every stop rule with every planner it applies to, robot in the
+    loop, on the episode lists."""
+    from vprobot.stopping.study import stop_study
+
+    check_output_folder(args.out, "--out")
+    with showing_progress():
+        stop_study(_config(args), args.out, args.episodes, args.planners, args.stop,
+                   args.estimator, args.workers)
+    print((Path(args.out) / "study.md").read_text())
+    print(f"plot: {Path(args.out) / 'study.png'}")
+    return 0
+
+
 def command_robots_list(args: argparse.Namespace) -> int:
     from vprobot.robots import available_robots, load_robot
 
@@ -501,6 +529,23 @@ def build_parser() -> argparse.ArgumentParser:
                          help="sensor preset (configs/sensors/) to use instead of the config's "
                          "sensor, on the config's mount")
 
+    def add_stop(sub: argparse.ArgumentParser, many: Sequence[str] | None = None) -> None:
+        """`--stop RULE`, or with `many` (their default) `--stop RULE [RULE ...]`."""
+        from vprobot.stopping.rules import stop_names
+
+        sub.add_argument("--stop", type=_stop_rule, nargs=None if many is None else "+",
+                         default=None if many is None else list(many),
+                         help=f"when to stop{'' if many is None else ' (each rule in turn)'}: "
+                         f"{', '.join(stop_names())}; goal: the simulator's stop at the "
+                         f"coverage goal, estimate: the model-free coverage estimate reaches it "
+                         f"with confidence C, grid: the seen surface stops growing, views:N: "
+                         f"after N acquisitions, agent: the agent's learned stop action "
+                         f"(docs/planners.md#stop-rules); default: "
+                         f"{'goal' if many is None else ' '.join(many)}")
+        sub.add_argument("--estimator", metavar="PATH",
+                         help="coverage estimator (estimator.npz of `vprobot stop fit`) for "
+                         "--stop estimate and the per-view estimates; default: the bundled one")
+
     reach = add("reach", command_reach, "Can the cell reach this sensor view?")
     add_robot(reach)
     reach.add_argument("--position", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
@@ -535,6 +580,7 @@ def build_parser() -> argparse.ArgumentParser:
                          help="seed of the episode (object pose, initial view); default 0")
         sub.add_argument("--carrier", choices=["robot", "free"],
                          help="robot in the loop (default), or a free-flying sensor (the paper)")
+        add_stop(sub)
         sub.add_argument("--summary", help="also write a summary PNG here")
         sub.add_argument("--width", type=POSITIVE_INT, default=640, help="video width (pixels)")
         sub.add_argument("--height", type=POSITIVE_INT, default=480,
@@ -572,6 +618,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
                             default=["robot", "free"])
+    add_stop(evaluation, many=["goal"])
     evaluation.add_argument("--out", default="results", help="folder for the tables")
     evaluation.add_argument("--workers", type=POSITIVE_INT, default=1,
                             help="episodes at once on Ray (one CPU each); 1: in this process")
@@ -675,6 +722,26 @@ def build_parser() -> argparse.ArgumentParser:
     stop_fit.add_argument("--planners", nargs="+", type=_planner_name,
                           help="model-free planners of the rollouts (default: random2 "
                                "uniform4 uniform6 uniform8 nbv)")
+
+    from vprobot.stopping import study as study_defaults
+
+    stop_study = add("study", command_stop_study,
+                     "Run the stop study: each stop rule with each planner it applies to, robot "
+                     "in the loop, on episode lists (resumable).", stop_commands)
+    add_robot(stop_study)
+    stop_study.add_argument("--out", required=True,
+                            help="folder for the study (study.md, .csv, .png; LIST/RULE/ "
+                            "evaluations)")
+    stop_study.add_argument("--episodes", nargs="+", default=list(study_defaults.DEFAULT_LISTS),
+                            help=f"episode lists, bundled names or files (default: "
+                            f"{' '.join(study_defaults.DEFAULT_LISTS)})")
+    stop_study.add_argument("--planners", nargs="+", type=_planner_name,
+                            default=list(study_defaults.DEFAULT_PLANNERS),
+                            help=f"planners (default: the bundled agent, nbv and the bundled "
+                            f"agent with a stop action, {study_defaults.CPU_STOP_AGENT})")
+    add_stop(stop_study, many=study_defaults.DEFAULT_RULES)
+    stop_study.add_argument("--workers", type=POSITIVE_INT, default=1,
+                            help="episodes at once on Ray (one CPU each); 1: in this process")
 
     robots = commands.add_parser("robots", help="Robots: the bundled ones, importing your own.")
     robot_commands = robots.add_subparsers(dest="robots_command", required=True)

@@ -260,14 +260,24 @@ def _append_row(path: Path, row: dict[str, Any]) -> None:
                                header=not path.exists() or path.stat().st_size == 0))
 
 
+def stop_label(planner: str, stop: str) -> str:
+    """A planner's label in the tables under a stop rule: the planner's own under `goal`."""
+    return planner if stop == "goal" else f"{planner} --stop {stop}"
+
+
 def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
-                  planners: Sequence[tuple[str, str, int | None]]) -> None:
-    """Every motor of the list and every planner (an agent's files) loads, before the first
-    episode runs."""
+                  planners: Sequence[tuple[str, str, int | None, str]],
+                  estimator: str | Path | None) -> None:
+    """Every motor of the list, every planner (an agent's files) and stop rule (an
+    estimator) loads, and every rule applies to its planner, before the first episode runs."""
+    from vprobot.stopping.rules import make_stop_rule
+
     for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
         load_mesh(*motor)
-    for _, name, views in planners:
-        make_planner(name, config, views)
+    for label, name, views, stop in planners:
+        if not make_stop_rule(stop, config, estimator).applies_to(
+                make_planner(name, config, views)):
+            raise ValueError(f"stop rule {stop!r} does not apply to planner {name!r} ({label})")
 
 
 def _start_episode_list(path: Path, specs: Sequence[EpisodeSpec]) -> None:
@@ -365,8 +375,9 @@ def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = No
                         else held_out_motors(), seeds if seeds is not None else (0, 1, 2))
 
 
-Job = tuple[int, EpisodeSpec, CarrierName, str, str, int | None]
-"""An episode to run: (index in the list, spec, carrier, planner label, name, fixed views)."""
+Job = tuple[int, EpisodeSpec, CarrierName, str, str, int | None, str]
+"""An episode to run: (index in the list, spec, carrier, planner label, name, fixed views, stop
+rule)."""
 
 
 @functools.lru_cache(maxsize=2)
@@ -375,27 +386,30 @@ def _scene(config: Config, path: Path, scale: float) -> MotorScene:
     return MotorScene.load(config, path, scale)
 
 
-def run_jobs(config: Config, jobs: Sequence[Job]) -> list[dict[str, Any]]:
-    """Run episodes in this process (the latest motors stay loaded); one row per job."""
-    return [episode_row(index, run(config, _scene(config, spec.motor_path, spec.scale), name,
-                                   spec, carrier, views))
-            for index, spec, carrier, _, name, views in jobs]
+def run_jobs(config: Config, jobs: Sequence[Job],
+             estimator: str | Path | None = None) -> list[dict[str, Any]]:
+    """Run episodes in this process (the latest motors stay loaded); one row per job, under
+    the job's label; `estimator` is the coverage estimator of `estimate` (None: bundled)."""
+    return [{**episode_row(index, run(config, _scene(config, spec.motor_path, spec.scale), name,
+                                      spec, carrier, views, stop, estimator)),
+             "planner": label}
+            for index, spec, carrier, label, name, views, stop in jobs]
 
 
-def _rows(config: Config, jobs: Sequence[Job], workers: int,
-          address: str | None) -> Iterator[dict[str, Any]]:
+def _rows(config: Config, jobs: Sequence[Job], workers: int, address: str | None,
+          estimator: str | Path | None) -> Iterator[dict[str, Any]]:
     """The jobs' rows as they finish: in order in this process, or per episode (all its
     carriers and planners, one motor load) as Ray tasks."""
     if workers == 1 and address is None:
         for job in jobs:
-            yield from run_jobs(config, [job])
+            yield from run_jobs(config, [job], estimator)
         return
     from vprobot.cluster import parallel_map
 
     groups: dict[int, list[Job]] = {}
     for job in jobs:
         groups.setdefault(job[0], []).append(job)
-    with contextlib.closing(parallel_map(run_jobs, [(config, group) for group in
+    with contextlib.closing(parallel_map(run_jobs, [(config, group, estimator) for group in
                                                     groups.values()], workers, address)) as tasks:
         for _, rows in tasks:
             yield from rows
@@ -404,7 +418,8 @@ def _rows(config: Config, jobs: Sequence[Job], workers: int,
 def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpec],
              out_dir: str | Path, progress: bool = True,
              carriers: Sequence[CarrierName] = CARRIERS, workers: int = 1,
-             address: str | None = None) -> list[dict[str, Any]]:
+             address: str | None = None, stops: Sequence[str] = ("goal",),
+             estimator: str | Path | None = None) -> list[dict[str, Any]]:
     """Run every planner on every episode with every carrier; write the tables into `out_dir`.
 
     Resumable: each finished episode is appended to `evaluation_episodes.csv` at once, and a
@@ -425,30 +440,35 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         carriers: `robot` and/or `free`.
         workers: Ray tasks at once (one CPU each); 1 without `address` runs in this process.
         address: A Ray cluster to run on (a local Ray with `workers` CPUs when None).
+        stops: Stop rules (`vprobot.stopping.rules`), each with every planner; a planner
+            under a rule other than `goal` is labelled `PLANNER --stop RULE` (`stop_label`).
+        estimator: The coverage estimator file of `estimate` (None: the bundled one).
 
     Returns:
         The summary rows.
 
     Raises:
-        ValueError: For an unknown planner or carrier, no planners, episodes or carriers, a
-            motor that does not load, or an output folder holding another evaluation.
+        ValueError: For an unknown planner, carrier or stop rule, no planners, episodes,
+            carriers or stop rules, a rule that does not apply to a planner, a motor that does
+            not load, or an output folder holding another evaluation.
     """
-    parsed = [(spec, *parse_planner(spec)) for spec in planners]
+    parsed = [(stop_label(spec, stop), *parse_planner(spec), stop) for stop in stops
+              for spec in planners]
     unknown = [carrier for carrier in carriers if carrier not in CARRIERS]
     if unknown:
         raise ValueError(f"unknown carrier {unknown[0]!r}; allowed: {', '.join(CARRIERS)}")
     if not parsed or not specs or not carriers:
-        raise ValueError("evaluate needs at least one planner, episode and carrier")
+        raise ValueError("evaluate needs at least one planner, episode, carrier and stop rule")
     if workers > 1 or address is not None:
         from vprobot.cluster import require_ray
 
         require_ray()
-    _check_inputs(config, specs, parsed)
+    _check_inputs(config, specs, parsed, estimator)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows_path = out / "evaluation_episodes.csv"
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
-              for label, _, _ in parsed}
+              for label, *_ in parsed}
 
     def recorded() -> list[dict[str, Any]]:
         return [row for row in finished_rows(rows_path)
@@ -461,15 +481,16 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
     if done and progress:
         print(f"resuming: {len(done)} of {len(wanted)} episodes already in {rows_path}")
-    jobs = [(index, spec, carrier, label, name, views) for index, spec in enumerate(specs)
-            for carrier in carriers for label, name, views in parsed
-            if (index, carrier, label) not in done]
+    jobs = [(index, spec, carrier, label, name, views, stop)
+            for index, spec in enumerate(specs) for carrier in carriers
+            for label, name, views, stop in parsed if (index, carrier, label) not in done]
     try:
         with tqdm(total=len(wanted), initial=len(done), desc="evaluate",
                   disable=not progress) as bar:
             # Closed at once on an interrupt: Ray's pending episodes are cancelled before the
             # partial tables are written.
-            with contextlib.closing(_rows(config, jobs, workers, address)) as finished:
+            with contextlib.closing(_rows(config, jobs, workers, address,
+                                          estimator)) as finished:
                 for row in finished:
                     _append_row(rows_path, row)
                     rows.append(row)
@@ -483,6 +504,6 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         raise
     order = {key: position for position, key in enumerate(
         (index, carrier, label) for index in range(len(specs)) for carrier in carriers
-        for label, _, _ in parsed)}
+        for label, *_ in parsed)}
     rows.sort(key=lambda row: order[(row["episode"], row["carrier"], row["planner"])])
     return _write_tables(out, rows, specs, config, len(wanted))

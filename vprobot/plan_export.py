@@ -146,7 +146,8 @@ def planned_views(record: EpisodeRecord) -> list[dict[str, Any]]:
 
 
 def episode_document(scene: MotorScene, record: EpisodeRecord,
-                     metadata: dict[str, Any] | None = None) -> dict[str, Any]:
+                     metadata: dict[str, Any] | None = None,
+                     estimates: np.ndarray | None = None) -> dict[str, Any]:
     """The plan JSON of an episode: object placement, robot, sensor, views, final coverage,
     travel, and the ground truth to re-check the coverage.
 
@@ -158,6 +159,8 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
         scene: The motor scene the episode ran in.
         record: The episode.
         metadata: Extra top-level entries (planner, carrier, seed, ...).
+        estimates: The model-free coverage estimate (mean, std) after each view, written as
+            `views[i].estimate` when given.
     """
     document = plan_document(scene.cell, planned_views(record),
                              scene.object_block(record.object_pose), record.coverage)
@@ -166,6 +169,9 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
     document["approach"] = record.approach.as_dict()
     document["travel"] = record.travel_sum.as_dict()
     document["ground_truth"] = ground_truth_block(record)
+    if estimates is not None:
+        for view, (mean, std) in zip(document["views"], estimates, strict=True):
+            view["estimate"] = {"mean": float(mean), "std": float(std)}
     document.update(metadata or {})
     return document
 

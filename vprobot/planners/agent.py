@@ -6,7 +6,8 @@ agent's training (`vprobot.env.observations.Observer`), so an `s_cov` agent is h
 acquired cloud only, and an `s_grid` agent the features of the band candidates from the acquired
 frames, never the mesh or the ground truth. It stops at the coverage goal (a simulation can
 tell); given `views`, after that many views in all, the initial one included; an agent trained
-with `stop_action` decides itself when to stop (a real cell, where coverage is unknown).
+with `stop_action` decides itself when to stop (a real cell, where coverage is unknown), unless
+a stop rule takes charge (`--stop`, `vprobot.stopping.rules`).
 """
 
 from __future__ import annotations
@@ -67,15 +68,18 @@ class AgentPlanner(Planner):
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._rng = rng
         self.observer.reset()
+        self.stop_reason = None
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
         env = self.agent.config.env
         if self.views is not None and len(episode.views) >= self.views:
             return None
         if self.decides_stop and len(episode.views) > env.max_acquisitions:
+            self.stop_reason = "max views"
             return None
         observation = self.observer.observe(episode, self._rng)
         action, _ = self.agent.model.predict(observation, deterministic=True)
-        if self.views is None and self.mapping.stops(action):
+        if self.decides_stop and self.views is None and self.mapping.stops(action):
+            self.stop_reason = "stop action"
             return None
         return self.observer.request(self.mapping, action, episode.center, self.roll_free)

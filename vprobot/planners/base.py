@@ -38,6 +38,8 @@ class Planner(abc.ABC):
         initial_view: Whether the episode starts with the environment's fixed initial view, as
             the next-best-view agents of the paper do (whole-plan baselines do not).
         stops_at_goal: Whether the runner stops at the coverage goal (a fixed plan runs out).
+        decides_stop: Whether it decides itself when to stop (an agent with a stop action); a
+            stop rule other than `goal` and `agent` turns it off (`vprobot.stopping.rules`).
         candidates: The candidate views a model-based planner chose from in its last episode.
         stop_reason: Why the planner stopped itself in its last episode (None when it did not:
             the runner stopped it, or a fixed plan ran out).
@@ -49,6 +51,7 @@ class Planner(abc.ABC):
     counted: ClassVar[bool] = False
     initial_view: ClassVar[bool] = False
     stops_at_goal: bool = True
+    decides_stop: bool = False
     candidates: CandidateViews | None = None
     stop_reason: str | None = None
 

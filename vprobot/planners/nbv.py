@@ -24,7 +24,7 @@ the fixture) keeps it above 60 % of its first value after ten views that saw eve
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -150,7 +150,12 @@ def grid_stop(planner: VolumetricPlanner, episode: Episode) -> str | None:
     """The grid rule: the surface seen has stopped growing, or the view budget is spent."""
     if len(episode.views) > planner.config.env.max_acquisitions:
         return "view budget"
-    added = planner.episode_grid.added
+    return surface_quiet(planner.episode_grid.added)
+
+
+def surface_quiet(added: Sequence[float]) -> str | None:
+    """The grid rule's test on what each informative frame added to the occupied voxels
+    (`EpisodeGrid.added`): why to stop, else None; `--stop grid` applies it to any planner."""
     recent = added[-STOP_QUIET_VIEWS:]
     if len(added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
         return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "

@@ -6,7 +6,7 @@ import dataclasses
 import re
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from vprobot.plan_export import episode_document
 from vprobot.planners import agent, bscp, hrec, nbv, oracle, random_views, uniform  # noqa: F401
 from vprobot.planners.base import PLANNERS, Planner
 from vprobot.planners.candidates import CandidateViews
+
+if TYPE_CHECKING:
+    from vprobot.stopping.rules import StopRule
 
 
 def planner_names() -> list[str]:
@@ -112,7 +115,12 @@ class EpisodeResult:
         plan_seconds: Time spent inside the planner (reset and next-view calls).
         episode_seconds: Wall time of the whole episode (planning and executing views).
         candidates: The candidate views of a model-based planner (bscp, oracle), else None.
-        stop_reason: Why the planner stopped itself (e.g. `nbv@grid`), else None.
+        stop_reason: Why the episode ended (`goal reached`, `max views`, the stop rule's or the
+            planner's own reason, e.g. `nbv@grid`'s).
+        stop_rule: The stop rule (`--stop`: `goal`, `estimate:0.9`, ...).
+        planner_stopped: Whether the planner ended the episode itself (its own reason, or a
+            fixed plan that ran out) rather than the runner.
+        estimates: The model-free coverage estimate (mean, std) after each view, when asked for.
     """
 
     planner: str
@@ -124,6 +132,9 @@ class EpisodeResult:
     episode_seconds: float
     candidates: CandidateViews | None = None
     stop_reason: str | None = None
+    stop_rule: str = "goal"
+    planner_stopped: bool = False
+    estimates: np.ndarray | None = None
 
     @property
     def mesh(self) -> str:
@@ -164,20 +175,49 @@ class EpisodeResult:
         return self.record.travel_sum
 
 
+@dataclasses.dataclass(frozen=True)
+class Played:
+    """What `run_episode` returns.
+
+    Attributes:
+        record: What happened, view by view.
+        plan_seconds: Time spent inside the planner (reset and next-view calls).
+        stop_reason: Why the episode ended.
+        planner_stopped: Whether the planner ended it itself (else the runner did).
+    """
+
+    record: EpisodeRecord
+    plan_seconds: float
+    stop_reason: str
+    planner_stopped: bool
+
+
+PLAN_RAN_OUT = "plan ran out"
+"""Why an episode ended when the planner had no further view and gave no reason."""
+
+
 def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: Config,
-                rng: np.random.Generator) -> tuple[EpisodeRecord, float]:
-    """Let `planner` choose views until it stops, the goal or the view budget is reached.
+                rng: np.random.Generator, stop: StopRule | None = None) -> Played:
+    """Let `planner` choose views until it stops, the stop rule or the view budget says so.
 
-    Planners that start from the environment's initial view (`initial_view`) get the spec's;
-    planners that stop at the goal (`stops_at_goal`) get at most `env.max_acquisitions`
-    requests after it; fixed plans run to their end.
-
-    Returns:
-        The record and the time spent inside the planner (s).
+    Planners that start from the environment's initial view (`initial_view`) get the spec's.
+    The stop rule (default `goal`: the coverage goal, for planners that stop there) is asked
+    before each request; a planner the rule governs gets at most `env.max_acquisitions`
+    requests after the initial view; fixed plans, and planners the rule leaves to stop
+    themselves, run to their end.
 
     Raises:
-        ValueError: If none of the spec's initial views is reachable.
+        ValueError: If none of the spec's initial views is reachable, or the rule does not
+            apply to the planner.
     """
+    if stop is None:
+        # Imported here: the stop rules build on the planners' candidates.
+        from vprobot.stopping.rules import make_stop_rule
+
+        stop = make_stop_rule("goal", config)
+    stop.bind(planner)
+    governed = stop.governs(planner)
+    stop.reset()
     env = config.env
     planning = 0.0
     start = time.perf_counter()
@@ -187,37 +227,63 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
         episode.begin(spec.initial_requests(episode.center, config.sensor.working_distance_m))
     first = len(episode.views)
     while True:
-        if planner.stops_at_goal and (episode.coverage >= env.coverage_goal
-                                      or len(episode.views) - first >= env.max_acquisitions):
-            break
+        if governed:
+            reason = stop.check(episode)
+            if reason is None and len(episode.views) - first >= env.max_acquisitions:
+                reason = "max views"
+            if reason is not None:
+                return Played(episode.record(), planning, reason, False)
         start = time.perf_counter()
         view = planner.next_view(episode)
         planning += time.perf_counter() - start
         if view is None:
-            break
+            return Played(episode.record(), planning, planner.stop_reason or PLAN_RAN_OUT, True)
         episode.request(view)
-    return episode.record(), planning
 
 
 def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
-        carrier: CarrierName = "robot", views: int | None = None) -> EpisodeResult:
+        carrier: CarrierName = "robot", views: int | None = None, stop: str = "goal",
+        estimator: str | Path | None = None, estimates: bool = False) -> EpisodeResult:
     """One episode of a planner on a loaded motor, as the spec fixes it.
 
+    Args:
+        config: The configuration.
+        scene: The loaded motor.
+        planner: A planner name (`planner_names`).
+        spec: The episode.
+        carrier: `robot` or `free`.
+        views: Fixed number of views of a `counted` planner.
+        stop: A stop rule (`vprobot.stopping.rules`: `goal`, `estimate:0.9`, `views:5`, ...).
+        estimator: The coverage estimator file (None: the bundled one), for `estimate` and
+            `estimates`.
+        estimates: Also estimate the coverage after each view, model-free, as `estimate`
+            does (`EpisodeResult.estimates`).
+
     Raises:
-        ValueError: For an unknown planner or carrier.
+        ValueError: For an unknown planner, carrier or stop rule, a rule that does not apply
+            to the planner, or an estimator that cannot be read.
     """
+    # Imported here: the stop rules build on the planners' candidates.
+    from vprobot.stopping.estimator import load_estimator
+    from vprobot.stopping.rules import make_stop_rule
+    from vprobot.stopping.rules.estimate import view_estimates
+
     if carrier not in CARRIERS:
         raise ValueError(f"carrier must be one of {list(CARRIERS)}, got {carrier!r}")
-    episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable)
     chosen = make_planner(planner, config, views)
+    rule = make_stop_rule(stop, config, estimator)
+    estimate = load_estimator(estimator) if estimates else None
+    episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable)
     start = time.perf_counter()
-    record, planning = run_episode(chosen, episode, spec, config,
-                                   np.random.default_rng(spec.seed))
+    played = run_episode(chosen, episode, spec, config, np.random.default_rng(spec.seed), rule)
     return EpisodeResult(planner=planner if views is None else f"{planner}{views}",
-                         carrier=carrier, spec=spec, record=record,
-                         goal=config.env.coverage_goal, plan_seconds=planning,
+                         carrier=carrier, spec=spec, record=played.record,
+                         goal=config.env.coverage_goal, plan_seconds=played.plan_seconds,
                          episode_seconds=time.perf_counter() - start,
-                         candidates=chosen.candidates, stop_reason=chosen.stop_reason)
+                         candidates=chosen.candidates, stop_reason=played.stop_reason,
+                         stop_rule=stop, planner_stopped=played.planner_stopped,
+                         estimates=(None if estimate is None else
+                                    view_estimates(config, played.record.views, estimate)))
 
 
 def summary(result: EpisodeResult, config: Config) -> str:
@@ -245,8 +311,11 @@ def summary(result: EpisodeResult, config: Config) -> str:
     else:
         lines.append(f"  travel {travel.paper:.2f} m paper approximation, {travel.cartesian:.2f} m "
                      f"sensor path (between views)")
-    if result.stop_reason is not None:
-        lines.append(f"  stopped by the planner: {result.stop_reason}")
+    if result.planner_stopped:
+        lines.append(f"  stopped by the planner: {result.stop_reason} (--stop "
+                     f"{result.stop_rule})")
+    else:
+        lines.append(f"  stopped: {result.stop_reason} (--stop {result.stop_rule})")
     lines.append(f"  planning {result.plan_seconds:.2f} s, episode {result.episode_seconds:.2f} s")
     candidates = result.candidates
     if candidates is not None:
@@ -254,24 +323,32 @@ def summary(result: EpisodeResult, config: Config) -> str:
                  f"{candidates.reach_seconds:.2f} s)" if robot else "")
         lines.append(f"  candidates {len(candidates)}{reach}, visibility of the GT points "
                      f"{candidates.visibility_seconds:.2f} s")
+    estimates = result.estimates
+    # The model-free estimate beside the true coverage, when there is one.
+    heading = "" if estimates is None else "  estimate (model-free)"
     if robot:
-        lines.append("  view  coverage  joint time  reached")
+        lines.append(f"  view  coverage  joint time  reached{heading}")
     else:
-        lines.append("  view  coverage  paper travel")
+        lines.append(f"  view  coverage  paper travel{heading}")
     for index, view in enumerate(record.views, start=1):
         if robot:
             state = "yes" if view.reachable else f"no ({view.reason})"
-            lines.append(f"  {index:4d}  {view.coverage:8.1%}  {view.travel.joint_time:8.2f} s  "
-                         f"{state}")
+            line = (f"  {index:4d}  {view.coverage:8.1%}  {view.travel.joint_time:8.2f} s  "
+                    f"{state:7s}")
         else:
-            lines.append(f"  {index:4d}  {view.coverage:8.1%}  {view.travel.paper:10.2f} m")
+            line = f"  {index:4d}  {view.coverage:8.1%}  {view.travel.paper:10.2f} m"
+        if estimates is not None:
+            mean, std = estimates[index - 1]
+            line += f"  {100 * mean:5.1f} ± {100 * std:4.1f} %"
+        lines.append(line.rstrip())
     return "\n".join(lines)
 
 
 def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float = 1.0,
                planner: str = "bscp", views: int | None = None,
-               carrier: CarrierName = "robot",
-               seed: int = 0) -> tuple[MotorScene, EpisodeRecord, dict[str, Any], str]:
+               carrier: CarrierName = "robot", seed: int = 0, stop: str = "goal",
+               estimator: str | Path | None = None
+               ) -> tuple[MotorScene, EpisodeRecord, dict[str, Any], str]:
     """Plan the inspection of one motor (`vprobot plan`).
 
     Args:
@@ -282,6 +359,9 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         views: Fixed number of views for bscp; None plans until the coverage goal.
         carrier: `robot` (robot in the loop) or `free` (free-flying sensor).
         seed: Seed of the episode (object pose, initial view).
+        stop: The stop rule (`vprobot.stopping.rules`).
+        estimator: The coverage estimator file (None: the bundled one) of `estimate` and of
+            the estimate after each view.
 
     Returns:
         The motor scene (for rendering), the episode record, the plan JSON document
@@ -289,18 +369,18 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
 
     Raises:
         FileNotFoundError, ValueError: For a missing or unusable mesh, an unknown planner, or
-            `views` with a planner other than bscp.
+            `views` with a planner other than bscp, a bad stop rule or estimator.
     """
     mesh_path = mesh_path if mesh_path is not None else DEFAULT_MOTOR
     scene = MotorScene.load(config, mesh_path, scale, scale_option="--scale")
     spec = seeded_episode(config.env, mesh_path, seed, scale)
-    result = run(config, scene, planner, spec, carrier, views)
+    result = run(config, scene, planner, spec, carrier, views, stop, estimator, estimates=True)
     document = episode_document(scene, result.record, metadata={
         "planner": result.planner, "seed": seed, "goal": result.goal,
-        "stop_reason": result.stop_reason,
+        "stop_rule": result.stop_rule, "stop_reason": result.stop_reason,
         # Wall-clock figures in a block of their own, which `plan --no-timing` leaves out.
         "timing": {"plan_s": result.plan_seconds, "episode_s": result.episode_seconds},
-    })
+    }, estimates=result.estimates)
     text = summary(result, config)
     if scene.mesh.simplification is not None:
         text += f"\n  mesh {scene.mesh.simplification.describe()}"

@@ -16,6 +16,7 @@ pickle: the weights are stored as arrays in an `.npz` file.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.files import atomic_output
+from vprobot.paths import ASSETS_DIR
 
 MEMBERS = 5
 HIDDEN = 32
@@ -34,6 +36,8 @@ WEIGHT_DECAY = 1e-4
 MIN_STD = 1e-3
 """Floor of a member's stated standard deviation (coverage is known to no better anyway)."""
 FORMAT = 1
+BUNDLED_ESTIMATOR = ASSETS_DIR / "estimator" / "estimator.npz"
+"""The estimator `--stop estimate` uses unless told otherwise (its README says how it was fit)."""
 
 
 def _softplus(x: np.ndarray) -> np.ndarray:
@@ -124,6 +128,26 @@ class CoverageEstimator:
                            data["scale"], layers)
         except (OSError, KeyError, ValueError) as error:
             raise ValueError(f"cannot read coverage estimator {path}: {error}") from None
+
+
+def load_estimator(path: str | Path | None = None) -> CoverageEstimator:
+    """The estimator of an `.npz` file of `vprobot stop fit`, or the bundled one (None).
+
+    Raises:
+        ValueError: If the file is missing or not an estimator.
+    """
+    shown = Path(path) if path is not None else BUNDLED_ESTIMATOR
+    try:
+        modified = shown.stat().st_mtime_ns
+    except OSError as error:
+        raise ValueError(f"cannot read coverage estimator {shown}: {error}") from None
+    return _load(shown.resolve(), modified)
+
+
+@functools.lru_cache(maxsize=4)
+def _load(path: Path, modified: int) -> CoverageEstimator:
+    # Cached per file and modification time: an evaluation builds a stop rule every episode.
+    return CoverageEstimator.load(path)
 
 
 def fit(features: np.ndarray, coverage: np.ndarray, validation_features: np.ndarray,

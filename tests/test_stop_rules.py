@@ -1,0 +1,196 @@
+"""Stop rules (`--stop`): their values, their decisions, the runner's reasons, the plan's
+per-view estimates, and the stop study."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+import shutil
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vprobot.cli import main
+from vprobot.config import Config, replace
+from vprobot.episode import MotorScene, episode_list, seeded_episode, write_episode_list
+from vprobot.paths import DEFAULT_MOTOR
+from vprobot.planners.runner import PLAN_RAN_OUT, run
+from vprobot.stopping.estimator import BUNDLED_ESTIMATOR
+from vprobot.stopping.rules import make_stop_rule, parse_stop
+from vprobot.stopping.rules.estimate import EstimateStop
+from vprobot.stopping.study import combinations, study_row
+
+RESOLUTION = (107, 75)
+CONFIG = replace(Config(), "sensor", resolution=RESOLUTION)
+
+
+@pytest.fixture(scope="module")
+def motor() -> MotorScene:
+    return MotorScene.load(CONFIG, DEFAULT_MOTOR)
+
+
+@pytest.mark.parametrize(("value", "problem"), [
+    ("foo", "unknown stop rule 'foo'"),
+    ("views:0", "bad stop rule 'views:0': N must be an integer >= 1"),
+    ("views", "bad stop rule 'views': N must be an integer >= 1"),
+    ("estimate:1.5", "bad stop rule 'estimate:1.5': C must be a number in (0, 1)"),
+    ("estimate:0", "bad stop rule 'estimate:0': C must be a number in (0, 1)"),
+])
+@pytest.mark.parametrize("command", [["plan", "--out", "plan.json"], ["evaluate"]])
+def test_a_bad_stop_value_is_one_line_naming_it_and_what_is_allowed(
+        value: str, problem: str, command: list[str], tmp_path: Path,
+        capsys: pytest.CaptureFixture) -> None:
+    argv = [*command, "--stop", value]
+    with pytest.raises(SystemExit) as exit_:  # argparse refuses it, before any work
+        main([arg.replace("plan.json", str(tmp_path / "plan.json")) for arg in argv])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and problem in err
+    assert "allowed: agent, estimate[:C] (0 < C < 1, default 0.95), goal, grid, views:N" in err
+    assert not (tmp_path / "plan.json").exists()
+
+
+def test_parse_stop_reads_each_form() -> None:
+    assert [parse_stop(text)[1] for text in ("goal", "estimate", "estimate:0.9", "views:12",
+                                             "grid", "agent")] == [
+        {}, {}, {"confidence": 0.9}, {"count": 12}, {}, {}]
+
+
+def test_the_agent_rule_needs_a_planner_with_a_learned_stop(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    rule = make_stop_rule("agent", CONFIG)
+    learned = types.SimpleNamespace(name="agent", decides_stop=True)
+    rule.bind(learned)  # type: ignore[arg-type]
+    assert learned.decides_stop  # the agent rule leaves its stop action in charge
+    assert main(["plan", "--planner", "nbv", "--stop", "agent", "--carrier", "free",
+                 "--out", str(tmp_path / "plan.json")]) == 2
+    err = capsys.readouterr().err
+    assert "stop rule 'agent' needs an agent planner whose action has a stop" in err
+    assert "planner 'nbv' has none" in err and not (tmp_path / "plan.json").exists()
+
+
+def test_a_rule_other_than_goal_and_agent_takes_the_stop_from_a_learned_stop() -> None:
+    for text, keeps in (("goal", True), ("agent", True), ("views:3", False), ("grid", False),
+                        ("estimate", False)):
+        planner = types.SimpleNamespace(name="agent", decides_stop=True, stops_at_goal=False)
+        make_stop_rule(text, CONFIG).bind(planner)  # type: ignore[arg-type]
+        assert planner.decides_stop == keeps, text
+
+
+def test_views_counts_acquisitions_only() -> None:
+    rule = make_stop_rule("views:2", CONFIG)
+    acquired = [True, False, True]
+    decisions = [rule.check(types.SimpleNamespace(  # type: ignore[arg-type]
+        views=[types.SimpleNamespace(acquired=flag) for flag in acquired[:count]]))
+        for count in range(4)]
+    assert decisions == [None, None, None, "views:2"]
+
+
+@pytest.mark.parametrize(("confidence", "mean", "std", "stops"), [
+    # z(0.95) = 1.6449: 0.94 - 1.6449 * 0.02 = 0.9071 >= 0.9, 0.93 - 0.0329 = 0.8971 < 0.9.
+    (0.95, 0.94, 0.02, True), (0.95, 0.93, 0.02, False),
+    # z(0.5) = 0: the mean alone decides.
+    (0.5, 0.9, 0.3, True), (0.5, 0.899, 0.001, False),
+    # z(0.9) = 1.2816: 0.92 - 0.0256 = 0.8944 < 0.9.
+    (0.9, 0.92, 0.02, False),
+])
+def test_the_estimate_rule_stops_when_mean_minus_z_std_reaches_the_goal(
+        confidence: float, mean: float, std: float, stops: bool) -> None:
+    estimator = types.SimpleNamespace(estimate=lambda features: (np.array(mean), np.array(std)))
+    rule = EstimateStop(CONFIG, estimator, confidence)  # type: ignore[arg-type]
+    rule.features = types.SimpleNamespace(update=lambda views: np.zeros(1))  # type: ignore
+    view = types.SimpleNamespace(acquired=True)
+    reason = rule.check(types.SimpleNamespace(views=[view]))  # type: ignore[arg-type]
+    assert (reason is not None) == stops
+    if stops:
+        assert reason == (f"estimate {100 * mean:.1f} ± {100 * std:.1f} % ≥ 90 % at "
+                          f"{100 * confidence:g} %")
+    # Nothing acquired: nothing to estimate from, whatever the estimator would say.
+    assert rule.check(types.SimpleNamespace(  # type: ignore[arg-type]
+        views=[types.SimpleNamespace(acquired=False)])) is None
+
+
+def test_the_runner_says_why_it_stopped(motor: MotorScene) -> None:
+    spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
+    ran_out = run(CONFIG, motor, "uniform3", spec, "free")
+    assert (len(ran_out.record.views), ran_out.stop_reason, ran_out.planner_stopped) == (
+        3, PLAN_RAN_OUT, True)
+    counted = run(CONFIG, motor, "uniform6", spec, "free", stop="views:2")
+    assert (len(counted.record.views), counted.stop_reason, counted.planner_stopped) == (
+        2, "views:2", False)
+    budget = replace(CONFIG, "env", max_acquisitions=3)
+    capped = run(budget, motor, "uniform12", spec, "free", stop="views:20")
+    assert (len(capped.record.views), capped.stop_reason, capped.stop_rule) == (
+        3, "max views", "views:20")
+
+
+def test_plan_with_the_estimate_rule_says_why_and_the_estimate_at_each_view(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    plan = tmp_path / "plan.json"
+    estimator = tmp_path / "copy.npz"
+    shutil.copy(BUNDLED_ESTIMATOR, estimator)
+    assert main(["plan", "--planner", "nbv", "--carrier", "free", "--stop", "estimate:0.9",
+                 "--estimator", str(estimator), "--out", str(plan)]) == 0
+    out = capsys.readouterr().out
+    document = json.loads(plan.read_text())
+    assert document["stop_rule"] == "estimate:0.9"
+    estimates = [(view["estimate"]["mean"], view["estimate"]["std"])
+                 for view in document["views"]]
+    # Independently of the rule's code: it stopped at the first view whose lower bound at
+    # z(0.9) = 1.2816 reached the goal, or at the budget.
+    bounds = [mean - 1.2815516 * std for mean, std in estimates]
+    if document["stop_reason"] == "max views":
+        assert max(bounds) < 0.9 and len(estimates) == 1 + CONFIG.env.max_acquisitions
+    else:
+        assert bounds[-1] >= 0.9 and max(bounds[:-1], default=0.0) < 0.9
+        shown = re.fullmatch(r"estimate (\S+) ± (\S+) % ≥ 90 % at 90 %",
+                             document["stop_reason"])
+        assert shown is not None
+        assert float(shown[1]) == round(100 * estimates[-1][0], 1)
+        assert float(shown[2]) == round(100 * estimates[-1][1], 1)
+        assert f"stopped: {document['stop_reason']} (--stop estimate:0.9)" in out
+    assert all(0.0 <= mean <= 1.0 and std > 0.0 for mean, std in estimates)
+    assert f"{100 * estimates[0][0]:5.1f} ± {100 * estimates[0][1]:4.1f} %" in out
+
+
+def test_study_row_counts_the_goal_share_and_wasted_views_by_hand() -> None:
+    rows = [{"success": True, "coverage_pct": 92.0, "requested": 6, "acquisitions": 6,
+             "views_to_goal": 4},
+            {"success": False, "coverage_pct": 80.0, "requested": 11, "acquisitions": 9,
+             "views_to_goal": None}]
+    assert study_row(rows, "test-v1", "nbv", "grid") == {
+        "episodes": "test-v1", "planner": "nbv", "stop": "grid", "count": 2,
+        "at_goal_pct": 50.0, "coverage_pct": 86.0, "requested": 8.5, "acquisitions": 7.5,
+        "wasted": 1.0, "extra_vs_goal": None}
+
+
+def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:
+    assert combinations(CONFIG, ["uniform4", "random2"], ["goal", "agent", "views:2"]) == [
+        ("goal", ["random2"]), ("views:2", ["uniform4", "random2"])]
+
+
+def test_the_stop_study_runs_from_one_command(tmp_path: Path,
+                                              capsys: pytest.CaptureFixture) -> None:
+    config = tmp_path / "low.yaml"
+    config.write_text(f"sensor:\n  resolution: [{RESOLUTION[0]}, {RESOLUTION[1]}]\n")
+    episodes = tmp_path / "one.json"
+    write_episode_list(episodes, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
+    out = tmp_path / "study"
+    assert main(["stop", "study", "--config", str(config), "--out", str(out), "--episodes",
+                 str(episodes), "--planners", "uniform2", "--stop", "views:1", "grid"]) == 0
+    with (out / "study.csv").open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert [(row["planner"], row["stop"], row["count"]) for row in rows] == [
+        ("uniform2", "views:1", "1"), ("uniform2", "grid", "1")]
+    # views:1 stops after the first acquisition; the grid rule needs three frames, so the
+    # two views of uniform2 run out first.
+    assert (rows[0]["requested"], rows[1]["requested"]) == ("1.0", "2.0")
+    for rule in ("views-1", "grid"):
+        with (out / "one" / rule / "evaluation_episodes.csv").open() as stream:
+            (episode,) = csv.DictReader(stream)
+        assert episode["planner"] == f"uniform2 --stop {rule.replace('-', ':')}"
+    assert (out / "study.png").stat().st_size > 0
+    assert "| uniform2 | views:1 | 1 |" in capsys.readouterr().out

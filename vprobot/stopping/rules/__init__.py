@@ -1,0 +1,58 @@
+"""Stop rules any planner can use (`--stop goal|estimate|grid|views:N|agent`).
+
+`goal` is the simulator's stop at the coverage goal (the default); `estimate` stops when the
+model-free coverage estimate says the goal is reached with a chosen confidence; `grid` when the
+surface seen stops growing (the rule of `nbv@grid`); `views:N` after N acquisitions; `agent`
+leaves it to an agent's learned stop action. One module per rule, registered in `STOPS`
+(`base`); the runner asks the rule before each request (`vprobot.planners.runner`).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+from vprobot.config import Config
+
+# The rule modules register themselves in STOPS when imported.
+from vprobot.stopping.rules import agent, estimate, goal, grid, views  # noqa: F401
+from vprobot.stopping.rules.base import STOPS, StopRule, register_stop
+
+__all__ = ["STOPS", "StopRule", "make_stop_rule", "parse_stop", "register_stop", "stop_names"]
+
+
+def stop_names() -> list[str]:
+    """The stop rules as messages list them, in registration order."""
+    return [cls.usage or name for name, cls in STOPS.items()]
+
+
+def parse_stop(text: str) -> tuple[type[StopRule], dict[str, Any]]:
+    """The rule class a stop rule names (`estimate:0.9`) and its validated options.
+
+    Raises:
+        ValueError: For an unknown rule or a bad value; the message names it and lists the
+            accepted forms.
+    """
+    for name, cls in STOPS.items():
+        match = re.fullmatch(re.escape(name) + cls.pattern, text)
+        if match is None:
+            continue
+        groups = {key: value for key, value in match.groupdict().items() if value is not None}
+        try:
+            return cls, cls.options(**groups)
+        except ValueError as error:
+            raise ValueError(f"bad stop rule {text!r}: {error}; allowed: "
+                             f"{', '.join(stop_names())}") from None
+    raise ValueError(f"unknown stop rule {text!r}; allowed: {', '.join(stop_names())}")
+
+
+def make_stop_rule(text: str, config: Config, estimator: str | Path | None = None) -> StopRule:
+    """A stop rule by name for runs of `config`; `estimator` is the coverage estimator file of
+    `estimate` (None: the bundled one).
+
+    Raises:
+        ValueError: For an unknown rule, a bad value or an estimator that cannot be read.
+    """
+    cls, options = parse_stop(text)
+    return cls.build(config, estimator, **options)

@@ -1,0 +1,31 @@
+"""`agent`: the learned stop, an agent trained with a stop action deciding itself."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from vprobot.stopping.rules.base import StopRule, register_stop
+
+if TYPE_CHECKING:
+    from vprobot.episode import Episode
+    from vprobot.planners.base import Planner
+
+
+@register_stop
+class AgentStop(StopRule):
+    """Leaves stopping to the agent's stop action; the runner still stops at the view budget."""
+
+    name = "agent"
+
+    def applies_to(self, planner: Planner) -> bool:
+        return planner.decides_stop
+
+    def bind(self, planner: Planner) -> None:
+        if not self.applies_to(planner):
+            raise ValueError(f"stop rule 'agent' needs an agent planner whose action has a stop "
+                             f"(trained with env.stop_action, e.g. "
+                             f"agent:vprobot/assets/agents/cpu-stop); planner {planner.name!r} "
+                             f"has none")
+
+    def check(self, episode: Episode) -> str | None:
+        return None

@@ -1,0 +1,96 @@
+"""The stop-rule interface: when the runner ends a planner's episode (`--stop`).
+
+Before each request the runner asks the episode's rule whether to stop now (`StopRule.check`);
+a planner may still end its episode earlier (a fixed plan runs out, `nbv@grid` stops itself),
+and the runner always stops at the view budget (`env.max_acquisitions` requests after the
+initial view). Every rule registers its class in `STOPS` under its `name`
+(`register_stop`); `vprobot.stopping.rules.make_stop_rule` builds rules by name from there.
+"""
+
+from __future__ import annotations
+
+import abc
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
+
+from vprobot.config import Config
+from vprobot.registry import Registry
+
+if TYPE_CHECKING:
+    # The planners' runner builds on this interface.
+    from vprobot.episode import Episode
+    from vprobot.planners.base import Planner
+
+
+class StopRule(abc.ABC):
+    """Decides, from the episode so far, whether the runner stops the planner now.
+
+    Attributes:
+        name: Its name in `STOPS` (`goal`, `estimate`, `views`, ...).
+        pattern: What may follow `name`, a regular expression whose named groups are passed to
+            `options` (`views` takes `:(?P<count>.*)`: `views:5`); empty: the bare name only.
+        usage: The rule as messages list it (`views:N (N >= 1)`); empty: `name`.
+    """
+
+    name: ClassVar[str]
+    pattern: ClassVar[str] = ""
+    usage: ClassVar[str] = ""
+
+    @classmethod
+    def options(cls, **groups: str) -> dict[str, Any]:
+        """The rule's options from the groups of `pattern` that matched.
+
+        Raises:
+            ValueError: For a value the rule does not take (the message says what it takes).
+        """
+        return {}
+
+    @classmethod
+    def build(cls, config: Config, estimator: str | Path | None = None,
+              **options: Any) -> StopRule:
+        """The rule for a run of `config`; `estimator` is the coverage estimator file of the
+        rules that estimate (None: the bundled one), `options` come from `options`."""
+        return cls(**options)
+
+    def applies_to(self, planner: Planner) -> bool:
+        """Whether the rule can stop this planner (`agent` needs a learned stop)."""
+        return True
+
+    def bind(self, planner: Planner) -> None:
+        """Take charge of the planner's stopping: a learned stop action is no longer used, the
+        rule decides (`goal` and `agent` keep it).
+
+        Raises:
+            ValueError: If the rule does not apply to the planner.
+        """
+        if not self.applies_to(planner):
+            raise ValueError(f"stop rule {self.name!r} does not apply to planner "
+                             f"{planner.name!r}")
+        planner.decides_stop = False
+
+    def governs(self, planner: Planner) -> bool:
+        """Whether the runner stops the planner (by this rule and the view budget) or leaves
+        stopping to it."""
+        return True
+
+    def reset(self) -> None:  # noqa: B027 (a hook: rules that keep no episode state skip it)
+        """A new episode."""
+
+    @abc.abstractmethod
+    def check(self, episode: Episode) -> str | None:
+        """Why to stop now, else None; called before each request of a governed planner."""
+
+
+STOPS: Registry[type[StopRule]] = Registry("stop rule")
+"""Every stop rule class by name, in registration order."""
+
+R = TypeVar("R", bound=type[StopRule])
+
+
+def register_stop(cls: R) -> R:
+    """Class decorator: registers a stop rule under its `name`.
+
+    Raises:
+        ValueError: If a rule of that name is already registered.
+    """
+    return STOPS.register(cls.name, cls)

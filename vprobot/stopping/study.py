@@ -1,0 +1,195 @@
+"""The stop study (`vprobot stop study`): how each stop rule stops each planner, robot in the loop.
+
+Per episode list, every stop rule runs with every planner it applies to (`goal` only with the
+planners the simulator stops at the goal, `agent` only with an agent that has a stop action),
+as an ordinary evaluation in `OUT/LIST/RULE/` (`vprobot.evaluation.evaluate`: resumable,
+its own tables). The study table then gives per list, rule and planner: the share of episodes
+stopped at or above the coverage goal, the coverage at the stop, the views requested and
+acquired, the views wasted beyond the goal (requests after the one that reached it) and the
+views requested beyond the same planner stopped at the goal (`study.csv`, `study.md`,
+`study.png`).
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from vprobot.config import Config
+from vprobot.evaluation import evaluate, evaluation_episodes, finished_rows, stop_label
+from vprobot.files import csv_text, save_figure, write_text
+from vprobot.paths import ASSETS_DIR, PACKAGE_DIR
+from vprobot.planners.runner import make_planner, parse_planner
+from vprobot.stopping.rules import make_stop_rule
+
+DEFAULT_LISTS = ("test-v1", "families-test-v1", "shapes-v1")
+DEFAULT_RULES = ("goal", "estimate", "grid", "views:5", "agent")
+CPU_STOP_AGENT = f"agent:{ASSETS_DIR / 'agents' / 'cpu-stop'}"
+"""The bundled agent with a stop action."""
+DEFAULT_PLANNERS = ("agent", "nbv", CPU_STOP_AGENT)
+"""The bundled agent, volumetric next-best view, and the bundled agent with a stop action."""
+COLUMNS = ("episodes", "planner", "stop", "count", "at_goal_pct", "coverage_pct", "requested",
+           "acquisitions", "wasted", "extra_vs_goal")
+
+
+def combinations(config: Config, planners: Sequence[str], rules: Sequence[str],
+                 estimator: str | Path | None = None) -> list[tuple[str, list[str]]]:
+    """Per rule, the planners it applies to (`goal`: those it stops at the goal).
+
+    Raises:
+        ValueError: For an unknown planner or rule, or an estimator that cannot be read.
+    """
+    chosen = []
+    for rule in rules:
+        stop = make_stop_rule(rule, config, estimator)
+        applies = []
+        for planner in planners:
+            name, views = parse_planner(planner)
+            made = make_planner(name, config, views)
+            if stop.applies_to(made) and (rule != "goal" or stop.governs(made)):
+                applies.append(planner)
+        if applies:
+            chosen.append((rule, applies))
+    return chosen
+
+
+def _folder(rule: str) -> str:
+    return rule.replace(":", "-")
+
+
+def _shown(planner: str) -> str:
+    """A planner as the study table shows it: a bundled agent's path relative to the package."""
+    return planner.replace(str(PACKAGE_DIR.parent) + "/", "")
+
+
+def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str,
+               stop: str) -> dict[str, Any]:
+    """The study's row of one list, planner and rule from its evaluation's episode rows."""
+    return {
+        "episodes": episodes, "planner": _shown(planner), "stop": stop, "count": len(rows),
+        "at_goal_pct": 100.0 * statistics.fmean(row["success"] for row in rows),
+        "coverage_pct": statistics.fmean(row["coverage_pct"] for row in rows),
+        "requested": statistics.fmean(row["requested"] for row in rows),
+        "acquisitions": statistics.fmean(row["acquisitions"] for row in rows),
+        # Requests after the one that reached the goal; none for an episode that missed it.
+        "wasted": statistics.fmean(row["requested"] - row["views_to_goal"] if row["success"]
+                                   else 0 for row in rows),
+        "extra_vs_goal": None,
+    }
+
+
+def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DEFAULT_LISTS,
+               planners: Sequence[str] = DEFAULT_PLANNERS, rules: Sequence[str] = DEFAULT_RULES,
+               estimator: str | Path | None = None, workers: int = 1,
+               progress: bool = True) -> list[dict[str, Any]]:
+    """Run the study into `out_dir` (resumable: a rerun goes on where it stopped).
+
+    Args:
+        config: The configuration (robot, sensor, coverage goal, view budget).
+        out_dir: The folder (created if missing).
+        episodes: Episode lists: bundled names or list files (`evaluation_episodes`).
+        planners: Planner names (`vprobot.planners.runner.planner_names`).
+        rules: Stop rules (`vprobot.stopping.rules`).
+        estimator: The coverage estimator file of `estimate` (None: the bundled one).
+        workers: Episodes at once on a local Ray (1: in this process).
+        progress: Show progress bars.
+
+    Returns:
+        The study rows (`COLUMNS`).
+
+    Raises:
+        ValueError: For a bad list, planner or rule, no combination that applies, or a
+            folder holding another evaluation.
+    """
+    chosen = combinations(config, planners, rules, estimator)
+    if not chosen or not episodes:
+        raise ValueError(f"no stop rule of {list(rules)} applies to a planner of "
+                         f"{list(planners)}, or no episode list given")
+    lists = [(name, evaluation_episodes(config, episodes=name)) for name in episodes]
+    out = Path(out_dir)
+    table = []
+    for name, specs in lists:
+        for rule, applies in chosen:
+            folder = out / Path(name).stem / _folder(rule)
+            evaluate(config, applies, specs, folder, progress=progress, carriers=("robot",),
+                     workers=workers, stops=(rule,), estimator=estimator)
+            rows = finished_rows(folder / "evaluation_episodes.csv")
+            table += [study_row([row for row in rows
+                                 if row["planner"] == stop_label(planner, rule)],
+                                Path(name).stem, planner, rule) for planner in applies]
+    at_goal = {(row["episodes"], row["planner"]): row["requested"] for row in table
+               if row["stop"] == "goal"}
+    for row in table:
+        reference = at_goal.get((row["episodes"], row["planner"]))
+        if row["stop"] != "goal" and reference is not None:
+            row["extra_vs_goal"] = row["requested"] - reference
+    write_text(out / "study.csv", csv_text(COLUMNS, table))
+    write_text(out / "study.md", markdown(table, config))
+    plot_study(table, config, out / "study.png")
+    return table
+
+
+def _cell(value: float | None, digits: int) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
+    """The study's Markdown: one table per episode list."""
+    goal = f"{config.env.coverage_goal:.0%}"
+    lines = [
+        "# Stop study",
+        "",
+        f"Robot {config.cell.robot} in the loop; coverage goal {goal}; at most "
+        f"{config.env.max_acquisitions} requests after the initial view. Per episode list, "
+        f"rule and planner: the episodes stopped at or above the goal, the mean coverage at "
+        f"the stop, views requested and acquired, views wasted beyond the goal (requests after "
+        f"the one that reached it, 0 for an episode that missed it) and views requested "
+        f"beyond the same planner stopped at the goal (`goal`: the simulator's stop, run only "
+        f"for planners it stops). Each rule's evaluation is in `LIST/RULE/`.",
+    ]
+    for episodes in dict.fromkeys(row["episodes"] for row in table):
+        lines += ["", f"## {episodes}", "",
+                  f"| planner | stop | episodes | at or above {goal} % | coverage at stop % "
+                  f"| views | acquisitions | wasted views | views vs goal |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"| {row['planner']} | {row['stop']} | {row['count']} | "
+                  f"{row['at_goal_pct']:.0f} | {row['coverage_pct']:.2f} | "
+                  f"{row['requested']:.2f} | {row['acquisitions']:.2f} | {row['wasted']:.2f} | "
+                  f"{_cell(row['extra_vs_goal'], 2)} |"
+                  for row in table if row["episodes"] == episodes]
+    return "\n".join(lines) + "\n"
+
+
+def plot_study(table: Sequence[dict[str, Any]], config: Config, path: Path) -> Path:
+    """One panel per episode list: views requested against the share stopped at or above the
+    goal, a marker per rule, a colour per planner (into a PNG, atomically)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lists = list(dict.fromkeys(row["episodes"] for row in table))
+    planners = list(dict.fromkeys(row["planner"] for row in table))
+    rules = list(dict.fromkeys(row["stop"] for row in table))
+    markers = "osD^vP*Xh<>p"
+    figure, axes = plt.subplots(1, len(lists), figsize=(5.0 * len(lists) + 2.5, 4.6),
+                                sharey=True, squeeze=False)
+    for axis, episodes in zip(axes[0], lists, strict=True):
+        for row in (row for row in table if row["episodes"] == episodes):
+            axis.scatter(row["requested"], row["at_goal_pct"],
+                         color=f"C{planners.index(row['planner']) % 10}",
+                         marker=markers[rules.index(row["stop"]) % len(markers)], s=50)
+        axis.set_title(episodes)
+        axis.set_xlabel("views requested (mean)")
+        axis.grid(alpha=0.3)
+    axes[0][0].set_ylabel(f"episodes stopped at or above {config.env.coverage_goal:.0%} (%)")
+    handles = ([plt.Line2D([], [], color=f"C{number % 10}", marker="o", linestyle="",
+                           label=planner) for number, planner in enumerate(planners)]
+               + [plt.Line2D([], [], color="grey", marker=markers[number % len(markers)],
+                             linestyle="", label=f"--stop {rule}")
+                  for number, rule in enumerate(rules)])
+    axes[0][-1].legend(handles=handles, fontsize="small", loc="upper left",
+                       bbox_to_anchor=(1.02, 1.0))
+    return save_figure(figure, path, "Stop rules: views against episodes at the goal")
