@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import types
 import typing
 from collections.abc import Mapping
@@ -85,10 +86,36 @@ its rays evenly over +-tan(fov / 2), which grows without bound towards 180 deg (
 
 
 def check_resolution(resolution: tuple[int, int], key: str) -> None:
-    """Raise ConfigError unless both axes lie in 1..MAX_RAYS_PER_AXIS."""
-    if not all(1 <= rays <= MAX_RAYS_PER_AXIS for rays in resolution):
-        raise ConfigError(f"{key} must lie in 1..{MAX_RAYS_PER_AXIS} rays per axis, got "
-                          f"{list(resolution)}")
+    """Raise ConfigError unless `resolution` is two integers in 1..MAX_RAYS_PER_AXIS."""
+    values = tuple(resolution)
+    if len(values) != 2 or not all(isinstance(rays, numbers.Integral)
+                                   and 1 <= rays <= MAX_RAYS_PER_AXIS for rays in values):
+        raise ConfigError(f"{key} must lie in 1..{MAX_RAYS_PER_AXIS} rays per axis, as two "
+                          f"integers (width, height), got {resolution!r}")
+
+
+def check_sensor(resolution: tuple[int, int], fov_deg: tuple[float, float], near_m: float,
+                 far_m: float, working_distance_m: float) -> None:
+    """The one check of a sensor's geometry, for `SensorConfig` and `SensorModel` alike.
+
+    Raises:
+        ConfigError: If the resolution is not two integers in 1..MAX_RAYS_PER_AXIS, an opening
+            angle is not in (0, MAX_FOV_DEG] degrees, the range is not 0 <= near < far
+            (finite), or the working distance is not in (near_m, far_m].
+    """
+    check_resolution(resolution, "sensor.resolution")
+    angles = tuple(fov_deg)
+    if len(angles) != 2 or not all(0.0 < angle <= MAX_FOV_DEG for angle in angles):
+        raise ConfigError(f"sensor.fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
+                          f"degrees, got {list(angles)}")
+    if not (math.isfinite(far_m) and 0.0 <= near_m < far_m):
+        raise ConfigError(f"sensor needs 0 <= near_m < far_m (finite), got near_m={near_m!r}, "
+                          f"far_m={far_m!r}")
+    if not near_m < working_distance_m <= far_m:
+        # Views look at the object's centre from this distance: outside the range the
+        # sensor measures nothing of the object's near side.
+        raise ConfigError(f"sensor.working_distance_m must lie in (near_m, far_m] = "
+                          f"({near_m:g}, {far_m:g}], got {working_distance_m:g}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,20 +141,8 @@ class SensorConfig:
     mount_quaternion_wxyz: Quat = (1.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        check_resolution(self.resolution, "sensor.resolution")
-        if not all(0.0 < angle <= MAX_FOV_DEG for angle in self.fov_deg):
-            raise ConfigError(f"sensor.fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
-                              f"degrees, got {list(self.fov_deg)}")
-        if not 0.0 <= self.near_m < self.far_m:
-            raise ConfigError(
-                f"sensor needs 0 <= near_m < far_m, got near_m={self.near_m}, far_m={self.far_m}"
-            )
-        if not self.near_m < self.working_distance_m <= self.far_m:
-            # Views look at the object's centre from this distance: outside the range the
-            # sensor measures nothing of the object's near side.
-            raise ConfigError(f"sensor.working_distance_m must lie in (near_m, far_m] = "
-                              f"({self.near_m:g}, {self.far_m:g}], got "
-                              f"{self.working_distance_m:g}")
+        check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
+                     self.working_distance_m)
 
 
 SENSORS_DIR = CONFIGS_DIR / "sensors"
