@@ -19,7 +19,7 @@ from typing import Any, Literal
 
 import yaml
 
-from vprobot.paths import CONFIGS_DIR
+from vprobot.paths import DEFAULT_CONFIG, SENSORS_DIR
 from vprobot.registry import Registry
 
 Vec3 = tuple[float, float, float]
@@ -145,8 +145,6 @@ class SensorConfig:
                      self.working_distance_m)
 
 
-SENSORS_DIR = CONFIGS_DIR / "sensors"
-"""Sensor presets, one YAML file per device: `sensor: NAME` in a config, `--sensor NAME`."""
 SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
 """How the sensor sits on the flange: the cell's business, kept when `--sensor` swaps devices."""
 
@@ -617,7 +615,7 @@ def load_config(path: str | Path | None = None) -> Config:
         FileNotFoundError: If the file does not exist.
         ConfigError: If it does not match the schema.
     """
-    path = Path(path) if path is not None else CONFIGS_DIR / "default.yaml"
+    path = Path(path) if path is not None else DEFAULT_CONFIG
     if not path.is_file():
         raise FileNotFoundError(f"config file not found: {path}")
     try:

@@ -21,9 +21,9 @@ from vprobot.config import Config
 from vprobot.episode import EpisodeSpec, episode_list, read_episode_list
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.generated import family_object, family_of, motor_object
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.paths import MOTORS_DIR, SPLITS_DIR
 
-SPLIT_FILE = CONFIGS_DIR / "splits" / "v1.yaml"
+SPLIT_FILE = SPLITS_DIR / "v1.yaml"
 MOTORS = "motors"
 """The source name of the bundled training motors in `env.objects`."""
 

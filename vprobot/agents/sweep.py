@@ -40,7 +40,7 @@ from vprobot.agents.curves import plot_curves, read_monitor, travel_column
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.config import ConfigError
 from vprobot.files import csv_text, write_text
-from vprobot.paths import CONFIGS_DIR
+from vprobot.paths import PROFILES_DIR
 
 CONVERGED_EPISODES = 100
 """The converged state: the last this many training episodes (as the paper reports)."""
@@ -122,8 +122,8 @@ def read_study(path: str | Path) -> Study:
         raise ConfigError(f"{path}: unknown study key {unknown[0]!r}; allowed: "
                           f"{', '.join(sorted(STUDY_KEYS))}")
     profile = Path(str(data.get("profile", "cpu.yaml")))
-    if not profile.is_file() and (CONFIGS_DIR / "agents" / profile).is_file():
-        profile = CONFIGS_DIR / "agents" / profile
+    if not profile.is_file() and (PROFILES_DIR / profile).is_file():
+        profile = PROFILES_DIR / profile
     seeds = data.get("seeds", [0])
     if not isinstance(seeds, list) or not seeds or not all(
             isinstance(seed, int) and seed >= 0 for seed in seeds):

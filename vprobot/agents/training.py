@@ -66,6 +66,7 @@ from vprobot.fit import check_fits
 from vprobot.generated import is_generated
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.mesh_loading import load_mesh
+from vprobot.paths import PACKAGE_DIR
 from vprobot.splits import validation_episodes
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
@@ -254,7 +255,7 @@ def load_run_config(run_dir: Path) -> Config:
 def _commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                              cwd=Path(__file__).parent, timeout=10).stdout.strip() or "unknown"
+                              cwd=PACKAGE_DIR, timeout=10).stdout.strip() or "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
