@@ -64,6 +64,36 @@ class CellConfig:
             raise ConfigError(f"cell.robot: {error}") from None
 
 
+def parse_yaml(text: str, source: str) -> Any:
+    """The YAML document in `text`; `source` (a file, an option) names it in errors.
+
+    Raises:
+        ConfigError: If the text is not valid YAML; the message names the source and the line.
+    """
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        where = getattr(error, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        problem = getattr(error, "problem", None) or type(error).__name__
+        raise ConfigError(f"{source}: not valid YAML{line}: {problem}") from None
+
+
+def read_yaml(path: str | Path) -> Any:
+    """The YAML document of a file: every config, profile, study, split and robot description
+    is read through here.
+
+    Raises:
+        OSError: If the file cannot be read.
+        ConfigError: If it is not UTF-8 text or not valid YAML (naming the file and the line).
+    """
+    try:
+        text = Path(path).read_text()
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not valid YAML: not UTF-8 text") from None
+    return parse_yaml(text, str(path))
+
+
 def check_registered(name: str, registry: Registry[Any], key: str) -> None:
     """Raise ConfigError unless `registry` has an entry `name` (the message lists them)."""
     if name not in registry:
@@ -160,7 +190,7 @@ def _preset_mapping(name: Any, key: str) -> dict[str, Any]:
     if not isinstance(name, str) or name not in presets:
         raise ConfigError(f"{key} must name a sensor preset, one of {presets}, got {name!r}")
     path = SENSORS_DIR / f"{name}.yaml"
-    data = yaml.safe_load(path.read_text()) or {}
+    data = read_yaml(path) or {}
     if not isinstance(data, Mapping) or "preset" in data:
         raise ConfigError(f"{path}: a sensor preset must be a mapping of sensor keys (no "
                           f"'preset' of its own)")
@@ -618,13 +648,7 @@ def load_config(path: str | Path | None = None) -> Config:
     path = Path(path) if path is not None else DEFAULT_CONFIG
     if not path.is_file():
         raise FileNotFoundError(f"config file not found: {path}")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (yaml.YAMLError, UnicodeDecodeError) as error:
-        where = getattr(error, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else ""
-        problem = getattr(error, "problem", None) or type(error).__name__
-        raise ConfigError(f"{path}: not valid YAML{line}: {problem}") from None
+    data = read_yaml(path) or {}
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: the top level must be a mapping of sections")
     try:

@@ -15,9 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from vprobot.config import Config
+from vprobot.config import Config, read_yaml
 from vprobot.episode import EpisodeSpec, episode_list, read_episode_list
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.generated import family_object, family_of, motor_object
@@ -58,7 +56,7 @@ class Split:
             ValueError: If a field is missing or malformed.
         """
         try:
-            data: dict[str, Any] = yaml.safe_load(Path(path).read_text())
+            data: dict[str, Any] = read_yaml(path)
             training, validation, test = data["training"], data["validation"], data["test"]
             return cls(
                 version=int(data["version"]),

@@ -38,7 +38,7 @@ import yaml
 
 from vprobot.agents.curves import plot_curves, read_monitor, travel_column
 from vprobot.agents.runs import RESULT_FILE
-from vprobot.config import ConfigError
+from vprobot.config import ConfigError, read_yaml
 from vprobot.files import csv_text, write_text
 from vprobot.paths import PROFILES_DIR
 
@@ -114,7 +114,7 @@ def read_study(path: str | Path) -> Study:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"study file not found: {path}")
-    data = yaml.safe_load(path.read_text()) or {}
+    data = read_yaml(path) or {}
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a study is a mapping with {sorted(STUDY_KEYS)}")
     unknown = sorted(set(data) - STUDY_KEYS)
