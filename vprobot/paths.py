@@ -7,6 +7,7 @@ editable checkout (where `assets/` and `configs/` at the repository root link he
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from importlib.resources import files
 from pathlib import Path
 
@@ -31,6 +32,28 @@ DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 """The bundled motor that commands use when no mesh is given."""
 
 CACHE_ENV_VAR = "VPROBOT_CACHE_DIR"
+
+
+def bundled_or_path(value: str | Path, bundled: Mapping[str, Path], what: str,
+                    kind: str = "file") -> Path:
+    """Resolve a bundled name, else an existing path (a folder when `kind` ends in "folder").
+
+    Args:
+        value: What the user wrote.
+        bundled: The bundled names and their paths.
+        what: What is named, for the error ("robot", "episode list", ...).
+        kind: What a path must be, for the error ("file", "robot folder", ...).
+
+    Raises:
+        ValueError: If `value` is neither; the message names it and lists the bundled names.
+    """
+    if str(value) in bundled:
+        return bundled[str(value)]
+    path = Path(value).expanduser()
+    if path.is_dir() if kind.endswith("folder") else path.is_file():
+        return path
+    raise ValueError(f"unknown {what} {str(value)!r}: neither a bundled {what} "
+                     f"({', '.join(bundled)}) nor a {kind}")
 
 
 def cache_root() -> Path:

@@ -40,7 +40,7 @@ from vprobot.agents.curves import plot_curves, read_monitor, travel_column
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.config import ConfigError, read_yaml
 from vprobot.files import csv_text, write_text
-from vprobot.paths import PROFILES_DIR
+from vprobot.paths import PROFILES_DIR, bundled_or_path
 
 CONVERGED_EPISODES = 100
 """The converged state: the last this many training episodes (as the paper reports)."""
@@ -121,9 +121,12 @@ def read_study(path: str | Path) -> Study:
     if unknown:
         raise ConfigError(f"{path}: unknown study key {unknown[0]!r}; allowed: "
                           f"{', '.join(sorted(STUDY_KEYS))}")
-    profile = Path(str(data.get("profile", "cpu.yaml")))
-    if not profile.is_file() and (PROFILES_DIR / profile).is_file():
-        profile = PROFILES_DIR / profile
+    try:
+        profile = bundled_or_path(str(data.get("profile", "cpu.yaml")),
+                                  {path.name: path for path in sorted(PROFILES_DIR.glob("*.yaml"))},
+                                  "agent profile")
+    except ValueError as error:
+        raise ConfigError(f"{path}: profile: {error}") from None
     seeds = data.get("seeds", [0])
     if not isinstance(seeds, list) or not seeds or not all(
             isinstance(seed, int) and seed >= 0 for seed in seeds):
