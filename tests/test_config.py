@@ -79,3 +79,24 @@ def test_an_unusable_opening_angle_is_refused_by_plan(tmp_path: Path,
     assert len(err.splitlines()) == 1
     assert "wide.yaml" in err and "sensor.fov_deg" in err and "(0, 120]" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["wide.yaml"]
+
+
+def test_every_yaml_reader_names_the_file_and_line_of_a_syntax_error(tmp_path: Path) -> None:
+    from vprobot.agents.sweep import read_study
+    from vprobot.agents.training import parse_overrides
+    from vprobot.robots import RobotDescription
+    from vprobot.splits import Split
+
+    # Line 3 opens a flow sequence that never closes.
+    broken = "a: 1\nb: 2\nc: [1, 2\nd: 4\n"
+    (tmp_path / "robot.yaml").write_text(broken)
+    for name in ("config.yaml", "study.yaml", "split.yaml"):
+        (tmp_path / name).write_text(broken)
+    readers = [(load_config, "config.yaml"), (read_study, "study.yaml"),
+               (Split.load, "split.yaml"), (lambda path: RobotDescription.load(path.parent),
+                                            "robot.yaml")]
+    for reader, name in readers:
+        with pytest.raises(ValueError, match=rf"{name}.*not valid YAML \(line \d\)"):
+            reader(tmp_path / name)
+    with pytest.raises(ConfigError, match=r"override 'env\.mesh=\[a': not valid YAML"):
+        parse_overrides(["env.mesh=[a"])

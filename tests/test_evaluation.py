@@ -118,7 +118,8 @@ def test_shapes_episode_list_is_what_the_sampler_draws_and_loads_from_anywhere(
 
 
 def test_an_unknown_episode_list_names_the_bundled_ones(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match=r"'shapes-v2' is neither .* bundled: test-v1, shapes-v1"):
+    with pytest.raises(ValueError, match=r"unknown episode list 'shapes-v2': neither a bundled "
+                       r"episode list \(test-v1, shapes-v1.*\) nor a file"):
         evaluation_episodes(CONFIG, episodes="shapes-v2")
 
 

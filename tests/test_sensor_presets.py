@@ -188,11 +188,12 @@ def test_sensor_model_geometry_matches_the_pinhole_maths() -> None:
 
 
 @pytest.mark.parametrize(("changes", "message"), [
-    ({"resolution": (0, 10)}, r"resolution must be two integers .* got \(0, 10\)"),
+    ({"resolution": (0, 10)}, r"resolution must lie in 1\.\.4096 .* got \(0, 10\)"),
     ({"resolution": (5000, 10)}, r"in 1\.\.4096"),
     ({"fov_deg": (179.9, 20.0)}, r"fov_deg must be two opening angles in \(0, 120\]"),
     ({"near_m": 0.6, "far_m": 0.5}, r"0 <= near_m < far_m .* near_m=0\.6"),
-    ({"working_distance_m": 0.0}, r"working_distance_m must be a positive length, got 0\.0"),
+    ({"working_distance_m": 0.0}, r"working_distance_m must lie in \(near_m, far_m\] = "
+                                  r"\(0\.1, 1\], got 0"),
 ])
 def test_bad_sensor_model_is_a_clear_error(changes: dict, message: str) -> None:
     values = {"resolution": (10, 10), "fov_deg": (20.0, 20.0), "near_m": 0.1, "far_m": 1.0,

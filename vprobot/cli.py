@@ -151,8 +151,8 @@ def command_reach(args: argparse.Namespace) -> int:
 
 def command_cell(args: argparse.Namespace) -> int:
     """Report how much of the view sphere around the motor the robot reaches."""
-    from vprobot.benchmarks.kinematics import default_cell, view_sphere_survey, view_sphere_targets
     from vprobot.kinematics import RobotArm
+    from vprobot.kinematics.survey import default_cell, view_sphere_survey, view_sphere_targets
 
     check_output_file(args.json, "--json", (".json",))
     config = _config(args)

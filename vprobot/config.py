@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import types
 import typing
 from collections.abc import Mapping
@@ -18,7 +19,7 @@ from typing import Any, Literal
 
 import yaml
 
-from vprobot.paths import CONFIGS_DIR
+from vprobot.paths import DEFAULT_CONFIG, SENSORS_DIR
 from vprobot.registry import Registry
 
 Vec3 = tuple[float, float, float]
@@ -63,6 +64,36 @@ class CellConfig:
             raise ConfigError(f"cell.robot: {error}") from None
 
 
+def parse_yaml(text: str, source: str) -> Any:
+    """The YAML document in `text`; `source` (a file, an option) names it in errors.
+
+    Raises:
+        ConfigError: If the text is not valid YAML; the message names the source and the line.
+    """
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        where = getattr(error, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        problem = getattr(error, "problem", None) or type(error).__name__
+        raise ConfigError(f"{source}: not valid YAML{line}: {problem}") from None
+
+
+def read_yaml(path: str | Path) -> Any:
+    """The YAML document of a file: every config, profile, study, split and robot description
+    is read through here.
+
+    Raises:
+        OSError: If the file cannot be read.
+        ConfigError: If it is not UTF-8 text or not valid YAML (naming the file and the line).
+    """
+    try:
+        text = Path(path).read_text()
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not valid YAML: not UTF-8 text") from None
+    return parse_yaml(text, str(path))
+
+
 def check_registered(name: str, registry: Registry[Any], key: str) -> None:
     """Raise ConfigError unless `registry` has an entry `name` (the message lists them)."""
     if name not in registry:
@@ -85,10 +116,36 @@ its rays evenly over +-tan(fov / 2), which grows without bound towards 180 deg (
 
 
 def check_resolution(resolution: tuple[int, int], key: str) -> None:
-    """Raise ConfigError unless both axes lie in 1..MAX_RAYS_PER_AXIS."""
-    if not all(1 <= rays <= MAX_RAYS_PER_AXIS for rays in resolution):
-        raise ConfigError(f"{key} must lie in 1..{MAX_RAYS_PER_AXIS} rays per axis, got "
-                          f"{list(resolution)}")
+    """Raise ConfigError unless `resolution` is two integers in 1..MAX_RAYS_PER_AXIS."""
+    values = tuple(resolution)
+    if len(values) != 2 or not all(isinstance(rays, numbers.Integral)
+                                   and 1 <= rays <= MAX_RAYS_PER_AXIS for rays in values):
+        raise ConfigError(f"{key} must lie in 1..{MAX_RAYS_PER_AXIS} rays per axis, as two "
+                          f"integers (width, height), got {resolution!r}")
+
+
+def check_sensor(resolution: tuple[int, int], fov_deg: tuple[float, float], near_m: float,
+                 far_m: float, working_distance_m: float) -> None:
+    """The one check of a sensor's geometry, for `SensorConfig` and `SensorModel` alike.
+
+    Raises:
+        ConfigError: If the resolution is not two integers in 1..MAX_RAYS_PER_AXIS, an opening
+            angle is not in (0, MAX_FOV_DEG] degrees, the range is not 0 <= near < far
+            (finite), or the working distance is not in (near_m, far_m].
+    """
+    check_resolution(resolution, "sensor.resolution")
+    angles = tuple(fov_deg)
+    if len(angles) != 2 or not all(0.0 < angle <= MAX_FOV_DEG for angle in angles):
+        raise ConfigError(f"sensor.fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
+                          f"degrees, got {list(angles)}")
+    if not (math.isfinite(far_m) and 0.0 <= near_m < far_m):
+        raise ConfigError(f"sensor needs 0 <= near_m < far_m (finite), got near_m={near_m!r}, "
+                          f"far_m={far_m!r}")
+    if not near_m < working_distance_m <= far_m:
+        # Views look at the object's centre from this distance: outside the range the
+        # sensor measures nothing of the object's near side.
+        raise ConfigError(f"sensor.working_distance_m must lie in (near_m, far_m] = "
+                          f"({near_m:g}, {far_m:g}], got {working_distance_m:g}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,24 +171,10 @@ class SensorConfig:
     mount_quaternion_wxyz: Quat = (1.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        check_resolution(self.resolution, "sensor.resolution")
-        if not all(0.0 < angle <= MAX_FOV_DEG for angle in self.fov_deg):
-            raise ConfigError(f"sensor.fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
-                              f"degrees, got {list(self.fov_deg)}")
-        if not 0.0 <= self.near_m < self.far_m:
-            raise ConfigError(
-                f"sensor needs 0 <= near_m < far_m, got near_m={self.near_m}, far_m={self.far_m}"
-            )
-        if not self.near_m < self.working_distance_m <= self.far_m:
-            # Views look at the object's centre from this distance: outside the range the
-            # sensor measures nothing of the object's near side.
-            raise ConfigError(f"sensor.working_distance_m must lie in (near_m, far_m] = "
-                              f"({self.near_m:g}, {self.far_m:g}], got "
-                              f"{self.working_distance_m:g}")
+        check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
+                     self.working_distance_m)
 
 
-SENSORS_DIR = CONFIGS_DIR / "sensors"
-"""Sensor presets, one YAML file per device: `sensor: NAME` in a config, `--sensor NAME`."""
 SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
 """How the sensor sits on the flange: the cell's business, kept when `--sensor` swaps devices."""
 
@@ -147,7 +190,7 @@ def _preset_mapping(name: Any, key: str) -> dict[str, Any]:
     if not isinstance(name, str) or name not in presets:
         raise ConfigError(f"{key} must name a sensor preset, one of {presets}, got {name!r}")
     path = SENSORS_DIR / f"{name}.yaml"
-    data = yaml.safe_load(path.read_text()) or {}
+    data = read_yaml(path) or {}
     if not isinstance(data, Mapping) or "preset" in data:
         raise ConfigError(f"{path}: a sensor preset must be a mapping of sensor keys (no "
                           f"'preset' of its own)")
@@ -602,16 +645,10 @@ def load_config(path: str | Path | None = None) -> Config:
         FileNotFoundError: If the file does not exist.
         ConfigError: If it does not match the schema.
     """
-    path = Path(path) if path is not None else CONFIGS_DIR / "default.yaml"
+    path = Path(path) if path is not None else DEFAULT_CONFIG
     if not path.is_file():
         raise FileNotFoundError(f"config file not found: {path}")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (yaml.YAMLError, UnicodeDecodeError) as error:
-        where = getattr(error, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else ""
-        problem = getattr(error, "problem", None) or type(error).__name__
-        raise ConfigError(f"{path}: not valid YAML{line}: {problem}") from None
+    data = read_yaml(path) or {}
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: the top level must be a mapping of sections")
     try:

@@ -43,10 +43,10 @@ from vprobot.episode import (
     read_episode_list,
     write_episode_list,
 )
-from vprobot.episode.specs import BUNDLED_EPISODE_LISTS, bundled_episode_list
+from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
 from vprobot.files import append_line, csv_text, save_figure, write_text
 from vprobot.mesh_loading import load_mesh
-from vprobot.paths import MOTORS_DIR
+from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
 
 CURVE_VIEWS = 10
@@ -363,12 +363,8 @@ def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = No
     if episodes is not None:
         if motors is not None or seeds is not None:
             raise ValueError("give either an episode list or motors and seeds, not both")
-        if str(episodes) in BUNDLED_EPISODE_LISTS:
-            return read_episode_list(bundled_episode_list(str(episodes)))
-        if not Path(episodes).is_file():
-            raise ValueError(f"episode list {str(episodes)!r} is neither a file nor a bundled "
-                             f"list; bundled: {', '.join(BUNDLED_EPISODE_LISTS)}")
-        return read_episode_list(episodes)
+        return read_episode_list(bundled_or_path(episodes, BUNDLED_EPISODE_LISTS,
+                                                 "episode list"))
     if motors is None and seeds is None:
         return read_episode_list(BUNDLED_TEST_EPISODES)
     return episode_list(config, [Path(path) for path in motors] if motors is not None

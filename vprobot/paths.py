@@ -7,6 +7,7 @@ editable checkout (where `assets/` and `configs/` at the repository root link he
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from importlib.resources import files
 from pathlib import Path
 
@@ -16,11 +17,43 @@ ROBOTS_DIR = ASSETS_DIR / "robots"
 MOTORS_DIR = ASSETS_DIR / "motors"
 OBJECTS_DIR = ASSETS_DIR / "objects"
 """Bundled non-motor objects (bracket, pipe tee, torus) for testing generalisation."""
+AGENTS_DIR = ASSETS_DIR / "agents"
+"""Bundled trained agents, one run folder each."""
 CONFIGS_DIR = PACKAGE_DIR / "configs"
+DEFAULT_CONFIG = CONFIGS_DIR / "default.yaml"
+SENSORS_DIR = CONFIGS_DIR / "sensors"
+"""Sensor presets, one YAML file per device: `sensor: NAME` in a config, `--sensor NAME`."""
+PROFILES_DIR = CONFIGS_DIR / "agents"
+"""Agent profiles: the configs `vprobot train` and the studies start from."""
+EPISODES_DIR = CONFIGS_DIR / "episodes"
+"""Bundled episode lists, one JSON file each."""
+SPLITS_DIR = CONFIGS_DIR / "splits"
 DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 """The bundled motor that commands use when no mesh is given."""
 
 CACHE_ENV_VAR = "VPROBOT_CACHE_DIR"
+
+
+def bundled_or_path(value: str | Path, bundled: Mapping[str, Path], what: str,
+                    kind: str = "file") -> Path:
+    """Resolve a bundled name, else an existing path (a folder when `kind` ends in "folder").
+
+    Args:
+        value: What the user wrote.
+        bundled: The bundled names and their paths.
+        what: What is named, for the error ("robot", "episode list", ...).
+        kind: What a path must be, for the error ("file", "robot folder", ...).
+
+    Raises:
+        ValueError: If `value` is neither; the message names it and lists the bundled names.
+    """
+    if str(value) in bundled:
+        return bundled[str(value)]
+    path = Path(value).expanduser()
+    if path.is_dir() if kind.endswith("folder") else path.is_file():
+        return path
+    raise ValueError(f"unknown {what} {str(value)!r}: neither a bundled {what} "
+                     f"({', '.join(bundled)}) nor a {kind}")
 
 
 def cache_root() -> Path:

@@ -31,6 +31,7 @@ import mujoco
 import numpy as np
 
 from vprobot.geometry import Pose
+from vprobot.raster import covered_pixels, index_range, max3, min3
 from vprobot.scene import Cell
 from vprobot.sensor_model import SensorModel
 
@@ -384,26 +385,19 @@ def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.
     Returns:
         Row, column and z-depth of every (triangle, pixel) hit; a pixel can repeat.
     """
-    # Small reductions are spelled out column by column: numpy's axis reductions over three
-    # elements are several times slower.
     depth = vertices[:, 2]
     safe_depth = np.where(depth > _MIN_DEPTH, depth, 1.0)
     vertex_u, vertex_v = vertices[:, 0] / safe_depth, vertices[:, 1] / safe_depth
     corner_depth = [depth[faces[:, k]] for k in range(3)]
     corner_u = [vertex_u[faces[:, k]] for k in range(3)]
     corner_v = [vertex_v[faces[:, k]] for k in range(3)]
-    nearest = np.minimum(np.minimum(corner_depth[0], corner_depth[1]), corner_depth[2])
-    farthest = np.maximum(np.maximum(corner_depth[0], corner_depth[1]), corner_depth[2])
+    nearest, farthest = min3(corner_depth), max3(corner_depth)
     # A triangle crossing the image plane projects without bounds: give it the whole frame.
     in_front = nearest > _MIN_DEPTH
-    u_min = np.where(in_front, np.minimum(np.minimum(corner_u[0], corner_u[1]), corner_u[2]),
-                     -np.inf)
-    u_max = np.where(in_front, np.maximum(np.maximum(corner_u[0], corner_u[1]), corner_u[2]),
-                     np.inf)
-    v_min = np.where(in_front, np.minimum(np.minimum(corner_v[0], corner_v[1]), corner_v[2]),
-                     -np.inf)
-    v_max = np.where(in_front, np.maximum(np.maximum(corner_v[0], corner_v[1]), corner_v[2]),
-                     np.inf)
+    u_min = np.where(in_front, min3(corner_u), -np.inf)
+    u_max = np.where(in_front, max3(corner_u), np.inf)
+    v_min = np.where(in_front, min3(corner_v), -np.inf)
+    v_max = np.where(in_front, max3(corner_v), np.inf)
     keep = np.flatnonzero((farthest > 0) & (nearest <= max_depth) & (u_max >= u[0])
                           & (u_min <= u[-1]) & (v_max >= v[0]) & (v_min <= v[-1]))
     faces = faces[keep]
@@ -418,35 +412,17 @@ def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.
     normal = np.ascontiguousarray(np.cross(b - a, c - a).T)
     plane = np.einsum("ji,ij->i", normal, a)
 
-    # One entry per (triangle, pixel row) within the triangle's v-range.
-    row_lo, row_hi = _index_range(v_min[keep], v_max[keep], v)
-    rows_per_face = np.where(triple != 0, np.maximum(row_hi - row_lo + 1, 0), 0)
-    face_of_row = np.repeat(np.arange(len(faces)), rows_per_face)
-    row = row_lo[face_of_row] + _ranks(rows_per_face, len(face_of_row))
-    row_v = v[row]
-    low = np.full(len(row), -np.inf)
-    high = np.full(len(row), np.inf)
-    feasible = np.ones(len(row), dtype=bool)
+    row_lo, row_hi = index_range(v_min[keep], v_max[keep], v, _SPAN_SLACK)
+    # Degenerate triangles (zero triple product) cover nothing.
+    row_hi = np.where(triple != 0, row_hi, row_lo - 1)
+    face, row, column = covered_pixels([(edge[0], edge[1], edge[2]) for edge in edges], row_lo,
+                                       row_hi, u, v, _SPAN_SLACK)
+    # z-depth where the pixel's ray meets the triangle's plane.
     with np.errstate(divide="ignore", invalid="ignore"):
-        for edge in edges:
-            slope = edge[0][face_of_row]
-            intercept = edge[1][face_of_row] * row_v + edge[2][face_of_row]
-            crossing = -intercept / slope
-            low = np.where(slope > 0, np.maximum(low, crossing), low)
-            high = np.where(slope < 0, np.minimum(high, crossing), high)
-            feasible &= (slope != 0) | (intercept >= 0)
-    column_lo, column_hi = _index_range(low - _SPAN_SLACK, high + _SPAN_SLACK, u)
-    columns_per_row = np.where(feasible, np.maximum(column_hi - column_lo + 1, 0), 0)
-
-    # One entry per covered pixel: z-depth where the pixel's ray meets the triangle's plane.
-    entry = np.repeat(np.arange(len(row)), columns_per_row)
-    column = column_lo[entry] + _ranks(columns_per_row, len(entry))
-    face = face_of_row[entry]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        row_term = (normal[1][face_of_row] * row_v + normal[2][face_of_row])[entry]
+        row_term = normal[1][face] * v[row] + normal[2][face]
         z_depth = plane[face] / (normal[0][face] * u[column] + row_term)
     valid = np.isfinite(z_depth) & (z_depth > 0)
-    return row[entry][valid], column[valid], z_depth[valid]
+    return row[valid], column[valid], z_depth[valid]
 
 
 def _segments_meet_box(origin: np.ndarray, directions: np.ndarray, length: np.ndarray,
@@ -465,23 +441,3 @@ def _segments_meet_box(origin: np.ndarray, directions: np.ndarray, length: np.nd
     t_in = np.maximum(np.maximum(entry[:, 0], entry[:, 1]), np.maximum(entry[:, 2], 0.0))
     t_out = np.minimum(np.minimum(leave[:, 0], leave[:, 1]), np.minimum(leave[:, 2], length))
     return t_in <= t_out
-
-
-def _ranks(counts: np.ndarray, total: int) -> np.ndarray:
-    """0, 1, ..., counts[k] - 1 for every k, concatenated (length `total`)."""
-    starts = np.cumsum(counts) - counts
-    return np.arange(total) - np.repeat(starts, counts)
-
-
-def _index_range(low: np.ndarray, high: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray,
-                                                                                  np.ndarray]:
-    """First and last index of the evenly spaced `centres` within [low, high], per entry."""
-    if len(centres) == 1:
-        inside = (low <= centres[0]) & (high >= centres[0])
-        return np.zeros(len(low), dtype=np.int64), np.where(inside, 0, -1)
-    step = (centres[-1] - centres[0]) / (len(centres) - 1)
-    # Clamping first keeps unbounded ranges finite.
-    first = np.ceil((np.maximum(low, centres[0] - step) - centres[0]) / step - _SPAN_SLACK)
-    last = np.floor((np.minimum(high, centres[-1] + step) - centres[0]) / step + _SPAN_SLACK)
-    return (np.clip(first, 0, len(centres)).astype(np.int64),
-            np.clip(last, -1, len(centres) - 1).astype(np.int64))

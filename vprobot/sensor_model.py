@@ -17,17 +17,8 @@ import math
 
 import numpy as np
 
-from vprobot.config import MAX_FOV_DEG, MAX_RAYS_PER_AXIS, SensorConfig
+from vprobot.config import SensorConfig, check_sensor
 from vprobot.geometry import Pose
-
-
-def _check_resolution(resolution: tuple[int, int]) -> tuple[int, int]:
-    values = tuple(resolution)
-    if len(values) != 2 or not all(isinstance(n, int | np.integer)
-                                   and 1 <= n <= MAX_RAYS_PER_AXIS for n in values):
-        raise ValueError(f"resolution must be two integers (width, height) in "
-                         f"1..{MAX_RAYS_PER_AXIS}, got {resolution!r}")
-    return int(values[0]), int(values[1])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,9 +33,8 @@ class SensorModel:
         working_distance_m: Optimal distance from the sensor to the object's centre.
 
     Raises:
-        ValueError: If the resolution is not two integers in 1..MAX_RAYS_PER_AXIS, an opening
-            angle is not in (0, MAX_FOV_DEG] degrees, the range is not 0 <= near < far, or the
-            working distance is not positive.
+        ConfigError: A ValueError, if `vprobot.config.check_sensor` (the same check as a
+            configured sensor's) rejects the geometry.
     """
 
     resolution: tuple[int, int]
@@ -54,18 +44,10 @@ class SensorModel:
     working_distance_m: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "resolution", _check_resolution(self.resolution))
-        angles = tuple(float(angle) for angle in self.fov_deg)
-        if len(angles) != 2 or not all(0.0 < angle <= MAX_FOV_DEG for angle in angles):
-            raise ValueError(f"fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
-                             f"degrees, got {list(angles)}")
-        object.__setattr__(self, "fov_deg", angles)
-        if not (math.isfinite(self.far_m) and 0.0 <= self.near_m < self.far_m):
-            raise ValueError(f"the range needs 0 <= near_m < far_m (finite), got "
-                             f"near_m={self.near_m!r}, far_m={self.far_m!r}")
-        if not (math.isfinite(self.working_distance_m) and self.working_distance_m > 0.0):
-            raise ValueError(f"working_distance_m must be a positive length, got "
-                             f"{self.working_distance_m!r}")
+        check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
+                     self.working_distance_m)
+        object.__setattr__(self, "resolution", tuple(int(rays) for rays in self.resolution))
+        object.__setattr__(self, "fov_deg", tuple(float(angle) for angle in self.fov_deg))
 
     @classmethod
     def from_config(cls, sensor: SensorConfig) -> SensorModel:
@@ -77,9 +59,9 @@ class SensorModel:
         """The same opening angles and range over another grid, e.g. training's coarser frame.
 
         Raises:
-            ValueError: If the resolution is not two integers in 1..MAX_RAYS_PER_AXIS.
+            ConfigError: If the resolution is not two integers in 1..MAX_RAYS_PER_AXIS.
         """
-        return dataclasses.replace(self, resolution=_check_resolution(resolution))
+        return dataclasses.replace(self, resolution=resolution)
 
     @property
     def rays_per_frame(self) -> int:

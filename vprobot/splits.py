@@ -15,15 +15,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from vprobot.config import Config
+from vprobot.config import Config, read_yaml
 from vprobot.episode import EpisodeSpec, episode_list, read_episode_list
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.generated import family_object, family_of, motor_object
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.paths import MOTORS_DIR, SPLITS_DIR
 
-SPLIT_FILE = CONFIGS_DIR / "splits" / "v1.yaml"
+SPLIT_FILE = SPLITS_DIR / "v1.yaml"
 MOTORS = "motors"
 """The source name of the bundled training motors in `env.objects`."""
 
@@ -58,7 +56,7 @@ class Split:
             ValueError: If a field is missing or malformed.
         """
         try:
-            data: dict[str, Any] = yaml.safe_load(Path(path).read_text())
+            data: dict[str, Any] = read_yaml(path)
             training, validation, test = data["training"], data["validation"], data["test"]
             return cls(
                 version=int(data["version"]),

@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from vprobot.config import read_yaml
 from vprobot.files import save_figure
 
 PANELS = (("coverage", "coverage at episode end", 100.0, "%"),
@@ -49,8 +49,7 @@ def read_monitor(run_dir: Path) -> dict[str, np.ndarray]:
 
 def travel_column(run_dir: Path) -> tuple[str, str]:
     """Which travel to plot: joint time with the robot, the paper's approximation without."""
-    config = yaml.safe_load((run_dir / "config.yaml").read_text()) if (
-        run_dir / "config.yaml").is_file() else {}
+    config = read_yaml(run_dir / "config.yaml") if (run_dir / "config.yaml").is_file() else {}
     free = (config.get("env") or {}).get("carrier") == "free"
     return ("travel_sum_paper", "m") if free else ("travel_sum_joint_time", "s")
 

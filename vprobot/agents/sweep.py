@@ -37,9 +37,9 @@ import yaml
 
 from vprobot.agents.curves import plot_curves, read_monitor, travel_column
 from vprobot.agents.runs import RESULT_FILE, read_result
-from vprobot.config import ConfigError
+from vprobot.config import ConfigError, read_yaml
 from vprobot.files import csv_text, write_text
-from vprobot.paths import CONFIGS_DIR
+from vprobot.paths import PROFILES_DIR, bundled_or_path
 
 CONVERGED_EPISODES = 100
 """The converged state: the last this many training episodes (as the paper reports)."""
@@ -113,16 +113,19 @@ def read_study(path: str | Path) -> Study:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"study file not found: {path}")
-    data = yaml.safe_load(path.read_text()) or {}
+    data = read_yaml(path) or {}
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a study is a mapping with {sorted(STUDY_KEYS)}")
     unknown = sorted(set(data) - STUDY_KEYS)
     if unknown:
         raise ConfigError(f"{path}: unknown study key {unknown[0]!r}; allowed: "
                           f"{', '.join(sorted(STUDY_KEYS))}")
-    profile = Path(str(data.get("profile", "cpu.yaml")))
-    if not profile.is_file() and (CONFIGS_DIR / "agents" / profile).is_file():
-        profile = CONFIGS_DIR / "agents" / profile
+    try:
+        profile = bundled_or_path(str(data.get("profile", "cpu.yaml")),
+                                  {path.name: path for path in sorted(PROFILES_DIR.glob("*.yaml"))},
+                                  "agent profile")
+    except ValueError as error:
+        raise ConfigError(f"{path}: profile: {error}") from None
     seeds = data.get("seeds", [0])
     if not isinstance(seeds, list) or not seeds or not all(
             isinstance(seed, int) and seed >= 0 for seed in seeds):

@@ -13,9 +13,9 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from vprobot.agents.training import ALGORITHMS, load_run_config
 from vprobot.config import Config
 from vprobot.env.observations import observation_space
-from vprobot.paths import ASSETS_DIR
+from vprobot.paths import AGENTS_DIR
 
-BUNDLED_AGENT = ASSETS_DIR / "agents" / "cpu"
+BUNDLED_AGENT = AGENTS_DIR / "cpu"
 """The agent vprobot ships: trained with `configs/agents/cpu.yaml` (see its README)."""
 RUN_MODELS = ("best_model.zip", "final_model.zip", "model.zip")
 """What a directory offers, in order of preference."""

@@ -56,7 +56,7 @@ from vprobot.agents.pretrain import pretrain
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import check_teacher_reward
-from vprobot.config import AgentConfig, Config, ConfigError, from_mapping
+from vprobot.config import AgentConfig, Config, ConfigError, from_mapping, parse_yaml, read_yaml
 from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
@@ -67,6 +67,7 @@ from vprobot.fit import check_fits
 from vprobot.generated import is_generated
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.mesh_loading import load_mesh
+from vprobot.paths import PACKAGE_DIR
 from vprobot.splits import validation_episodes
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
@@ -249,13 +250,13 @@ def load_run_config(run_dir: Path) -> Config:
     path = run_dir / "config.yaml"
     if not path.is_file():
         raise ValueError(f"{run_dir} is not a training run (no config.yaml)")
-    return from_mapping(Config, yaml.safe_load(path.read_text()))
+    return from_mapping(Config, read_yaml(path))
 
 
 def _commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                              cwd=Path(__file__).parent, timeout=10).stdout.strip() or "unknown"
+                              cwd=PACKAGE_DIR, timeout=10).stdout.strip() or "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
@@ -483,7 +484,7 @@ def parse_overrides(pairs: Sequence[str]) -> dict[str, dict[str, Any]]:
         if not separator or not dot or not section or not name:
             raise ConfigError(f"override {pair!r} must look like section.key=value, e.g. "
                               f"env.state=s_bin or agent.algorithm=ppo")
-        sections.setdefault(section, {})[name] = yaml.safe_load(text)
+        sections.setdefault(section, {})[name] = parse_yaml(text, f"override {pair!r}")
     return sections
 
 

@@ -20,7 +20,7 @@ from vprobot.cluster import parallel_map, start
 from vprobot.config import Config
 from vprobot.episode import episode_list
 from vprobot.evaluation import evaluate, held_out_motors
-from vprobot.paths import CONFIGS_DIR
+from vprobot.paths import PROFILES_DIR
 
 TRIAL_STEPS = 1500
 TRIAL_SET = ("agent.eval_freq=100000", "agent.checkpoint_freq=100000", "agent.eval_episodes=1")
@@ -35,7 +35,7 @@ def _timed_evaluation(config: Config, workers: int, folder: Path) -> float:
 
 
 def _timed_trials(count: int, folder: Path) -> float:
-    items = [(CONFIGS_DIR / "agents" / "cpu.yaml", TRIAL_SET, TRIAL_STEPS, seed,
+    items = [(PROFILES_DIR / "cpu.yaml", TRIAL_SET, TRIAL_STEPS, seed,
               folder / f"trial{seed}") for seed in range(count)]
     start_time = time.perf_counter()
     for _ in parallel_map(run_trial, items, 2):

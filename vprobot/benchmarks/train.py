@@ -17,9 +17,7 @@ from vprobot.config import Config, replace
 from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
-from vprobot.paths import CONFIGS_DIR
-
-PROFILES = CONFIGS_DIR / "agents"
+from vprobot.paths import PROFILES_DIR
 
 
 class SpacesOnly(gym.Env):
@@ -61,7 +59,7 @@ def run_train_benchmark(config: Config, steps: int = 300, paper_updates: int = 1
     `config` supplies the cell, sensor and kinematics; the profiles their env and agent
     sections. Torch runs on the profile's threads (one).
     """
-    cpu, paper = (profile_config(PROFILES / name) for name in ("cpu.yaml", "paper.yaml"))
+    cpu, paper = (profile_config(PROFILES_DIR / name) for name in ("cpu.yaml", "paper.yaml"))
     cpu = dataclasses.replace(config, env=cpu.env, agent=cpu.agent)
     paper = dataclasses.replace(config, env=paper.env, agent=paper.agent)
     torch.set_num_threads(cpu.agent.torch_threads)

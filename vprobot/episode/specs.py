@@ -34,16 +34,16 @@ from vprobot.geometry import (
     spherical_position,
 )
 from vprobot.kinematics import SensorTarget
-from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
+from vprobot.paths import ASSETS_DIR, EPISODES_DIR, MOTORS_DIR
 from vprobot.viewsphere import sphere_directions
 
 EPISODE_LIST_VERSION = 1
-BUNDLED_TEST_EPISODES = CONFIGS_DIR / "episodes" / "test-v1.json"
+BUNDLED_TEST_EPISODES = EPISODES_DIR / "test-v1.json"
 """The evaluation episodes over the bundled test motors: 3 seeds each (0, 1, 2)."""
-BUNDLED_SHAPE_EPISODES = CONFIGS_DIR / "episodes" / "shapes-v1.json"
+BUNDLED_SHAPE_EPISODES = EPISODES_DIR / "shapes-v1.json"
 """The evaluation episodes over the bundled non-motor objects: 5 seeds each (0 to 4)."""
 BUNDLED_EPISODE_LISTS = {
-    name: CONFIGS_DIR / "episodes" / f"{name}.json"
+    name: EPISODES_DIR / f"{name}.json"
     for name in ("test-v1", "shapes-v1", "families-test-v1", "validation-v1")}
 """The bundled episode lists by name (`vprobot evaluate --episodes NAME`): the test motors, the
 non-motor shapes, the test families' instances, and the validation list of split v1

@@ -26,6 +26,7 @@ import trimesh
 
 from vprobot.geometry import Pose
 from vprobot.progress import stage
+from vprobot.raster import covered_pixels, index_range, max3, min3
 from vprobot.sensor_model import SensorModel
 
 DEFAULT_RESOLUTION = (86, 60)
@@ -142,8 +143,8 @@ class VisibilityRenderer:
         pose, face = self._facing_pairs(positions)
         vertex = pose[:, None] * len(self.vertices) + self.faces[face]
         corner_z = [z[vertex[:, k]] for k in range(3)]
-        keep = np.flatnonzero((_min3(corner_z) > _MIN_DEPTH)
-                              & (_min3(corner_z) <= self.sensor.far_m))
+        keep = np.flatnonzero((min3(corner_z) > _MIN_DEPTH)
+                              & (min3(corner_z) <= self.sensor.far_m))
         pose, vertex = pose[keep], vertex[keep]
         corner_x = [x[vertex[:, k]] for k in range(3)]
         corner_y = [y[vertex[:, k]] for k in range(3)]
@@ -151,8 +152,8 @@ class VisibilityRenderer:
         cu = [corner_x[k] / corner_z[k] for k in range(3)]
         cv = [corner_y[k] / corner_z[k] for k in range(3)]
         # Triangles between two pixel rows or columns, or outside the frame, cover no centre.
-        row_lo, row_hi = self._index_span(_min3(cv), _max3(cv), self.v)
-        column_lo, column_hi = self._index_span(_min3(cu), _max3(cu), self.u)
+        row_lo, row_hi = index_range(min3(cv), max3(cv), self.v)
+        column_lo, column_hi = index_range(min3(cu), max3(cu), self.u)
         keep = np.flatnonzero((row_hi >= row_lo) & (column_hi >= column_lo))
         ax, ay, az = (corner[0][keep] for corner in (corner_x, corner_y, corner_z))
         e1 = [corner[1][keep] - corner[0][keep] for corner in (corner_x, corner_y, corner_z)]
@@ -172,43 +173,14 @@ class VisibilityRenderer:
         """Every (pair, row, column) whose pixel centre lies inside the pair's triangle."""
         cu, cv = triangles.u, triangles.v
         orientation = np.sign((cu[1] - cu[0]) * (cv[2] - cv[0]) - (cv[1] - cv[0]) * (cu[2] - cu[0]))
-        rows_per = np.where(orientation != 0, triangles.row_hi - triangles.row_lo + 1, 0)
-        entry = np.repeat(np.arange(len(rows_per)), rows_per)
-        row = triangles.row_lo[entry] + _ranks(rows_per)
-        row_v = self.v[row]
-        # Per edge a -> b, inside is alpha u + beta v + gamma >= 0 (oriented inward); on a pixel
-        # row each edge bounds u from one side.
-        low = np.full(len(row), -np.inf)
-        high = np.full(len(row), np.inf)
-        feasible = np.ones(len(row), dtype=bool)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for a, b in ((0, 1), (1, 2), (2, 0)):
-                alpha = -orientation * (cv[b] - cv[a])
-                beta = orientation * (cu[b] - cu[a])
-                gamma = -alpha * cu[a] - beta * cv[a]
-                slope = alpha[entry]
-                intercept = beta[entry] * row_v + gamma[entry]
-                crossing = -intercept / slope
-                low = np.where(slope > 0, np.maximum(low, crossing), low)
-                high = np.where(slope < 0, np.minimum(high, crossing), high)
-                feasible &= (slope != 0) | (intercept >= 0)
-        column_lo, column_hi = self._index_span(low, high, self.u)
-        columns_per = np.where(feasible, np.maximum(column_hi - column_lo + 1, 0), 0)
-        pixel = np.repeat(np.arange(len(row)), columns_per)
-        return entry[pixel], row[pixel], column_lo[pixel] + _ranks(columns_per)
-
-    @staticmethod
-    def _index_span(low: np.ndarray, high: np.ndarray,
-                    centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """First and last index of the evenly spaced `centres` within [low, high] (empty when
-        last < first)."""
-        step = centres[1] - centres[0]
-        with np.errstate(invalid="ignore"):
-            # Clamping first keeps unbounded spans finite.
-            first = np.ceil((np.maximum(low, centres[0] - step) - centres[0]) / step)
-            last = np.floor((np.minimum(high, centres[-1] + step) - centres[0]) / step)
-        return (first.clip(0, len(centres)).astype(np.int64),
-                last.clip(-1, len(centres) - 1).astype(np.int64))
+        # Per edge a -> b, inside is alpha u + beta v + gamma >= 0 (oriented inward).
+        edges = []
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            alpha = -orientation * (cv[b] - cv[a])
+            beta = orientation * (cu[b] - cu[a])
+            edges.append((alpha, beta, -alpha * cu[a] - beta * cv[a]))
+        row_hi = np.where(orientation != 0, triangles.row_hi, triangles.row_lo - 1)
+        return covered_pixels(edges, triangles.row_lo, row_hi, self.u, self.v)
 
     def _facing_pairs(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(pose, face) index pairs of the triangles each pose can see the front of."""
@@ -240,17 +212,3 @@ class VisibilityRenderer:
         visible = np.zeros(candidate.shape, dtype=bool)
         visible[pose_index[seen], point_index[seen]] = True
         return visible
-
-
-def _min3(values: list[np.ndarray]) -> np.ndarray:
-    return np.minimum(np.minimum(values[0], values[1]), values[2])
-
-
-def _max3(values: list[np.ndarray]) -> np.ndarray:
-    return np.maximum(np.maximum(values[0], values[1]), values[2])
-
-
-def _ranks(counts: np.ndarray) -> np.ndarray:
-    """0, 1, ..., counts[k] - 1 for every k, concatenated."""
-    starts = np.cumsum(counts) - counts
-    return np.arange(int(counts.sum())) - np.repeat(starts, counts)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from vprobot.paths import ROBOTS_DIR
+from vprobot.paths import ROBOTS_DIR, bundled_or_path
 from vprobot.robots.description import DESCRIPTION_FILE, RobotDescription
 
 __all__ = ["RobotDescription", "available_robots", "is_bundled", "load_robot", "robot_folder"]
@@ -25,13 +25,8 @@ def robot_folder(robot: str) -> Path:
     Raises:
         ValueError: If `robot` is neither; the message lists the bundled robots.
     """
-    if robot in available_robots():
-        return ROBOTS_DIR / robot
-    path = Path(robot).expanduser()
-    if path.is_dir():
-        return path
-    raise ValueError(f"unknown robot {robot!r}: neither a bundled robot "
-                     f"({', '.join(available_robots())}) nor a robot folder")
+    return bundled_or_path(robot, {name: ROBOTS_DIR / name for name in available_robots()},
+                           "robot", "robot folder")
 
 
 def is_bundled(robot: RobotDescription) -> bool:

@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 import yaml
 
-from vprobot.config import ConfigError, Vec3, from_mapping
+from vprobot.config import ConfigError, Vec3, from_mapping, read_yaml
 
 DESCRIPTION_FILE = "robot.yaml"
 SCENE_FILE = "scene.xml"
@@ -84,10 +84,7 @@ class RobotDescription:
         if not path.is_file():
             raise ConfigError(f"robot folder {folder} has no {DESCRIPTION_FILE} (the robot "
                               f"description; `vprobot robots import` writes one)")
-        try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as error:
-            raise ConfigError(f"{path}: not valid YAML: {error}") from None
+        data = read_yaml(path)
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: must be a mapping of the robot's keys")
         required = [field.name for field in dataclasses.fields(cls) if field.name != "folder"]
