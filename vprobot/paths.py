@@ -28,6 +28,8 @@ PROFILES_DIR = CONFIGS_DIR / "agents"
 EPISODES_DIR = CONFIGS_DIR / "episodes"
 """Bundled episode lists, one JSON file each."""
 SPLITS_DIR = CONFIGS_DIR / "splits"
+ESTIMATOR_DIR = ASSETS_DIR / "estimator"
+"""The bundled model-free coverage estimator (`--stop estimate`)."""
 DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 """The bundled motor that commands use when no mesh is given."""
 

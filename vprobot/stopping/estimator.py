@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.files import atomic_output
-from vprobot.paths import ASSETS_DIR
+from vprobot.paths import ESTIMATOR_DIR
 
 MEMBERS = 5
 HIDDEN = 32
@@ -36,7 +36,7 @@ WEIGHT_DECAY = 1e-4
 MIN_STD = 1e-3
 """Floor of a member's stated standard deviation (coverage is known to no better anyway)."""
 FORMAT = 1
-BUNDLED_ESTIMATOR = ASSETS_DIR / "estimator" / "estimator.npz"
+BUNDLED_ESTIMATOR = ESTIMATOR_DIR / "estimator.npz"
 """The estimator `--stop estimate` uses unless told otherwise (its README says how it was fit)."""
 
 
