@@ -15,10 +15,20 @@ from vprobot.agents.trained import TrainedAgent
 from vprobot.config import Config, replace
 from vprobot.episode import Episode, MotorScene, seeded_episode
 from vprobot.geometry import Pose
-from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN, UNKNOWN_PASS, OccupancyGrid, ViewGains
+from vprobot.occupancy import (
+    FREE,
+    GAINS,
+    OCCUPIED,
+    UNKNOWN,
+    UNKNOWN_PASS,
+    VOXEL_M,
+    OccupancyGrid,
+    ViewGains,
+)
 from vprobot.planners import make_planner, parse_planner
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
+from vprobot.planners.candidates import band_candidates
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
@@ -233,8 +243,11 @@ def test_unknown_gain_of_a_ray_through_unknown_space_is_the_hand_computed_series
     gains = ViewGains(grid, single, [pose], rays=(1, 1))
     samples = len(np.arange(0.3, 0.5 + VOXEL / 2, VOXEL / 2))
     per_sample = UNKNOWN_PASS ** 0.5
-    assert gains.score(grid, "unknown")[0] == pytest.approx(
-        (1 - per_sample ** samples) / (1 - per_sample))
+    series = (1 - per_sample ** samples) / (1 - per_sample)
+    assert gains.score(grid, "unknown")[0] == pytest.approx(series)
+    # All three gains at once, over runs of samples in one voxel: the same series for unknown;
+    # no free or occupied voxel, so no frontier or rear side.
+    np.testing.assert_allclose(gains.scores(grid)[0], [series, 0.0, 0.0], rtol=1e-12)
     # Free space holds nothing to learn; an occupied voxel ends the ray before what it hides.
     grid.state[:] = FREE
     assert gains.score(grid, "unknown")[0] == 0.0
@@ -242,6 +255,32 @@ def test_unknown_gain_of_a_ray_through_unknown_space_is_the_hand_computed_series
     grid.state.reshape(-1)[grid.flat_index(np.array([0.0, 0.0, 0.085]))] = OCCUPIED
     # Samples at 0.300 and 0.310 m lie in z [0.08, 0.10) (occupied): nothing is seen.
     assert gains.score(grid, "unknown")[0] == 0.0
+
+
+def test_scores_of_all_gains_at_once_are_score_of_each_sample_by_sample_on_random_grids(
+) -> None:
+    gains = band_candidates(CONFIG, VOXEL_M).gains
+    grid = OccupancyGrid.for_cell(CONFIG)
+    rng = np.random.default_rng(0)
+    for shares in ((1.0, 0.0, 0.0), (0.5, 0.45, 0.05), (0.2, 0.7, 0.1)):
+        grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
+        expected = np.stack([gains.score(grid, gain) for gain in GAINS], axis=1)
+        assert expected[:, 0].min() > 0.0
+        np.testing.assert_allclose(gains.scores(grid), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_flat_index_finds_the_voxel_of_points_inside_it_and_minus_one_outside() -> None:
+    grid = OccupancyGrid.around(np.array([0.3, -0.2, 0.7]), 0.1, VOXEL)
+    rng = np.random.default_rng(1)
+    cells = rng.integers(0, grid.shape[0], (500, 3))
+    # Anywhere in a voxel but within a tenth of a voxel of its faces (no rounding question).
+    points = grid.origin + (cells + rng.uniform(0.1, 0.9, (500, 3))) * VOXEL
+    expected = [(i * grid.shape[1] + j) * grid.shape[2] + k for i, j, k in cells]
+    np.testing.assert_array_equal(grid.flat_index(points), expected)
+    outside = points.copy()
+    outside[np.arange(500), rng.integers(0, 3, 500)] += rng.choice([-1.0, 1.0], 500) * 0.25
+    np.testing.assert_array_equal(grid.flat_index(outside), -1)
+    assert grid.flat_index(points.reshape(50, 10, 3)).shape == (50, 10)
 
 
 @pytest.mark.parametrize("spec, message", [
