@@ -107,7 +107,8 @@ class OccupancyGrid:
         """Flat voxel index of each point (..., 3); -1 outside the grid."""
         cells = np.floor((points - self.origin) / self.voxel_m)
         # Axis by axis, in floats (whole numbers, exact): a reduction over the last axis of
-        # three and an index clipped for `ravel_multi_index` took most of a frame's time.
+        # three and an index clipped for `ravel_multi_index` took most of a frame's
+        # integration.
         flat = np.zeros(cells.shape[:-1])
         inside = np.ones(cells.shape[:-1], dtype=bool)
         for axis, size in enumerate(self.shape):
@@ -277,13 +278,13 @@ class ViewGains:
 class _SampleRuns:
     """The samples of every ray as runs of consecutive samples in one voxel, for `scores`.
 
-    Half a voxel apart, a ray's samples fall in the same voxel two or three times in a row (the
-    runs number about 60 % of the samples); a run of m samples passes a ray with the m-th power
-    of one sample's chance and its samples' visibility sums to the first one's times
-    1 + p + ... + p^(m-1). The runs are stored run by run across all rays (run, ray), so that
-    the cumulative product is a few dozen products of whole rows, and every ray starts with an
-    empty run (visibility 1 before the first voxel). What a run reads is one byte, its key:
-    length x `_CODES` + its voxel's code (state << 3 | one bit per gain).
+    Half a voxel apart, a ray's samples fall in the same voxel up to four times in a row (the
+    band candidates' runs number about 60 % of their samples); a run of m samples passes a ray
+    with the m-th power of one sample's chance and its samples' visibility sums to the first
+    one's times 1 + p + ... + p^(m-1). The runs are stored run by run across all rays (run,
+    ray), so that the cumulative product is a few dozen products of whole rows, and every ray
+    starts with an empty run (visibility 1 before the first voxel). What a run reads is one
+    byte, its key: length x `_CODES` + its voxel's code (state << 3 | one bit per gain).
 
     Args:
         index: Voxel index of every sample (candidates, rays, samples); `outside` for samples
