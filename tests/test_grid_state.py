@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import types
 from pathlib import Path
 from typing import Any
@@ -119,6 +120,34 @@ def test_offered_drops_directions_within_10_deg_of_a_request_and_failed_ones() -
     np.testing.assert_array_equal(offered(directions, np.array([[0.0, 0.0, 1.0]]), failed),
                                   [False, True, False, True])
     np.testing.assert_array_equal(offered(directions, np.zeros((0, 3)), failed), ~failed)
+
+
+def test_the_mask_is_a_brute_force_angle_check_against_every_earlier_request() -> None:
+    """Requests at candidates (some failed) and near others, free-flying: a candidate
+    is offered exactly when it lies more than 10 deg from every request and did not fail."""
+    rng = np.random.default_rng(4)
+    center = np.asarray(CONFIG.cell.object_center_m)
+    directions = band_directions()
+    # Six at candidates, six about 10 deg off others (the mask's edge).
+    picks = rng.choice(len(directions), 12, replace=False)
+    requested = np.concatenate([directions[picks[:6]],
+                                unit(directions[picks[6:]] + rng.normal(0.0, 0.12, (6, 3)))])
+    reached = [True, False, True, False, True, True, True, True, False, True, False, True]
+    views = [types.SimpleNamespace(requested=Pose(center + 0.47 * d, np.eye(3)), reachable=ok,
+                                   sensor_pose=None)
+             for d, ok in zip(requested, reached, strict=True)]
+    episode = types.SimpleNamespace(views=views, center=center, uses_robot=False, q=np.zeros(0))
+    observation = GridState(CONFIG).observe(episode)  # type: ignore[arg-type]
+    expected = []
+    for candidate in directions:
+        angles = [math.degrees(math.acos(min(1.0, float(candidate @ request))))
+                  for request in requested]
+        failed = any(angle <= 1.0 and not ok for angle, ok in zip(angles, reached, strict=True))
+        expected.append(min(angles) > 10.0 and not failed)
+    # Beside the six at candidates, some requested near others exclude them, some not.
+    closest = np.degrees(np.arccos(np.clip(directions @ requested[6:].T, -1.0, 1.0))).min(axis=0)
+    assert (closest < 10.0).any() and (closest > 10.0).any(), closest
+    np.testing.assert_array_equal(observation["mask"], expected)
 
 
 def test_when_every_candidate_is_masked_all_that_did_not_fail_are_offered() -> None:

@@ -5,16 +5,23 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import shutil
+import types
 from pathlib import Path
 
 import pytest
 
-from vprobot.agents.callbacks import EVALUATION_COLUMNS, upgrade_evaluations
+from vprobot.agents.callbacks import (
+    EVALUATION_COLUMNS,
+    SharedEpisodeEvaluation,
+    upgrade_evaluations,
+)
 from vprobot.agents.runs import best_evaluation
-from vprobot.agents.seeds import seeds_table, write_summary
+from vprobot.agents.seeds import best_validation, seeds_table, write_summary
+from vprobot.agents.training import profile_config
 from vprobot.cli import main
-from vprobot.config import Config, replace
+from vprobot.config import Config, ConfigError, replace
 from vprobot.evaluation import COLUMNS
 from vprobot.files import csv_text
 from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
@@ -98,6 +105,61 @@ def test_seed_summary_is_mean_min_max_of_best_validation_and_complete_test_lists
         in markdown
 
 
+# (step, coverage, acquisitions, success): the imitation, then RL that reaches the goal in every
+# episode with more views; steps 12 500 and 15 000 tie on goal rate and views.
+SELECTION_ROWS = [(0, 0.920, 4.92, 0.92), (2500, 0.924, 6.24, 0.96), (7500, 0.919, 6.10, 1.0),
+                  (10000, 0.927, 6.40, 1.0), (12500, 0.925, 6.10, 1.0),
+                  (15000, 0.925, 6.10, 1.0)]
+
+
+@pytest.mark.parametrize(("select", "step"), [("coverage", 10000), ("goal_then_views", 12500)])
+def test_the_best_validation_row_is_the_runs_selection_rule(
+        tmp_path: Path, select: str, step: int) -> None:
+    """coverage: the highest coverage; goal_then_views: of the rows at the highest goal rate
+    the fewest acquisitions, then the higher coverage, then the earliest."""
+    _validation(tmp_path / "run", SELECTION_ROWS)
+    assert best_validation(tmp_path / "run", select)["step"] == step  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("select", "kept"), [
+    ("coverage", [0, 2500, 2500, 10000, 10000, 10000]),
+    ("goal_then_views", [0, 2500, 7500, 7500, 12500, 12500]),
+])
+def test_the_evaluation_callback_keeps_the_best_model_under_agent_select(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, select: str, kept: list[int]) -> None:
+    summaries = iter([{"coverage_pct": 100 * coverage, "acquisitions": acquisitions,
+                       "success_pct": 100 * success}
+                      for _, coverage, acquisitions, success in SELECTION_ROWS])
+    monkeypatch.setattr("vprobot.agents.callbacks.evaluate_policy", lambda *args: None)
+    monkeypatch.setattr("vprobot.agents.callbacks.policy_summary",
+                        lambda rows: next(summaries))
+    model = types.SimpleNamespace(num_timesteps=0, logger=types.SimpleNamespace(
+        record=lambda *args: None), save=lambda path: Path(path).write_text(
+            str(model.num_timesteps)))
+    run = tmp_path / "run"
+    run.mkdir()
+    callback = SharedEpisodeEvaluation(None, [], run, 2500, 0.0, select)  # type: ignore[arg-type]
+    for index, ((step, *_), best) in enumerate(zip(SELECTION_ROWS, kept, strict=True)):
+        if index == 3:
+            # A resume reads the best so far from evaluations.csv under the same rule.
+            callback = SharedEpisodeEvaluation(None, [], run, 2500, 0.0,  # type: ignore[arg-type]
+                                               select)
+        model.num_timesteps = step
+        callback.evaluate_model(model)  # type: ignore[arg-type]
+        assert int((run / "best_model.zip").read_text()) == best, step
+
+
+def test_agent_select_is_coverage_by_default_and_goal_then_views_for_the_candidate_profile(
+) -> None:
+    assert Config().agent.select == "coverage"
+    assert profile_config(CONFIGS_DIR / "agents" / "cpu.yaml").agent.select == "coverage"
+    candidates = profile_config(CONFIGS_DIR / "agents" / "cpu-candidates.yaml")
+    assert candidates.agent.select == "goal_then_views"
+    with pytest.raises(ConfigError, match=re.escape(
+            "agent.select must be one of ['coverage', 'goal_then_views'], got 'views'")):
+        replace(Config(), "agent", select="views")
+
+
 def test_train_seeds_makes_one_run_per_seed_and_goes_on_without_retraining(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "seeds"
@@ -167,7 +229,7 @@ def test_committed_runs_in_the_old_columns_are_read_in_todays() -> None:
     path = ASSETS_DIR / "agents" / "cpu" / "evaluations.csv"
     raw = _rows(path)
     assert {"coverage", "travel_joint_time"} <= set(raw[0])
-    best = best_evaluation(path)
+    best = best_evaluation(path, "coverage")
     assert best is not None and not {"coverage", "travel_joint_time"} & set(best)
     (row,) = [row for row in raw if row["step"] == best["step"]]
     assert best["coverage_pct"] == 100 * max(float(row["coverage"]) for row in raw)

@@ -16,7 +16,9 @@ from vprobot.agents.teacher import WASTED, CandidateTeacher
 from vprobot.agents.training import build_model, train
 from vprobot.config import Config, ConfigError, replace
 from vprobot.env import InspectEnv
+from vprobot.env.grid_state import FEATURES
 from vprobot.paths import MOTORS_DIR
+from vprobot.planners.candidates import screen_reachability
 
 ENV = {"action": "A_view", "state": "s_grid", "motors": "mesh",
        "mesh": str(MOTORS_DIR / "train" / "motor_000.stl"), "resolution": (96, 67)}
@@ -66,6 +68,26 @@ def test_candidates_the_robot_cannot_take_are_worth_a_wasted_request() -> None:
     unusable = ~teacher._views.usable
     assert unusable.any() and np.all(values[unusable] == WASTED)
     assert np.all(values[~unusable] >= 0.0) and values[~unusable].max() > 0.0
+    # Its own screening is the state's: the same candidates, the same configurations.
+    joints, _ = env.observer.grid_state.screening(env.episode)
+    np.testing.assert_array_equal(teacher._views.joints, joints)
+
+
+def test_collecting_teacher_states_screens_each_episode_once(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    screenings = []
+
+    def counted(*args: object) -> tuple:
+        screenings.append(args)
+        return screen_reachability(*args)
+
+    monkeypatch.setattr("vprobot.env.grid_state.screen_reachability", counted)
+    monkeypatch.setattr("vprobot.planners.candidates.screen_reachability", counted)
+    states = collect(config("robot"), episodes=1, seed=0)
+    assert len(screenings) == 1 and len(states) >= 1
+    # The candidates the state shows unreachable are the ones the teacher values as wasted.
+    unreachable = states.observations["candidates"][:, :, FEATURES.index("reachable")] == 0
+    np.testing.assert_array_equal(states.values == WASTED, unreachable)
 
 
 def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_best() -> None:

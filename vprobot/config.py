@@ -276,6 +276,8 @@ ActionName = Literal[
     "A_view",
 ]
 TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper"]
+Selection = Literal["coverage", "goal_then_views"]
+"""How a run's evaluations choose its best model (`AgentConfig.select`)."""
 ROBOT_TRAVEL_COSTS = ("joint_time", "joint_path")
 """Travel costs that exist only with a robot (joint space)."""
 
@@ -457,6 +459,10 @@ class AgentConfig:
         eval_freq: Env steps between evaluations on the validation episodes of what the run
             trains on (`vprobot.splits.validation_episodes`): they select the best model.
         eval_episodes: How many of those episodes an evaluation runs (None: all).
+        select: Which evaluation's model is the best: `coverage` (the highest mean coverage,
+            fewer acquisitions breaking ties) or `goal_then_views` (the most episodes at the
+            coverage goal, then the fewest acquisitions, then the highest coverage: once every
+            episode reaches the goal, coverage first favours more views).
         test_lists: Bundled episode lists a finished run's best model is scored on, once
             (`vprobot.agents.training.score_test_lists`; None: none); never during training.
         checkpoint_freq: Env steps between checkpoints (with the replay buffer).
@@ -490,6 +496,7 @@ class AgentConfig:
     n_envs: int = 1
     eval_freq: int = 5_000
     eval_episodes: int | None = None
+    select: Selection = "coverage"
     test_lists: tuple[str, ...] | None = ("test-v1", "families-test-v1", "shapes-v1")
     checkpoint_freq: int = 5_000
     torch_threads: int = 1

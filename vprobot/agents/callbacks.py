@@ -17,6 +17,7 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.agents.runs import best_evaluation, current_names, evaluation_score
+from vprobot.config import Selection
 from vprobot.env import InspectEnv
 from vprobot.episode import EpisodeSpec
 from vprobot.files import append_line, atomic_output, csv_text, write_text
@@ -56,7 +57,7 @@ class SharedEpisodeEvaluation(BaseCallback):
     """Every `frequency` env steps, score the deterministic policy on the validation episodes.
 
     Appends a row to `evaluations.csv`, records `eval/*` in the logger (TensorBoard, CSV) and
-    keeps `best_model.zip`: the highest mean coverage, fewer acquisitions breaking ties.
+    keeps `best_model.zip`: the best under `select` (`agent.select`, `runs.evaluation_score`).
 
     Args:
         env: The evaluation env (`evaluation.evaluation_env`).
@@ -64,10 +65,11 @@ class SharedEpisodeEvaluation(BaseCallback):
         run_dir: The run directory.
         frequency: Env steps between evaluations.
         clock_start: `time.time()` the run's wall clock counts from (kept across resumes).
+        select: How evaluations rank (`agent.select`).
     """
 
     def __init__(self, env: InspectEnv, specs: list[EpisodeSpec], run_dir: Path,
-                 frequency: int, clock_start: float):
+                 frequency: int, clock_start: float, select: Selection):
         super().__init__()
         self.eval_env = env
         self.specs = specs
@@ -75,7 +77,8 @@ class SharedEpisodeEvaluation(BaseCallback):
         self.frequency = frequency
         self.clock_start = clock_start
         self.path = run_dir / "evaluations.csv"
-        self.best = best_so_far(self.path)
+        self.select = select
+        self.best = best_so_far(self.path, select)
         self.last = 0
         self.latest: dict[str, Any] = {}
         self.latest_step = -1
@@ -103,7 +106,7 @@ class SharedEpisodeEvaluation(BaseCallback):
         for key, value in summary.items():
             if value is not None:  # e.g. joint travel without the robot
                 model.logger.record(f"eval/{key}", value)
-        score = evaluation_score(summary)
+        score = evaluation_score(summary, self.select)
         if self.best is None or score > self.best:
             self.best = score
             with atomic_output(self.run_dir / "best_model.zip") as temporary:
@@ -111,10 +114,10 @@ class SharedEpisodeEvaluation(BaseCallback):
         return summary
 
 
-def best_so_far(path: Path) -> tuple[float, float] | None:
-    """The best (coverage, -acquisitions) in an evaluations file, None when there is none."""
-    best = best_evaluation(path)
-    return None if best is None else evaluation_score(best)
+def best_so_far(path: Path, select: Selection) -> tuple[float, ...] | None:
+    """The best score under `select` in an evaluations file, None when there is none."""
+    best = best_evaluation(path, select)
+    return None if best is None else evaluation_score(best, select)
 
 
 class ResumableCheckpoint(BaseCallback):

@@ -65,7 +65,10 @@ def collect(config: Config, episodes: int, seed: int, progress: bool = False) ->
     values: list[np.ndarray] = []
     for _ in tqdm(range(episodes), desc="teacher episodes", disable=not progress):
         observation, _ = env.reset()
-        teacher.reset(inspect.episode)
+        # The `s_grid` state screened the candidates' reachability: the teacher reads it.
+        grid_state = inspect.observer.grid_state
+        teacher.reset(inspect.episode,
+                      grid_state.screening(inspect.episode) if grid_state is not None else None)
         done = False
         while not done:
             value = teacher.values(inspect.episode)

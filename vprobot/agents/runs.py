@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
+
+from vprobot.config import Selection
 
 RESULT_FILE = "result.json"
 """Written into a run directory when its training has finished (sweep trials, seed runs)."""
@@ -40,14 +43,19 @@ def read_result(run_dir: Path) -> dict[str, Any]:
     return current_names(json.loads((run_dir / RESULT_FILE).read_text()))
 
 
-def evaluation_score(row: dict[str, Any]) -> tuple[float, float]:
-    """How evaluations rank: the higher coverage, then the fewer acquisitions."""
-    return float(row["coverage_pct"]), -float(row["acquisitions"])
+def evaluation_score(row: Mapping[str, Any], select: Selection) -> tuple[float, ...]:
+    """How evaluations rank under `agent.select` (the higher the better): coverage, then the
+    fewer acquisitions; or the goal rate, then the fewer acquisitions, then coverage."""
+    coverage, acquisitions = float(row["coverage_pct"]), float(row["acquisitions"])
+    if select == "goal_then_views":
+        return float(row["success_pct"]), -acquisitions, coverage
+    return coverage, -acquisitions
 
 
-def best_evaluation(path: Path) -> dict[str, Any] | None:
-    """The row of an evaluations file whose model `best_model.zip` is (the earliest of equal
-    ones), in today's columns (`current_names`), None when there is none."""
+def best_evaluation(path: Path, select: Selection) -> dict[str, Any] | None:
+    """The row of an evaluations file whose model `best_model.zip` is under `agent.select`
+    (the earliest of equal ones), in today's columns (`current_names`), None when there is
+    none."""
     rows = ([current_names(row) for row in csv.DictReader(path.read_text().splitlines())]
             if path.is_file() else [])
-    return max(rows, key=evaluation_score) if rows else None
+    return max(rows, key=lambda row: evaluation_score(row, select)) if rows else None

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from vprobot.agents.runs import RESULT_FILE, best_evaluation
-from vprobot.config import Config
+from vprobot.config import Config, Selection
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.files import csv_text, write_text
@@ -73,18 +73,18 @@ def run_seed(config: Config, seed: int, run_dir: Path, argv: Sequence[str],
     if not (run_dir / RESULT_FILE).is_file():
         train_to_result(lambda: config, run_dir, seed, argv, device, progress)
     score_test_lists(config, run_dir, progress=progress)
-    return best_validation(run_dir)
+    return best_validation(run_dir, config.agent.select)
 
 
-def best_validation(run_dir: Path) -> dict[str, float]:
-    """The row of `evaluations.csv` whose model `best_model.zip` is: the highest coverage, fewer
-    acquisitions breaking ties, the earliest of equal ones (as the training callback keeps it),
-    in the units of `vprobot evaluate` (percentages).
+def best_validation(run_dir: Path, select: Selection) -> dict[str, float]:
+    """The row of `evaluations.csv` whose model `best_model.zip` is: the best under `select`
+    (`agent.select`), the earliest of equal ones (as the training callback keeps it), in the
+    units of `vprobot evaluate` (percentages).
 
     Raises:
         ValueError: If the run has no evaluation.
     """
-    best = best_evaluation(run_dir / "evaluations.csv")
+    best = best_evaluation(run_dir / "evaluations.csv", select)
     if best is None:
         raise ValueError(f"{run_dir} holds no validation evaluation (evaluations.csv)")
     return {key: float(best[key])
@@ -115,7 +115,8 @@ def seeds_table(config: Config, out: Path, seeds: Sequence[int]) -> list[dict[st
     """One row for the validation list and one per test list: the spread over the seeds that
     have finished (training, and that test list)."""
     done = [seed for seed in seeds if (seed_dir(out, seed) / RESULT_FILE).is_file()]
-    validation = {seed: best_validation(seed_dir(out, seed)) for seed in done}
+    validation = {seed: best_validation(seed_dir(out, seed), config.agent.select)
+                  for seed in done}
     table = [{"evaluation": VALIDATION, **spread(validation)}]
     for name in config.agent.test_lists or ():
         table.append({"evaluation": name, **spread(

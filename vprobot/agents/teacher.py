@@ -14,6 +14,8 @@ before RL.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from vprobot.config import ConfigError, EnvConfig
@@ -45,10 +47,12 @@ class CandidateTeacher:
     def __init__(self) -> None:
         self._views: CandidateViews | None = None
 
-    def reset(self, episode: Episode) -> None:
+    def reset(self, episode: Episode,
+              screened: tuple[np.ndarray, Sequence[str | None]] | None = None) -> None:
         """Render the ground truth from every band candidate of the episode (and, with the
-        robot, screen their reachability)."""
-        self._views = candidate_views(episode, BAND_COUNT)
+        robot, screen their reachability, unless `screened` holds the episode's screening:
+        the `s_grid` state's, `GridState.screening`)."""
+        self._views = candidate_views(episode, BAND_COUNT, screened=screened)
 
     def values(self, episode: Episode) -> np.ndarray:
         """The value (BAND_COUNT,) of requesting each candidate now: the coverage it adds (the

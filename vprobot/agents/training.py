@@ -404,7 +404,7 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
                                ["csv", "tensorboard"]))
     specs = validation_episodes(config)[: agent.eval_episodes]
     evaluation = SharedEpisodeEvaluation(evaluation_env(config), specs, run_dir,
-                                         agent.eval_freq, clock_start)
+                                         agent.eval_freq, clock_start, agent.select)
     if pretrained:
         # The imitation alone, as step 0 of the curve: RL must do better to replace it.
         evaluation.evaluate_model(model)

@@ -85,33 +85,34 @@ class GridState:
         self.step_limit = step_limit(config.env)
         self._match = np.cos(np.deg2rad(MATCH_DEG))
         self._low = grid_spaces(len(self.band))["candidates"].low[0]
-        self._joints: np.ndarray | None = None
+        self._screening: tuple[np.ndarray, tuple[str | None, ...]] | None = None
 
     def reset(self) -> None:
         """A new episode: an all-unknown grid, reachability not screened yet."""
         self.episode_grid.reset()
-        self._joints = None
+        self._screening = None
 
-    def _reachable_joints(self, episode: Episode) -> np.ndarray:
+    def screening(self, episode: Episode) -> tuple[np.ndarray, tuple[str | None, ...]]:
         """A configuration (count, dof) reaching each candidate, NaN rows for those the robot
-        does not reach (none without the robot: a free sensor takes every view). Screened once
-        per episode from where it starts (the object's placement decides what collides), as
-        B_SCP screens its candidates; nbv tries the IK per request instead."""
-        if self._joints is None:
+        does not reach, and the IK's reason for each of those (none without the robot: a free
+        sensor takes every view, and the array has no columns). Screened once per episode from
+        where it starts (the object's placement decides what collides), as B_SCP screens its
+        candidates; nbv tries the IK per request instead."""
+        if self._screening is None:
             if episode.uses_robot:
-                self._joints, _ = screen_reachability(
+                self._screening = screen_reachability(
                     episode.scene.arm, episode.carrier.collisions, episode.q,
                     self.band.directions, self.band.targets)
             else:
-                self._joints = np.zeros((len(self.band), 0))
-        return self._joints
+                self._screening = np.zeros((len(self.band), 0)), (None,) * len(self.band)
+        return self._screening
 
     def joints_of(self, candidate: int) -> np.ndarray | None:
         """The configuration the screening found for a candidate; None where it found none,
         free-flying, or before the episode's first state."""
-        if self._joints is None or self._joints.shape[1] == 0:
+        if self._screening is None or self._screening[0].shape[1] == 0:
             return None
-        joints = self._joints[candidate]
+        joints = self._screening[0][candidate]
         return None if np.isnan(joints).any() else joints.copy()
 
     def observe(self, episode: Episode) -> dict[str, np.ndarray]:
@@ -124,7 +125,7 @@ class GridState:
         cosines = directions @ requested.T
         unreached = np.array([not view.reachable for view in views], dtype=bool)
         failed = (cosines[:, unreached] >= self._match).any(axis=1)
-        joints = self._reachable_joints(episode)
+        joints, _ = self.screening(episode)
         reachable = ~np.isnan(joints).any(axis=1)
         mask = offered(directions, requested, failed) & reachable
         if not mask.any():

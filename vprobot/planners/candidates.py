@@ -145,16 +145,20 @@ class CandidateViews:
 
 
 def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
-                    resolution: tuple[int, int] = DEFAULT_RESOLUTION) -> CandidateViews:
+                    resolution: tuple[int, int] = DEFAULT_RESOLUTION,
+                    screened: tuple[np.ndarray, Sequence[str | None]] | None = None
+                    ) -> CandidateViews:
     """Build the candidates of an episode: targets, reachability (robot) and visibility.
 
     Args:
         episode: The episode (its object pose; its robot when it uses one).
         count: Candidate positions on the view sphere.
         resolution: Grid of the visibility renderer.
+        screened: With the robot, the episode's screening of these candidates already done
+            (`screen_reachability`'s configurations and reasons), not to be done again.
 
     Raises:
-        ValueError: If count < 1.
+        ValueError: If count < 1, or `screened` holds another number of candidates or joints.
     """
     if count < 1:
         raise ValueError(f"count must be >= 1, got {count}")
@@ -166,8 +170,14 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
     dof = scene.cell.joints.dof
     start = time.perf_counter()
     if episode.uses_robot:
-        joints, reasons = screen_reachability(scene.arm, episode.carrier.collisions, episode.q,
-                                              directions, targets)
+        if screened is None:
+            joints, reasons = screen_reachability(scene.arm, episode.carrier.collisions,
+                                                  episode.q, directions, targets)
+        else:
+            joints, reasons = screened[0], tuple(screened[1])
+            if joints.shape != (count, dof) or len(reasons) != count:
+                raise ValueError(f"screened holds {joints.shape} joints and {len(reasons)} "
+                                 f"reasons, expected ({count}, {dof}) and {count}")
         usable = ~np.isnan(joints).any(axis=1)
         arm = scene.arm
         poses = tuple(arm.fk(q) if ok else None for q, ok in zip(joints, usable, strict=True))
