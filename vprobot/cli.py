@@ -422,7 +422,7 @@ def command_objects(args: argparse.Namespace) -> int:
         return 0
     if args.objects_command == "cache":
         from vprobot.agents.training import profile_config
-        from vprobot.generated import build_training_objects
+        from vprobot.env.inspect_env import build_training_objects
         from vprobot.paths import cache_root
 
         count = build_training_objects(profile_config(args.profile, args.set))
