@@ -27,6 +27,7 @@ _MOTOR = re.compile(r"^generated/motor_(?P<seed>\d+)_(?P<index>\d{3,})\.stl$")
 
 def family_object(family: str, seed: int) -> str:
     """The name of instance `seed` of a part family."""
+    # Imported here: the generators need trimesh; the split and the config read names here.
     from vprobot.families import instance_stem
 
     return f"{PREFIX}{instance_stem(family, seed)}.stl"
@@ -60,11 +61,13 @@ def generated_path(name: str) -> Path:
     if path.is_file():
         return path
     if (motor := _MOTOR.match(name)) is not None:
+        # Imported here: the generators need trimesh; the split and the config read names here.
         from vprobot.motors import build_motor, motor_rng, sample_parameters
 
         mesh = build_motor(sample_parameters(motor_rng(int(motor["seed"]),
                                                        int(motor["index"]))))
     elif (part := _FAMILY.match(name)) is not None:
+        # Imported here: the generators need trimesh; the split and the config read names here.
         from vprobot.families import FAMILIES
 
         mesh = FAMILIES[part["family"]].instance(int(part["seed"])).mesh

@@ -337,6 +337,7 @@ class InspectEnv(gym.Env):
         """An RGB frame of the cell (`render_mode="rgb_array"`), else None."""
         if self.render_mode != "rgb_array" or self.episode is None:
             return None
+        # Imported here: the offscreen renderer (OpenGL, imageio) loads only for rgb_array frames.
         from vprobot.render.camera import aim_overview
         from vprobot.render.offscreen import OffscreenView
 
