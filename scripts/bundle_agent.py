@@ -12,8 +12,7 @@ import shutil
 from pathlib import Path
 
 from vprobot.agents.runs import current_names, evaluation_score
-from vprobot.agents.trained import BUNDLED_AGENT
-from vprobot.agents.training import load_run_config
+from vprobot.agents.trained import BUNDLED_AGENT, load_run_config
 
 
 def main() -> None:

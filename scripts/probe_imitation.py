@@ -6,7 +6,7 @@ Collects `--episodes` teacher episodes with the cpu-candidates profile (one env,
 cached in --cache by episode count), fits a fresh DQN's Q-network to them and prints the
 fit's regret on its own states (the teacher's best value minus that of the network's greedy
 pick, beside a uniform allowed pick's) and the greedy policy's summary on the validation
-episodes (`vprobot.splits.validation_episodes`; never a test list). `--zero-gains` maps the
+episodes (`vprobot.episode.specs.validation_episodes`; never a test list). `--zero-gains` maps the
 value -1 of allowed candidates to 0, as the teacher of commit c947c57 on does itself;
 `--listwise LAMBDA TAU` adds LAMBDA x the cross-entropy of softmax(Q / TAU) against
 softmax(values / TAU) to the squared error, on a held-out fifth of the states.
@@ -28,7 +28,7 @@ from vprobot.agents.candidate_q import MASK_KEY, allowed_rows
 from vprobot.agents.evaluation import evaluate_policy, evaluation_env, policy_summary
 from vprobot.agents.pretrain import TeacherStates, collect, fit
 from vprobot.agents.training import build_model, make_vec_env, profile_config
-from vprobot.splits import validation_episodes
+from vprobot.episode.specs import validation_episodes
 
 PROFILE = "configs/agents/cpu-candidates.yaml"
 

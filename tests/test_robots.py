@@ -274,11 +274,27 @@ def replay_plan(plan: Path) -> None:
 
 
 @pytest.mark.parametrize("robot", ["ur10", "ur5", "panda"])
-def test_a_plan_of_every_bundled_robot_replays(robot: str, tmp_path: Path,
-                                               capsys: pytest.CaptureFixture) -> None:
+def test_a_plan_of_every_bundled_robot_reads_its_description_once_and_replays(
+        robot: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture) -> None:
+    from vprobot.robots import _load_description
+    from vprobot.robots.description import RobotDescription
+
+    loads: list[Path] = []
+    load = RobotDescription.load.__func__  # type: ignore[attr-defined]
+
+    def counting(cls: type[RobotDescription], folder: Path) -> RobotDescription:
+        loads.append(Path(folder))
+        return load(cls, folder)
+
+    monkeypatch.setattr(RobotDescription, "load", classmethod(counting))
+    _load_description.cache_clear()  # as in a fresh process
     plan = tmp_path / "plan.json"
     assert main(["plan", "--robot", robot, "--planner", "hrec", "--carrier", "robot",
                  "--out", str(plan)]) == 0, capsys.readouterr().err
+    # The config, the cell and the fit checks of the plan share one read of robot.yaml (the
+    # default config's ur10 is read too, when the config is loaded before --robot replaces it).
+    assert loads.count(ROBOTS_DIR / robot) == 1 and len(set(loads)) == len(loads)
     assert json.loads(plan.read_text())["robot"]["name"] == robot
     assert "folder" not in json.loads(plan.read_text())["robot"]  # bundled: named only
     replay_plan(plan)

@@ -10,11 +10,16 @@ import pytest
 
 from vprobot.config import Config, ConfigError, replace
 from vprobot.episode import EpisodeSpec, read_episode_list
-from vprobot.episode.specs import bundled_episode_list, motor_name
+from vprobot.episode.specs import (
+    bundled_episode_list,
+    motor_name,
+    split_lists,
+    validation_episodes,
+)
 from vprobot.families import FAMILIES
 from vprobot.generated import family_of, generated_path, motor_object
 from vprobot.paths import MOTORS_DIR
-from vprobot.splits import MOTORS, Split, split_lists, validation_episodes
+from vprobot.splits import MOTORS, Split
 
 CONFIG = Config()
 SPLIT = Split.load()
@@ -122,7 +127,7 @@ def test_env_draws_family_instances_and_builds_them_on_first_use(cache: Path) ->
 def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import vprobot.agents.training as training
-    import vprobot.splits as splits
+    import vprobot.episode.specs as specs
     from vprobot.paths import CONFIGS_DIR
 
     read: list[Path] = []
@@ -131,7 +136,7 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
         read.append(Path(path))
         return read_episode_list(path)
 
-    monkeypatch.setattr(splits, "read_episode_list", recording)
+    monkeypatch.setattr(specs, "read_episode_list", recording)
     monkeypatch.setattr(training, "read_episode_list", recording)
     config = training.profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", [
         "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=20",

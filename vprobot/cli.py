@@ -1,5 +1,9 @@
 """The `vprobot` command line.
 
+The module imports what a command runs when it runs (planners, the renderer, training, the
+benchmarks), so that `vprobot --help` and a bad option answer at once; those imports inside the
+command functions are the only ones in vprobot without a comment of their own.
+
 Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is unreachable);
 2 a user error (bad option, config, mesh, plan or output path), reported as one line on stderr;
 130 interrupted (Ctrl-C or SIGTERM; `evaluate` keeps the episodes it finished).
@@ -422,7 +426,7 @@ def command_objects(args: argparse.Namespace) -> int:
         return 0
     if args.objects_command == "cache":
         from vprobot.agents.training import profile_config
-        from vprobot.generated import build_training_objects
+        from vprobot.env.inspect_env import build_training_objects
         from vprobot.paths import cache_root
 
         count = build_training_objects(profile_config(args.profile, args.set))

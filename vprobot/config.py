@@ -11,23 +11,18 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-import types
-import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
-
+from vprobot.agents.encoders import ENCODERS
+from vprobot.env.rewards import REWARDS
 from vprobot.paths import DEFAULT_CONFIG, SENSORS_DIR
 from vprobot.registry import Registry
-
-Vec3 = tuple[float, float, float]
-Quat = tuple[float, float, float, float]
-
-
-class ConfigError(ValueError):
-    """A configuration file or mapping does not match the schema."""
+from vprobot.robots import load_robot
+from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
+from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
+from vprobot.splits import Split
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,43 +50,10 @@ class CellConfig:
     object_center_m: Vec3 = (0.45, 0.0, 0.75)
 
     def __post_init__(self) -> None:
-        # Imported here: the robot descriptions are themselves read with this module's schema.
-        from vprobot.robots import load_robot
-
         try:
             load_robot(self.robot)
         except ValueError as error:
             raise ConfigError(f"cell.robot: {error}") from None
-
-
-def parse_yaml(text: str, source: str) -> Any:
-    """The YAML document in `text`; `source` (a file, an option) names it in errors.
-
-    Raises:
-        ConfigError: If the text is not valid YAML; the message names the source and the line.
-    """
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        where = getattr(error, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else ""
-        problem = getattr(error, "problem", None) or type(error).__name__
-        raise ConfigError(f"{source}: not valid YAML{line}: {problem}") from None
-
-
-def read_yaml(path: str | Path) -> Any:
-    """The YAML document of a file: every config, profile, study, split and robot description
-    is read through here.
-
-    Raises:
-        OSError: If the file cannot be read.
-        ConfigError: If it is not UTF-8 text or not valid YAML (naming the file and the line).
-    """
-    try:
-        text = Path(path).read_text()
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not valid YAML: not UTF-8 text") from None
-    return parse_yaml(text, str(path))
 
 
 def check_registered(name: str, registry: Registry[Any], key: str) -> None:
@@ -364,9 +326,6 @@ class EnvConfig:
     state_points: int = 2048
 
     def __post_init__(self) -> None:
-        # Imported here: the rewards are written against this module's EnvConfig.
-        from vprobot.env.rewards import REWARDS
-
         check_registered(self.reward, REWARDS, "env.reward")
         if self.motors == "mesh" and self.mesh is None:
             raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
@@ -374,8 +333,6 @@ class EnvConfig:
             if self.motors != "train":
                 raise ConfigError(f"env.objects {list(self.objects)} applies to training "
                                   f"(env.motors: train), not to env.motors {self.motors!r}")
-            from vprobot.splits import Split
-
             try:
                 Split.load().check_sources(self.objects)
             except ValueError as error:
@@ -457,7 +414,7 @@ class AgentConfig:
         total_steps: Env steps of a training run.
         n_envs: Environments stepped in parallel (subprocesses when more than one).
         eval_freq: Env steps between evaluations on the validation episodes of what the run
-            trains on (`vprobot.splits.validation_episodes`): they select the best model.
+            trains on (`vprobot.episode.specs.validation_episodes`): they select the best model.
         eval_episodes: How many of those episodes an evaluation runs (None: all).
         select: Which evaluation's model is the best: `coverage` (the highest mean coverage,
             fewer acquisitions breaking ties) or `goal_then_views` (the most episodes at the
@@ -503,9 +460,6 @@ class AgentConfig:
     device: Literal["cpu", "cuda", "auto"] = "cpu"
 
     def __post_init__(self) -> None:
-        # Imported here: the encoders read their settings from this class.
-        from vprobot.agents.encoders import ENCODERS
-
         check_registered(self.encoder, ENCODERS, "agent.encoder")
         if self.algorithm not in ENCODERS[self.encoder].algorithms:
             serving = [name for name, encoder in ENCODERS.items()
@@ -555,86 +509,11 @@ class Config:
     """The whole vprobot configuration."""
 
     cell: CellConfig = dataclasses.field(default_factory=CellConfig)
-    sensor: SensorConfig = dataclasses.field(default_factory=SensorConfig)
+    sensor: SensorConfig = dataclasses.field(default_factory=SensorConfig,
+                                             metadata={RESOLVE: _sensor_mapping})
     kinematics: KinematicsConfig = dataclasses.field(default_factory=KinematicsConfig)
     env: EnvConfig = dataclasses.field(default_factory=EnvConfig)
     agent: AgentConfig = dataclasses.field(default_factory=AgentConfig)
-
-
-def _convert(value: Any, annotation: Any, key: str) -> Any:
-    """Validate `value` against a type annotation and convert it (lists become tuples)."""
-    origin = typing.get_origin(annotation)
-    if annotation is SensorConfig:
-        value = _sensor_mapping(value, key)
-    if dataclasses.is_dataclass(annotation):
-        if not isinstance(value, Mapping):
-            raise ConfigError(f"{key} must be a mapping, got {value!r}")
-        return from_mapping(annotation, value, key)
-    if origin is Literal:
-        allowed = typing.get_args(annotation)
-        if value not in allowed:
-            raise ConfigError(f"{key} must be one of {list(allowed)}, got {value!r}")
-        return value
-    if origin is tuple:
-        item_types = typing.get_args(annotation)
-        if len(item_types) == 2 and item_types[1] is Ellipsis:
-            if not isinstance(value, list | tuple) or not value:
-                raise ConfigError(f"{key} must be a non-empty list, got {value!r}")
-            item_types = (item_types[0],) * len(value)
-        if not isinstance(value, list | tuple) or len(value) != len(item_types):
-            raise ConfigError(f"{key} must be a list of {len(item_types)} values, got {value!r}")
-        return tuple(
-            _convert(item, item_type, f"{key}[{index}]")
-            for index, (item, item_type) in enumerate(zip(value, item_types, strict=True))
-        )
-    if origin in (typing.Union, types.UnionType):
-        if value is None and type(None) in typing.get_args(annotation):
-            return None
-        (inner,) = [arg for arg in typing.get_args(annotation) if arg is not type(None)]
-        return _convert(value, inner, key)
-    if annotation is float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"{key} must be a number, got {value!r}")
-        if not math.isfinite(value):
-            raise ConfigError(f"{key} must be finite, got {value!r}")
-        return float(value)
-    if annotation is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{key} must be an integer, got {value!r}")
-        return value
-    if annotation is bool:
-        if not isinstance(value, bool):
-            raise ConfigError(f"{key} must be true or false, got {value!r}")
-        return value
-    if annotation is str:
-        if not isinstance(value, str):
-            raise ConfigError(f"{key} must be a string, got {value!r}")
-        return value
-    raise TypeError(f"unsupported annotation {annotation!r} for {key}")
-
-
-def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
-    """Build dataclass `cls` from a mapping, rejecting unknown keys.
-
-    Args:
-        cls: A dataclass type of this module.
-        data: Keys and values; missing keys take their defaults.
-        key: Dotted prefix for error messages.
-
-    Raises:
-        ConfigError: On unknown keys, wrong types or invalid values.
-    """
-    hints = typing.get_type_hints(cls)
-    fields = {field.name for field in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - fields)
-    if unknown:
-        where = f"section '{key}'" if key else "the top level"
-        raise ConfigError(
-            f"unknown key {unknown[0]!r} in {where}; allowed keys: {', '.join(sorted(fields))}"
-        )
-    prefix = f"{key}." if key else ""
-    values = {name: _convert(value, hints[name], prefix + name) for name, value in data.items()}
-    return cls(**values)
 
 
 def replace(config: Config, section: str, **changes: Any) -> Config:

@@ -32,6 +32,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from vprobot.cluster import parallel_map, require_ray
 from vprobot.config import Config
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
@@ -48,6 +49,7 @@ from vprobot.files import append_line, csv_text, save_figure, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
+from vprobot.stopping.rules import make_stop_rule
 
 CURVE_VIEWS = 10
 """Requests (the initial view included) over which the coverage curve and its area run."""
@@ -270,8 +272,6 @@ def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
                   estimator: str | Path | None) -> None:
     """Every motor of the list, every planner (an agent's files) and stop rule (an
     estimator) loads, and every rule applies to its planner, before the first episode runs."""
-    from vprobot.stopping.rules import make_stop_rule
-
     for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
         load_mesh(*motor)
     for label, name, views, stop in planners:
@@ -400,8 +400,6 @@ def _rows(config: Config, jobs: Sequence[Job], workers: int, address: str | None
         for job in jobs:
             yield from run_jobs(config, [job], estimator)
         return
-    from vprobot.cluster import parallel_map
-
     groups: dict[int, list[Job]] = {}
     for job in jobs:
         groups.setdefault(job[0], []).append(job)
@@ -456,8 +454,6 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     if not parsed or not specs or not carriers:
         raise ValueError("evaluate needs at least one planner, episode, carrier and stop rule")
     if workers > 1 or address is not None:
-        from vprobot.cluster import require_ray
-
         require_ray()
     _check_inputs(config, specs, parsed, estimator)
     out = Path(out_dir)

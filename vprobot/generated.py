@@ -15,7 +15,6 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from vprobot.config import Config
 from vprobot.files import atomic_output
 from vprobot.paths import cache_root
 
@@ -28,6 +27,7 @@ _MOTOR = re.compile(r"^generated/motor_(?P<seed>\d+)_(?P<index>\d{3,})\.stl$")
 
 def family_object(family: str, seed: int) -> str:
     """The name of instance `seed` of a part family."""
+    # Imported here: the generators need trimesh; the split and the config read names here.
     from vprobot.families import instance_stem
 
     return f"{PREFIX}{instance_stem(family, seed)}.stl"
@@ -61,11 +61,13 @@ def generated_path(name: str) -> Path:
     if path.is_file():
         return path
     if (motor := _MOTOR.match(name)) is not None:
+        # Imported here: the generators need trimesh; the split and the config read names here.
         from vprobot.motors import build_motor, motor_rng, sample_parameters
 
         mesh = build_motor(sample_parameters(motor_rng(int(motor["seed"]),
                                                        int(motor["index"]))))
     elif (part := _FAMILY.match(name)) is not None:
+        # Imported here: the generators need trimesh; the split and the config read names here.
         from vprobot.families import FAMILIES
 
         mesh = FAMILIES[part["family"]].instance(int(part["seed"])).mesh
@@ -76,25 +78,3 @@ def generated_path(name: str) -> Path:
     with atomic_output(path) as temporary:
         temporary.write_bytes(mesh.export(file_type="stl"))
     return path
-
-
-def build_training_objects(config: Config, progress: bool = True) -> int:
-    """Build every object a config trains on and its ground truth, once (both are cached), so
-    that training does not pay for them while it runs. Returns the number of objects.
-
-    Raises:
-        ValueError: For a source the split does not train on (`Split.check_sources`).
-    """
-    from tqdm import tqdm
-
-    from vprobot.env.inspect_env import motor_files
-    from vprobot.ground_truth import ground_truth
-    from vprobot.mesh_loading import load_mesh
-
-    env = config.env
-    scale = env.mesh_scale if env.motors == "mesh" else 1.0  # as the env's episodes draw them
-    names = list(dict.fromkeys(motor_files(config)))
-    for name in tqdm(names, desc="objects", unit="object", disable=not progress):
-        path = generated_path(name) if is_generated(str(name)) else name
-        ground_truth(load_mesh(path, scale).mesh, config)
-    return len(names)

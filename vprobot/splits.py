@@ -15,11 +15,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vprobot.config import Config, read_yaml
-from vprobot.episode import EpisodeSpec, episode_list, read_episode_list
-from vprobot.episode.specs import bundled_episode_list
-from vprobot.generated import family_object, family_of, motor_object
+from vprobot.generated import family_object, motor_object
 from vprobot.paths import MOTORS_DIR, SPLITS_DIR
+from vprobot.schema import read_yaml
 
 SPLIT_FILE = SPLITS_DIR / "v1.yaml"
 MOTORS = "motors"
@@ -115,23 +113,3 @@ class Split:
         """The instances of the test families on `families-test-v1`."""
         return [family_object(family, seed) for family in self.test_families
                 for seed in self.test_instances]
-
-
-def split_lists(config: Config, split: Split) -> dict[str, list[EpisodeSpec]]:
-    """The episode lists the split defines, drawn by the shared sampler: `validation-v1` and
-    `families-test-v1`."""
-    return {
-        split.validation_list: episode_list(config, split.validation_objects(),
-                                            split.validation_poses),
-        "families-test-v1": episode_list(config, split.test_family_objects(), split.test_poses),
-    }
-
-
-def validation_episodes(config: Config, split: Split | None = None) -> list[EpisodeSpec]:
-    """The validation episodes of what a config trains on: those of its sources (new motors
-    for `motors`, held-out instances for a family)."""
-    split = split if split is not None else Split.load()
-    sources = set(config.env.objects)
-    wanted = {"motor" if source == MOTORS else source for source in sources}
-    return [spec for spec in read_episode_list(bundled_episode_list(split.validation_list))
-            if family_of(spec.motor) in wanted]

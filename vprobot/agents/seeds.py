@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from vprobot.agents.runs import RESULT_FILE, best_evaluation
+from vprobot.cluster import parallel_map, require_ray
 from vprobot.config import Config, Selection
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list
@@ -68,6 +69,7 @@ def run_seed(config: Config, seed: int, run_dir: Path, argv: Sequence[str],
     Returns:
         The best validation row of the run (`best_validation`).
     """
+    # Imported here: training needs torch and stable-baselines3; the seeds table does not.
     from vprobot.agents.training import score_test_lists, train_to_result
 
     if not (run_dir / RESULT_FILE).is_file():
@@ -172,6 +174,7 @@ def check_existing(config: Config, out: Path, seeds: Sequence[int]) -> None:
     Raises:
         ValueError: Naming the run and the first setting that differs.
     """
+    # Imported here: training needs torch and stable-baselines3; the seeds table does not.
     from vprobot.agents.training import holds_run, load_run_config
 
     for seed in seeds:
@@ -230,8 +233,6 @@ def train_seeds(config: Config, out: str | Path, seeds: Sequence[int], command: 
             for item in items:
                 report(item[1], run_seed(*item, progress=progress))
         elif items:
-            from vprobot.cluster import parallel_map, require_ray
-
             require_ray()
             # Closed at once on an interrupt, so that the running seeds are cancelled before
             # the partial summary is written.

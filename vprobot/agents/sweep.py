@@ -37,6 +37,7 @@ import yaml
 
 from vprobot.agents.curves import plot_curves, read_monitor, travel_column
 from vprobot.agents.runs import RESULT_FILE, read_result
+from vprobot.cluster import parallel_map, require_ray
 from vprobot.config import ConfigError, read_yaml
 from vprobot.files import csv_text, write_text
 from vprobot.paths import PROFILES_DIR, bundled_or_path
@@ -108,6 +109,7 @@ def read_study(path: str | Path) -> Study:
     Raises:
         FileNotFoundError, ConfigError: For a missing file or a bad key or value.
     """
+    # Imported here: training needs torch and stable-baselines3; reading a study does not.
     from vprobot.agents.training import profile_config
 
     path = Path(path)
@@ -163,6 +165,7 @@ def read_study(path: str | Path) -> Study:
 def run_trial(profile: Path, overrides: Sequence[str], steps: int | None, seed: int,
               run_dir: Path) -> dict[str, Any]:
     """One trial (in a Ray worker): train or resume, then write `result.json`."""
+    # Imported here: training needs torch and stable-baselines3; reading a study does not.
     from vprobot.agents.training import profile_config, train_to_result
 
     return train_to_result(lambda: profile_config(profile, overrides, steps), run_dir, seed,
@@ -269,8 +272,6 @@ def sweep(study_path: str | Path, out: str | Path, resume: bool = False,
             `--resume`, or no Ray.
     """
     import os
-
-    from vprobot.cluster import parallel_map, require_ray
 
     require_ray()
     study = read_study(study_path)

@@ -8,10 +8,11 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 
-from vprobot.agents.training import ALGORITHMS, load_run_config
-from vprobot.config import Config
+from vprobot.agents.candidate_q import CandidateDQN
+from vprobot.config import Config, from_mapping, read_yaml
 from vprobot.env.observations import observation_space
 from vprobot.paths import AGENTS_DIR
 
@@ -19,6 +20,8 @@ BUNDLED_AGENT = AGENTS_DIR / "cpu"
 """The agent vprobot ships: trained with `configs/agents/cpu.yaml` (see its README)."""
 RUN_MODELS = ("best_model.zip", "final_model.zip", "model.zip")
 """What a directory offers, in order of preference."""
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"sac": SAC, "ppo": PPO, "dqn": CandidateDQN}
+"""The stable-baselines3 class of each `agent.algorithm`: built, resumed and loaded as this."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,6 +49,18 @@ def _model_file(source: Path) -> Path:
     if source.is_file():
         return source
     raise ValueError(f"agent {source} does not exist (give a run directory or a model .zip)")
+
+
+def load_run_config(run_dir: Path) -> Config:
+    """The resolved config a run was started with.
+
+    Raises:
+        ValueError: If the run directory has none.
+    """
+    path = run_dir / "config.yaml"
+    if not path.is_file():
+        raise ValueError(f"{run_dir} is not a training run (no config.yaml)")
+    return from_mapping(Config, read_yaml(path))
 
 
 def _run_config(model_file: Path, shown: Path) -> Config:

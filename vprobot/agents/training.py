@@ -49,6 +49,7 @@ from vprobot.agents.callbacks import (
     upgrade_evaluations,
 )
 from vprobot.agents.candidate_q import CandidateDQN, check_candidate_spaces
+from vprobot.agents.curves import NoEpisodesError, plot_curves
 from vprobot.agents.encoders import ENCODERS
 from vprobot.agents.evaluation import evaluation_env
 from vprobot.agents.extractors import split_space
@@ -56,19 +57,27 @@ from vprobot.agents.pretrain import pretrain
 from vprobot.agents.runs import RESULT_FILE
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import check_teacher_reward
-from vprobot.config import AgentConfig, Config, ConfigError, from_mapping, parse_yaml, read_yaml
+from vprobot.agents.trained import ALGORITHMS, load_run_config
+from vprobot.config import (
+    AgentConfig,
+    Config,
+    ConfigError,
+    load_config,
+    parse_yaml,
+    replace,
+)
 from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
 from vprobot.episode import read_episode_list
-from vprobot.episode.specs import bundled_episode_list
+from vprobot.episode.specs import bundled_episode_list, validation_episodes
+from vprobot.evaluation import evaluate
 from vprobot.files import atomic_output, exclusive_lock, write_text
 from vprobot.fit import check_fits
 from vprobot.generated import is_generated
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import PACKAGE_DIR
-from vprobot.splits import validation_episodes
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
                 *(f"travel_sum_{name}" for name in TRAVEL_COSTS))
@@ -79,8 +88,6 @@ MESH_SCALE_KEY = "env.mesh_scale"
 """How a training config sets the scale of its mesh file, for the hints of unit mistakes."""
 MEMORY_LIMIT_BYTES = 8 * 1024**3
 """No profile may need more than this for its buffer (issue: 8 GB)."""
-ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"sac": SAC, "ppo": PPO, "dqn": CandidateDQN}
-"""The stable-baselines3 class of each `agent.algorithm`: built, resumed and loaded as this."""
 
 
 class LinearSchedule:
@@ -239,18 +246,6 @@ def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgo
 def config_document(config: Config) -> dict[str, Any]:
     """The config as plain YAML data (tuples as lists)."""
     return json.loads(json.dumps(dataclasses.asdict(config)))
-
-
-def load_run_config(run_dir: Path) -> Config:
-    """The resolved config a run was started with.
-
-    Raises:
-        ValueError: If the run directory has none.
-    """
-    path = run_dir / "config.yaml"
-    if not path.is_file():
-        raise ValueError(f"{run_dir} is not a training run (no config.yaml)")
-    return from_mapping(Config, read_yaml(path))
 
 
 def _commit() -> str:
@@ -419,8 +414,6 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
         model.save(temporary)
     summary = evaluation.latest if evaluation.latest_step == model.num_timesteps else (
         evaluation.evaluate_model(model))
-    from vprobot.agents.curves import NoEpisodesError, plot_curves
-
     try:
         curves: Path | None = plot_curves([run_dir], run_dir / "curves.png")
     except NoEpisodesError:
@@ -460,8 +453,6 @@ def score_test_lists(config: Config, run_dir: Path, progress: bool = False) -> l
     Returns:
         The folders written.
     """
-    from vprobot.evaluation import evaluate
-
     folders = []
     for name in config.agent.test_lists or ():
         folder = run_dir / "test" / name
@@ -496,8 +487,6 @@ def profile_config(profile: str | Path, overrides: Sequence[str] = (),
     Raises:
         FileNotFoundError, ConfigError: For a missing profile or a bad key or value.
     """
-    from vprobot.config import load_config, replace
-
     config = load_config(profile)
     for section, changes in parse_overrides(overrides).items():
         if section not in {field.name for field in dataclasses.fields(Config)}:

@@ -133,6 +133,7 @@ def run_large_mesh_benchmark(config: Config, plan_options: Sequence[str] = (),
 
 def _replayed_on(config: Config, plan: Path, mesh: Path) -> float:
     """Coverage (%) of a plan's views replayed on another mesh of the same part."""
+    # Imported here: the renderer's package (OpenGL, imageio) only for this one benchmark.
     from vprobot.render import episode_from_plan
 
     document = json.loads(plan.read_text())

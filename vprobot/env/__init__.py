@@ -10,9 +10,9 @@ __all__ = ["ENV_ID", "InspectEnv"]
 
 
 def __getattr__(name: str) -> Any:
-    # The env (MuJoCo, the robot) is imported on first use: the config validates its names
-    # against vprobot.env.rewards, which must stay light to import.
     if name == "InspectEnv":
+        # The env (MuJoCo, the robot) is imported on first use: the config validates its
+        # names against vprobot.env.rewards, which must stay light to import.
         from vprobot.env.inspect_env import InspectEnv
 
         return InspectEnv

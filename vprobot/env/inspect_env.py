@@ -35,7 +35,10 @@ from vprobot.episode import (
     ViewRecord,
     sample_episode,
 )
+from vprobot.generated import generated_path, is_generated
+from vprobot.ground_truth import ground_truth
 from vprobot.kinematics import TRAVEL_COSTS
+from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.splits import Split
 
@@ -65,6 +68,24 @@ def motor_files(config: Config) -> list[str | Path]:
     if not files:
         raise FileNotFoundError(f"no motors (*.stl) in {MOTORS_DIR / env.motors}")
     return files
+
+
+def build_training_objects(config: Config, progress: bool = True) -> int:
+    """Build every object a config trains on and its ground truth, once (both are cached), so
+    that training does not pay for them while it runs. Returns the number of objects.
+
+    Raises:
+        ValueError: For a source the split does not train on (`Split.check_sources`).
+    """
+    from tqdm import tqdm
+
+    env = config.env
+    scale = env.mesh_scale if env.motors == "mesh" else 1.0  # as the env's episodes draw them
+    names = list(dict.fromkeys(motor_files(config)))
+    for name in tqdm(names, desc="objects", unit="object", disable=not progress):
+        path = generated_path(name) if is_generated(str(name)) else name
+        ground_truth(load_mesh(path, scale).mesh, config)
+    return len(names)
 
 
 class InspectEnv(gym.Env):
@@ -316,6 +337,7 @@ class InspectEnv(gym.Env):
         """An RGB frame of the cell (`render_mode="rgb_array"`), else None."""
         if self.render_mode != "rgb_array" or self.episode is None:
             return None
+        # Imported here: the offscreen renderer (OpenGL, imageio) loads only for rgb_array frames.
         from vprobot.render.camera import aim_overview
         from vprobot.render.offscreen import OffscreenView
 

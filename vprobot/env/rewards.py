@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from vprobot.config import EnvConfig
 from vprobot.registry import Registry
+
+if TYPE_CHECKING:
+    from vprobot.config import EnvConfig
 
 
 @dataclasses.dataclass(frozen=True)

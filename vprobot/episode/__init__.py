@@ -1,7 +1,7 @@
 """The inspection engine: motor scenes, sensor carriers, episodes, their specs and records."""
 
-from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName, make_carrier
-from vprobot.episode.engine import Episode
+from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
+from vprobot.episode.engine import Episode, make_carrier
 from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest

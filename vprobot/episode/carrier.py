@@ -68,20 +68,3 @@ class Carrier(abc.ABC):
         Raises:
             ValueError: If the request cannot be simulated (with the robot: it needs joints).
         """
-
-
-def make_carrier(name: CarrierName, scene: MotorScene, object_rotation: np.ndarray,
-                 unreachable: str = "skip") -> Carrier:
-    """The carrier by name.
-
-    Raises:
-        ValueError: For an unknown name.
-    """
-    from vprobot.episode.free_carrier import FreeCarrier
-    from vprobot.episode.robot_carrier import RobotCarrier
-
-    if name == "robot":
-        return RobotCarrier(scene, object_rotation, unreachable)
-    if name == "free":
-        return FreeCarrier(scene, object_rotation)
-    raise ValueError(f"unknown carrier {name!r}; allowed: {', '.join(CARRIERS)}")

@@ -13,13 +13,28 @@ from collections.abc import Iterable
 import numpy as np
 
 from vprobot.coverage import CoverageTracker
-from vprobot.episode.carrier import Carrier, CarrierName, make_carrier
+from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
+from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest, split_travel
 from vprobot.episode.robot_carrier import RobotCarrier
 from vprobot.episode.specs import EpisodeSpec
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
+
+
+def make_carrier(name: CarrierName, scene: MotorScene, object_rotation: np.ndarray,
+                 unreachable: str = "skip") -> Carrier:
+    """The carrier by name.
+
+    Raises:
+        ValueError: For an unknown name.
+    """
+    if name == "robot":
+        return RobotCarrier(scene, object_rotation, unreachable)
+    if name == "free":
+        return FreeCarrier(scene, object_rotation)
+    raise ValueError(f"unknown carrier {name!r}; allowed: {', '.join(CARRIERS)}")
 
 
 class Episode:

@@ -24,7 +24,7 @@ import numpy as np
 from vprobot.config import Config, EnvConfig
 from vprobot.episode.records import ViewRequest
 from vprobot.files import write_text
-from vprobot.generated import generated_path, is_generated
+from vprobot.generated import family_of, generated_path, is_generated
 from vprobot.geometry import (
     matrix_to_quat,
     quat_to_matrix,
@@ -35,6 +35,7 @@ from vprobot.geometry import (
 )
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import ASSETS_DIR, EPISODES_DIR, MOTORS_DIR
+from vprobot.splits import MOTORS, Split
 from vprobot.viewsphere import sphere_directions
 
 EPISODE_LIST_VERSION = 1
@@ -266,3 +267,23 @@ def read_episode_list(path: str | Path) -> list[EpisodeSpec]:
         except ValueError as error:
             raise ValueError(f"{path} episodes[{index}]: {error}") from None
     return specs
+
+
+def split_lists(config: Config, split: Split) -> dict[str, list[EpisodeSpec]]:
+    """The episode lists the split defines, drawn by the shared sampler: `validation-v1` and
+    `families-test-v1`."""
+    return {
+        split.validation_list: episode_list(config, split.validation_objects(),
+                                            split.validation_poses),
+        "families-test-v1": episode_list(config, split.test_family_objects(), split.test_poses),
+    }
+
+
+def validation_episodes(config: Config, split: Split | None = None) -> list[EpisodeSpec]:
+    """The validation episodes of what a config trains on: those of its sources (new motors
+    for `motors`, held-out instances for a family)."""
+    split = split if split is not None else Split.load()
+    sources = set(config.env.objects)
+    wanted = {"motor" if source == MOTORS else source for source in sources}
+    return [spec for spec in read_episode_list(bundled_episode_list(split.validation_list))
+            if family_of(spec.motor) in wanted]

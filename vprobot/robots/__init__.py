@@ -6,6 +6,7 @@ the path of a robot folder of the same layout, e.g. one written by `vprobot robo
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from vprobot.paths import ROBOTS_DIR, bundled_or_path
@@ -35,9 +36,25 @@ def is_bundled(robot: RobotDescription) -> bool:
 
 
 def load_robot(robot: str) -> RobotDescription:
-    """The checked description of a bundled robot or robot folder.
+    """The checked description of a bundled robot or robot folder, read once per process (a
+    description is immutable; an edited `robot.yaml` is read again).
 
     Raises:
         ValueError: If the robot is unknown or its folder or `robot.yaml` is incomplete.
     """
-    return RobotDescription.load(robot_folder(robot))
+    folder = robot_folder(robot)
+    try:
+        status = (folder / DESCRIPTION_FILE).stat()
+    except OSError:
+        return RobotDescription.load(folder)  # which names what is missing
+    return _load_description(folder, folder.resolve(), status.st_mtime_ns, status.st_size)
+
+
+@functools.lru_cache(maxsize=32)
+def _load_description(folder: Path, resolved: Path, modified_ns: int,
+                      size: int) -> RobotDescription:
+    """`RobotDescription.load(folder)`, cached: the config, the cell and the fit checks of one
+    plan all ask for the robot. The key holds the folder as given (the description keeps it),
+    the folder it resolves to (a relative one moves with the working folder) and the time and
+    size of its `robot.yaml`."""
+    return RobotDescription.load(folder)

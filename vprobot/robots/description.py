@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 import yaml
 
-from vprobot.config import ConfigError, Vec3, from_mapping, read_yaml
+from vprobot.schema import ConfigError, Vec3, from_mapping, read_yaml
 
 DESCRIPTION_FILE = "robot.yaml"
 SCENE_FILE = "scene.xml"

@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 import trimesh
 
+from vprobot.config import CellConfig, Config
 from vprobot.robots.description import (
     DESCRIPTION_FILE,
     SCENE_FILE,
@@ -27,6 +28,7 @@ from vprobot.robots.description import (
     SUPPORTED_DOF,
     RobotDescription,
 )
+from vprobot.scene import Cell
 
 CONVERSION_STEPS = """\
 1. The chain from the URDF's root to the flange link is found. The base is the parent link of
@@ -467,10 +469,6 @@ def _check_folder(folder: Path, urdf: Path) -> None:
     Raises:
         ValueError: If the folder converted from `urdf` does not make a cell.
     """
-    # Imported here: the cell needs the config, which reads robot folders through this package.
-    from vprobot.config import CellConfig, Config
-    from vprobot.scene import Cell
-
     try:
         Cell(Config(cell=CellConfig(robot=str(folder))))
     except ValueError as error:

@@ -1,0 +1,141 @@
+"""The schema vprobot's YAML files are validated with: strict mappings into frozen dataclasses.
+
+The base of every file format (configs, profiles, studies, splits, robot descriptions): it imports
+nothing of vprobot, so that the registries the config checks names against can use it without
+importing the config.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+RESOLVE = "vprobot.schema.resolve"
+"""Field metadata key: a function `(value, key) -> value` applied to the raw value first."""
+
+
+class ConfigError(ValueError):
+    """A configuration file or mapping does not match the schema."""
+
+
+def parse_yaml(text: str, source: str) -> Any:
+    """The YAML document in `text`; `source` (a file, an option) names it in errors.
+
+    Raises:
+        ConfigError: If the text is not valid YAML; the message names the source and the line.
+    """
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        where = getattr(error, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        problem = getattr(error, "problem", None) or type(error).__name__
+        raise ConfigError(f"{source}: not valid YAML{line}: {problem}") from None
+
+
+def read_yaml(path: str | Path) -> Any:
+    """The YAML document of a file: every config, profile, study, split and robot description
+    is read through here.
+
+    Raises:
+        OSError: If the file cannot be read.
+        ConfigError: If it is not UTF-8 text or not valid YAML (naming the file and the line).
+    """
+    try:
+        text = Path(path).read_text()
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not valid YAML: not UTF-8 text") from None
+    return parse_yaml(text, str(path))
+
+
+def _as_written(value: Any, key: str) -> Any:
+    return value
+
+
+def _convert(value: Any, annotation: Any, key: str) -> Any:
+    """Validate `value` against a type annotation and convert it (lists become tuples)."""
+    origin = typing.get_origin(annotation)
+    if dataclasses.is_dataclass(annotation):
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{key} must be a mapping, got {value!r}")
+        return from_mapping(annotation, value, key)
+    if origin is Literal:
+        allowed = typing.get_args(annotation)
+        if value not in allowed:
+            raise ConfigError(f"{key} must be one of {list(allowed)}, got {value!r}")
+        return value
+    if origin is tuple:
+        item_types = typing.get_args(annotation)
+        if len(item_types) == 2 and item_types[1] is Ellipsis:
+            if not isinstance(value, list | tuple) or not value:
+                raise ConfigError(f"{key} must be a non-empty list, got {value!r}")
+            item_types = (item_types[0],) * len(value)
+        if not isinstance(value, list | tuple) or len(value) != len(item_types):
+            raise ConfigError(f"{key} must be a list of {len(item_types)} values, got {value!r}")
+        return tuple(
+            _convert(item, item_type, f"{key}[{index}]")
+            for index, (item, item_type) in enumerate(zip(value, item_types, strict=True))
+        )
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in typing.get_args(annotation):
+            return None
+        (inner,) = [arg for arg in typing.get_args(annotation) if arg is not type(None)]
+        return _convert(value, inner, key)
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{key} must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{key} must be finite, got {value!r}")
+        return float(value)
+    if annotation is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{key} must be an integer, got {value!r}")
+        return value
+    if annotation is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{key} must be true or false, got {value!r}")
+        return value
+    if annotation is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{key} must be a string, got {value!r}")
+        return value
+    raise TypeError(f"unsupported annotation {annotation!r} for {key}")
+
+
+def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
+    """Build dataclass `cls` from a mapping, rejecting unknown keys.
+
+    Args:
+        cls: A dataclass type whose fields are annotated with the types `_convert` knows.
+            A field whose metadata has `RESOLVE` takes the raw value through that function
+            `(value, key) -> value` first (e.g. a preset name into its mapping).
+        data: Keys and values; missing keys take their defaults.
+        key: Dotted prefix for error messages.
+
+    Raises:
+        ConfigError: On unknown keys, wrong types or invalid values.
+    """
+    hints = typing.get_type_hints(cls)
+    resolvers = {field.name: field.metadata.get(RESOLVE, _as_written)
+                 for field in dataclasses.fields(cls)}
+    fields = set(resolvers)
+    unknown = sorted(set(data) - fields)
+    if unknown:
+        where = f"section '{key}'" if key else "the top level"
+        raise ConfigError(
+            f"unknown key {unknown[0]!r} in {where}; allowed keys: {', '.join(sorted(fields))}"
+        )
+    prefix = f"{key}." if key else ""
+    values = {name: _convert(resolvers[name](value, prefix + name), hints[name], prefix + name)
+              for name, value in data.items()}
+    return cls(**values)
