@@ -18,7 +18,8 @@ from vprobot.config import Config, replace
 from vprobot.episode import MotorScene, episode_list, seeded_episode, write_episode_list
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, run
-from vprobot.stopping.estimator import BUNDLED_ESTIMATOR
+from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, load_estimator
+from vprobot.stopping.features import FEATURES
 from vprobot.stopping.rules import make_stop_rule, parse_stop
 from vprobot.stopping.rules.estimate import EstimateStop
 from vprobot.stopping.study import combinations, study_row
@@ -194,3 +195,26 @@ def test_the_stop_study_runs_from_one_command(tmp_path: Path,
         assert episode["planner"] == f"uniform2 --stop {rule.replace('-', ':')}"
     assert (out / "study.png").stat().st_size > 0
     assert "| uniform2 | views:1 | 1 |" in capsys.readouterr().out
+
+
+def test_stop_error_is_the_mean_absolute_error_of_the_estimate_against_the_rollouts_truth(
+        tmp_path: Path) -> None:
+    config = tmp_path / "low.yaml"
+    config.write_text(f"sensor:\n  resolution: [{RESOLUTION[0]}, {RESOLUTION[1]}]\n")
+    episodes = tmp_path / "one.json"
+    write_episode_list(episodes, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
+    out = tmp_path / "error"
+    assert main(["stop", "error", "--config", str(config), "--out", str(out), "--episodes",
+                 str(episodes), "--planners", "uniform2"]) == 0
+    with (out / "one.csv").open() as stream:
+        views = list(csv.DictReader(stream))
+    assert [int(row["view"]) for row in views] == [1, 2]
+    mean, _ = load_estimator().estimate(
+        np.array([[float(row[name]) for name in FEATURES] for row in views]))
+    truth = np.array([float(row["coverage"]) for row in views])
+    with (out / "error.csv").open() as stream:
+        rows = {row["view"]: float(row["mae_pp"]) for row in csv.DictReader(stream)}
+    expected = 100 * np.abs(truth - mean)
+    assert rows["1"] == pytest.approx(expected[0])
+    assert rows["2"] == pytest.approx(expected[1])
+    assert rows["all"] == pytest.approx(expected.mean())

@@ -450,6 +450,17 @@ def command_stop_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_stop_error(args: argparse.Namespace) -> int:
+    """Score the coverage estimate on episode lists (rollouts of model-free planners)."""
+    from vprobot.stopping.report import score_estimate
+
+    check_output_folder(args.out, "--out")
+    with showing_progress():
+        score_estimate(_config(args), args.out, args.episodes, args.planners, args.estimator)
+    print((Path(args.out) / "error.md").read_text())
+    return 0
+
+
 def command_stop_study(args: argparse.Namespace) -> int:
     """Run the stop study: every stop rule with every planner it applies to, robot in the
     loop, on the episode lists."""
@@ -728,6 +739,23 @@ def build_parser() -> argparse.ArgumentParser:
                                "uniform4 uniform6 uniform8 nbv)")
 
     from vprobot.stopping import study as study_defaults
+
+    stop_error = add("error", command_stop_error,
+                     "Score the coverage estimate on episode lists: its error per view count "
+                     "and calibration on rollouts of model-free planners (resumable).",
+                     stop_commands)
+    add_robot(stop_error)
+    stop_error.add_argument("--out", required=True,
+                            help="folder for the rollouts (LIST.csv) and error.md, error.csv")
+    stop_error.add_argument("--episodes", nargs="+", default=list(study_defaults.DEFAULT_LISTS),
+                            help=f"episode lists, bundled names or files (default: "
+                            f"{' '.join(study_defaults.DEFAULT_LISTS)})")
+    stop_error.add_argument("--planners", nargs="+", type=_planner_name,
+                            help="model-free planners of the rollouts (default: random2 "
+                                 "uniform4 uniform6 uniform8 nbv)")
+    stop_error.add_argument("--estimator", metavar="PATH",
+                            help="an estimator.npz (default: the bundled one)")
+
 
     stop_study = add("study", command_stop_study,
                      "Run the stop study: each stop rule with each planner it applies to, robot "

@@ -1,9 +1,10 @@
-"""Fit the coverage estimate and report its error and calibration (`vprobot stop fit`).
+"""Fit the coverage estimate and report its error and calibration (`vprobot stop fit`), and
+score a fitted one on episode lists (`vprobot stop error`).
 
-Into one folder: the rollouts (`training.csv`, `validation.csv`, with `dataset.json` saying how
-they were drawn; reused when present and drawn alike, so that a run cut short goes on where it
-stopped), the estimator (`estimator.npz`), the mean absolute error per view count on the
-validation episodes (`mae_per_view.csv`), the calibration (`calibration.csv`,
+`stop fit` writes into one folder: the rollouts (`training.csv`, `validation.csv`, with
+`dataset.json` saying how they were drawn; reused when present and drawn alike, so that a run cut
+short goes on where it stopped), the estimator (`estimator.npz`), the mean absolute error per view
+count on the validation episodes (`mae_per_view.csv`), the calibration (`calibration.csv`,
 `reliability.png`) and a Markdown summary (`estimate.md`).
 """
 
@@ -18,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from vprobot.config import Config
+from vprobot.evaluation import evaluation_episodes
 from vprobot.files import csv_text, write_text
 from vprobot.planners.runner import make_planner
 from vprobot.splits import Split
@@ -36,7 +38,7 @@ from vprobot.stopping.dataset import (
     training_jobs,
     validation_jobs,
 )
-from vprobot.stopping.estimator import fit
+from vprobot.stopping.estimator import fit, load_estimator
 from vprobot.stopping.features import FEATURES
 
 ESTIMATOR_NAME = "estimator.npz"
@@ -159,3 +161,66 @@ def _markdown(figures: dict[str, Any], planners: Sequence[str]) -> str:
     lines += ["", "Seconds (this run): " + ", ".join(f"{name} {value:.0f}"
                                                     for name, value in seconds.items())]
     return "\n".join(lines) + "\n"
+
+
+def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
+                   planners: Sequence[str] | None = None, estimator: str | Path | None = None,
+                   progress: bool = True) -> list[dict[str, Any]]:
+    """The estimator's error per view count on episode lists (for reporting: the test lists).
+
+    Rollouts as `stop fit` draws them (robot in the loop, no coverage goal) are written to
+    `out_dir/<list>.csv` and reused when present; `error.csv` and `error.md` hold the mean
+    absolute error per list and view count, and the calibration per list.
+
+    Args:
+        config: The configuration (cell, sensor, robot, view budget).
+        out_dir: The folder (created if missing).
+        lists: Episode lists, bundled names or files.
+        planners: Model-free planners of the rollouts (default `DEFAULT_PLANNERS`).
+        estimator: An `estimator.npz` (default: the bundled one).
+        progress: Show progress bars.
+
+    Returns:
+        One row per list and view count (`list`, `view`, `mae_pp`, `rows`), then one per list
+        with `view` "all".
+
+    Raises:
+        ValueError: For an unknown list, planner or estimator file.
+    """
+    planners = tuple(planners) if planners is not None else DEFAULT_PLANNERS
+    for planner in planners:
+        make_planner(planner, config)
+    model = load_estimator(estimator)
+    specs = {Path(name).stem: evaluation_episodes(config, episodes=name) for name in lists}
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows: list[dict[str, Any]] = []
+    lines = ["# Coverage estimate on episode lists", "",
+             f"Planners of the rollouts: {', '.join(planners)}; robot in the loop, no coverage "
+             f"goal. Mean absolute error (pp) per view count, then the share of views whose "
+             f"true coverage lies within the stated two-sided interval.", "",
+             "| list | " + " | ".join(str(view) for view in range(1, 12)) + " | all |",
+             "|---" * 13 + "|"]
+    calibration = ["", "| list | " + " | ".join(f"{100 * level:.0f} %" for level in LEVELS)
+                   + " |", "|---" * (1 + len(LEVELS)) + "|"]
+    for name, listed in specs.items():
+        path = out / f"{name}.csv"
+        if not path.is_file():
+            jobs = [(spec, planner) for spec in listed for planner in planners]
+            write_text(path, csv_text(COLUMNS, collect(config, jobs, progress)))
+        data = read_dataset(path)
+        mean, std = model.estimate(data.features)
+        per_view = mae_per_view(mean, data.coverage, data.views)
+        rows += [{"list": name, "view": view, "mae_pp": 100 * mae, "rows": count}
+                 for view, mae, count in per_view]
+        overall = 100 * float(np.abs(data.coverage - mean).mean())
+        rows.append({"list": name, "view": "all", "mae_pp": overall, "rows": len(mean)})
+        by_view = {view: f"{100 * mae:.2f}" for view, mae, _ in per_view}
+        lines.append(f"| {name} | " + " | ".join(by_view.get(view, "-") for view in range(1, 12))
+                     + f" | {overall:.2f} |")
+        shares = interval_coverage(mean, std, data.coverage)
+        calibration.append(f"| {name} | " + " | ".join(f"{100 * share:.1f}" for share in shares)
+                           + " |")
+    write_text(out / "error.csv", csv_text(("list", "view", "mae_pp", "rows"), rows))
+    write_text(out / "error.md", "\n".join([*lines, *calibration]) + "\n")
+    return rows
