@@ -210,6 +210,7 @@ def test_bad_arguments_are_clear_errors(planners: list[str], carriers: list[str]
         evaluation_episodes(CONFIG, seeds=[0], episodes=BUNDLED_TEST_EPISODES)
 
 
+@pytest.mark.benchmark
 def test_planner_benchmark_reports_the_targets(capsys: pytest.CaptureFixture) -> None:
     results = run_planners_benchmark(CONFIG, motors=[DEFAULT_MOTOR], seeds=[0], progress=False)
     for key in ("bscp_plan_s_median", "bscp5_free_coverage_pct", "bscp_robot_coverage_pct",
