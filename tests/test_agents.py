@@ -20,6 +20,7 @@ import pytest
 import torch
 import trimesh
 import yaml
+from helpers import TINY_TRAINING, SmokeRuns
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
 from vprobot.agents.callbacks import count_lines, load_buffer, save_buffer
@@ -40,17 +41,11 @@ from vprobot.agents.training import (
     profile_config,
     train,
 )
-from vprobot.config import Config, ConfigError, replace
+from vprobot.config import ConfigError, replace
 from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
-# Training draws from one motor (its ground truth is built once per session, not that of all 20
-# training motors).
-ONE_MOTOR = ["env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}"]
-TINY = [*ONE_MOTOR, "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
-        "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=100",
-        "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]",
-        "agent.encoder_scale=0.05", "agent.n_steps=64", "agent.n_epochs=1"]
+TINY = list(TINY_TRAINING)
 BOX = gym.spaces.Box(-4, 4, (128, 3), np.float32)
 DICT = gym.spaces.Dict({"points": gym.spaces.Box(-4, 4, (128, 4), np.float32),
                         "robot": gym.spaces.Box(-8, 8, (15,), np.float32)})
@@ -117,27 +112,6 @@ def test_sphere_map_bins_the_directions() -> None:
 
 SMOKE_RUNS = [("sac", "sphere", False), ("sac", "pcn", True), ("ppo", "pointnet", True)]
 """(algorithm, encoder, robot state) of the training smoke runs: SAC and PPO, Box and Dict."""
-SmokeRuns = Callable[[str, str, bool], tuple[Config, dict[str, Any], Path]]
-
-
-@pytest.fixture(scope="module")
-def smoke_runs(tmp_path_factory: pytest.TempPathFactory) -> SmokeRuns:
-    """Trains (once per module) 100 steps of the tiny CPU profile with an algorithm, encoder
-    and robot state; gives its config, result and run folder."""
-    runs: dict[tuple[str, str, bool], tuple[Config, dict[str, Any], Path]] = {}
-
-    def smoke_run(algorithm: str, encoder: str, robot_state: bool
-                  ) -> tuple[Config, dict[str, Any], Path]:
-        key = (algorithm, encoder, robot_state)
-        if key not in runs:
-            config = profile_config(PROFILES / "cpu.yaml", [
-                *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
-                f"env.robot_state={str(robot_state).lower()}"], steps=100)
-            run = tmp_path_factory.mktemp(f"{algorithm}-{encoder}") / "run"
-            runs[key] = config, train(config, run, seed=1, progress=False), run
-        return runs[key]
-
-    return smoke_run
 
 
 @pytest.mark.parametrize(("algorithm", "encoder", "robot_state"), SMOKE_RUNS)
@@ -208,8 +182,8 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
     from vprobot.cli import main
 
     run = tmp_path / "run"
-    process = _train_in_background(run, ["--steps", "150", "--set", *TINY,
-                                         "agent.checkpoint_freq=50"])
+    process = _train_in_background(run, ["--steps", "120", "--set", *TINY,
+                                         "agent.checkpoint_freq=40"])
     try:
         assert _wait_while_running(process, lambda: "steps" in _checkpoint(run)), (
             "the run ended early")
@@ -223,7 +197,7 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
                      "--window", "3"]) == 0
         assert process.poll() is None, "the run ended before the resume was refused"
         os.killpg(process.pid, signal.SIGCONT)
-        if _wait_while_running(process, lambda: _logged_after_checkpoint(run, 100)):
+        if _wait_while_running(process, lambda: _logged_after_checkpoint(run, 80)):
             os.killpg(process.pid, signal.SIGKILL)
         process.wait(timeout=60)
     finally:
@@ -232,10 +206,10 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
             process.wait()
     assert process.returncode == -signal.SIGKILL, "the run ended before it was killed"
     assert b"\0" not in (run / "monitor.csv").read_bytes()
-    assert _checkpoint(run)["steps"] == 100
+    assert _checkpoint(run)["steps"] == 80
     assert main(["train", "--resume", "--out", str(run)]) == 0
-    assert _checkpoint(run)["steps"] == 150
-    assert _buffer_size(run) == 150
+    assert _checkpoint(run)["steps"] == 120
+    assert _buffer_size(run) == 120
     # The monitor keeps the episodes up to the checkpoint, then the resumed ones, no others.
     monitor = (run / "monitor.csv").read_bytes()
     assert b"\0" not in monitor
@@ -243,7 +217,7 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
     assert lines[0].startswith("#") and lines[1].startswith("r,l,t,coverage")
     assert all(not line.startswith(("#", "r,")) for line in lines[2:])
     episodes = sum(int(line.split(",")[1]) for line in lines[2:])
-    assert episodes <= 150 and abs(episodes - 150) <= 11
+    assert episodes <= 120 and abs(episodes - 120) <= 11
     assert len(read_monitor(run)["r"]) > 10
     assert main(["curves", str(run), "--out", str(tmp_path / "after.png"), "--window", "3"]) == 0
 
