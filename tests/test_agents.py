@@ -182,8 +182,8 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
     from vprobot.cli import main
 
     run = tmp_path / "run"
-    process = _train_in_background(run, ["--steps", "120", "--set", *TINY,
-                                         "agent.checkpoint_freq=40"])
+    process = _train_in_background(run, ["--steps", "150", "--set", *TINY,
+                                         "agent.checkpoint_freq=50"])
     try:
         assert _wait_while_running(process, lambda: "steps" in _checkpoint(run)), (
             "the run ended early")
@@ -197,7 +197,7 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
                      "--window", "3"]) == 0
         assert process.poll() is None, "the run ended before the resume was refused"
         os.killpg(process.pid, signal.SIGCONT)
-        if _wait_while_running(process, lambda: _logged_after_checkpoint(run, 80)):
+        if _wait_while_running(process, lambda: _logged_after_checkpoint(run, 100)):
             os.killpg(process.pid, signal.SIGKILL)
         process.wait(timeout=60)
     finally:
@@ -206,10 +206,10 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
             process.wait()
     assert process.returncode == -signal.SIGKILL, "the run ended before it was killed"
     assert b"\0" not in (run / "monitor.csv").read_bytes()
-    assert _checkpoint(run)["steps"] == 80
+    assert _checkpoint(run)["steps"] == 100
     assert main(["train", "--resume", "--out", str(run)]) == 0
-    assert _checkpoint(run)["steps"] == 120
-    assert _buffer_size(run) == 120
+    assert _checkpoint(run)["steps"] == 150
+    assert _buffer_size(run) == 150
     # The monitor keeps the episodes up to the checkpoint, then the resumed ones, no others.
     monitor = (run / "monitor.csv").read_bytes()
     assert b"\0" not in monitor
@@ -217,7 +217,7 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
     assert lines[0].startswith("#") and lines[1].startswith("r,l,t,coverage")
     assert all(not line.startswith(("#", "r,")) for line in lines[2:])
     episodes = sum(int(line.split(",")[1]) for line in lines[2:])
-    assert episodes <= 120 and abs(episodes - 120) <= 11
+    assert episodes <= 150 and abs(episodes - 150) <= 11
     assert len(read_monitor(run)["r"]) > 10
     assert main(["curves", str(run), "--out", str(tmp_path / "after.png"), "--window", "3"]) == 0
 
