@@ -35,8 +35,9 @@ def serial_evaluation(session_cache: Path, tmp_path_factory: pytest.TempPathFact
 
 @pytest.fixture(scope="session")
 def smoke_runs(session_cache: Path, tmp_path_factory: pytest.TempPathFactory) -> SmokeRuns:
-    """Trains (once per session) 100 steps of the CPU profile with `TINY_TRAINING`, an
-    algorithm, an encoder and a robot state; gives its config, result and run folder."""
+    """Trains (once per session) 64 steps of the CPU profile with `TINY_TRAINING`, an
+    algorithm, an encoder and a robot state, evaluating and checkpointing at the end; gives its
+    config, result and run folder. 64 steps: one rollout of PPO's n_steps."""
     from vprobot.agents.training import profile_config, train
     from vprobot.paths import CONFIGS_DIR
 
@@ -47,8 +48,9 @@ def smoke_runs(session_cache: Path, tmp_path_factory: pytest.TempPathFactory) ->
         key = (algorithm, encoder, robot_state)
         if key not in runs:
             config = profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", [
-                *TINY_TRAINING, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
-                f"env.robot_state={str(robot_state).lower()}"], steps=100)
+                *TINY_TRAINING, "agent.eval_freq=64", "agent.checkpoint_freq=64",
+                f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
+                f"env.robot_state={str(robot_state).lower()}"], steps=64)
             run = tmp_path_factory.mktemp(f"{algorithm}-{encoder}") / "run"
             runs[key] = config, train(config, run, seed=1, progress=False), run
         return runs[key]
