@@ -1,5 +1,7 @@
 """The design document in docs/: every reference to it from the code and between its pages
-leads to a page and a heading that exist, and no reference to the old internal spec is left."""
+leads to a page and a heading that exist, no reference to the old internal spec is left, and
+every page is in the index. The README: short, opening with the two set-up commands (the second
+is what CI runs), touring every command."""
 
 from __future__ import annotations
 
@@ -91,3 +93,14 @@ def test_every_docs_page_is_in_the_index() -> None:
     index = (DOCS / "README.md").read_text()
     pages = {path.name for path in DOCS.glob("*.md")} - {"README.md"}
     assert {page for page in pages if f"]({page})" not in index} == set()
+
+
+def test_readme_tours_every_command() -> None:
+    import argparse
+
+    from vprobot.cli import build_parser
+
+    (commands,) = [action for action in build_parser()._actions
+                   if isinstance(action, argparse._SubParsersAction)]
+    readme = (ROOT / "README.md").read_text()
+    assert [name for name in commands.choices if f"| `{name}` |" not in readme] == []
