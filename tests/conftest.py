@@ -7,9 +7,10 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
-from helpers import SERIAL_EVALUATION
+from helpers import SERIAL_EVALUATION, TINY_TRAINING, SmokeRuns
 
 from vprobot.paths import CACHE_ENV_VAR
 
@@ -30,3 +31,28 @@ def serial_evaluation(session_cache: Path, tmp_path_factory: pytest.TempPathFact
     folder = tmp_path_factory.mktemp("serial-evaluation")
     assert main([*SERIAL_EVALUATION, "--out", str(folder)]) == 0
     return folder
+
+
+@pytest.fixture(scope="session")
+def smoke_runs(session_cache: Path, tmp_path_factory: pytest.TempPathFactory) -> SmokeRuns:
+    """Trains (once per session) 64 steps of the CPU profile with `TINY_TRAINING`, an
+    algorithm, an encoder and a robot state, evaluating and checkpointing at the end; gives its
+    config, result and run folder. 64 steps: one rollout of PPO's n_steps."""
+    from vprobot.agents.training import profile_config, train
+    from vprobot.paths import CONFIGS_DIR
+
+    runs: dict[tuple[str, str, bool], tuple[Any, dict[str, Any], Path]] = {}
+
+    def smoke_run(algorithm: str, encoder: str, robot_state: bool
+                  ) -> tuple[Any, dict[str, Any], Path]:
+        key = (algorithm, encoder, robot_state)
+        if key not in runs:
+            config = profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", [
+                *TINY_TRAINING, "agent.eval_freq=64", "agent.checkpoint_freq=64",
+                f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
+                f"env.robot_state={str(robot_state).lower()}"], steps=64)
+            run = tmp_path_factory.mktemp(f"{algorithm}-{encoder}") / "run"
+            runs[key] = config, train(config, run, seed=1, progress=False), run
+        return runs[key]
+
+    return smoke_run

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import types
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
 import trimesh
 
 from vprobot.config import Config
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.paths import DEFAULT_MOTOR, MOTORS_DIR
 
 
 def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
@@ -54,3 +57,18 @@ SERIAL_EVALUATION = ("evaluate", "--planners", "hrec", "random2", "--motors", st
 """`vprobot evaluate` (without --out) of two planners, three seeds and both carriers: 12
 episodes. The `serial_evaluation` fixture of conftest.py holds its tables, run once per session
 in the test process."""
+
+
+TINY_TRAINING = (
+    # Training draws from one motor (its ground truth is built once per session, not that of
+    # all 20 training motors).
+    "env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
+    "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
+    "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=100",
+    "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]",
+    "agent.encoder_scale=0.05", "agent.n_steps=64", "agent.n_epochs=1")
+"""`--set` overrides of the CPU profile for training runs of a few seconds."""
+
+SmokeRuns = Callable[[str, str, bool], tuple[Config, dict[str, Any], Path]]
+"""conftest's `smoke_runs`: (algorithm, encoder, robot state) -> the run's config, its result
+and its folder."""

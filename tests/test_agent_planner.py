@@ -9,30 +9,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 from dh_reference import quaternion_matrix, rotation_difference, world_sensor
+from helpers import SmokeRuns
 
 from vprobot.agents.trained import BUNDLED_AGENT, load_agent
-from vprobot.agents.training import profile_config, train
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 from vprobot.planners import plan_motor
 from vprobot.planners.agent import AgentPlanner
 
 CONFIG = Config()
-# Training draws from one motor (its ground truth is built once per session, not that of all 20
-# training motors).
-ONE_MOTOR = ["env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}"]
-TINY = [*ONE_MOTOR, "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=30",
-        "agent.batch_size=32", "agent.buffer_size=300", "agent.eval_freq=40",
-        "agent.checkpoint_freq=40", "agent.eval_episodes=1", "agent.net_arch=[16,16]"]
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("agent") / "run"
-    train(profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", TINY, steps=40), folder,
-          progress=False)
-    return folder
+def run(smoke_runs: SmokeRuns) -> Path:
+    """A run directory of a few training steps (the session's SAC smoke run)."""
+    return smoke_runs("sac", "sphere", False)[2]
 
 
 def test_bundled_agent_plans_the_bundled_motor_end_to_end() -> None:

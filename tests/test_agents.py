@@ -20,6 +20,7 @@ import pytest
 import torch
 import trimesh
 import yaml
+from helpers import TINY_TRAINING, SmokeRuns
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
 from vprobot.agents.callbacks import count_lines, load_buffer, save_buffer
@@ -40,17 +41,11 @@ from vprobot.agents.training import (
     profile_config,
     train,
 )
-from vprobot.config import Config, ConfigError, replace
+from vprobot.config import ConfigError, replace
 from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
-# Training draws from one motor (its ground truth is built once per session, not that of all 20
-# training motors).
-ONE_MOTOR = ["env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}"]
-TINY = [*ONE_MOTOR, "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
-        "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=100",
-        "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]",
-        "agent.encoder_scale=0.05", "agent.n_steps=64", "agent.n_epochs=1"]
+TINY = list(TINY_TRAINING)
 BOX = gym.spaces.Box(-4, 4, (128, 3), np.float32)
 DICT = gym.spaces.Dict({"points": gym.spaces.Box(-4, 4, (128, 4), np.float32),
                         "robot": gym.spaces.Box(-8, 8, (15,), np.float32)})
@@ -117,34 +112,13 @@ def test_sphere_map_bins_the_directions() -> None:
 
 SMOKE_RUNS = [("sac", "sphere", False), ("sac", "pcn", True), ("ppo", "pointnet", True)]
 """(algorithm, encoder, robot state) of the training smoke runs: SAC and PPO, Box and Dict."""
-SmokeRuns = Callable[[str, str, bool], tuple[Config, dict[str, Any], Path]]
-
-
-@pytest.fixture(scope="module")
-def smoke_runs(tmp_path_factory: pytest.TempPathFactory) -> SmokeRuns:
-    """Trains (once per module) 100 steps of the tiny CPU profile with an algorithm, encoder
-    and robot state; gives its config, result and run folder."""
-    runs: dict[tuple[str, str, bool], tuple[Config, dict[str, Any], Path]] = {}
-
-    def smoke_run(algorithm: str, encoder: str, robot_state: bool
-                  ) -> tuple[Config, dict[str, Any], Path]:
-        key = (algorithm, encoder, robot_state)
-        if key not in runs:
-            config = profile_config(PROFILES / "cpu.yaml", [
-                *TINY, f"agent.algorithm={algorithm}", f"agent.encoder={encoder}",
-                f"env.robot_state={str(robot_state).lower()}"], steps=100)
-            run = tmp_path_factory.mktemp(f"{algorithm}-{encoder}") / "run"
-            runs[key] = config, train(config, run, seed=1, progress=False), run
-        return runs[key]
-
-    return smoke_run
 
 
 @pytest.mark.parametrize(("algorithm", "encoder", "robot_state"), SMOKE_RUNS)
 def test_training_smoke_run(algorithm: str, encoder: str, robot_state: bool,
                             smoke_runs: SmokeRuns) -> None:
     config, result, run = smoke_runs(algorithm, encoder, robot_state)
-    assert result["steps"] >= 100 and 0.0 < result["coverage_pct"] <= 100.0
+    assert result["steps"] == 64 and 0.0 < result["coverage_pct"] <= 100.0
     for name in ("config.yaml", "command.txt", "memory.json", "monitor.csv",
                  "evaluations.csv", "best_model.zip", "final_model.zip", "curves.png",
                  "checkpoint.json"):

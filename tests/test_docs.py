@@ -1,5 +1,7 @@
 """The design document in docs/: every reference to it from the code and between its pages
-leads to a page and a heading that exist, and no reference to the old internal spec is left."""
+leads to a page and a heading that exist, no reference to the old internal spec is left, and
+every page is in the index. The README: short, opening with the two set-up commands (the second
+is what CI runs), touring every command."""
 
 from __future__ import annotations
 
@@ -66,3 +68,39 @@ def test_no_reference_to_the_internal_spec_remains() -> None:
             for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1)
             if OLD_SPEC.search(line)]
     assert left == []
+
+
+README_COMMANDS = (
+    'pip install -e . && vprobot plan --out plan.json --video rollout.mp4   # main job',
+    'pip install -e ".[test]" && python -m pytest -q                        # the test suite',
+)
+"""The two set-up commands on a fresh machine, as the README states them."""
+
+
+def test_readme_is_short_and_opens_with_the_two_set_up_commands() -> None:
+    lines = (ROOT / "README.md").read_text().splitlines()
+    assert len(lines) < 200
+    opening = [line for line in lines[1:] if line.strip()][:4]
+    assert lines[0].startswith("# ") and opening == ["```bash", *README_COMMANDS, "```"]
+
+
+def test_ci_runs_the_readmes_test_command() -> None:
+    command = README_COMMANDS[1].split("#")[0].strip()
+    assert command in (ROOT / ".ci" / "run").read_text().splitlines()
+
+
+def test_every_docs_page_is_in_the_index() -> None:
+    index = (DOCS / "README.md").read_text()
+    pages = {path.name for path in DOCS.glob("*.md")} - {"README.md"}
+    assert {page for page in pages if f"]({page})" not in index} == set()
+
+
+def test_readme_tours_every_command() -> None:
+    import argparse
+
+    from vprobot.cli import build_parser
+
+    (commands,) = [action for action in build_parser()._actions
+                   if isinstance(action, argparse._SubParsersAction)]
+    readme = (ROOT / "README.md").read_text()
+    assert [name for name in commands.choices if f"| `{name}` |" not in readme] == []

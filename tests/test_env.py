@@ -202,13 +202,14 @@ def test_truncated_exactly_at_the_step_limit() -> None:
 
 
 def test_different_seeds_give_different_episodes() -> None:
+    # Three seeds, since every new training motor costs its ground truth on a cold cache.
     env = make(motors="train", mesh=None)
     quaternions, motors = set(), set()
-    for seed in range(6):
+    for seed in range(3):
         _, info = env.reset(seed=seed)
         quaternions.add(tuple(np.round(env.episode.object_pose.quaternion, 6)))
         motors.add(info["motor"])
-    assert len(quaternions) == 6 and len(motors) >= 3
+    assert len(quaternions) == 3 and len(motors) >= 2
 
 
 def test_initial_view_attempts_that_fail_leave_no_trace() -> None:

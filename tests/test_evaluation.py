@@ -52,15 +52,15 @@ def assert_png(path: Path) -> None:
         image.verify()
 
 
-def test_evaluate_writes_markdown_and_csv(tmp_path: Path) -> None:
-    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1])
-    table = evaluate(CONFIG, ["hrec", "random2"], specs, tmp_path, progress=False)
-    assert [(row["planner"], row["carrier"]) for row in table] == [
+def test_evaluate_writes_markdown_and_csv(serial_evaluation: Path) -> None:
+    # The session's SERIAL_EVALUATION: hrec and random2 on the default motor, seeds 0-2, both
+    # carriers (12 episodes); test_killed_evaluation_resumes_... shows its rows rerun the same.
+    summary = read_csv(serial_evaluation / "evaluation.csv")
+    assert list(summary[0]) == list(COLUMNS)
+    assert [(row["planner"], row["carrier"]) for row in summary] == [
         ("hrec", "robot"), ("random2", "robot"), ("hrec", "free"), ("random2", "free")]
-    summary = read_csv(tmp_path / "evaluation.csv")
-    assert list(summary[0]) == list(COLUMNS) and len(summary) == 4
-    episodes = read_csv(tmp_path / "evaluation_episodes.csv")
-    assert list(episodes[0]) == list(EPISODE_COLUMNS) and len(episodes) == 8
+    episodes = read_csv(serial_evaluation / "evaluation_episodes.csv")
+    assert list(episodes[0]) == list(EPISODE_COLUMNS) and len(episodes) == 12
     for row in episodes:
         assert 0.0 <= float(row["coverage_pct"]) <= 100.0
         assert int(row["acquisitions"]) <= int(row["requested"])
@@ -73,18 +73,17 @@ def test_evaluate_writes_markdown_and_csv(tmp_path: Path) -> None:
         else:
             assert float(row["joint_time_s"]) > 0.0
             assert 0.0 <= float(row["reachable_pct"]) <= 100.0
-    hrec_free = next(row for row in table
+    hrec_free = next(row for row in summary
                      if row["planner"] == "hrec" and row["carrier"] == "free")
-    assert hrec_free["acquisitions"] == 6 and hrec_free["joint_time_s"] is None
-    markdown = (tmp_path / "evaluation.md").read_text()
-    assert "| hrec | free | 2 |" in markdown and "B_SCP,5 | 98.17" in markdown
+    assert float(hrec_free["acquisitions"]) == 6 and hrec_free["joint_time_s"] == ""
+    markdown = (serial_evaluation / "evaluation.md").read_text()
+    assert "| hrec | free | 3 |" in markdown and "B_SCP,5 | 98.17" in markdown
     assert "| area % | views to goal |" in markdown
-    assert_png(tmp_path / PLOT_NAME)
-    # The episode list is part of the output, and running it again gives the same rows.
-    assert read_episode_list(tmp_path / "episodes.json") == specs
-    again = evaluate(CONFIG, ["hrec", "random2"], evaluation_episodes(
-        CONFIG, episodes=tmp_path / "episodes.json"), tmp_path / "again", progress=False)
-    assert [row["coverage_pct"] for row in again] == [row["coverage_pct"] for row in table]
+    assert_png(serial_evaluation / PLOT_NAME)
+    # The episode list is part of the output, and `--episodes` on it runs the same episodes.
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1, 2])
+    assert read_episode_list(serial_evaluation / "episodes.json") == specs
+    assert evaluation_episodes(CONFIG, episodes=serial_evaluation / "episodes.json") == specs
 
 
 def test_every_planner_sees_the_same_object_pose(tmp_path: Path) -> None:
@@ -240,6 +239,7 @@ def test_bad_arguments_are_clear_errors(planners: list[str], carriers: list[str]
         evaluation_episodes(CONFIG, seeds=[0], episodes=BUNDLED_TEST_EPISODES)
 
 
+@pytest.mark.benchmark
 def test_planner_benchmark_reports_the_targets(capsys: pytest.CaptureFixture) -> None:
     results = run_planners_benchmark(CONFIG, motors=[DEFAULT_MOTOR], seeds=[0], progress=False)
     for key in ("bscp_plan_s_median", "bscp5_free_coverage_pct", "bscp_robot_coverage_pct",

@@ -71,6 +71,16 @@ def test_bscp_free_flying_covers_a_cube(millimetre_cube: Path) -> None:
     assert sum(planner.gains) == pytest.approx(record.coverage * 2048, abs=2)
 
 
+def test_five_set_cover_views_free_flying_cover_the_motor_as_in_the_paper(
+        motor: MotorScene) -> None:
+    # The paper's B_SCP,5 covers 98.17 % of its motors; docs/benchmarks.md#measured-figures
+    # holds ours to that within 3 pp.
+    episode, spec, rng = episode_of(motor, seed=0, robot=False)
+    record, _ = run_episode(make_planner("bscp", CONFIG, views=5), episode, spec, CONFIG, rng)
+    assert len(record.views) == 5
+    assert record.coverage >= 0.95
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_greedy_gains_are_non_increasing(seed: int) -> None:
     rng = np.random.default_rng(seed)

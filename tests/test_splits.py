@@ -128,7 +128,7 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import vprobot.agents.training as training
     import vprobot.episode.specs as specs
-    from vprobot.paths import CONFIGS_DIR
+    from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
     read: list[Path] = []
 
@@ -138,7 +138,10 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
 
     monkeypatch.setattr(specs, "read_episode_list", recording)
     monkeypatch.setattr(training, "read_episode_list", recording)
+    # One training motor: the validation list is that of the `motors` source all the same, and
+    # every other motor drawn would cost its ground truth.
     config = training.profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", [
+        "env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
         "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=20",
         "agent.batch_size=16", "agent.buffer_size=200", "agent.eval_freq=30",
         "agent.eval_episodes=1", "agent.checkpoint_freq=1000", "agent.net_arch=[16,16]"],
