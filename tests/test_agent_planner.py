@@ -15,8 +15,8 @@ from vprobot.agents.training import profile_config, train
 from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
-from vprobot.planners import plan_motor
 from vprobot.planners.agent import AgentPlanner
+from vprobot.planners.runner import plan_motor
 
 CONFIG = Config()
 # Training draws from one motor (its ground truth is built once per session, not that of all 20
