@@ -14,8 +14,8 @@ from helpers import SmokeRuns
 from vprobot.agents.trained import BUNDLED_AGENT, load_agent
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.planners import plan_motor
 from vprobot.planners.agent import AgentPlanner
+from vprobot.planners.runner import plan_motor
 
 CONFIG = Config()
 

@@ -12,7 +12,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
-from vprobot.env import ENV_ID, InspectEnv
+from vprobot.env import ENV_ID
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.rewards import REWARDS
 from vprobot.episode import EpisodeSpec
 from vprobot.paths import DEFAULT_MOTOR

@@ -19,7 +19,7 @@ from vprobot.episode import MotorScene
 from vprobot.fit import check_fits, fit_limit, sensor_limit_m
 from vprobot.kinematics import RobotArm
 from vprobot.mesh_loading import load_mesh
-from vprobot.planners import plan_motor
+from vprobot.planners.runner import plan_motor
 from vprobot.scene import Cell
 
 CONFIG = Config()

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vprobot.cli import main
-from vprobot.env import InspectEnv
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.rewards import REWARDS
 from vprobot.paths import DEFAULT_MOTOR
 

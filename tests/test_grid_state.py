@@ -13,8 +13,8 @@ from gymnasium.utils.env_checker import check_env
 
 from vprobot.agents.trained import TrainedAgent
 from vprobot.config import Config, ConfigError, replace
-from vprobot.env import InspectEnv
 from vprobot.env.grid_state import FEATURES, GridState
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import Episode
 from vprobot.geometry import Pose
 from vprobot.occupancy import GAINS, OccupancyGrid

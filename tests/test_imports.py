@@ -1,9 +1,24 @@
 """vprobot's modules import each other without circles, at module top level and inside functions.
 
+The graph is that of what importing a module executes. Importing `a.b.c` executes the package
+`a` (its `__init__`), then `a.b`, then `a.b.c`, each unless already started. So a module X that
+imports `a.b.c` has an edge to each of them, except to the packages enclosing X: Python starts
+a module's packages before the module, so X importing a sibling or a cousin runs no package
+again. `from P import name` where `name` is no submodule reads P's own namespace, so it is an edge
+to P even from inside P. An edge from a package to the submodules its `__init__` imports is an
+ordinary edge: the pair is a circle only when the submodule leads back to the package, either by
+reading its namespace or through a module outside the package that imports anything of it (and so
+runs its `__init__`).
+
+A cycle in that graph is a circle: whichever module on it is imported first, the imports lead
+back to a module of the cycle that is still half-initialized, and which one that is (and so
+what fails) depends on which module was imported first.
+
 An import inside a function is allowed only where it keeps a heavy optional dependency (torch and
 stable-baselines3, Ray, the offscreen renderer, the shape generators) out of a module that is
-light to import, never to hide a circle; each such import says why in a comment above it. The
-command line imports what a command runs when it runs (its module docstring says so).
+light to import, never to hide a circle: the graph with those imports has no cycle either, and
+each such import says why in a comment above it. The command line imports what a command runs
+when it runs (its module docstring says so).
 """
 
 from __future__ import annotations
@@ -62,9 +77,34 @@ def _import_nodes(name: str) -> list[tuple[ast.stmt, set[str], bool]]:
 
 def _imports(name: str, lazy: bool = False) -> set[str]:
     """The vprobot modules `name` imports when it is imported (with `lazy`, or may import
-    later, inside its functions)."""
+    later, inside its functions), as its import statements name them."""
     return {module for _, imported, inside in _import_nodes(name) if lazy or not inside
             for module in imported}
+
+
+def _enclosing(name: str) -> set[str]:
+    """The packages whose `__init__` Python executes before module `name`."""
+    parts = name.split(".")
+    return {".".join(parts[:end]) for end in range(1, len(parts))}
+
+
+def _executed(importer: str, imported: str) -> set[str]:
+    """What an import of `imported` in module `importer` executes (see the module docstring):
+    `imported` and its packages, less `importer` and the packages enclosing it, which started
+    first. A package that encloses `importer` stays when it is what is imported (its
+    namespace is read)."""
+    return ({imported} | _enclosing(imported) - _enclosing(importer)) - {importer}
+
+
+def _execution_graph(imports: dict[str, set[str]]) -> dict[str, set[str]]:
+    """For each module, what its imports (the modules they name, by module) execute."""
+    return {name: {executed for imported in named for executed in _executed(name, imported)}
+            for name, named in imports.items()}
+
+
+def _graph(lazy: bool) -> dict[str, set[str]]:
+    """vprobot's execution graph (with `lazy`, the imports inside functions execute too)."""
+    return _execution_graph({name: _imports(name, lazy) for name in MODULES})
 
 
 def _top_level_imports(name: str) -> set[str]:
@@ -99,19 +139,50 @@ def test_cycle_search_finds_a_hand_made_circle() -> None:
     assert _cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
 
 
+def test_an_import_executes_the_packages_not_yet_started() -> None:
+    # From another package: the package, then the module (`vprobot` has started).
+    assert _executed("vprobot.env.grid_state", "vprobot.planners.candidates") == {
+        "vprobot.planners", "vprobot.planners.candidates"}
+    # A sibling: the package has started.
+    assert _executed("vprobot.planners.bscp", "vprobot.planners.candidates") == {
+        "vprobot.planners.candidates"}
+    # A cousin: the common packages have started, the cousin's own has not.
+    assert _executed("vprobot.stopping.rules.grid", "vprobot.stopping.features") == {
+        "vprobot.stopping.features"}
+    assert _executed("vprobot.stopping.study", "vprobot.stopping.rules.grid") == {
+        "vprobot.stopping.rules", "vprobot.stopping.rules.grid"}
+    # The enclosing package's namespace, and a package's own submodule.
+    assert _executed("vprobot.planners.runner", "vprobot.planners") == {"vprobot.planners"}
+    assert _executed("vprobot.planners", "vprobot.planners.runner") == {
+        "vprobot.planners.runner"}
+
+
+def test_a_package_and_its_submodules_form_a_circle_only_through_the_package() -> None:
+    # The package imports its modules, which import each other: no circle.
+    assert _cycle(_execution_graph({"p": {"p.m", "p.n"}, "p.m": {"p.n"}, "p.n": set(),
+                                    "x": {"p.m"}})) is None
+    # A module of the package reads the package's namespace.
+    assert _cycle(_execution_graph({"p": {"p.m"}, "p.m": {"p"}})) == ["p", "p.m", "p"]
+    # A module of the package imports one outside that imports any module of the package.
+    assert _cycle(_execution_graph({"p": {"p.m"}, "p.m": {"x"}, "p.n": set(),
+                                    "x": {"p.n"}})) == ["p", "p.m", "x", "p"]
+
+
 def test_module_import_graph_has_no_cycle() -> None:
-    graph = {name: _top_level_imports(name) for name in MODULES}
-    # The graph is the real one: the package imports its planners at top level.
-    assert "vprobot.planners.runner" in graph["vprobot.planners"]
-    assert _cycle(graph) is None
+    graph = _graph(lazy=False)
+    # The graph is the real one: importing the candidates from the env runs the planners
+    # package, and a package runs the submodules its __init__ imports.
+    assert "vprobot.planners" in graph["vprobot.env.grid_state"]
+    assert "vprobot.episode.engine" in graph["vprobot.episode"]
+    assert (cycle := _cycle(graph)) is None, " -> ".join(cycle)
 
 
 def test_import_graph_with_the_imports_inside_functions_has_no_cycle() -> None:
-    graph = {name: _imports(name, lazy=True) for name in MODULES}
+    graph = _graph(lazy=True)
     # The graph holds the lazy imports: the agent planner loads torch only when it plans.
     assert "vprobot.agents.trained" in graph["vprobot.planners.agent"]
-    assert "vprobot.agents.trained" not in _top_level_imports("vprobot.planners.agent")
-    assert _cycle(graph) is None
+    assert "vprobot.agents.trained" not in _graph(lazy=False)["vprobot.planners.agent"]
+    assert (cycle := _cycle(graph)) is None, " -> ".join(cycle)
 
 
 def _lazy_without_reason(name: str) -> list[int]:

@@ -34,11 +34,11 @@ from vprobot.occupancy import (
     OccupancyGrid,
     ViewGains,
 )
-from vprobot.planners import make_planner, parse_planner
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
 from vprobot.planners.candidates import band_candidates
 from vprobot.planners.nbv import EXCLUDE_DEG
+from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
 from vprobot.stopping.rules import make_stop_rule

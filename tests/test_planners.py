@@ -19,20 +19,13 @@ from vprobot.kinematics import SensorTarget, TravelCost
 from vprobot.kinematics.travel import joint_time
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import write_json
-from vprobot.planners import (
-    BoxFacesPlanner,
-    OraclePlanner,
-    Random1Planner,
-    Random2Planner,
-    SetCoverPlanner,
-    greedy_cover,
-    make_planner,
-    order_views,
-    parse_planner,
-    plan_motor,
-    run_episode,
-)
-from vprobot.planners.ordering import cost_matrix, path_cost
+from vprobot.planners.bscp import SetCoverPlanner
+from vprobot.planners.greedy import greedy_cover
+from vprobot.planners.hrec import BoxFacesPlanner
+from vprobot.planners.oracle import OraclePlanner
+from vprobot.planners.ordering import cost_matrix, order_views, path_cost
+from vprobot.planners.random_views import Random1Planner, Random2Planner
+from vprobot.planners.runner import make_planner, parse_planner, plan_motor, run_episode
 from vprobot.planners.visibility import VisibilityRenderer
 from vprobot.scene import Cell
 from vprobot.sensor_model import SensorModel

@@ -22,7 +22,8 @@ from vprobot.config import ConfigError, load_config
 from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.planners import PLANNERS, PlanPlanner, make_planner, planner_names, register_planner
+from vprobot.planners.base import PLANNERS, PlanPlanner, register_planner
+from vprobot.planners.runner import make_planner, planner_names
 from vprobot.registry import Registry, UnknownNameError
 
 
@@ -120,6 +121,15 @@ def test_a_planner_registered_elsewhere_is_built_by_name_and_evaluated(
     # The free-flying sensor acquires every request: both views.
     assert (row["planner"], row["requested"], row["acquisitions"]) == ("toy2", "2", "2")
     assert 0.0 < float(row["coverage_pct"]) < 100.0
+
+
+def test_planners_are_listed_in_the_bundled_order_whichever_registered_first() -> None:
+    # The planners' modules register when first imported, which one first depends on the
+    # caller (the stop rules import nbv); register nbv again last.
+    PLANNERS.register("nbv", PLANNERS.unregister("nbv"))
+    assert list(PLANNERS)[-1] == "nbv"
+    assert planner_names() == ["bscp", "hrec", "oracle", "random1", "random2",
+                               "agent, agent:PATH", "nbv", "uniform<k>"]
 
 
 def test_after_unregistering_the_planner_is_unknown(tmp_path: Path) -> None:

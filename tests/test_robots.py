@@ -15,7 +15,7 @@ from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.cli import main
 from vprobot.config import CellConfig, Config, ConfigError, load_config, replace
-from vprobot.env import InspectEnv
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR
 from vprobot.render.replay import episode_from_plan

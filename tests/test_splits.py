@@ -113,7 +113,7 @@ def test_bad_training_sources_are_one_line_config_errors() -> None:
 
 
 def test_env_draws_family_instances_and_builds_them_on_first_use(cache: Path) -> None:
-    from vprobot.env import InspectEnv
+    from vprobot.env.inspect_env import InspectEnv
 
     env = InspectEnv(replace(CONFIG, "env", objects=("spur_gear",), resolution=(64, 45),
                              state_points=64))

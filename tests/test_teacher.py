@@ -15,8 +15,8 @@ from vprobot.agents.pretrain import collect, fit
 from vprobot.agents.teacher import WASTED, CandidateTeacher
 from vprobot.agents.training import build_model, train
 from vprobot.config import Config, ConfigError, replace
-from vprobot.env import InspectEnv
 from vprobot.env.grid_state import FEATURES
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.candidates import screen_reachability
 

@@ -11,7 +11,7 @@ import pytest
 
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, load_config, replace
-from vprobot.env import InspectEnv
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.paths import DEFAULT_MOTOR
 
 REACH = ["reach", "--position", "0.45", "-0.47", "0.75", "--look-at", "0.45", "0", "0.75"]

@@ -195,7 +195,7 @@ def _planning(args: argparse.Namespace) -> dict[str, Any]:
 def command_plan(args: argparse.Namespace) -> int:
     """Plan the inspection of a motor, write the plan JSON and optionally a video."""
     from vprobot.plan_export import write_json
-    from vprobot.planners import plan_motor
+    from vprobot.planners.runner import plan_motor
 
     check_output_file(args.out, "--out", (".json",))
     _check_render_outputs(args, args.video, "--video")
@@ -215,7 +215,7 @@ def command_plan(args: argparse.Namespace) -> int:
 
 def command_render(args: argparse.Namespace) -> int:
     """Render an inspection (a plan JSON, or a planner's run) as a video."""
-    from vprobot.planners import plan_motor
+    from vprobot.planners.runner import plan_motor
     from vprobot.render import episode_from_plan
 
     _check_render_outputs(args, args.out, "--out")

@@ -18,7 +18,7 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.agents.runs import best_evaluation, current_names, evaluation_score
 from vprobot.config import Selection
-from vprobot.env import InspectEnv
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
 from vprobot.files import append_line, atomic_output, csv_text, write_text
 

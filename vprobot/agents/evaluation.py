@@ -14,7 +14,7 @@ from typing import Any
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from vprobot.config import Config, replace
-from vprobot.env import InspectEnv
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
 from vprobot.evaluation import COLUMNS, episode_row, summarize
 from vprobot.planners.runner import EpisodeResult

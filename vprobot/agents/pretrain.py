@@ -24,7 +24,7 @@ from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, allowed_rows
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import CandidateTeacher
 from vprobot.config import Config
-from vprobot.env import InspectEnv
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.files import write_text
 
 PRETRAIN_RANK = 1_000

@@ -66,8 +66,8 @@ from vprobot.config import (
     parse_yaml,
     replace,
 )
-from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.observations import observation_space
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list, validation_episodes

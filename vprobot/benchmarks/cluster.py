@@ -44,7 +44,7 @@ def _timed_trials(count: int, folder: Path) -> float:
 
 
 def _warm(config: Config) -> bool:
-    import vprobot.planners  # noqa: F401 - what an evaluation task imports first
+    import vprobot.planners.runner  # noqa: F401 - what an evaluation task imports first
 
     return True
 

@@ -11,7 +11,7 @@ from stable_baselines3.common.vec_env import SubprocVecEnv
 from tqdm import tqdm
 
 from vprobot.config import Config, replace
-from vprobot.env import InspectEnv
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.sensor import TRAINING_RESOLUTION
 
 BENCHMARK_ENV = {"action": "A_3S2R_lim", "reward": "R2", "motors": "train"}

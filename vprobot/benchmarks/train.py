@@ -14,8 +14,8 @@ from tqdm import tqdm
 
 from vprobot.agents.training import buffer_memory, build_model, make_vec_env, profile_config
 from vprobot.config import Config, replace
-from vprobot.env import InspectEnv
 from vprobot.env.actions import ActionMapping
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.observations import observation_space
 from vprobot.paths import PROFILES_DIR
 

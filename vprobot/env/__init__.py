@@ -1,19 +1,8 @@
-"""The gymnasium environment `vprobot/Inspect-v0` and its parts (actions, rewards, states)."""
+"""The gymnasium environment `vprobot/Inspect-v0` (`inspect_env.InspectEnv`) and its parts
+(actions, rewards, states).
 
-from __future__ import annotations
-
-from typing import Any
+The package imports none of them: the config validates its names against `rewards`, which must
+not bring the environment (MuJoCo, the robot), and the environment builds on the config.
+"""
 
 ENV_ID = "vprobot/Inspect-v0"
-
-__all__ = ["ENV_ID", "InspectEnv"]
-
-
-def __getattr__(name: str) -> Any:
-    if name == "InspectEnv":
-        # The env (MuJoCo, the robot) is imported on first use: the config validates its
-        # names against vprobot.env.rewards, which must stay light to import.
-        from vprobot.env.inspect_env import InspectEnv
-
-        return InspectEnv
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -26,6 +26,7 @@ from vprobot.geometry import (
     spherical_position,
 )
 from vprobot.kinematics import SensorTarget
+from vprobot.planners.candidates import band_directions
 
 ACTION_SIZES: dict[str, int] = {
     "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,
@@ -64,9 +65,6 @@ class ActionMapping:
         self.name: ActionName = config.action
         self.discrete = config.action == VIEW_ACTION
         if self.discrete:
-            # Imported here: the planners package imports this module.
-            from vprobot.planners.candidates import band_directions
-
             self.directions = band_directions()
         self.view_size = 1 if self.discrete else ACTION_SIZES[config.action]
         # With a stop decision the last component says "stop here" when it is > 0.

@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.config import Config
+from vprobot.env.actions import ActionMapping
+from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
 from vprobot.planners.base import Planner, register_planner
 
@@ -40,11 +42,8 @@ class AgentPlanner(Planner):
     initial_view = True
 
     def __init__(self, source: str | Path | None = None, views: int | None = None):
-        # Imported here: the env's observations build on the planners' candidates, and the
-        # agent needs torch, which the other planners do not.
+        # Imported here: the agent needs torch and stable-baselines3, the other planners do not.
         from vprobot.agents.trained import load_agent
-        from vprobot.env.actions import ActionMapping
-        from vprobot.env.observations import Observer
 
         if views is not None and views < 1:
             raise ValueError(f"views must be >= 1, got {views}")

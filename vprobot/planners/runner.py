@@ -6,7 +6,7 @@ import dataclasses
 import re
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -23,30 +23,39 @@ from vprobot.episode import (
 from vprobot.kinematics import TravelCost
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
-
-# The planner modules register themselves in PLANNERS when imported.
-from vprobot.planners import agent, bscp, hrec, nbv, oracle, random_views, uniform  # noqa: F401
+from vprobot.planners import agent, bscp, hrec, nbv, oracle, random_views, uniform
 from vprobot.planners.base import PLANNERS, Planner
 from vprobot.planners.candidates import CandidateViews
+from vprobot.stopping.estimator import load_estimator
+from vprobot.stopping.rules import StopRule, make_stop_rule
+from vprobot.stopping.rules.estimate import view_estimates
 
-if TYPE_CHECKING:
-    from vprobot.stopping.rules import StopRule
+BUNDLED_PLANNERS = (bscp, hrec, oracle, random_views, agent, nbv, uniform)
+"""The bundled planner modules, which register their planners in `PLANNERS` when imported, in
+the order in which messages and listings name their planners."""
+
+
+def _planners() -> list[tuple[str, type[Planner]]]:
+    """The registered planners: the bundled ones in `BUNDLED_PLANNERS` order (whichever of their
+    modules was imported first), then the others in registration order."""
+    rank = {module.__name__: index for index, module in enumerate(BUNDLED_PLANNERS)}
+    return sorted(PLANNERS.items(), key=lambda item: rank.get(item[1].__module__, len(rank)))
 
 
 def planner_names() -> list[str]:
     """The planners as messages list them (`uniform<k>` stands for uniform1, uniform2, ...: k
-    fixed views), in registration order."""
-    return [cls.usage or name for name, cls in PLANNERS.items()]
+    fixed views)."""
+    return [cls.usage or name for name, cls in _planners()]
 
 
 def counted_planners() -> list[str]:
     """The planners that take a fixed number of views (`bscp5`, `--views 5`)."""
-    return [name for name, cls in PLANNERS.items() if cls.counted]
+    return [name for name, cls in _planners() if cls.counted]
 
 
 def _match(name: str) -> tuple[type[Planner], dict[str, str]] | None:
     """The planner class a name (without a view count) selects and its pattern's groups."""
-    for registered, cls in PLANNERS.items():
+    for registered, cls in _planners():
         match = re.fullmatch(re.escape(registered) + cls.pattern, name)
         if match is not None:
             return cls, {key: value for key, value in match.groupdict().items()
@@ -211,9 +220,6 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
             apply to the planner.
     """
     if stop is None:
-        # Imported here: the stop rules build on the planners' candidates.
-        from vprobot.stopping.rules import make_stop_rule
-
         stop = make_stop_rule("goal", config)
     stop.bind(planner)
     governed = stop.governs(planner)
@@ -263,11 +269,6 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
         ValueError: For an unknown planner, carrier or stop rule, a rule that does not apply
             to the planner, or an estimator that cannot be read.
     """
-    # Imported here: the stop rules build on the planners' candidates.
-    from vprobot.stopping.estimator import load_estimator
-    from vprobot.stopping.rules import make_stop_rule
-    from vprobot.stopping.rules.estimate import view_estimates
-
     if carrier not in CARRIERS:
         raise ValueError(f"carrier must be one of {list(CARRIERS)}, got {carrier!r}")
     chosen = make_planner(planner, config, views)
