@@ -173,12 +173,19 @@ def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:
         ("goal", ["random2"]), ("views:2", ["uniform4", "random2"])]
 
 
+def _low_resolution_and_one_episode(folder: Path) -> tuple[Path, Path]:
+    """A config file at the tests' low resolution and a list of one episode on the default
+    motor."""
+    config = folder / "low.yaml"
+    config.write_text(f"sensor:\n  resolution: [{RESOLUTION[0]}, {RESOLUTION[1]}]\n")
+    episodes = folder / "one.json"
+    write_episode_list(episodes, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
+    return config, episodes
+
+
 def test_the_stop_study_runs_from_one_command(tmp_path: Path,
                                               capsys: pytest.CaptureFixture) -> None:
-    config = tmp_path / "low.yaml"
-    config.write_text(f"sensor:\n  resolution: [{RESOLUTION[0]}, {RESOLUTION[1]}]\n")
-    episodes = tmp_path / "one.json"
-    write_episode_list(episodes, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
+    config, episodes = _low_resolution_and_one_episode(tmp_path)
     out = tmp_path / "study"
     assert main(["stop", "study", "--config", str(config), "--out", str(out), "--episodes",
                  str(episodes), "--planners", "uniform2", "--stop", "views:1", "grid"]) == 0
@@ -199,10 +206,7 @@ def test_the_stop_study_runs_from_one_command(tmp_path: Path,
 
 def test_stop_error_is_the_mean_absolute_error_of_the_estimate_against_the_rollouts_truth(
         tmp_path: Path) -> None:
-    config = tmp_path / "low.yaml"
-    config.write_text(f"sensor:\n  resolution: [{RESOLUTION[0]}, {RESOLUTION[1]}]\n")
-    episodes = tmp_path / "one.json"
-    write_episode_list(episodes, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
+    config, episodes = _low_resolution_and_one_episode(tmp_path)
     out = tmp_path / "error"
     assert main(["stop", "error", "--config", str(config), "--out", str(out), "--episodes",
                  str(episodes), "--planners", "uniform2"]) == 0

@@ -62,6 +62,14 @@ class Registry(Mapping[str, T], Generic[T]):
         self._entries[name] = value
         return value
 
+    def register_named(self, cls: V) -> V:
+        """Class decorator: registers `cls` under its `name` attribute and returns it.
+
+        Raises:
+            ValueError: If a class of that name is already registered.
+        """
+        return self.register(cls.name, cls)  # type: ignore[attr-defined]
+
     def unregister(self, name: str) -> T:
         """Remove and return the entry `name` (a test's toy entry, for instance).
 

@@ -12,7 +12,7 @@ runner builds planners by name from there (`vprobot.planners.runner.make_planner
 from __future__ import annotations
 
 import abc
-from typing import TYPE_CHECKING, ClassVar, TypeVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -90,13 +90,5 @@ class PlanPlanner(Planner):
 PLANNERS: Registry[type[Planner]] = Registry("planner")
 """Every planner class by name, in registration order."""
 
-P = TypeVar("P", bound=type[Planner])
-
-
-def register_planner(cls: P) -> P:
-    """Class decorator: registers a planner under its `name`.
-
-    Raises:
-        ValueError: If a planner of that name is already registered.
-    """
-    return PLANNERS.register(cls.name, cls)
+register_planner = PLANNERS.register_named
+"""Class decorator: registers a planner under its `name`."""

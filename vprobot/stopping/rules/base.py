@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import abc
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from vprobot.config import Config
 from vprobot.registry import Registry
@@ -84,13 +84,5 @@ class StopRule(abc.ABC):
 STOPS: Registry[type[StopRule]] = Registry("stop rule")
 """Every stop rule class by name, in registration order."""
 
-R = TypeVar("R", bound=type[StopRule])
-
-
-def register_stop(cls: R) -> R:
-    """Class decorator: registers a stop rule under its `name`.
-
-    Raises:
-        ValueError: If a rule of that name is already registered.
-    """
-    return STOPS.register(cls.name, cls)
+register_stop = STOPS.register_named
+"""Class decorator: registers a stop rule under its `name`."""
