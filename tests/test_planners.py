@@ -69,7 +69,7 @@ def test_five_set_cover_views_free_flying_cover_the_motor_as_in_the_paper(
     # The paper's B_SCP,5 covers 98.17 % of its motors; docs/benchmarks.md#measured-figures
     # holds ours to that within 3 pp.
     episode, spec, rng = episode_of(motor, seed=0, robot=False)
-    record, _ = run_episode(make_planner("bscp", CONFIG, views=5), episode, spec, CONFIG, rng)
+    record = run_episode(make_planner("bscp", CONFIG, views=5), episode, spec, CONFIG, rng).record
     assert len(record.views) == 5
     assert record.coverage >= 0.95
 

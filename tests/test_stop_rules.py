@@ -128,6 +128,41 @@ def test_the_runner_says_why_it_stopped(motor: MotorScene) -> None:
         3, "max views", "views:20")
 
 
+def test_nbv_at_grid_makes_the_requests_of_nbv_under_the_grid_rule(motor: MotorScene) -> None:
+    spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
+    self_stopped = run(CONFIG, motor, "nbv@grid", spec, "free")
+    governed = run(CONFIG, motor, "nbv", spec, "free", stop="grid")
+    requests = [[view.requested.position.tolist() for view in result.record.views]
+                for result in (self_stopped, governed)]
+    assert requests[0] == requests[1]
+    # The grid stopped both, well within the budget: the planner itself, or the runner.
+    assert len(requests[0]) <= CONFIG.env.max_acquisitions
+    assert self_stopped.stop_reason == governed.stop_reason
+    assert self_stopped.stop_reason.startswith("grid: the latest 2 views")
+    assert (self_stopped.planner_stopped, governed.planner_stopped) == (True, False)
+
+
+def test_nbv_at_any_rule_stops_itself_by_that_rule(motor: MotorScene) -> None:
+    spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
+    result = run(CONFIG, motor, "nbv:frontier@views:2", spec, "free")
+    assert (len(result.record.views), result.stop_reason, result.planner_stopped) == (
+        2, "views:2", True)
+
+
+@pytest.mark.parametrize(("planner", "problem"), [
+    ("nbv@foo", "nbv@foo: unknown stop rule 'foo'; allowed: agent, estimate[:C] (0 < C < 1, "
+                "default 0.95), goal, grid, views:N (N >= 1)"),
+    ("nbv@views:0", "nbv@views:0: bad stop rule 'views:0': N must be an integer >= 1"),
+    ("nbv@agent", "nbv@agent: stop rule 'agent' needs an agent planner"),
+])
+def test_a_bad_rule_in_a_self_stopped_nbv_is_one_line_listing_the_rules(
+        planner: str, problem: str, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(["plan", "--planner", planner, "--out", str(tmp_path / "plan.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and problem in err
+    assert not (tmp_path / "plan.json").exists()
+
+
 def test_plan_with_the_estimate_rule_says_why_and_the_estimate_at_each_view(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     plan = tmp_path / "plan.json"

@@ -586,8 +586,8 @@ def build_parser() -> argparse.ArgumentParser:
                          help="file units to metres, e.g. 0.001 for millimetres (default 1)")
         sub.add_argument("--planner", type=_planner_name,
                          help=f"{', '.join(planner_names())}: agent is the bundled trained "
-                         f"agent, agent:PATH a training run or model .zip, nbv@grid nbv "
-                         f"stopping itself; default: bscp")
+                         f"agent, agent:PATH a training run or model .zip, nbv@RULE nbv "
+                         f"stopping itself by a --stop rule (nbv@grid); default: bscp")
         sub.add_argument("--views", type=POSITIVE_INT,
                          help=f"fixed number of views ({', '.join(counted_planners())}); "
                          f"default: until the coverage goal")
@@ -620,9 +620,10 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(evaluation)
     evaluation.add_argument("--planners", nargs="+", default=list(EVALUATED_PLANNERS),
         help="planner names: uniform<k> (k fixed views), nbv (volumetric next-best view; "
-        "nbv:GAIN ranks by another gain, nbv@grid stops itself), bscp<N> / agent<N> for B_SCP "
-        "/ the bundled agent with N views, agent (the bundled agent) or agent:PATH (a training "
-        "run or model .zip); default: the model-free planners, then the model-based ones")
+        "nbv:GAIN ranks by another gain, nbv@RULE stops itself by a --stop rule), bscp<N> / "
+        "agent<N> for B_SCP / the bundled agent with N views, agent (the bundled agent) or "
+        "agent:PATH (a training run or model .zip); default: the model-free planners, then the "
+        "model-based ones")
     evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
                             "the test motors; shapes-v1: the non-motor objects) or a JSON file "
                             "as written into --out; default: test-v1")

@@ -6,5 +6,5 @@ and a greedy oracle.
 planner (`run`) and plans one motor end to end (`plan_motor`, the `vprobot plan` job).
 
 The package imports none of its modules: the environment and the stop rules build on
-`candidates` and `nbv`, and importing those must not import every planner.
+`candidates`, and importing it must not import every planner.
 """

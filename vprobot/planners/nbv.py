@@ -12,19 +12,15 @@ view (cast against the robot's own geometry; up to `REACH_TRIES` tries per view;
 candidate is not tried again in the episode). The planner never reads the mesh,
 the ground truth or the coverage: only the sensor's poses and points, the cell and the robot.
 
-Stopping: in simulation the runner stops it at the coverage goal (`nbv`). Self-stopped
-(`nbv@grid`) it stops when each of the latest `STOP_QUIET_VIEWS` acquisitions added less than
-`STOP_NEW_SURFACE` to the occupied voxels (the surface seen so far has stopped growing: a
-change rule, as MA-SCVP's; one quiet view is not enough, as a view into empty space is quiet
-too),
-when no candidate adds anything, or at the view budget. The expected gain of the best
-candidate does not serve: unknown space the view band never measures (inside the object, under
+Stopping: in simulation the runner stops it at the coverage goal (`nbv`). Named `nbv@RULE`
+(`nbv@grid`, `nbv@views:5`) it stops itself by the stop rule `RULE` of `STOPS`
+(`vprobot.stopping.rules`), asked before every view, when no candidate adds anything, or at the
+view budget; `nbv@goal` is `nbv`, left to the runner. The expected gain of the best candidate
+does not serve as a stop: unknown space the view band never measures (inside the object, under
 the fixture) keeps it above 60 % of its first value after ten views that saw everything.
 """
 
 from __future__ import annotations
-
-from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -40,22 +36,11 @@ from vprobot.planners.candidates import (
     offered,
     request_directions,
 )
-from vprobot.registry import Registry
+from vprobot.stopping.rules import StopRule, make_stop_rule
 
 DEFAULT_GAIN: Gain = "unknown"
 REACH_TRIES = 40
 """IK attempts per view at most (best candidates first)."""
-STOP_NEW_SURFACE = 0.02
-"""The grid stop: the share of occupied voxels an acquisition added (chosen on the training
-motors)."""
-STOP_QUIET_VIEWS = 2
-
-StopRule = Callable[["VolumetricPlanner", Episode], "str | None"]
-"""Why the planner stops itself now, else None; from what the planner measured (model-free)."""
-STOP_RULES: Registry[StopRule | None] = Registry("stop rule")
-"""The rules of `nbv@RULE` by name: a new rule is a function registered here. `goal` (None)
-leaves stopping to the runner, at the coverage goal, which only a simulation knows."""
-STOP_RULES.register("goal", None)
 
 
 @register_planner
@@ -65,39 +50,44 @@ class VolumetricPlanner(Planner):
     Args:
         config: The configuration (cell, sensor, view budget).
         gain: Which gain ranks the candidates (`vprobot.occupancy.GAINS`).
-        stop: A name in `STOP_RULES`: `goal` (the runner stops at the coverage goal) or `grid`
-            (the planner stops itself, see the module docstring).
+        stop: A stop rule of `STOPS` (`vprobot.stopping.rules`) the planner stops itself by
+            (`grid`, `views:5`, ...); `goal`: the runner stops it at the coverage goal.
         voxel_m: Voxel edge of the grid.
 
     Raises:
-        ValueError: For an unknown gain or stop rule.
+        ValueError: For an unknown gain, an unknown stop rule or one that does not apply to
+            the planner (`agent`).
 
     Attributes:
-        episode_grid: The latest episode's grid; what each of its frames added to the
-            occupied voxels is the stop rule's input.
+        episode_grid: The latest episode's grid.
+        stop_rule: The rule it stops itself by; None under `goal`.
     """
 
     name = "nbv"
-    pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>\w+))?"
+    pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>.+))?"
     initial_view = True
 
     def __init__(self, config: Config, gain: Gain = DEFAULT_GAIN, stop: str = "goal",
                  voxel_m: float = VOXEL_M):
         if gain not in GAINS:
             raise ValueError(f"unknown gain {gain!r}; allowed: {', '.join(GAINS)}")
-        if stop not in STOP_RULES:
-            raise ValueError(f"unknown stop rule {stop!r} for nbv; allowed: "
-                             f"{', '.join(STOP_RULES)}")
         self.config = config
         self.gain = gain
-        self.stop_rule = STOP_RULES[stop]
+        self.stop_rule: StopRule | None = None
+        if stop != "goal":
+            try:
+                self.stop_rule = make_stop_rule(stop, config)
+                self.stop_rule.bind(self)
+            except ValueError as error:
+                raise ValueError(f"nbv@{stop}: {error}") from None
         self.stops_at_goal = self.stop_rule is None
         self.voxel_m = voxel_m
         self._begin()
 
     @classmethod
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
-        """`nbv`, `nbv:GAIN` (which gain ranks the views), `nbv@RULE` (a stop rule), or both."""
+        """`nbv`, `nbv:GAIN` (which gain ranks the views), `nbv@RULE` (the stop rule it stops
+        itself by), or both."""
         return cls(config, params.get("gain", DEFAULT_GAIN), params.get("stop", "goal"))
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
@@ -107,12 +97,17 @@ class VolumetricPlanner(Planner):
         """A new episode: an all-unknown grid, nothing integrated, tried or stopped."""
         self.episode_grid = EpisodeGrid(self.config, voxel_m=self.voxel_m)
         self.stop_reason = None
+        if self.stop_rule is not None:
+            self.stop_rule.reset()
         self._failed = np.zeros(len(band_candidates(self.config, self.voxel_m)), dtype=bool)
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
         self.episode_grid.update(episode.views)
         if self.stop_rule is not None:
-            self.stop_reason = self.stop_rule(self, episode)
+            # Self-stopped, the runner leaves the view budget to the planner.
+            self.stop_reason = ("view budget"
+                                if len(episode.views) > self.config.env.max_acquisitions
+                                else self.stop_rule.check(episode))
             if self.stop_reason is not None:
                 return None
         band = band_candidates(self.config, self.voxel_m)
@@ -143,21 +138,3 @@ class VolumetricPlanner(Planner):
             return None
         return ViewRequest(target, result.q)
 
-
-
-@STOP_RULES.register("grid")
-def grid_stop(planner: VolumetricPlanner, episode: Episode) -> str | None:
-    """The grid rule: the surface seen has stopped growing, or the view budget is spent."""
-    if len(episode.views) > planner.config.env.max_acquisitions:
-        return "view budget"
-    return surface_quiet(planner.episode_grid.added)
-
-
-def surface_quiet(added: Sequence[float]) -> str | None:
-    """The grid rule's test on what each informative frame added to the occupied voxels
-    (`EpisodeGrid.added`): why to stop, else None; `--stop grid` applies it to any planner."""
-    recent = added[-STOP_QUIET_VIEWS:]
-    if len(added) > STOP_QUIET_VIEWS and max(recent) < STOP_NEW_SURFACE:
-        return (f"grid: the latest {STOP_QUIET_VIEWS} views each added less than "
-                f"{STOP_NEW_SURFACE:.0%} to the seen surface")
-    return None

@@ -16,7 +16,7 @@ of the `nbv` planner (`vprobot.occupancy`), one frame at a time. After each view
 - `hull_unknown`: unknown voxels inside that box, per occupied voxel (the part of the seen
   object's extent not explored yet);
 - `added_last`, `added_before`: the share of the occupied voxels the latest acquisition and the
-  one before added (what `nbv@grid` stops on; 1 before there was one);
+  one before added (what the `grid` rule stops on; 1 before there was one);
 - `novel_last`: the share of the latest acquisition's hit voxels that were not occupied before;
 - `points`, `points_last`: acquired points per sensor pixel, over all frames and in the latest;
 - `blocked`, `blocked_last`: blocked pixels per sensor pixel, mean over frames and the latest;

@@ -2,9 +2,10 @@
 
 `goal` is the simulator's stop at the coverage goal (the default); `estimate` stops when the
 model-free coverage estimate says the goal is reached with a chosen confidence; `grid` when the
-surface seen stops growing (the rule of `nbv@grid`); `views:N` after N acquisitions; `agent`
-leaves it to an agent's learned stop action. One module per rule, registered in `STOPS`
-(`base`); the runner asks the rule before each request (`vprobot.planners.runner`).
+surface seen stops growing; `views:N` after N acquisitions; `agent` leaves it to an agent's
+learned stop action. One module per rule, registered in `STOPS` (`base`); the runner asks the
+rule before each request (`vprobot.planners.runner`), and `nbv@RULE` asks its rule itself
+before each view (`vprobot.planners.nbv`).
 """
 
 from __future__ import annotations

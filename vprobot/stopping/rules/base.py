@@ -1,9 +1,9 @@
 """The stop-rule interface: when the runner ends a planner's episode (`--stop`).
 
 Before each request the runner asks the episode's rule whether to stop now (`StopRule.check`);
-a planner may still end its episode earlier (a fixed plan runs out, `nbv@grid` stops itself),
-and the runner always stops at the view budget (`env.max_acquisitions` requests after the
-initial view). Every rule registers its class in `STOPS` under its `name`
+a planner may still end its episode earlier (a fixed plan runs out, `nbv@RULE` stops itself
+by a rule of its own), and the runner always stops at the view budget (`env.max_acquisitions`
+requests after the initial view). Every rule registers its class in `STOPS` under its `name`
 (`register_stop`); `vprobot.stopping.rules.make_stop_rule` builds rules by name from there.
 """
 
@@ -78,7 +78,8 @@ class StopRule(abc.ABC):
 
     @abc.abstractmethod
     def check(self, episode: Episode) -> str | None:
-        """Why to stop now, else None; called before each request of a governed planner."""
+        """Why to stop now, else None; called before each request of a governed planner (and
+        by `nbv@RULE` before each of its views)."""
 
 
 STOPS: Registry[type[StopRule]] = Registry("stop rule")
