@@ -145,7 +145,7 @@ def test_sweep_stopped_by_sigterm_then_killed_resumes_to_its_whole_table(
     assert trials[1].finished
     assert [row["configuration"] for row in table] == ["agent.algorithm=sac",
                                                        "agent.algorithm=ppo"]
-    assert all(row["seeds"] == 1 and 0 < row["coverage"] <= 1 for row in table)
+    assert all(row["seeds"] == 1 and 0 < row["coverage_pct"] <= 100 for row in table)
     text = (out / "study.md").read_text()
     assert "Partial" not in text
     assert "1 seed(s) (0), 64 steps each. The paper: 75 000 steps, 3 runs" in text
