@@ -167,7 +167,7 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
     document["carrier"] = record.carrier
     document["start_joints"] = _floats(record.start_joints)
     document["approach"] = record.approach.as_dict()
-    document["travel"] = record.travel_sum.as_dict()
+    document["travel_sum"] = record.travel_sum.as_dict()
     document["ground_truth"] = ground_truth_block(record)
     if estimates is not None:
         for view, (mean, std) in zip(document["views"], estimates, strict=True):
