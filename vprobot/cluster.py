@@ -10,10 +10,14 @@ from __future__ import annotations
 import os
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
 from typing import Any
 
 INSTALL_HINT = 'pip install -e ".[cluster]"'
+SHUTDOWN_WAIT_S = 30.0
+"""How long an interrupted `parallel_map` waits for its local Ray's processes to end."""
 
 
 def require_ray() -> Any:
@@ -104,5 +108,41 @@ def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
             # Disconnecting ends this driver's tasks and their workers (all of a local Ray's).
             # Not ray.cancel(force=True): racing a task that is just finishing, it can abort
             # the driver in Ray's task manager ("Tried to complete task that was not pending").
+            local = _descendants(os.getpid())
             ray.shutdown()
+            _wait_until_ended(local, SHUTDOWN_WAIT_S)
         raise
+
+
+def _descendants(pid: int) -> set[int]:
+    """The processes below `pid` (Linux /proc; empty elsewhere): a local Ray's raylet, its
+    workers and their helpers."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # ended meanwhile
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    found, stack = set(), [pid]
+    while stack:
+        for child in children.get(stack.pop(), []):
+            found.add(child)
+            stack.append(child)
+    return found
+
+
+def _running(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _wait_until_ended(pids: set[int], timeout_s: float) -> None:
+    """Wait (up to `timeout_s`) until the processes have ended. `ray.shutdown()` signals a
+    local Ray's workers but does not wait for them; a worker that lives on (orphaned) would
+    still hold its run's lock when the user reruns the command."""
+    deadline = time.monotonic() + timeout_s
+    while any(_running(pid) for pid in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
