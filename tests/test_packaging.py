@@ -30,10 +30,12 @@ def wheel_venv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str
     # Without PYTHONPATH, which could put a checkout's vprobot before the wheel's.
     env = {**{key: value for key, value in os.environ.items() if key != "PYTHONPATH"},
            "VPROBOT_CACHE_DIR": str(root / "cache"), "MUJOCO_GL": "egl"}
-    # Built from a copy: an in-tree build would leave build/ behind, and reuse a stale one.
+    # Built from a copy: an in-tree build would leave build/ behind, and reuse a stale one. The
+    # user's outputs (runs/, studies/) stay out: large, and written to while trainings run.
     source = root / "source"
     shutil.copytree(REPO, source, symlinks=True, ignore=shutil.ignore_patterns(
-        ".git", "build", "dist", "*.egg-info", "__pycache__", ".*_cache", "results", "docs"))
+        ".git", "build", "dist", "*.egg-info", "__pycache__", ".*_cache", "results", "docs",
+        "runs", "studies"))
     _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
           "-w", str(root / "dist"), str(source)], root, env)
     (wheel,) = (root / "dist").glob("vprobot-*.whl")

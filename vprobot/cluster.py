@@ -7,6 +7,7 @@ keep two cores busy without oversubscribing them.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
@@ -16,8 +17,9 @@ from pathlib import Path
 from typing import Any
 
 INSTALL_HINT = 'pip install -e ".[cluster]"'
-SHUTDOWN_WAIT_S = 30.0
-"""How long an interrupted `parallel_map` waits for its local Ray's processes to end."""
+SHUTDOWN_GRACE_S = 5.0
+"""How long an interrupted `parallel_map` lets its local Ray's processes end by themselves before
+it kills those left."""
 
 
 def require_ray() -> Any:
@@ -110,7 +112,7 @@ def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
             # the driver in Ray's task manager ("Tried to complete task that was not pending").
             local = _descendants(os.getpid())
             ray.shutdown()
-            _wait_until_ended(local, SHUTDOWN_WAIT_S)
+            _end(local)
         raise
 
 
@@ -139,10 +141,24 @@ def _running(pid: int) -> bool:
         return False
 
 
-def _wait_until_ended(pids: set[int], timeout_s: float) -> None:
-    """Wait (up to `timeout_s`) until the processes have ended. `ray.shutdown()` signals a
-    local Ray's workers but does not wait for them; a worker that lives on (orphaned) would
-    still hold its run's lock when the user reruns the command."""
+def _wait_until_ended(pids: set[int], timeout_s: float) -> bool:
+    """Wait up to `timeout_s` for the processes to end; whether they all have."""
     deadline = time.monotonic() + timeout_s
-    while any(_running(pid) for pid in pids) and time.monotonic() < deadline:
+    while any(_running(pid) for pid in pids):
+        if time.monotonic() > deadline:
+            return False
         time.sleep(0.05)
+    return True
+
+
+def _end(pids: set[int]) -> None:
+    """End a local Ray's processes after `ray.shutdown()`, which signals them but does not wait:
+    a worker that lived on (orphaned, slow to notice under load) would still hold its run's
+    lock when the user reruns the command."""
+    if _wait_until_ended(pids, SHUTDOWN_GRACE_S):
+        return
+    for pid in pids:
+        if _running(pid):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+    _wait_until_ended(pids, SHUTDOWN_GRACE_S)
