@@ -121,11 +121,9 @@ def _descendants(pid: int) -> set[int]:
     workers and their helpers."""
     children: dict[int, list[int]] = {}
     for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:  # ended meanwhile
-            continue
-        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+        fields = _stat_fields(stat)
+        if fields:  # else ended meanwhile
+            children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
     found, stack = set(), [pid]
     while stack:
         for child in children.get(stack.pop(), []):
@@ -134,11 +132,18 @@ def _descendants(pid: int) -> set[int]:
     return found
 
 
-def _running(pid: int) -> bool:
+def _stat_fields(stat: Path) -> list[str]:
+    """The fields of a /proc/PID/stat after the command name (state, parent pid, ...); empty
+    if the process has ended."""
     try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        return stat.read_text().rsplit(")", 1)[1].split()
     except OSError:
-        return False
+        return []
+
+
+def _running(pid: int) -> bool:
+    fields = _stat_fields(Path(f"/proc/{pid}/stat"))
+    return bool(fields) and fields[0] != "Z"
 
 
 def _wait_until_ended(pids: set[int], timeout_s: float) -> bool:
