@@ -394,7 +394,7 @@ class AgentConfig:
             also that of the row embedding the pooled context is taken from).
         learning_rate: Initial learning rate.
         learning_rate_schedule: `linear` decays it to 0 over `total_steps`; `constant` keeps it.
-        gamma: Discount factor.
+        gamma: Discount factor; 0 learns the immediate reward only (a contextual bandit).
         batch_size: Minibatch of a gradient step.
         buffer_size: Replay buffer transitions (SAC, DQN).
         learning_starts: Env steps before the first SAC or DQN update (DQN explores uniformly
@@ -483,8 +483,8 @@ class AgentConfig:
         if not self.learning_rate > 0 or not self.encoder_scale > 0:
             raise ConfigError(f"agent.learning_rate and agent.encoder_scale must be > 0, got "
                               f"{self.learning_rate}, {self.encoder_scale}")
-        if not 0.0 < self.gamma <= 1.0:
-            raise ConfigError(f"agent.gamma must lie in (0, 1], got {self.gamma}")
+        if not 0.0 <= self.gamma <= 1.0:
+            raise ConfigError(f"agent.gamma must lie in [0, 1], got {self.gamma}")
         polar, azimuth = self.sphere_bins
         if polar < 2 or azimuth < 2 or azimuth % 2:
             raise ConfigError(f"agent.sphere_bins must be (polar >= 2, even azimuth >= 2), got "
