@@ -1,5 +1,6 @@
-"""Training benchmark: env and training throughput of the CPU profile, the cost of one gradient
-step of the CPU and of the paper profile, and both buffers in bytes."""
+"""Training benchmark: env and training throughput of the CPU profile, that of the candidate-view
+profile with one env and with two env processes, the cost of one gradient step of the CPU and of
+the paper profile, and both buffers in bytes."""
 
 from __future__ import annotations
 
@@ -52,16 +53,35 @@ def update_ms(config: Config, steps: int) -> float:
     return float(np.median(times))
 
 
+def training_rate(config: Config, envs: int, steps: int, progress: bool) -> float:
+    """Env steps per second of training (updates included) with `envs` env processes, after a
+    first batch is collected; no pretraining."""
+    agent = config.agent
+    config = replace(config, "agent", learning_starts=0, n_envs=envs,
+                     buffer_size=steps + agent.batch_size + 8 * envs)
+    vec = make_vec_env(config, 0, [0] * envs, None)
+    model = build_model(config, vec, seed=0, device="cpu")
+    model.learn(agent.batch_size)  # fill a batch before timing
+    start = time.perf_counter()
+    model.learn(steps, reset_num_timesteps=False, progress_bar=progress)
+    rate = steps / (time.perf_counter() - start)
+    vec.close()
+    return rate
+
+
 def run_train_benchmark(config: Config, steps: int = 300, paper_updates: int = 1,
                         progress: bool = True) -> dict[str, Any]:
-    """Measure the CPU profile (`configs/agents/cpu.yaml`) and the paper profile.
+    """Measure the CPU profile (`configs/agents/cpu.yaml`), the candidate-view profile
+    (`cpu-candidates.yaml`, one env and two env processes: what the second core buys) and the
+    paper profile.
 
     `config` supplies the cell, sensor and kinematics; the profiles their env and agent
     sections. Torch runs on the profile's threads (one).
     """
-    cpu, paper = (profile_config(PROFILES_DIR / name) for name in ("cpu.yaml", "paper.yaml"))
-    cpu = dataclasses.replace(config, env=cpu.env, agent=cpu.agent)
-    paper = dataclasses.replace(config, env=paper.env, agent=paper.agent)
+    cpu, candidates, paper = (
+        dataclasses.replace(config, env=profile.env, agent=profile.agent)
+        for profile in (profile_config(PROFILES_DIR / name)
+                        for name in ("cpu.yaml", "cpu-candidates.yaml", "paper.yaml")))
     torch.set_num_threads(cpu.agent.torch_threads)
     env = InspectEnv(cpu)
     rng = np.random.default_rng(0)
@@ -72,16 +92,11 @@ def run_train_benchmark(config: Config, steps: int = 300, paper_updates: int = 1
         if terminated or truncated:
             env.reset()
     env_rate = steps / (time.perf_counter() - start)
-    vec = make_vec_env(replace(cpu, "agent", learning_starts=0), 0, [0], None)
-    model = build_model(replace(cpu, "agent", learning_starts=0), vec, seed=0, device="cpu")
-    model.learn(cpu.agent.batch_size)  # fill a batch before timing
-    start = time.perf_counter()
-    model.learn(steps, reset_num_timesteps=False, progress_bar=progress)
-    train_rate = steps / (time.perf_counter() - start)
-    vec.close()
     return {
         "env_steps_per_s": env_rate,
-        "train_steps_per_s": train_rate,
+        "train_steps_per_s": training_rate(cpu, 1, steps, progress),
+        "candidates_train_steps_per_s_1_env": training_rate(candidates, 1, steps, progress),
+        "candidates_train_steps_per_s_2_envs": training_rate(candidates, 2, steps, progress),
         "update_ms_cpu": update_ms(cpu, 20),
         "update_ms_paper": update_ms(paper, paper_updates),
         "buffer_bytes_cpu": buffer_memory(cpu)["total_bytes"],
