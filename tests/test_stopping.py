@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from pathlib import Path
 
@@ -14,9 +15,12 @@ from vprobot.episode import ViewRecord
 from vprobot.geometry import Pose
 from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN
 from vprobot.sensor_model import SensorModel
-from vprobot.stopping.calibration import interval_coverage, mae_per_view
+from vprobot.stopping import folds as folds_module
+from vprobot.stopping.calibration import interval_coverage, mae_per_view, unseen_scale
+from vprobot.stopping.dataset import Dataset
 from vprobot.stopping.estimator import CoverageEstimator, fit
 from vprobot.stopping.features import BAND_NEAR_DEG, FEATURES, CoverageFeatures
+from vprobot.stopping.folds import family_folds
 from vprobot.stopping.report import fit_estimate
 from vprobot.viewsphere import sphere_directions
 
@@ -162,6 +166,98 @@ def test_interval_coverage_is_the_level_on_gaussian_draws_and_counts_a_hand_case
     assert hand == pytest.approx([1 / 3, 1.0])
     with pytest.raises(ValueError, match=r"levels must lie in \(0, 1\)"):
         interval_coverage(np.zeros(1), np.ones(1), np.zeros(1), (1.0,))
+
+
+def test_unseen_scale_is_the_least_factor_that_makes_the_interval_hold_the_level() -> None:
+    # Hand case: std 0, disagreement 1, errors 0.1 .. 0.4; the 50 % interval (z = 0.6745)
+    # holds two of four once c reaches 0.2^2 / z^2.
+    hand = unseen_scale(np.zeros(4), np.zeros(4), np.ones(4), np.array([0.1, -0.2, 0.3, 0.4]),
+                        level=0.5)
+    assert hand == pytest.approx(0.2 ** 2 / 0.6744897501960817 ** 2)
+    # Family-biased residuals far beyond the stated std, larger where the members disagree;
+    # brute force: the least of the candidate factors (each case's own) that holds 95 %.
+    rng = np.random.default_rng(2)
+    std = rng.uniform(0.005, 0.02, size=600)
+    disagreement = rng.uniform(0.1, 1.0, size=600) * 1e-4
+    truth = rng.uniform(0.5, 1.0, size=600)
+    mean = truth + rng.choice([-8.0, 0.0, 5.0], size=600) * np.sqrt(disagreement) \
+        + std * rng.normal(size=600)
+    scale = unseen_scale(mean, std, disagreement, truth)
+
+    def holds(factor: float) -> float:
+        return interval_coverage(mean, np.sqrt(std ** 2 + factor * disagreement), truth,
+                                 (0.95,))[0]
+
+    candidates = np.sort(np.maximum(((truth - mean) ** 2 / 1.959963984540054 ** 2 - std ** 2)
+                                    / disagreement, 0.0))
+    brute = next(value for value in candidates if holds(value * (1 + 1e-9)) >= 0.95)
+    assert holds(0.0) < 0.8 and holds(scale) >= 0.95 and scale == pytest.approx(brute, rel=1e-6)
+    assert holds(scale * 0.999) < 0.95
+    with pytest.raises(ValueError, match="no factor on the disagreement holds 95 %"):
+        unseen_scale(np.zeros(2), np.full(2, 0.01), np.zeros(2), np.ones(2))
+
+
+def test_a_family_fold_never_sees_its_family_and_is_reused_from_its_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Feature 0 is the family's number, so what each fit was given shows which families it saw.
+    names = np.array(["motor", "flange", "lever"])
+
+    def dataset(families: list[int]) -> Dataset:
+        rng = np.random.default_rng(len(families))
+        return Dataset(np.column_stack([families, rng.uniform(size=len(families))]),
+                       rng.uniform(0.5, 1.0, len(families)), np.ones(len(families), dtype=int),
+                       np.array(["nbv"] * len(families)), names[families])
+
+    training, validation = dataset([0, 1, 2] * 6), dataset([0, 1, 2, 2])
+    seen: list[tuple[set[float], set[float]]] = []
+
+    def spy(features: np.ndarray, coverage: np.ndarray, check: np.ndarray, *args: object,
+            **kwargs: object) -> CoverageEstimator:
+        seen.append((set(features[:, 0]), set(check[:, 0])))
+        return fit(features, coverage, check, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(folds_module, "fit", spy)
+    options = {"members": 1, "hidden": 2, "steps": 25}
+    pooled = family_folds(training, validation, ["flange", "lever"], ("family", "x"),
+                          out_dir=tmp_path, progress=False, **options)
+    assert seen == [({0.0, 2.0}, {0.0, 2.0}), ({0.0, 1.0}, {0.0, 1.0})]
+    # Scored on the left-out family's rows of both lists: 6 + 1 flange, 6 + 2 lever.
+    assert list(pooled.families) == ["flange"] * 7 + ["lever"] * 8
+    again = family_folds(training, validation, ["flange", "lever"], ("family", "x"),
+                         out_dir=tmp_path, progress=False, **options)
+    assert len(seen) == 2 and np.array_equal(again.mean, pooled.mean)
+    with pytest.raises(ValueError, match="cannot leave out family 'pulley'"):
+        family_folds(training, validation, ["pulley"], ("family", "x"), progress=False)
+
+
+def test_the_widening_scales_the_disagreement_and_survives_a_save(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    x = rng.uniform(size=(40, 2))
+    stated = fit(x, rng.uniform(0.5, 1.0, 40), x, rng.uniform(0.5, 1.0, 40), ("a", "b"),
+                 members=3, hidden=4, steps=25)
+    widened = dataclasses.replace(stated, unseen_scale=7.0)
+    mean, std = stated.estimate(x)
+    wide_mean, wide_std = widened.estimate(x)
+    # Brute force from the members: the mixture's variance plus 7 times that of their means.
+    members = [dataclasses.replace(stated, layers=(member,)).estimate(x) for member in
+               stated.layers]
+    means = np.array([one[0] for one in members])
+    variances = np.array([one[1] for one in members]) ** 2
+    expected = variances.mean(axis=0) + 8.0 * means.var(axis=0)
+    assert np.array_equal(wide_mean, mean) and wide_std ** 2 == pytest.approx(expected)
+    assert std ** 2 == pytest.approx(variances.mean(axis=0) + means.var(axis=0))
+    loaded = CoverageEstimator.load(widened.save(tmp_path / "estimator.npz"))
+    assert loaded.unseen_scale == 7.0 and np.array_equal(loaded.estimate(x)[1], wide_std)
+    # A format 1 file (before the widening) loads with none; an unknown format is refused.
+    with np.load(tmp_path / "estimator.npz") as data:
+        arrays = {key: data[key] for key in data.files if key != "unseen_scale"}
+    np.savez(tmp_path / "old.npz", **(arrays | {"format": np.array(1)}))
+    assert np.array_equal(CoverageEstimator.load(tmp_path / "old.npz").estimate(x)[1], std)
+    np.savez(tmp_path / "new.npz", **(arrays | {"format": np.array(9)}))
+    with pytest.raises(ValueError, match="estimator format 9, expected 1 to 2"):
+        CoverageEstimator.load(tmp_path / "new.npz")
+    with pytest.raises(ValueError, match="unseen_scale must be finite and >= 0, got -1"):
+        dataclasses.replace(stated, unseen_scale=-1.0)
 
 
 def test_mae_per_view_averages_each_view_count_apart() -> None:

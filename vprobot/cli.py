@@ -728,9 +728,12 @@ def build_parser() -> argparse.ArgumentParser:
     stop_commands = stop.add_subparsers(dest="stop_command", required=True)
     stop_fit = add("fit", command_stop_fit,
                    "Fit the model-free coverage estimate on rollouts of split v1 (training "
-                   "objects; validation list for selection and the report).", stop_commands)
+                   "objects; validation list for selection and the report) and widen its std "
+                   "for unseen part families (each training family left out in turn); "
+                   "resumable.", stop_commands)
     stop_fit.add_argument("--out", required=True,
-                          help="folder for the rollouts, the estimator and the report")
+                          help="folder for the rollouts, the family folds, the estimator and "
+                               "the report")
     stop_fit.add_argument("--episodes", type=POSITIVE_INT, default=400,
                           help="training episodes, one planner each in turn (default 400)")
     stop_fit.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,

@@ -40,12 +40,18 @@ class Dataset:
         coverage: (n,) the true coverage after the view.
         views: (n,) views requested so far (1 is the first).
         planners: (n,) the planner of the row's episode.
+        families: (n,) the part family of the row's object (`motor` for a motor).
     """
 
     features: np.ndarray
     coverage: np.ndarray
     views: np.ndarray
     planners: np.ndarray
+    families: np.ndarray
+
+    def select(self, rows: np.ndarray) -> Dataset:
+        """The rows a boolean mask (n,) keeps."""
+        return Dataset(*(getattr(self, field.name)[rows] for field in dataclasses.fields(self)))
 
 
 def rollout_config(config: Config) -> Config:
@@ -120,4 +126,5 @@ def read_dataset(path: str | Path) -> Dataset:
                           ).reshape(len(rows), len(FEATURES)),
         coverage=np.array([float(row["coverage"]) for row in rows]),
         views=np.array([int(row["view"]) for row in rows]),
-        planners=np.array([row["planner"] for row in rows]))
+        planners=np.array([row["planner"] for row in rows]),
+        families=np.array([row["family"] for row in rows]))

@@ -3,14 +3,18 @@ score a fitted one on episode lists (`vprobot stop error`).
 
 `stop fit` writes into one folder: the rollouts (`training.csv`, `validation.csv`, with
 `dataset.json` saying how they were drawn; reused when present and drawn alike, so that a run cut
-short goes on where it stopped), the estimator (`estimator.npz`), the mean absolute error per view
-count on the validation episodes (`mae_per_view.csv`), the calibration (`calibration.csv`,
-`reliability.png`) and a Markdown summary (`estimate.md`).
+short goes on where it stopped), the leave-one-family-out estimators (`folds/`, reused likewise)
+and their estimates of the families they never saw (`family_folds.csv`), the estimator with its
+widening for unseen families (`estimator.npz`), the mean absolute error per view count on the
+validation episodes (`mae_per_view.csv`), the calibration (`calibration.csv`, `reliability.png`)
+and a Markdown summary (`estimate.md`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import shutil
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -25,10 +29,13 @@ from vprobot.planners.runner import make_planner
 from vprobot.splits import Split
 from vprobot.stopping.calibration import (
     LEVELS,
+    UNSEEN_LEVEL,
     interval_coverage,
     mae_per_view,
     plot_reliability,
     reliability,
+    two_sided_z,
+    unseen_scale,
 )
 from vprobot.stopping.dataset import (
     COLUMNS,
@@ -40,6 +47,7 @@ from vprobot.stopping.dataset import (
 )
 from vprobot.stopping.estimator import fit, load_estimator
 from vprobot.stopping.features import FEATURES
+from vprobot.stopping.folds import FOLDS_DIR, family_folds
 
 ESTIMATOR_NAME = "estimator.npz"
 
@@ -68,6 +76,8 @@ def _dataset(out: Path, config: Config, episodes: int, seed: int, planners: Sequ
         path = out / f"{name}.csv"
         if path.is_file():
             continue
+        # The folds' estimators were fit on the rollouts being replaced.
+        shutil.rmtree(out / FOLDS_DIR, ignore_errors=True)
         start = time.perf_counter()
         write_text(path, csv_text(COLUMNS, collect(config, listed, progress)))
         seconds[name] = time.perf_counter() - start
@@ -77,7 +87,8 @@ def _dataset(out: Path, config: Config, episodes: int, seed: int, planners: Sequ
 def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed: int = 0,
                  planners: Sequence[str] | None = None, progress: bool = True
                  ) -> dict[str, Any]:
-    """Collect the rollouts (if missing), fit the estimator, write the report into `out_dir`.
+    """Collect the rollouts (if missing), fit the estimator and the leave-one-family-out folds
+    (if missing), widen the estimate for unseen families, write the report into `out_dir`.
 
     Args:
         config: The configuration (cell, sensor, robot, view budget).
@@ -88,7 +99,8 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
         progress: Show progress bars.
 
     Returns:
-        The report's figures: MAE per view count, calibration, collection seconds.
+        The report's figures: MAE per view count, calibration (as the ensemble states it and
+        widened), the folds' errors, seconds.
 
     Raises:
         ValueError: For bad counts or planners, or a folder holding rollouts drawn otherwise.
@@ -100,10 +112,23 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
     training = read_dataset(out / "training.csv")
     validation = read_dataset(out / "validation.csv")
     start = time.perf_counter()
-    estimator = fit(training.features, training.coverage, validation.features,
-                    validation.coverage, FEATURES, seed)
+    stated = fit(training.features, training.coverage, validation.features,
+                 validation.coverage, FEATURES, seed)
     seconds["fit"] = time.perf_counter() - start
+    start = time.perf_counter()
+    folds = family_folds(training, validation, split.training_families, FEATURES, seed, out,
+                         progress)
+    seconds["folds"] = time.perf_counter() - start
+    scale = unseen_scale(folds.mean, folds.std, folds.disagreement, folds.truth)
+    estimator = dataclasses.replace(stated, unseen_scale=scale)
     estimator.save(out / ESTIMATOR_NAME)
+    write_text(out / "family_folds.csv", csv_text(
+        ("family", "planner", "view", "coverage", "mean", "std", "disagreement"),
+        [{"family": family, "planner": planner, "view": view, "coverage": truth, "mean": mean,
+          "std": std, "disagreement": spread} for family, planner, view, truth, mean, std,
+         spread in zip(folds.families, folds.planners, folds.views.tolist(),
+                       folds.truth.tolist(), folds.mean.tolist(), folds.std.tolist(),
+                       folds.disagreement.tolist(), strict=True)]))
     mean, std = estimator.estimate(validation.features)
     truth = validation.coverage
     error = np.abs(truth - mean)
@@ -114,6 +139,9 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
                                               validation.views[validation.planners == planner]))
                    for planner in planners}
     observed = interval_coverage(mean, std, truth)
+    stated_std = stated.estimate(validation.features)[1]
+    stated_observed = interval_coverage(mean, stated_std, truth)
+    widened_folds = np.sqrt(folds.std ** 2 + scale * folds.disagreement)
     bins = reliability(std, error)
     write_text(out / "mae_per_view.csv", csv_text(
         ("view", "mae_pp", "rows", *(f"mae_pp_{p}" for p in planners)),
@@ -121,16 +149,39 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
           **{f"mae_pp_{p}": (100 * per_planner[p][view] if view in per_planner[p] else None)
              for p in planners}} for view, mae, rows in per_view]))
     write_text(out / "calibration.csv", csv_text(
-        ("level", "observed"), [{"level": level, "observed": share}
-                                for level, share in zip(LEVELS, observed, strict=True)]))
-    plot_reliability(std, error, observed, out / "reliability.png",
-                     f"Coverage estimate on the validation episodes ({len(truth)} views)")
+        ("level", "observed", "observed_stated"),
+        [{"level": level, "observed": share, "observed_stated": before}
+         for level, share, before in zip(LEVELS, observed, stated_observed, strict=True)]))
+    folds_error = np.abs(folds.truth - folds.mean)
+    plot_reliability({"validation, stated": (stated_std, error),
+                      "validation, widened": (std, error),
+                      "left-out families, stated": (folds.std, folds_error),
+                      "left-out families, widened": (widened_folds, folds_error)},
+                     out / "reliability.png",
+                     f"Coverage estimate: validation ({len(truth)} views) and each training "
+                     f"family estimated without it ({len(folds.truth)})")
     figures = {"mae_pp": 100 * float(error.mean()), "per_view": per_view,
                "per_planner": per_planner, "levels": list(LEVELS),
-               "observed": observed.tolist(), "reliability": bins, "seconds": seconds,
-               "training_rows": len(training.coverage), "validation_rows": len(truth)}
+               "observed": observed.tolist(), "observed_stated": stated_observed.tolist(),
+               "reliability": bins, "seconds": seconds,
+               "training_rows": len(training.coverage), "validation_rows": len(truth),
+               "unseen_scale": scale,
+               "folds": [_fold_row(folds.mean, folds.std, widened_folds, folds.truth,
+                                   folds.families == family) | {"family": family}
+                         for family in split.training_families]}
     write_text(out / "estimate.md", _markdown(figures, planners))
     return figures
+
+
+def _fold_row(mean: np.ndarray, stated: np.ndarray, widened: np.ndarray, truth: np.ndarray,
+              rows: np.ndarray) -> dict[str, Any]:
+    """A left-out family's bias, error, and the share its 95 % intervals hold."""
+    error = mean[rows] - truth[rows]
+    return {"rows": int(rows.sum()), "bias_pp": 100 * float(error.mean()),
+            "mae_pp": 100 * float(np.abs(error).mean()),
+            **{name: float(interval_coverage(mean[rows], std[rows], truth[rows],
+                                             (UNSEEN_LEVEL,))[0])
+               for name, std in (("stated", stated), ("widened", widened))}}
 
 
 def _markdown(figures: dict[str, Any], planners: Sequence[str]) -> str:
@@ -148,12 +199,24 @@ def _markdown(figures: dict[str, Any], planners: Sequence[str]) -> str:
         cells = [f"{100 * figures['per_planner'][p][view]:.2f}"
                  if view in figures["per_planner"][p] else "-" for p in planners]
         lines.append(f"| {view} | {100 * mae:.2f} | {rows} | " + " | ".join(cells) + " |")
+    lines += ["", "Leave-one-family-out: each training family's rows estimated by an estimator "
+              "fit without it; the share of its views within the 95 % interval as the "
+              "ensemble states it and widened for an unseen family (in sample: the widening "
+              "is learned from these rows).", "",
+              "| left out | rows | bias pp | MAE pp | stated 95 % holds % | widened % |",
+              "|---|---|---|---|---|---|"]
+    lines += [f"| {row['family']} | {row['rows']} | {row['bias_pp']:+.2f} | {row['mae_pp']:.2f}"
+              f" | {100 * row['stated']:.1f} | {100 * row['widened']:.1f} |"
+              for row in figures["folds"]]
+    lines += ["", f"Widening for an unseen family: {figures['unseen_scale']:.2f} times the "
+              f"members' disagreement (the variance of their means) added to the variance."]
     lines += ["", "Calibration: the share of validation views whose true coverage lies within "
-              "the stated two-sided interval.", "", "| stated level % | observed % |",
-              "|---|---|"]
-    lines += [f"| {100 * level:.0f} | {100 * share:.1f} |"
-              for level, share in zip(figures["levels"], figures["observed"], strict=True)]
-    lines += ["", "Reliability (bins of equal counts of the stated std):", "",
+              "the two-sided interval, as the ensemble states it and widened.", "",
+              "| level % | stated: observed % | widened: observed % |", "|---|---|---|"]
+    lines += [f"| {100 * level:.0f} | {100 * before:.1f} | {100 * share:.1f} |"
+              for level, before, share in zip(figures["levels"], figures["observed_stated"],
+                                              figures["observed"], strict=True)]
+    lines += ["", "Reliability of the widened estimate (bins of equal counts of the std):", "",
               "| stated std pp | observed RMS error pp | rows |", "|---|---|---|"]
     lines += [f"| {100 * std:.2f} | {100 * rms:.2f} | {rows} |"
               for std, rms, rows in figures["reliability"]]
@@ -170,7 +233,8 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
 
     Rollouts as `stop fit` draws them (robot in the loop, no coverage goal) are written to
     `out_dir/<list>.csv` and reused when present; `error.csv` and `error.md` hold the mean
-    absolute error per list and view count, and the calibration per list.
+    absolute error per list and view count, and the calibration per list (as the ensemble
+    states its std and widened for unseen families), which `reliability.png` plots.
 
     Args:
         config: The configuration (cell, sensor, robot, view budget).
@@ -198,11 +262,18 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
     lines = ["# Coverage estimate on episode lists", "",
              f"Planners of the rollouts: {', '.join(planners)}; robot in the loop, no coverage "
              f"goal. Mean absolute error (pp) per view count, then the share of views whose "
-             f"true coverage lies within the stated two-sided interval.", "",
+             f"true coverage lies within the two-sided interval.", "",
              "| list | " + " | ".join(str(view) for view in range(1, 12)) + " | all |",
              "|---" * 13 + "|"]
-    calibration = ["", "| list | " + " | ".join(f"{100 * level:.0f} %" for level in LEVELS)
-                   + " |", "|---" * (1 + len(LEVELS)) + "|"]
+    stated = dataclasses.replace(model, unseen_scale=0.0)
+    z = two_sided_z(UNSEEN_LEVEL)
+    calibration = ["", f"Intervals as the ensemble states them, then widened for an unseen family "
+                   f"(the estimate `--stop estimate` uses); the last column is the mean half-width "
+                   f"of the {100 * UNSEEN_LEVEL:.0f} % interval.", "",
+                   "| list | std | " + " | ".join(f"{100 * level:.0f} %" for level in LEVELS)
+                   + f" | {100 * UNSEEN_LEVEL:.0f} % half-width pp |",
+                   "|---" * (3 + len(LEVELS)) + "|"]
+    series: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for name, listed in specs.items():
         path = out / f"{name}.csv"
         if not path.is_file():
@@ -218,9 +289,15 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
         by_view = {view: f"{100 * mae:.2f}" for view, mae, _ in per_view}
         lines.append(f"| {name} | " + " | ".join(by_view.get(view, "-") for view in range(1, 12))
                      + f" | {overall:.2f} |")
-        shares = interval_coverage(mean, std, data.coverage)
-        calibration.append(f"| {name} | " + " | ".join(f"{100 * share:.1f}" for share in shares)
-                           + " |")
+        for label, deviation in (("stated", stated.estimate(data.features)[1]),
+                                 ("widened", std)):
+            series[f"{name}, {label}"] = (deviation, np.abs(data.coverage - mean))
+            shares = interval_coverage(mean, deviation, data.coverage)
+            calibration.append(f"| {name} | {label} | "
+                               + " | ".join(f"{100 * share:.1f}" for share in shares)
+                               + f" | {100 * z * float(deviation.mean()):.2f} |")
     write_text(out / "error.csv", csv_text(("list", "view", "mae_pp", "rows"), rows))
     write_text(out / "error.md", "\n".join([*lines, *calibration]) + "\n")
+    plot_reliability(series, out / "reliability.png",
+                     "Coverage estimate on episode lists: as stated and widened")
     return rows
