@@ -35,6 +35,8 @@ def main() -> None:
     reached = (f"first at or above 90 % after {int(first['step']):,} steps, "
                f"{float(first['wall_s']) / 60:.1f} min" if first else "never at 90 %")
     command = (args.run / "command.txt").read_text().splitlines()
+    pretrained = (", the Q-network fitted to the teacher before any RL step"
+                  if int(best["step"]) == 0 and config.agent.pretrain_episodes else "")
     decides = ", and decides itself when to stop" if config.env.stop_action else ""
     (args.out / "README.md").write_text(f"""# A bundled agent
 
@@ -42,9 +44,10 @@ Trained by `{command[0]}` ({command[1]}, {command[2]}): {config.agent.algorithm.
 `{config.agent.encoder}` encoder on `{config.env.state}`, {config.env.action},
 {config.env.reward}, carrier `{config.env.carrier}`{decides}.
 `model.zip` is the run's best evaluated model under `agent.select: {config.agent.select}`
-(step {int(best['step']):,}): on the run's {int(float(best['episodes']))} evaluation episodes,
-deterministic, at full sensor resolution, it covered {float(best['coverage_pct']):.1f} % with
-{float(best['acquisitions']):.2f} acquisitions, reaching the goal in
+(step {int(best['step']):,}{pretrained}): on the run's {int(float(best['episodes']))} evaluation
+episodes, deterministic, at full sensor resolution, it covered
+{float(best['coverage_pct']):.1f} % with {float(best["acquisitions"]):.2f} acquisitions,
+reaching the goal in
 {float(best['success_pct']):.0f} % of them, {float(best['reachable_pct'] or 100):.0f} % of its
 requests reachable. Evaluations during training ({reached}): `evaluations.csv`; curves:
 `curves.png`; the resolved configuration (`config.yaml`) tells the planner how the agent sees

@@ -11,10 +11,11 @@ import pytest
 from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 from helpers import SmokeRuns
 
-from vprobot.agents.trained import BUNDLED_AGENT, load_agent
+from vprobot.agents.trained import BUNDLED_AGENT, BUNDLED_AGENTS, load_agent
 from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.planners.agent import AgentPlanner
+from vprobot.paths import AGENTS_DIR, OBJECTS_DIR
 from vprobot.planners.runner import plan_motor
 
 CONFIG = Config()
@@ -26,10 +27,12 @@ def run(smoke_runs: SmokeRuns) -> Path:
     return smoke_runs("sac", "sphere", False)[2]
 
 
-def test_bundled_agent_plans_the_bundled_motor_end_to_end() -> None:
+def test_bundled_agent_plans_a_part_of_no_training_family_end_to_end() -> None:
+    # The pipe tee is no motor and of no generated family: the agent never saw its like.
     assert (BUNDLED_AGENT / "model.zip").stat().st_size <= 20 * 1024**2
-    _, record, document, text = plan_motor(CONFIG, planner="agent", seed=0)
-    assert "agent on motor_000.stl" in text
+    _, record, document, text = plan_motor(CONFIG, OBJECTS_DIR / "pipe_tee.stl",
+                                           planner="agent", seed=0)
+    assert "agent on pipe_tee.stl" in text
     assert len(document["views"]) == len(record.views) >= 2
     for view in document["views"]:
         if view["reachable"]:
@@ -85,8 +88,17 @@ def test_a_run_directory_gives_its_best_model(run: Path) -> None:
     assert load_agent(checkpoint).path == checkpoint  # its run's config.yaml is found above
 
 
+def test_bundled_agents_load_by_name_and_the_default_is_the_generalist() -> None:
+    assert set(BUNDLED_AGENTS) == {"generalist", "cpu", "cpu-stop"}
+    assert BUNDLED_AGENT == AGENTS_DIR / "generalist"
+    motors_only = load_agent("cpu")
+    assert motors_only.path == (AGENTS_DIR / "cpu" / "model.zip").resolve()
+    assert motors_only.config.env.state == "s_cov"
+    assert load_agent().config.env.action == "A_view"
+
+
 def test_missing_or_corrupt_agents_are_clear_errors(run: Path, tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="does not exist"):
+    with pytest.raises(ValueError, match="does not exist .*bundled agent: cpu, cpu-stop, generalist"):
         load_agent(tmp_path / "nowhere")
     empty = tmp_path / "empty"
     empty.mkdir()

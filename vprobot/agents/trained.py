@@ -16,8 +16,13 @@ from vprobot.config import Config, from_mapping, read_yaml
 from vprobot.env.observations import observation_space
 from vprobot.paths import AGENTS_DIR
 
-BUNDLED_AGENT = AGENTS_DIR / "cpu"
-"""The agent vprobot ships: trained with `configs/agents/cpu.yaml` (see its README)."""
+BUNDLED_AGENTS = {path.name: path for path in sorted(AGENTS_DIR.iterdir()) if path.is_dir()}
+"""The agents vprobot ships, by name (`--planner agent:NAME`), one run folder each with a README
+saying how it was trained: `generalist` (the candidate-view agent of
+`configs/agents/cpu-candidates.yaml`), `cpu` (the motors-only agent of `configs/agents/cpu.yaml`,
+the paper's setting) and `cpu-stop` (which decides itself when to stop)."""
+BUNDLED_AGENT = AGENTS_DIR / "generalist"
+"""The agent of `--planner agent`."""
 RUN_MODELS = ("best_model.zip", "final_model.zip", "model.zip")
 """What a directory offers, in order of preference."""
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"sac": SAC, "ppo": PPO, "dqn": CandidateDQN}
@@ -40,6 +45,7 @@ class TrainedAgent:
 
 
 def _model_file(source: Path) -> Path:
+    source = BUNDLED_AGENTS.get(str(source), source)
     if source.is_dir():
         for name in RUN_MODELS:
             if (source / name).is_file():
@@ -48,7 +54,8 @@ def _model_file(source: Path) -> Path:
                          f"training run?")
     if source.is_file():
         return source
-    raise ValueError(f"agent {source} does not exist (give a run directory or a model .zip)")
+    raise ValueError(f"agent {source} does not exist (give a bundled agent: "
+                     f"{', '.join(BUNDLED_AGENTS)}, a run directory or a model .zip)")
 
 
 def load_run_config(run_dir: Path) -> Config:
@@ -76,8 +83,8 @@ def load_agent(source: str | Path | None = None) -> TrainedAgent:
     """Load an agent for planning on the CPU; no network access, no GPU needed.
 
     Args:
-        source: A run directory (its best model), a model .zip inside a run, or None for the
-            bundled agent.
+        source: A bundled agent's name (`BUNDLED_AGENTS`), a run directory (its best model), a
+            model .zip inside a run, or None for the default bundled agent.
 
     Raises:
         ValueError: For a missing path, a folder without a model, a model whose run config is

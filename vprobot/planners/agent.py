@@ -1,4 +1,4 @@
-"""A trained agent as a next-best-view planner (`--planner agent`, `--planner agent:PATH`).
+"""A trained agent as a next-best-view planner (`--planner agent`, `agent:NAME`, `agent:PATH`).
 
 Like the paper's agents it starts from the episode's initial view and chooses one view at a time
 from what was acquired so far: the episode's state is built exactly as the env builds it for the
@@ -28,7 +28,8 @@ class AgentPlanner(Planner):
     """Plans with a trained policy (deterministic).
 
     Args:
-        source: A run directory, a model .zip in a run, or None for the bundled agent.
+        source: A bundled agent's name, a run directory, a model .zip in a run, or None for
+            the default bundled agent.
         views: Stop after this many views in all (None: at the goal or the view budget).
 
     Raises:
@@ -37,7 +38,7 @@ class AgentPlanner(Planner):
 
     name = "agent"
     pattern = r"(?::(?P<source>.+))?"
-    usage = "agent, agent:PATH"
+    usage = "agent, agent:NAME, agent:PATH"
     counted = True
     initial_view = True
 
@@ -61,7 +62,7 @@ class AgentPlanner(Planner):
 
     @classmethod
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
-        """The agent of `agent:PATH`, or the bundled one (`agent`)."""
+        """The agent of `agent:NAME` or `agent:PATH`, or the default bundled one (`agent`)."""
         return cls(params.get("source"), views)
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:

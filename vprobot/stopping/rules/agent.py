@@ -24,7 +24,7 @@ class AgentStop(StopRule):
         if not self.applies_to(planner):
             raise ValueError(f"stop rule 'agent' needs an agent planner whose action has a stop "
                              f"(trained with env.stop_action, e.g. "
-                             f"agent:vprobot/assets/agents/cpu-stop); planner {planner.name!r} "
+                             f"agent:cpu-stop); planner {planner.name!r} "
                              f"has none")
 
     def check(self, episode: Episode) -> str | None:
