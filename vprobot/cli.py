@@ -773,8 +773,9 @@ def build_parser() -> argparse.ArgumentParser:
                             f"{' '.join(study_defaults.DEFAULT_LISTS)})")
     stop_study.add_argument("--planners", nargs="+", type=_planner_name,
                             default=list(study_defaults.DEFAULT_PLANNERS),
-                            help=f"planners (default: the bundled agent, nbv and the bundled "
-                            f"agent with a stop action, {study_defaults.CPU_STOP_AGENT})")
+                            help=f"planners (default: "
+                            f"{' '.join(study_defaults.DEFAULT_PLANNERS)}: the bundled agent, "
+                            f"nbv and the bundled agent with a stop action)")
     add_stop(stop_study, many=study_defaults.DEFAULT_RULES)
     stop_study.add_argument("--workers", type=POSITIVE_INT, default=1,
                             help="episodes at once on Ray (one CPU each); 1: in this process")

@@ -20,16 +20,15 @@ from typing import Any
 from vprobot.config import Config
 from vprobot.evaluation import evaluate, evaluation_episodes, finished_rows, stop_label
 from vprobot.files import csv_text, save_figure, write_text
-from vprobot.paths import AGENTS_DIR, PACKAGE_DIR
+from vprobot.paths import PACKAGE_DIR
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.stopping.rules import make_stop_rule
 
 DEFAULT_LISTS = ("test-v1", "families-test-v1", "shapes-v1")
 DEFAULT_RULES = ("goal", "estimate", "grid", "views:5", "agent")
-CPU_STOP_AGENT = f"agent:{AGENTS_DIR / 'cpu-stop'}"
-"""The bundled agent with a stop action."""
-DEFAULT_PLANNERS = ("agent", "nbv", CPU_STOP_AGENT)
-"""The bundled agent, volumetric next-best view, and the bundled agent with a stop action."""
+DEFAULT_PLANNERS = ("agent", "nbv", "agent:cpu-stop")
+"""The bundled default agent, volumetric next-best view, and the bundled agent with a stop
+action."""
 COLUMNS = ("episodes", "planner", "stop", "count", "at_goal_pct", "coverage_pct", "requested",
            "acquisitions", "wasted", "extra_vs_goal")
 
