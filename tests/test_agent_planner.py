@@ -14,8 +14,8 @@ from helpers import SmokeRuns
 from vprobot.agents.trained import BUNDLED_AGENT, BUNDLED_AGENTS, load_agent
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.planners.agent import AgentPlanner
 from vprobot.paths import AGENTS_DIR, OBJECTS_DIR
+from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.runner import plan_motor
 
 CONFIG = Config()
@@ -98,7 +98,8 @@ def test_bundled_agents_load_by_name_and_the_default_is_the_generalist() -> None
 
 
 def test_missing_or_corrupt_agents_are_clear_errors(run: Path, tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="does not exist .*bundled agent: cpu, cpu-stop, generalist"):
+    with pytest.raises(ValueError,
+                       match=r"does not exist .*bundled agent: cpu, cpu-stop, generalist"):
         load_agent(tmp_path / "nowhere")
     empty = tmp_path / "empty"
     empty.mkdir()
