@@ -129,7 +129,7 @@ def test_planners_are_listed_in_the_bundled_order_whichever_registered_first() -
     PLANNERS.register("nbv", PLANNERS.unregister("nbv"))
     assert list(PLANNERS)[-1] == "nbv"
     assert planner_names() == ["bscp", "hrec", "oracle", "random1", "random2",
-                               "agent, agent:PATH", "nbv", "uniform<k>"]
+                               "agent, agent:NAME, agent:PATH", "nbv", "uniform<k>"]
 
 
 def test_after_unregistering_the_planner_is_unknown(tmp_path: Path) -> None:
