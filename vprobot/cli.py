@@ -586,7 +586,8 @@ def build_parser() -> argparse.ArgumentParser:
                          help="file units to metres, e.g. 0.001 for millimetres (default 1)")
         sub.add_argument("--planner", type=_planner_name,
                          help=f"{', '.join(planner_names())}: agent is the bundled trained "
-                         f"agent, agent:PATH a training run or model .zip, nbv@RULE nbv "
+                         f"agent, agent:NAME another bundled one (cpu: motors only), "
+                         f"agent:PATH a training run or model .zip, nbv@RULE nbv "
                          f"stopping itself by a --stop rule (nbv@grid); default: bscp")
         sub.add_argument("--views", type=POSITIVE_INT,
                          help=f"fixed number of views ({', '.join(counted_planners())}); "
