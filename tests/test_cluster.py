@@ -236,3 +236,11 @@ def test_sigterm_while_ray_starts_reaches_the_callers_handler(
         assert signal.getsignal(signal.SIGTERM) is interrupt
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def test_a_task_runs_on_one_thread_and_imports_no_torch_for_it() -> None:
+    code = ("import os, sys; from vprobot.cluster import _one_thread; "
+            "print(_one_thread(lambda: (os.environ['OMP_NUM_THREADS'], 'torch' in sys.modules)))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, env={**os.environ, "OMP_NUM_THREADS": "4"})
+    assert done.stdout.strip() == "('1', False)"

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
@@ -69,10 +70,13 @@ def start(address: str | None, cpus: int) -> Any:
 
 
 def _one_thread(function: Callable[..., Any], *args: Any) -> Any:
-    import torch
-
-    torch.set_num_threads(1)
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    # One CPU per task. Torch takes its thread count from OMP_NUM_THREADS when first imported;
+    # it is not imported here, since evaluation tasks never need it and its import costs each
+    # worker seconds.
+    os.environ["OMP_NUM_THREADS"] = "1"
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(1)
     return function(*args)
 
 
