@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import gc
 import pickle
+import weakref
 
 import gymnasium as gym
 import numpy as np
@@ -12,7 +14,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
-from vprobot.env import ENV_ID
+from vprobot.env import ENV_ID, inspect_env
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.rewards import REWARDS
 from vprobot.episode import EpisodeSpec
@@ -329,3 +331,20 @@ def test_stop_action_ends_the_episode_with_the_goal_as_its_signal() -> None:
     env.reset(seed=1)
     with pytest.raises(ValueError, match="plus a stop component"):
         env.step(np.zeros(2, dtype=np.float32))
+
+
+def test_an_evicted_scene_is_freed_and_its_memory_released(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(inspect_env, "SCENES_KEPT", 1)
+    env = make()
+    released: list[bool] = []
+    # Records, when memory is released, whether the evicted scene had already left the cache.
+    monkeypatch.setattr(inspect_env, "release_freed_memory",
+                        lambda: released.append(first() not in env._scenes.values()))
+    first = weakref.ref(env.scene(DEFAULT_MOTOR))
+    assert released == []
+    # The same file by another path: another cache key, and its ground truth is not built again.
+    env.scene(DEFAULT_MOTOR.parent / ".." / DEFAULT_MOTOR.parent.name / DEFAULT_MOTOR.name)
+    assert released == [True]
+    gc.collect()
+    assert first() is None

@@ -39,6 +39,7 @@ from vprobot.generated import generated_path, is_generated
 from vprobot.ground_truth import ground_truth
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.mesh_loading import load_mesh
+from vprobot.native_memory import release_freed_memory
 from vprobot.paths import MOTORS_DIR
 from vprobot.splits import Split
 
@@ -46,7 +47,8 @@ SCENES_KEPT = 16
 """Scenes an env keeps loaded, the most recently used (each holds a compiled cell, about 14 MB):
 on the family mix nearly every episode draws a new instance, so a larger cache mostly held
 memory (64 kept about 0.9 GB per env process; a two-env training took about 8 GB in all), and a
-scene loads again in about 0.1 s."""
+scene loads again in about 0.1 s. An evicted scene's freed C-heap memory is returned to the
+system (`vprobot.native_memory`)."""
 SEED_BOUND = 2**31
 """Episode specs drawn by the env carry a seed below this, drawn from np_random."""
 
@@ -205,6 +207,9 @@ class InspectEnv(gym.Env):
         else:
             if len(self._scenes) >= SCENES_KEPT:
                 del self._scenes[next(iter(self._scenes))]
+                # The evicted scene's native memory would otherwise stay in glibc's heaps,
+                # fragmented: an env process grew ~100 MB a minute on the family mix.
+                release_freed_memory()
             self._scenes[key] = MotorScene.load(self.config, path, scale,
                                                 self.config.env.resolution)
         return self._scenes[key]

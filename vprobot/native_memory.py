@@ -1,0 +1,32 @@
+"""Handing freed C-heap memory back to the system.
+
+glibc's malloc keeps the memory that native code (MuJoCo models and data, trimesh, numpy) frees
+in its heaps, where a later allocation of another size may not fit: a process that loads and
+drops many scenes grows without holding any more objects (about 200 MB per 100 family-mix
+episodes of an env, against under 50 MB when the free pages are returned).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import functools
+
+
+@functools.cache
+def _malloc_trim() -> ctypes._CFuncPtr | None:
+    """glibc's `malloc_trim`, or None where the C library has none (macOS, musl, Windows)."""
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return None
+    try:
+        return ctypes.CDLL(name).malloc_trim
+    except (OSError, AttributeError):
+        return None
+
+
+def release_freed_memory() -> bool:
+    """Return the free pages of the C heaps to the system (glibc `malloc_trim(0)`); returns
+    whether any were returned (always False where the C library cannot trim)."""
+    trim = _malloc_trim()
+    return trim is not None and bool(trim(0))
