@@ -18,36 +18,41 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.stopping.calibration import LEVELS, UNSEEN_LEVEL, interval_coverage, two_sided_z
+from vprobot.stopping.calibration import (
+    LEVELS,
+    UNSEEN_LEVEL,
+    interval_coverage,
+    least_holding,
+    needed_variance,
+    two_sided_z,
+    unseen_scale,
+)
+from vprobot.stopping.estimator import widened_std
 
 Rows = dict[str, np.ndarray]
 Widening = Callable[[Rows], np.ndarray]
 
 
-def least(needed: np.ndarray) -> float:
-    """The least value at least `UNSEEN_LEVEL` of the rows need (see `unseen_scale`)."""
-    return float(np.quantile(needed, UNSEEN_LEVEL, method="inverted_cdf")) * (1.0 + 1e-9)
-
-
 def fit_form(form: str, rows: Rows) -> Widening:
     """The widened std of a form, fit on `rows`."""
-    z = two_sided_z(UNSEEN_LEVEL)
-    needed = np.maximum((rows["coverage"] - rows["mean"]) ** 2 / z ** 2 - rows["std"] ** 2, 0.0)
+    needed = needed_variance(rows["mean"], rows["std"], rows["coverage"])
     if form == "none":
         return lambda new: new["std"]
     if form == "std scale":
-        factor = max(least(np.abs(rows["coverage"] - rows["mean"]) / rows["std"] / z), 1.0)
+        factor = max(least_holding(np.abs(rows["coverage"] - rows["mean"]) / rows["std"]
+                                   / two_sided_z(UNSEEN_LEVEL)), 1.0)
         return lambda new: factor * new["std"]
     if form == "added variance":
-        added = least(needed)
+        added = least_holding(needed)
         return lambda new: np.sqrt(new["std"] ** 2 + added)
     if form == "added variance per view count":
         last = int(rows["view"].max())
-        per_view = np.array([least(needed[rows["view"] == view]) for view in range(1, last + 1)])
+        per_view = np.array([least_holding(needed[rows["view"] == view])
+                             for view in range(1, last + 1)])
         return lambda new: np.sqrt(new["std"] ** 2
                                    + per_view[np.clip(new["view"], 1, last).astype(int) - 1])
-    factor = least(needed / rows["disagreement"])
-    return lambda new: np.sqrt(new["std"] ** 2 + factor * new["disagreement"])
+    factor = unseen_scale(rows["mean"], rows["std"], rows["disagreement"], rows["coverage"])
+    return lambda new: widened_std(new["std"] ** 2, new["disagreement"], factor)
 
 
 def main() -> None:

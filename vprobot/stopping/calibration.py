@@ -42,15 +42,30 @@ def interval_coverage(mean: np.ndarray, std: np.ndarray, truth: np.ndarray,
     return (error[None, :] <= z[:, None]).mean(axis=1)
 
 
+def needed_variance(mean: np.ndarray, std: np.ndarray, truth: np.ndarray,
+                    level: float = UNSEEN_LEVEL) -> np.ndarray:
+    """Per case, the variance to add to the stated one for the two-sided interval of the level
+    to hold the truth: (e^2 / z^2 - std^2), at least 0 (e the error, z the level's quantile)."""
+    error = np.asarray(truth) - np.asarray(mean)
+    return np.maximum(error ** 2 / two_sided_z(level) ** 2 - np.asarray(std) ** 2, 0.0)
+
+
+def least_holding(needed: np.ndarray, level: float = UNSEEN_LEVEL) -> float:
+    """The least value that is at least what a share `level` of the cases need."""
+    # "inverted_cdf": the least value that holds at least `level` of the cases; the case at
+    # the quantile lies on the interval's edge, which rounding must not move out.
+    return float(np.quantile(needed, level, method="inverted_cdf")) * (1.0 + 1e-9)
+
+
 def unseen_scale(mean: np.ndarray, std: np.ndarray, disagreement: np.ndarray,
                  truth: np.ndarray, level: float = UNSEEN_LEVEL) -> float:
     """The least factor c such that the two-sided interval of the level, with c times the
     ensemble's disagreement added to the stated variance, holds the truth in at least a share
     `level` of the cases.
 
-    A case is held once c reaches (e^2 / z^2 - std^2) / disagreement (e its error, z the
-    level's quantile), so c is the `level` quantile of that over the cases (at least 0: an
-    interval that holds already is not narrowed).
+    A case is held once c reaches `needed_variance` / disagreement, so c is the `level`
+    quantile of that over the cases (at least 0: an interval that holds already is not
+    narrowed).
 
     Args:
         mean, std, truth: The estimates, their stated std and the truth (n,).
@@ -65,13 +80,10 @@ def unseen_scale(mean: np.ndarray, std: np.ndarray, disagreement: np.ndarray,
         raise ValueError(f"the level must lie in (0, 1), got {level}")
     if len(truth) == 0:
         raise ValueError("no cases to widen the estimate on")
-    error = np.asarray(truth) - np.asarray(mean)
-    needed = np.maximum(error ** 2 / two_sided_z(level) ** 2 - np.asarray(std) ** 2, 0.0)
+    needed = needed_variance(mean, std, truth, level)
     with np.errstate(divide="ignore", invalid="ignore"):
         factor = np.where(needed > 0.0, needed / np.asarray(disagreement), 0.0)
-    # "inverted_cdf": the least factor that holds at least `level` of the cases; the case at
-    # the quantile lies on the interval's edge, which rounding must not move out.
-    scale = float(np.quantile(factor, level, method="inverted_cdf")) * (1.0 + 1e-9)
+    scale = least_holding(factor, level)
     if not np.isfinite(scale):
         raise ValueError(f"no factor on the disagreement holds {100 * level:g} % of the cases")
     return scale

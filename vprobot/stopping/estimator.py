@@ -49,6 +49,13 @@ BUNDLED_ESTIMATOR = ESTIMATOR_DIR / "estimator.npz"
 """The estimator `--stop estimate` uses unless told otherwise (its README says how it was fit)."""
 
 
+def widened_std(variance: np.ndarray, disagreement: np.ndarray,
+                unseen_scale: float) -> np.ndarray:
+    """The standard deviation an estimate states: its mixture's variance plus `unseen_scale`
+    times the members' disagreement (`CoverageEstimator.mixture`), at least `MIN_STD`."""
+    return np.sqrt(np.maximum(variance + unseen_scale * disagreement, MIN_STD ** 2))
+
+
 def _softplus(x: np.ndarray) -> np.ndarray:
     return np.logaddexp(0.0, x)
 
@@ -94,8 +101,7 @@ class CoverageEstimator:
             ValueError: If the feature count differs from the estimator's.
         """
         mean, variance, disagreement = self.mixture(features)
-        variance = variance + self.unseen_scale * disagreement
-        return mean, np.sqrt(np.maximum(variance, MIN_STD ** 2))
+        return mean, widened_std(variance, disagreement, self.unseen_scale)
 
     def mixture(self, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The ensemble's mean, its variance as fitted (no widening), and the members'

@@ -45,7 +45,7 @@ from vprobot.stopping.dataset import (
     training_jobs,
     validation_jobs,
 )
-from vprobot.stopping.estimator import fit, load_estimator
+from vprobot.stopping.estimator import fit, load_estimator, widened_std
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.folds import FOLDS_DIR, family_folds
 
@@ -141,7 +141,7 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
     observed = interval_coverage(mean, std, truth)
     stated_std = stated.estimate(validation.features)[1]
     stated_observed = interval_coverage(mean, stated_std, truth)
-    widened_folds = np.sqrt(folds.std ** 2 + scale * folds.disagreement)
+    widened_folds = widened_std(folds.std ** 2, folds.disagreement, scale)
     bins = reliability(std, error)
     write_text(out / "mae_per_view.csv", csv_text(
         ("view", "mae_pp", "rows", *(f"mae_pp_{p}" for p in planners)),
