@@ -622,9 +622,10 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--planners", nargs="+", default=list(EVALUATED_PLANNERS),
         help="planner names: uniform<k> (k fixed views), nbv (volumetric next-best view; "
         "nbv:GAIN ranks by another gain, nbv@RULE stops itself by a --stop rule), bscp<N> / "
-        "agent<N> for B_SCP / the bundled agent with N views, agent (the bundled agent) or "
-        "agent:PATH (a training run or model .zip); default: the model-free planners, then the "
-        "model-based ones")
+        "agent<N> for B_SCP / the bundled agent with N views, agent (the bundled agent), "
+        "agent:NAME (another bundled one, e.g. agent:cpu, motors only) or agent:PATH (a "
+        "training run or model .zip); default: the model-free planners, then the model-based "
+        "ones")
     evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
                             "the test motors; shapes-v1: the non-motor objects) or a JSON file "
                             "as written into --out; default: test-v1")
