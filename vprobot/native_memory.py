@@ -9,19 +9,17 @@ episodes of an env, against under 50 MB when the free pages are returned).
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import functools
 
 
 @functools.cache
 def _malloc_trim() -> ctypes._CFuncPtr | None:
     """glibc's `malloc_trim`, or None where the C library has none (macOS, musl, Windows)."""
-    name = ctypes.util.find_library("c")
-    if name is None:
-        return None
+    # The process's own symbols hold the C library's: no library search (which may start
+    # ldconfig) on the first eviction.
     try:
-        return ctypes.CDLL(name).malloc_trim
-    except (OSError, AttributeError):
+        return ctypes.CDLL(None).malloc_trim
+    except (OSError, AttributeError, TypeError):
         return None
 
 
