@@ -3,21 +3,34 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
+import subprocess
+import sys
+import time
+import types
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.episode import ViewRecord
+from vprobot.episode import EpisodeSpec, ViewRecord, episode_list, write_episode_list
+from vprobot.files import FOLDER_LOCK
+from vprobot.generated import family_of
 from vprobot.geometry import Pose
 from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN
+from vprobot.paths import DEFAULT_MOTOR
 from vprobot.sensor_model import SensorModel
+from vprobot.splits import Split
+from vprobot.stopping import dataset as dataset_module
 from vprobot.stopping import folds as folds_module
+from vprobot.stopping import report as report_module
+from vprobot.stopping import study as study_module
 from vprobot.stopping.calibration import interval_coverage, mae_per_view, unseen_scale
-from vprobot.stopping.dataset import Dataset
+from vprobot.stopping.dataset import Dataset, training_jobs
 from vprobot.stopping.estimator import CoverageEstimator, fit
 from vprobot.stopping.features import BAND_NEAR_DEG, FEATURES, CoverageFeatures
 from vprobot.stopping.folds import family_folds
@@ -269,8 +282,8 @@ def test_mae_per_view_averages_each_view_count_apart() -> None:
 def test_stop_fit_refuses_a_folder_of_rollouts_drawn_otherwise(tmp_path: Path) -> None:
     (tmp_path / "dataset.json").write_text('{"split": 1, "episodes": 7}')
     with pytest.raises(ValueError, match="holds rollouts drawn otherwise"):
-        fit_estimate(CONFIG, tmp_path, episodes=5, progress=False)
-    assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset.json"]
+        fit_estimate(CONFIG, tmp_path, episodes=FAMILIES_DRAWN, progress=False)
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset.json", FOLDER_LOCK]
 
 
 @pytest.mark.parametrize("option, message", [
@@ -285,3 +298,207 @@ def test_stop_fit_refuses_bad_options_with_one_line(
     error = capsys.readouterr().err
     assert message in error and len(error.strip().splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+FAMILIES_DRAWN = 22
+"""The least count of training episodes whose draw from seed 0 holds every training family."""
+
+
+class FakeRollouts:
+    """Stands in for the robot in the loop: an episode of seed s has 1 + s % 3 views whose
+    coverage and features follow from s; counts the episodes run, and raises KeyboardInterrupt
+    (Ctrl-C) in place of episode `interrupt_at` (counted from 0) when set."""
+
+    def __init__(self) -> None:
+        self.runs = 0
+        self.interrupt_at: int | None = None
+
+    def run(self, config: Config, scene: object, planner: str, spec: EpisodeSpec,
+            carrier: str) -> types.SimpleNamespace:
+        if self.runs == self.interrupt_at:
+            raise KeyboardInterrupt
+        self.runs += 1
+        views = [types.SimpleNamespace(coverage=0.3 + 0.2 * view + spec.seed % 10 / 100)
+                 for view in range(1 + spec.seed % 3)]
+        return types.SimpleNamespace(record=types.SimpleNamespace(views=views))
+
+    @staticmethod
+    def features(config: Config, views: list[types.SimpleNamespace]) -> list[np.ndarray]:
+        return [np.full(len(FEATURES), view.coverage + 0.01 * number)
+                for number, view in enumerate(views)]
+
+
+@pytest.fixture
+def fake_rollouts(monkeypatch: pytest.MonkeyPatch) -> FakeRollouts:
+    """Rollouts in no time (`FakeRollouts`), and tiny estimator fits."""
+    fake = FakeRollouts()
+    monkeypatch.setattr(dataset_module, "MotorScene",
+                        types.SimpleNamespace(load=lambda *args: None))
+    monkeypatch.setattr(dataset_module, "run", fake.run)
+    monkeypatch.setattr(dataset_module, "episode_features", fake.features)
+    tiny = functools.partial(fit, members=2, hidden=4, steps=25)
+    monkeypatch.setattr(report_module, "fit", tiny)
+    monkeypatch.setattr(folds_module, "fit", tiny)
+    return fake
+
+
+def _episode_lists(folder: Path, *names: str) -> list[Path]:
+    """Episode lists at `names` in `folder`, each of two episodes on the default motor."""
+    paths = [folder / name for name in names]
+    for path in paths:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_episode_list(path, episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1]))
+    return paths
+
+
+def test_stop_fit_refuses_a_count_that_draws_no_episode_of_a_family_before_any_rollout(
+        tmp_path: Path, capsys: pytest.CaptureFixture, fake_rollouts: FakeRollouts) -> None:
+    out = tmp_path / "out"
+    assert main(["stop", "fit", "--out", str(out), "--episodes", "6"]) == 2
+    error = capsys.readouterr().err
+    assert len(error.strip().splitlines()) == 1
+    assert "--episodes 6 with --seed 0 draws no training episode of family" in error
+    assert f"--episodes {FAMILIES_DRAWN} is the least count that draws every family" in error
+    assert fake_rollouts.runs == 0 and not out.exists()
+    # The count named draws every training family (by the objects' names), none below it does.
+    families = {family_of(spec.motor) for spec, _ in training_jobs(CONFIG, FAMILIES_DRAWN, 0)}
+    assert set(Split.load().training_families) <= families
+    for count in range(6, FAMILIES_DRAWN):
+        with pytest.raises(ValueError, match=f"--episodes {FAMILIES_DRAWN} is the least"):
+            training_jobs(CONFIG, count, 0)
+
+
+def test_an_interrupted_stop_fit_keeps_its_finished_episodes_and_a_rerun_runs_only_the_rest(
+        tmp_path: Path, fake_rollouts: FakeRollouts) -> None:
+    options: dict[str, Any] = {"episodes": FAMILIES_DRAWN, "planners": ["random2"],
+                               "progress": False}
+    whole = tmp_path / "whole"
+    fit_estimate(CONFIG, whole, **options)
+    total = fake_rollouts.runs
+    lines = (whole / "training.csv").read_text().splitlines(keepends=True)
+    header, rows = lines[0], lines[1:]
+
+    def episodes(numbers: range) -> list[str]:
+        return [row for row in rows if int(row.split(",")[0]) in numbers]
+
+    cut = tmp_path / "cut"
+    fake_rollouts.runs, fake_rollouts.interrupt_at = 0, 7
+    with pytest.raises(KeyboardInterrupt):
+        fit_estimate(CONFIG, cut, **options)
+    # Ctrl-C at the eighth training episode keeps the seven before it whole.
+    assert (cut / "training.csv").read_text() == "".join([header, *episodes(range(7))])
+    # A kill while the ninth was written: the eighth whole, the ninth's first row cut short.
+    with (cut / "training.csv").open("a") as stream:
+        stream.write("".join(episodes(range(7, 8))) + episodes(range(8, 9))[0][:20])
+    fake_rollouts.runs, fake_rollouts.interrupt_at = 0, None
+    fit_estimate(CONFIG, cut, **options)
+    # The cut write's episode (the last seen) is run again, with every one after it.
+    assert fake_rollouts.runs == total - 7
+    for name in ("training.csv", "validation.csv"):
+        assert (cut / name).read_bytes() == (whole / name).read_bytes()
+
+
+@pytest.mark.parametrize("change", [["--planners", "random2"], ["--robot", "ur5"]])
+def test_stop_error_reuses_its_rollouts_only_when_drawn_alike(
+        tmp_path: Path, capsys: pytest.CaptureFixture, fake_rollouts: FakeRollouts,
+        change: list[str]) -> None:
+    (episodes,) = _episode_lists(tmp_path, "one.json")
+    out = tmp_path / "error"
+    command = ["stop", "error", "--out", str(out), "--episodes", str(episodes), "--planners",
+               "uniform4"]
+    assert main(command) == 0
+    assert fake_rollouts.runs == 2
+    rollouts = (out / "one.csv").read_text()
+    assert main(command) == 0
+    assert fake_rollouts.runs == 2
+    capsys.readouterr()
+    assert main([*command, *change]) == 2
+    error = capsys.readouterr().err
+    assert len(error.strip().splitlines()) == 1
+    assert f"{out} holds rollouts drawn otherwise ({out / 'one.json'})" in error
+    assert fake_rollouts.runs == 2 and (out / "one.csv").read_text() == rollouts
+
+
+@pytest.mark.parametrize("command", [
+    ["stop", "error", "--planners", "uniform4"],
+    ["stop", "study", "--planners", "uniform2", "--stop", "views:1"],
+])
+def test_two_episode_lists_of_one_name_are_refused_before_anything_runs(
+        tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch,
+        fake_rollouts: FakeRollouts, command: list[str]) -> None:
+    def evaluate(*args: object, **kwargs: object) -> None:
+        raise AssertionError("an evaluation ran")
+
+    monkeypatch.setattr(study_module, "evaluate", evaluate)
+    first, second = _episode_lists(tmp_path, "a/one.json", "b/one.json")
+    out = tmp_path / "out"
+    assert main([*command, "--out", str(out), "--episodes", str(first), str(second)]) == 2
+    error = capsys.readouterr().err
+    assert len(error.strip().splitlines()) == 1
+    assert f"--episodes {first} and {second} are both named 'one'" in error
+    assert fake_rollouts.runs == 0 and not out.exists()
+
+
+HOLDER = """
+import sys, time, types
+from pathlib import Path
+
+from vprobot.cli import main
+from vprobot.stopping import dataset, study
+
+
+def hold(*args, **kwargs):
+    Path(sys.argv[1]).touch()
+    time.sleep(600)
+
+
+dataset.MotorScene = types.SimpleNamespace(load=lambda *args: None)
+dataset.run = study.evaluate = hold
+sys.exit(main(sys.argv[2:]))
+"""
+"""Runs a `vprobot` command whose first rollout or evaluation holds still, a file (argv[1])
+saying that it got there."""
+
+
+class Reached(Exception):
+    """A command got past its folder's lock to its first rollout or evaluation."""
+
+
+@pytest.mark.parametrize("command", [
+    ["stop", "study", "--planners", "uniform2", "--stop", "views:1"],
+    ["stop", "fit", "--planners", "random2", "--episodes", str(FAMILIES_DRAWN)],
+    ["stop", "error", "--planners", "uniform4"],
+])
+def test_a_stop_folder_in_use_by_a_running_command_is_refused_naming_its_pid(
+        tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch,
+        command: list[str]) -> None:
+    def reached(*args: object, **kwargs: object) -> None:
+        raise Reached
+
+    monkeypatch.setattr(dataset_module, "MotorScene",
+                        types.SimpleNamespace(load=lambda *args: None))
+    monkeypatch.setattr(dataset_module, "run", reached)
+    monkeypatch.setattr(study_module, "evaluate", reached)
+    (episodes,) = _episode_lists(tmp_path, "one.json")
+    out, holding = tmp_path / "out", tmp_path / "holding"
+    argv = [*command, "--out", str(out)]
+    if command[1] != "fit":
+        argv += ["--episodes", str(episodes)]
+    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(holding), *argv],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while holder.poll() is None and time.monotonic() < deadline and not holding.exists():
+            time.sleep(0.05)
+        assert holding.exists(), holder.stderr.read().decode() if holder.stderr else ""
+        assert main(argv) == 2
+        error = capsys.readouterr().err
+        assert len(error.strip().splitlines()) == 1
+        assert f"{out} is in use by pid {holder.pid}" in error
+        assert holder.poll() is None
+    finally:
+        holder.kill()
+        holder.wait(timeout=60)
+    # Its holder gone, the folder is free (the kernel dropped the lock).
+    with pytest.raises(Reached):
+        main(argv)

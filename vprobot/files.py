@@ -176,6 +176,31 @@ def exclusive_lock(path: Path, what: str) -> Iterator[None]:
         os.close(descriptor)
 
 
+FOLDER_LOCK = "folder.lock"
+"""The lock file `folder_lock` keeps in an output folder."""
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | Path, what: str) -> Iterator[Path]:
+    """Create `folder` (with its parents) and hold its lock for the block, so that a second
+    command writing into it (whose rows and resumes would mix with this one's) is refused.
+
+    Args:
+        folder: The output folder.
+        what: The folder as the user gave it, for the refusal.
+
+    Yields:
+        The folder.
+
+    Raises:
+        InUseError: At once, if another process holds the folder.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    with exclusive_lock(folder / FOLDER_LOCK, what):
+        yield folder
+
+
 def save_figure(figure: Any, path: str | Path, title: str) -> Path:
     """Title a matplotlib figure, write it as a PNG atomically and close it."""
     import matplotlib.pyplot as plt

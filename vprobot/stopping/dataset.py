@@ -5,13 +5,20 @@ Model-free planners (`DEFAULT_PLANNERS`) run with the robot in the loop on episo
 selection and the reported error; never a test list. The coverage goal is lifted during the
 rollouts, so that planners the simulator would stop at the goal go on to the view budget and
 the data holds views past the goal too, as a stop rule meets them.
+
+A table of rollouts is written an episode at a time, so that a run cut short keeps the episodes
+it finished and a rerun goes on from them; a record beside it (`record_recipe`) says how they
+were drawn, so that rollouts of other settings are never taken for these.
 """
 
 from __future__ import annotations
 
 import csv
 import dataclasses
-from collections.abc import Sequence
+import itertools
+import json
+import sys
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +27,8 @@ from tqdm import tqdm
 
 from vprobot.config import Config, replace
 from vprobot.episode import EpisodeSpec, MotorScene, read_episode_list, seeded_episode
-from vprobot.episode.specs import bundled_episode_list
+from vprobot.episode.specs import bundled_episode_list, motor_name
+from vprobot.files import append_line, csv_text, write_text
 from vprobot.generated import family_of
 from vprobot.planners.runner import run
 from vprobot.splits import MOTORS, Split
@@ -59,6 +67,26 @@ def rollout_config(config: Config) -> Config:
     return replace(config, "env", coverage_goal=1.0)
 
 
+def _family(name: str) -> str:
+    """The part family of an object as the tables name it (`motor` for a motor)."""
+    return family_of(name) or "motor"
+
+
+def _draw(objects: Sequence[str | Path], count: int, seed: int
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """The objects (indices) and the pose seeds of `count` training episodes drawn from `seed`."""
+    rng = np.random.default_rng(seed)
+    chosen = rng.choice(len(objects), size=count, replace=count > len(objects))
+    return chosen, rng.integers(0, 2**31 - 1, size=count)
+
+
+def _missing_families(objects: Sequence[str | Path], chosen: np.ndarray,
+                      families: Sequence[str]) -> list[str]:
+    """The families of which the chosen objects hold none."""
+    drawn = {_family(motor_name(objects[index])) for index in chosen}
+    return [family for family in families if family not in drawn]
+
+
 def training_jobs(config: Config, count: int, seed: int,
                   planners: Sequence[str] = DEFAULT_PLANNERS,
                   split: Split | None = None) -> list[tuple[EpisodeSpec, str]]:
@@ -66,16 +94,24 @@ def training_jobs(config: Config, count: int, seed: int,
     with one planner in turn, drawn from `seed`.
 
     Raises:
-        ValueError: If count < 1 or no planner is given.
+        ValueError: If count < 1, no planner is given, or the draw holds no object of a
+            training family (`stop fit` leaves each out in turn, which needs its episodes).
     """
     if count < 1 or not planners:
         raise ValueError(f"training rollouts need count >= 1 and a planner, got {count} and "
                          f"{list(planners)}")
     split = split if split is not None else Split.load()
     objects = split.training_objects((MOTORS, *split.training_families))
-    rng = np.random.default_rng(seed)
-    chosen = rng.choice(len(objects), size=count, replace=count > len(objects))
-    poses = rng.integers(0, 2**31 - 1, size=count)
+    chosen, poses = _draw(objects, count, seed)
+    missing = _missing_families(objects, chosen, split.training_families)
+    if missing:
+        # Draws of other counts are other draws: the least one that holds every family.
+        least = next(more for more in itertools.count(count + 1) if not _missing_families(
+            objects, _draw(objects, more, seed)[0], split.training_families))
+        raise ValueError(f"--episodes {count} with --seed {seed} draws no training episode of "
+                         f"family {', '.join(missing)} (each training family is left out in "
+                         f"turn and needs episodes of its own); --episodes {least} is the "
+                         f"least count that draws every family with this seed")
     return [(seeded_episode(config.env, objects[index], int(pose)),
              planners[number % len(planners)])
             for number, (index, pose) in enumerate(zip(chosen, poses, strict=True))]
@@ -89,21 +125,108 @@ def validation_jobs(planners: Sequence[str] = DEFAULT_PLANNERS,
     return [(spec, planner) for spec in specs for planner in planners]
 
 
-def collect(config: Config, jobs: Sequence[tuple[EpisodeSpec, str]],
-            progress: bool = True) -> list[dict[str, Any]]:
-    """Run the jobs (robot in the loop, no coverage goal); one row per view."""
-    rollout = rollout_config(config)
-    rows: list[dict[str, Any]] = []
-    for number, (spec, planner) in enumerate(tqdm(jobs, desc="rollouts", disable=not progress)):
-        scene = MotorScene.load(rollout, spec.motor_path, spec.scale)
-        views = run(rollout, scene, planner, spec, "robot").record.views
-        for view, features in enumerate(episode_features(config, views), start=1):
-            rows.append({"episode": number, "object": spec.motor,
-                         "family": family_of(spec.motor) or "motor", "planner": planner,
-                         "seed": spec.seed, "view": view,
-                         **dict(zip(FEATURES, features.tolist(), strict=True)),
-                         "coverage": views[view - 1].coverage})
-    return rows
+def rollout_recipe(config: Config, planners: Sequence[str], **drawn: Any) -> dict[str, Any]:
+    """How rollouts are drawn, as JSON reads it back: `drawn` (their episodes), the settings
+    they run with (the rollout config's cell, sensor, kinematics and env: not the coverage goal,
+    which they lift, nor the agent's), the planners and the features."""
+    settings = rollout_config(config)
+    return json.loads(json.dumps({
+        **drawn, "planners": list(planners), "features": list(FEATURES),
+        "settings": {section: dataclasses.asdict(getattr(settings, section))
+                     for section in ("cell", "sensor", "kinematics", "env")}}))
+
+
+def drawn_alike(record: Path, recipe: Mapping[str, Any]) -> bool:
+    """Whether the rollouts that `record` describes were drawn as `recipe` says (False: there
+    is no record).
+
+    Raises:
+        ValueError: If they were drawn otherwise.
+    """
+    if not record.is_file():
+        return False
+    if json.loads(record.read_text()) != recipe:
+        raise ValueError(f"{record.parent} holds rollouts drawn otherwise ({record}); use "
+                         f"another --out")
+    return True
+
+
+def record_recipe(record: Path, recipe: Mapping[str, Any], tables: Sequence[Path]) -> None:
+    """Remove `tables`, which no record describes (an older version's), and record how their
+    rollouts are drawn from now on."""
+    for table in tables:
+        table.unlink(missing_ok=True)
+    write_text(record, json.dumps(recipe, indent=1) + "\n")
+
+
+def rollout(config: Config, spec: EpisodeSpec, planner: str) -> list[dict[str, Any]]:
+    """One episode of `planner` (robot in the loop, no coverage goal): per view, its number,
+    features and true coverage."""
+    settings = rollout_config(config)
+    scene = MotorScene.load(settings, spec.motor_path, spec.scale)
+    views = run(settings, scene, planner, spec, "robot").record.views
+    return [{"view": view, **dict(zip(FEATURES, features.tolist(), strict=True)),
+             "coverage": views[view - 1].coverage}
+            for view, features in enumerate(episode_features(config, views), start=1)]
+
+
+def finished_episodes(path: Path) -> set[int]:
+    """The episodes whose rows `path` holds; a write cut short by a kill is cut from the file
+    with the other rows of its episode, so that appending goes on cleanly.
+
+    Raises:
+        ValueError: If the file is not a table of `COLUMNS`.
+    """
+    if not path.is_file():
+        return set()
+    data = path.read_bytes()
+    lines = data.splitlines(keepends=True)
+    torn = bool(lines) and not lines[-1].endswith(b"\n")
+    if torn:
+        lines.pop()
+    if lines and lines[0].decode().rstrip("\r\n") != ",".join(COLUMNS):
+        raise ValueError(f"{path} is not a coverage-estimate dataset (its columns differ from "
+                         f"{', '.join(COLUMNS)}); use another --out")
+    episodes = [int(line.split(b",", 1)[0]) for line in lines[1:]]
+    if torn and episodes:
+        # The cut line may belong to the last episode seen: drop that episode whole.
+        last = episodes[-1]
+        while episodes and episodes[-1] == last:
+            episodes.pop()
+    kept = sum(len(line) for line in lines[:1 + len(episodes)])
+    if kept < len(data):
+        with path.open("r+b") as stream:
+            stream.truncate(kept)
+    return set(episodes)
+
+
+def collect(config: Config, jobs: Sequence[tuple[EpisodeSpec, str]], path: Path,
+            progress: bool = True) -> int:
+    """Run the jobs that `path` lacks (robot in the loop, no coverage goal), appending each
+    episode's rows (one per view) as it ends.
+
+    Returns:
+        The episodes run.
+
+    Raises:
+        ValueError: If `path` is not a table of `COLUMNS`.
+    """
+    done = finished_episodes(path)
+    missing = [number for number in range(len(jobs)) if number not in done]
+    try:
+        for number in tqdm(missing, desc=path.stem, disable=not progress):
+            spec, planner = jobs[number]
+            rows = [{"episode": number, "object": spec.motor, "family": _family(spec.motor),
+                     "planner": planner, "seed": spec.seed, **row}
+                    for row in rollout(config, spec, planner)]
+            # One write per episode: a kill leaves whole episodes and at worst a cut last one.
+            append_line(path, csv_text(COLUMNS, rows,
+                                       header=not path.exists() or path.stat().st_size == 0))
+    except KeyboardInterrupt:
+        print(f"kept {len(finished_episodes(path))} of {len(jobs)} rollouts in {path}; run "
+              f"the same command again to go on", file=sys.stderr)
+        raise
+    return len(missing)
 
 
 def read_dataset(path: str | Path) -> Dataset:

@@ -2,18 +2,17 @@
 score a fitted one on episode lists (`vprobot stop error`).
 
 `stop fit` writes into one folder: the rollouts (`training.csv`, `validation.csv`, with
-`dataset.json` saying how they were drawn; reused when present and drawn alike, so that a run cut
-short goes on where it stopped), the leave-one-family-out estimators (`folds/`, reused likewise)
-and their estimates of the families they never saw (`family_folds.csv`), the estimator with its
-widening for unseen families (`estimator.npz`), the mean absolute error per view count on the
-validation episodes (`mae_per_view.csv`), the calibration (`calibration.csv`, `reliability.png`)
-and a Markdown summary (`estimate.md`).
+`dataset.json` saying how they were drawn; written an episode at a time and reused when drawn
+alike, so that a run cut short goes on where it stopped), the leave-one-family-out estimators
+(`folds/`, reused likewise) and their estimates of the families they never saw
+(`family_folds.csv`), the estimator with its widening for unseen families (`estimator.npz`), the
+mean absolute error per view count on the validation episodes (`mae_per_view.csv`), the
+calibration (`calibration.csv`, `reliability.png`) and a Markdown summary (`estimate.md`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
 import shutil
 import time
 from collections.abc import Sequence
@@ -23,8 +22,9 @@ from typing import Any
 import numpy as np
 
 from vprobot.config import Config
+from vprobot.episode import EpisodeSpec
 from vprobot.evaluation import evaluation_episodes
-from vprobot.files import csv_text, write_text
+from vprobot.files import csv_text, folder_lock, write_text
 from vprobot.planners.runner import make_planner
 from vprobot.splits import Split
 from vprobot.stopping.calibration import (
@@ -38,49 +38,36 @@ from vprobot.stopping.calibration import (
     unseen_scale,
 )
 from vprobot.stopping.dataset import (
-    COLUMNS,
     DEFAULT_PLANNERS,
     collect,
+    drawn_alike,
     read_dataset,
+    record_recipe,
+    rollout_recipe,
     training_jobs,
     validation_jobs,
 )
-from vprobot.stopping.estimator import fit, load_estimator, widened_std
+from vprobot.stopping.estimator import CoverageEstimator, fit, load_estimator, widened_std
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.folds import FOLDS_DIR, family_folds
+from vprobot.stopping.study import list_names
 
 ESTIMATOR_NAME = "estimator.npz"
 
 
-def _dataset(out: Path, config: Config, episodes: int, seed: int, planners: Sequence[str],
-             split: Split, progress: bool) -> dict[str, float]:
+def _dataset(out: Path, config: Config, jobs: dict[str, list[tuple[EpisodeSpec, str]]],
+             recipe: dict[str, Any], progress: bool) -> dict[str, float]:
     """Collect the rollouts that are missing; the seconds each collection took."""
-    for planner in planners:
-        make_planner(planner, config)
-    # Drawn before anything is written: a bad count is refused with the folder untouched.
-    jobs = {"training": training_jobs(config, episodes, seed, planners, split),
-            "validation": validation_jobs(planners, split)}
-    recipe = {"split": split.version, "episodes": episodes, "seed": seed,
-              "planners": list(planners), "features": list(FEATURES)}
     meta = out / "dataset.json"
-    if meta.is_file():
-        if json.loads(meta.read_text()) != recipe:
-            raise ValueError(f"{out} holds rollouts drawn otherwise ({meta}); use another --out")
-    else:
-        out.mkdir(parents=True, exist_ok=True)
-        for name in jobs:
-            (out / f"{name}.csv").unlink(missing_ok=True)
-        write_text(meta, json.dumps(recipe, indent=1) + "\n")
+    if not drawn_alike(meta, recipe):
+        record_recipe(meta, recipe, [out / f"{name}.csv" for name in jobs])
     seconds = {}
     for name, listed in jobs.items():
-        path = out / f"{name}.csv"
-        if path.is_file():
-            continue
-        # The folds' estimators were fit on the rollouts being replaced.
-        shutil.rmtree(out / FOLDS_DIR, ignore_errors=True)
         start = time.perf_counter()
-        write_text(path, csv_text(COLUMNS, collect(config, listed, progress)))
-        seconds[name] = time.perf_counter() - start
+        if collect(config, listed, out / f"{name}.csv", progress):
+            # The folds' estimators were fit on other rollouts.
+            shutil.rmtree(out / FOLDS_DIR, ignore_errors=True)
+            seconds[name] = time.perf_counter() - start
     return seconds
 
 
@@ -103,12 +90,26 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
         widened), the folds' errors, seconds.
 
     Raises:
-        ValueError: For bad counts or planners, or a folder holding rollouts drawn otherwise.
+        ValueError: For bad counts or planners, a count that draws no episode of a training
+            family, a folder holding rollouts drawn otherwise or in use by another process.
     """
     planners = tuple(planners) if planners is not None else DEFAULT_PLANNERS
-    out = Path(out_dir)
+    for planner in planners:
+        make_planner(planner, config)
     split = Split.load()
-    seconds = _dataset(out, config, episodes, seed, planners, split, progress)
+    # Drawn before anything is written: a bad count is refused with the folder untouched.
+    jobs = {"training": training_jobs(config, episodes, seed, planners, split),
+            "validation": validation_jobs(planners, split)}
+    recipe = rollout_recipe(config, planners, split=split.version, episodes=episodes, seed=seed)
+    out = Path(out_dir)
+    with folder_lock(out, str(out)):
+        seconds = _dataset(out, config, jobs, recipe, progress)
+        return _fit_and_report(out, seed, planners, split, seconds, progress)
+
+
+def _fit_and_report(out: Path, seed: int, planners: Sequence[str], split: Split,
+                    seconds: dict[str, float], progress: bool) -> dict[str, Any]:
+    """`fit_estimate` once the rollouts are in `out` (whose lock this process holds)."""
     training = read_dataset(out / "training.csv")
     validation = read_dataset(out / "validation.csv")
     start = time.perf_counter()
@@ -232,9 +233,10 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
     """The estimator's error per view count on episode lists (for reporting: the test lists).
 
     Rollouts as `stop fit` draws them (robot in the loop, no coverage goal) are written to
-    `out_dir/<list>.csv` and reused when present; `error.csv` and `error.md` hold the mean
-    absolute error per list and view count, and the calibration per list (as the ensemble
-    states its std and widened for unseen families), which `reliability.png` plots.
+    `out_dir/<list>.csv` an episode at a time and reused when drawn alike (`<list>.json` says
+    how); `error.csv` and `error.md` hold the mean absolute error per list and view count, and
+    the calibration per list (as the ensemble states its std and widened for unseen families),
+    which `reliability.png` plots.
 
     Args:
         config: The configuration (cell, sensor, robot, view budget).
@@ -249,15 +251,35 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
         with `view` "all".
 
     Raises:
-        ValueError: For an unknown list, planner or estimator file.
+        ValueError: For an unknown list, planner or estimator file, two lists of one name, or a
+            folder holding rollouts drawn otherwise or in use by another process.
     """
     planners = tuple(planners) if planners is not None else DEFAULT_PLANNERS
     for planner in planners:
         make_planner(planner, config)
     model = load_estimator(estimator)
-    specs = {Path(name).stem: evaluation_episodes(config, episodes=name) for name in lists}
+    specs = {name: evaluation_episodes(config, episodes=entry)
+             for name, entry in zip(list_names(lists), lists, strict=True)}
+    recipes = {name: rollout_recipe(config, planners,
+                                    episodes=[spec.as_dict() for spec in listed])
+               for name, listed in specs.items()}
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    with folder_lock(out, str(out)):
+        # Every list's record checked before any is written or any rollout runs.
+        fresh = [name for name, recipe in recipes.items()
+                 if not drawn_alike(out / f"{name}.json", recipe)]
+        for name in fresh:
+            record_recipe(out / f"{name}.json", recipes[name], [out / f"{name}.csv"])
+        for name, listed in specs.items():
+            collect(config, [(spec, planner) for spec in listed for planner in planners],
+                    out / f"{name}.csv", progress)
+        return _error_report(out, model, planners, list(specs))
+
+
+def _error_report(out: Path, model: CoverageEstimator, planners: Sequence[str],
+                  names: Sequence[str]) -> list[dict[str, Any]]:
+    """`score_estimate`'s tables and plot from the rollouts of the lists `names` in `out`
+    (whose lock this process holds)."""
     rows: list[dict[str, Any]] = []
     lines = ["# Coverage estimate on episode lists", "",
              f"Planners of the rollouts: {', '.join(planners)}; robot in the loop, no coverage "
@@ -274,12 +296,8 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
                    + f" | {100 * UNSEEN_LEVEL:.0f} % half-width pp |",
                    "|---" * (3 + len(LEVELS)) + "|"]
     series: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    for name, listed in specs.items():
-        path = out / f"{name}.csv"
-        if not path.is_file():
-            jobs = [(spec, planner) for spec in listed for planner in planners]
-            write_text(path, csv_text(COLUMNS, collect(config, jobs, progress)))
-        data = read_dataset(path)
+    for name in names:
+        data = read_dataset(out / f"{name}.csv")
         mean, std = model.estimate(data.features)
         per_view = mae_per_view(mean, data.coverage, data.views)
         rows += [{"list": name, "view": view, "mae_pp": 100 * mae, "rows": count}

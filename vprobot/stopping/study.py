@@ -19,7 +19,7 @@ from typing import Any
 
 from vprobot.config import Config
 from vprobot.evaluation import evaluate, evaluation_episodes, finished_rows, stop_label
-from vprobot.files import csv_text, save_figure, write_text
+from vprobot.files import csv_text, folder_lock, save_figure, write_text
 from vprobot.paths import PACKAGE_DIR
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.stopping.rules import make_stop_rule
@@ -31,6 +31,21 @@ DEFAULT_PLANNERS = ("agent", "nbv", "agent:cpu-stop")
 action."""
 COLUMNS = ("episodes", "planner", "stop", "count", "at_goal_pct", "coverage_pct", "requested",
            "acquisitions", "wasted", "extra_vs_goal")
+
+
+def list_names(lists: Sequence[str]) -> list[str]:
+    """Each episode list's name in the outputs: its file stem (`test-v1`, `one` of `a/one.json`).
+
+    Raises:
+        ValueError: If two lists have one name (their outputs would be one).
+    """
+    names = [Path(entry).stem for entry in lists]
+    for index, name in enumerate(names):
+        first = names.index(name)
+        if first < index:
+            raise ValueError(f"--episodes {lists[first]} and {lists[index]} are both named "
+                             f"{name!r} in the outputs; give each list a file name of its own")
+    return names
 
 
 def combinations(config: Config, planners: Sequence[str], rules: Sequence[str],
@@ -99,25 +114,36 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
         The study rows (`COLUMNS`).
 
     Raises:
-        ValueError: For a bad list, planner or rule, no combination that applies, or a
-            folder holding another evaluation.
+        ValueError: For a bad list, two lists of one name, a bad planner or rule, no
+            combination that applies, a folder holding another evaluation or in use by another
+            process.
     """
+    names = list_names(episodes)
     chosen = combinations(config, planners, rules, estimator)
     if not chosen or not episodes:
         raise ValueError(f"no stop rule of {list(rules)} applies to a planner of "
                          f"{list(planners)}, or no episode list given")
-    lists = [(name, evaluation_episodes(config, episodes=name)) for name in episodes]
+    lists = [(name, evaluation_episodes(config, episodes=entry))
+             for name, entry in zip(names, episodes, strict=True)]
     out = Path(out_dir)
-    table = []
-    for name, specs in lists:
-        for rule, applies in chosen:
-            folder = out / Path(name).stem / _folder(rule)
-            evaluate(config, applies, specs, folder, progress=progress, carriers=("robot",),
-                     workers=workers, stops=(rule,), estimator=estimator)
-            rows = finished_rows(folder / "evaluation_episodes.csv")
-            table += [study_row([row for row in rows
-                                 if row["planner"] == stop_label(planner, rule)],
-                                Path(name).stem, planner, rule) for planner in applies]
+    with folder_lock(out, str(out)):
+        table = []
+        for name, specs in lists:
+            for rule, applies in chosen:
+                folder = out / name / _folder(rule)
+                evaluate(config, applies, specs, folder, progress=progress,
+                         carriers=("robot",), workers=workers, stops=(rule,),
+                         estimator=estimator)
+                rows = finished_rows(folder / "evaluation_episodes.csv")
+                table += [study_row([row for row in rows
+                                     if row["planner"] == stop_label(planner, rule)],
+                                    name, planner, rule) for planner in applies]
+        _write_study(out, table, config)
+    return table
+
+
+def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None:
+    """The study's tables and plot from its rows (`extra_vs_goal` filled in here)."""
     at_goal = {(row["episodes"], row["planner"]): row["requested"] for row in table
                if row["stop"] == "goal"}
     for row in table:
@@ -127,7 +153,6 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
     write_text(out / "study.csv", csv_text(COLUMNS, table))
     write_text(out / "study.md", markdown(table, config))
     plot_study(table, config, out / "study.png")
-    return table
 
 
 def _cell(value: float | None, digits: int) -> str:
