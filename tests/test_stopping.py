@@ -41,6 +41,8 @@ CONFIG = Config()
 CENTER = np.asarray(CONFIG.cell.object_center_m, dtype=float)
 SENSOR = SensorModel.from_config(CONFIG.sensor)
 PIXELS = SENSOR.rays_per_frame
+FAMILIES_DRAWN = 22
+"""The least count of training episodes whose draw from seed 0 holds every training family."""
 
 
 def view(side: float | None, plane_x: float = 0.0, half: int = 0,
@@ -298,10 +300,6 @@ def test_stop_fit_refuses_bad_options_with_one_line(
     error = capsys.readouterr().err
     assert message in error and len(error.strip().splitlines()) == 1
     assert not (tmp_path / "out").exists()
-
-
-FAMILIES_DRAWN = 22
-"""The least count of training episodes whose draw from seed 0 holds every training family."""
 
 
 class FakeRollouts:
