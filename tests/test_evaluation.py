@@ -425,7 +425,7 @@ def test_damaged_rows_are_dropped_with_one_warning_and_their_episodes_rerun(
     with pytest.warns(UserWarning) as caught:
         table = evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
     (warning,) = caught
-    assert "dropped 3 damaged row(s) (line 3, 4, 5)" in str(warning.message)
+    assert "dropped 3 damaged row(s) at line(s) 3, 4, 5;" in str(warning.message)
     assert table[0]["episodes"] == 4
     assert _rows_by_key(rows) == expected
     assert rows.read_text().splitlines()[:2] == [header, first]

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import dataclasses
 import functools
 import json
 import statistics
@@ -36,7 +35,7 @@ from typing import Any
 from tqdm import tqdm
 
 from vprobot.cluster import parallel_map, require_ray
-from vprobot.config import Config
+from vprobot.config import Config, config_document
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
     CARRIERS,
@@ -281,7 +280,7 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
         rows[key] = row
         kept.append(line)
     if damaged or repeated:
-        parts = [f"{len(numbers)} {what} row(s) (line {', '.join(map(str, numbers))})"
+        parts = [f"{len(numbers)} {what} row(s) at line(s) {', '.join(map(str, numbers))}"
                  for what, numbers in (("damaged", damaged), ("repeated", repeated)) if numbers]
         warnings.warn(f"{path}: dropped {' and '.join(parts)}; a damaged row's episode runs "
                       f"again", stacklevel=2)
@@ -327,7 +326,7 @@ def _start_episode_list(path: Path, specs: Sequence[EpisodeSpec]) -> None:
 def _settings(config: Config, estimator: str | Path | None) -> dict[str, Any]:
     """What an evaluation's rows depend on besides its episodes, planners and carriers, as
     JSON data: the config and the estimator file."""
-    return {"config": json.loads(json.dumps(dataclasses.asdict(config))),
+    return {"config": config_document(config),
             "estimator": None if estimator is None else str(Path(estimator).resolve())}
 
 
