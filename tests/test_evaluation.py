@@ -336,3 +336,138 @@ def test_a_bad_motor_fails_before_the_first_episode(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"bad\.stl"):
         evaluate(CONFIG, ["hrec"], specs, tmp_path / "out", progress=False)
     assert not (tmp_path / "out" / "evaluation_episodes.csv").exists()
+
+
+TINY_FREE = ("evaluate", "--planners", "hrec", "--motors", str(DEFAULT_MOTOR), "--carriers",
+             "free")
+"""A cheap `vprobot evaluate` (one fixed planner, the free sensor); add --seeds and --out."""
+
+
+def test_an_evaluation_folder_in_use_is_refused(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture) -> None:
+    """While one evaluate process runs into a folder (held still after its first episode), a
+    second evaluate of the same folder is refused at once, naming the first's pid; let go, the
+    first finishes with each episode once."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from vprobot.cli import main
+
+    out = tmp_path / "out"
+    command = [*TINY_FREE, "--seeds", "0", "1", "2", "3", "--out", str(out)]
+    process = subprocess.Popen([sys.executable, "-m", "vprobot.cli", *command],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    rows = out / "evaluation_episodes.csv"
+    try:
+        deadline = time.monotonic() + 120
+        while process.poll() is None and time.monotonic() < deadline:
+            if rows.is_file() and rows.read_text().count("\n") >= 2:  # header + 1 episode
+                process.send_signal(signal.SIGSTOP)
+                break
+            time.sleep(0.01)
+        assert process.poll() is None, "the first evaluation ended before it was held"
+        assert main(command) == 2
+        (line,) = capsys.readouterr().err.splitlines()
+        assert f"{out} is in use by pid {process.pid}" in line
+        process.send_signal(signal.SIGCONT)
+        assert process.wait(timeout=120) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert sorted(_rows_by_key(rows)) == [
+        (str(index), "free", "hrec") for index in range(4)]
+
+
+def test_a_short_row_write_is_an_error_that_leaves_whole_rows_and_resumes(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A full disk that takes only part of a row: the evaluation stops with an OSError, the
+    table keeps whole rows only, and a rerun (space freed) finishes it."""
+    import os
+
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1])
+    real_write = os.write
+
+    def disk_full(descriptor: int, data: bytes) -> int:
+        # The second episode's row (episode index 1) gets only part of its bytes on disk.
+        return real_write(descriptor, data[:50] if data.startswith(b"1,") else data)
+
+    monkeypatch.setattr(os, "write", disk_full)
+    with pytest.raises(OSError, match="disk full"):
+        evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    monkeypatch.undo()
+    rows = tmp_path / "evaluation_episodes.csv"
+    assert rows.read_text().endswith("\n")
+    assert sorted(_rows_by_key(rows)) == [("0", "free", "hrec")]
+    table = evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    assert table[0]["episodes"] == 2
+    assert sorted(_rows_by_key(rows)) == [("0", "free", "hrec"), ("1", "free", "hrec")]
+
+
+def test_damaged_rows_are_dropped_with_one_warning_and_their_episodes_rerun(
+        tmp_path: Path) -> None:
+    """A row glued onto a cut one (a torn write), a row with too few cells and one with a
+    value that does not parse are dropped and their episodes run again; the good row is kept
+    as it was (not rerun), and the rerun's rows equal a clean evaluation's."""
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1, 2, 3])
+    evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    rows = tmp_path / "evaluation_episodes.csv"
+    expected = _rows_by_key(rows)
+    header, first, second, third, fourth = rows.read_text().splitlines()
+    unparsed = fourth.split(",")
+    unparsed[EPISODE_COLUMNS.index("coverage_pct")] = "cut"
+    # Too many cells (episodes 1 and 2), a cell that does not parse, too few cells (3).
+    damaged = [header, first, second[:40] + third, ",".join(unparsed),
+               fourth.rsplit(",", 3)[0]]
+    rows.write_text("\n".join(damaged) + "\n")
+    with pytest.warns(UserWarning) as caught:
+        table = evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    (warning,) = caught
+    assert "dropped 3 damaged row(s) at line(s) 3, 4, 5;" in str(warning.message)
+    assert table[0]["episodes"] == 4
+    assert _rows_by_key(rows) == expected
+    assert rows.read_text().splitlines()[:2] == [header, first]
+
+
+def test_resuming_with_other_settings_is_refused(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture) -> None:
+    """The first run records its settings; a rerun with another robot, coverage goal or
+    estimator is refused (exit 2, one line naming the setting) and leaves the rows as they
+    were. A folder of an older vprobot (no settings recorded) takes this run's, with a
+    warning."""
+    from vprobot.cli import main
+    from vprobot.config import replace
+
+    command = [*TINY_FREE, "--seeds", "0", "--out", str(tmp_path)]
+    assert main(command) == 0
+    rows = tmp_path / "evaluation_episodes.csv"
+    written = rows.read_text()
+    capsys.readouterr()
+    assert main([*command, "--robot", "ur5"]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert "holds an evaluation of other settings (cell.robot 'ur10' there, 'ur5' now" in line
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
+    for config, estimator, setting in [
+            (replace(CONFIG, "env", coverage_goal=0.5), None, "env.coverage_goal"),
+            (CONFIG, tmp_path / "estimator.npz", "estimator")]:
+        with pytest.raises(ValueError, match=f"other settings \\({setting} "):
+            evaluate(config, ["hrec"], specs, tmp_path, progress=False, carriers=["free"],
+                     estimator=estimator)
+    assert rows.read_text() == written
+    (tmp_path / "evaluation_settings.json").unlink()
+    with pytest.warns(UserWarning, match="did not record its settings"):
+        evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    with pytest.raises(ValueError, match="other settings"):
+        evaluate(replace(CONFIG, "cell", robot="ur5"), ["hrec"], specs, tmp_path,
+                 progress=False, carriers=["free"])
+
+
+def test_a_planner_or_carrier_given_twice_runs_once(tmp_path: Path) -> None:
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
+    table = evaluate(CONFIG, ["hrec", "hrec"], specs, tmp_path, progress=False,
+                     carriers=["free", "free"], stops=["goal", "goal"])
+    assert [(row["planner"], row["carrier"], row["episodes"]) for row in table] == [
+        ("hrec", "free", 1)]
+    assert len(read_csv(tmp_path / "evaluation_episodes.csv")) == 1

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.files import atomic_output, remove_stale_temporaries
+from vprobot.files import append_line, atomic_output, remove_stale_temporaries
 
 
 @pytest.fixture
@@ -128,3 +128,19 @@ def test_temporary_of_a_killed_writer_is_removed_by_the_next_write(tmp_path: Pat
         temporary.write_bytes(b"video")
     assert os.listdir(tmp_path) == ["render.mp4"]
     assert target.read_bytes() == b"video"
+
+
+def test_a_short_append_is_cut_back_and_raises(tmp_path: Path,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """A full disk writes what fits: that part of a line is removed and the write is an
+    error, so that the next append does not glue its line onto a cut one."""
+    path = tmp_path / "rows.csv"
+    append_line(path, "a,b\n1,2\n")
+    real_write = os.write
+    monkeypatch.setattr(os, "write", lambda descriptor, data: real_write(descriptor, data[:3]))
+    with pytest.raises(OSError, match="only 3 of 8 bytes"):
+        append_line(path, "333,444\n")
+    monkeypatch.undo()
+    assert path.read_text() == "a,b\n1,2\n"
+    append_line(path, "5,6\n")
+    assert path.read_text() == "a,b\n1,2\n5,6\n"

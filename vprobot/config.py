@@ -9,6 +9,7 @@ names the key and what is allowed.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import numbers
 from collections.abc import Mapping
@@ -522,6 +523,11 @@ def replace(config: Config, section: str, **changes: Any) -> Config:
     current.update(changes)
     return dataclasses.replace(config, **{section: from_mapping(type(getattr(config, section)),
                                                                 current, section)})
+
+
+def config_document(config: Config) -> dict[str, Any]:
+    """The config as plain YAML and JSON data (tuples as lists)."""
+    return json.loads(json.dumps(dataclasses.asdict(config)))
 
 
 def load_config(path: str | Path | None = None) -> Config:

@@ -24,8 +24,10 @@ from __future__ import annotations
 import contextlib
 import csv
 import functools
+import json
 import statistics
 import sys
+import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -33,7 +35,7 @@ from typing import Any
 from tqdm import tqdm
 
 from vprobot.cluster import parallel_map, require_ray
-from vprobot.config import Config
+from vprobot.config import Config, config_document
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
     CARRIERS,
@@ -45,7 +47,7 @@ from vprobot.episode import (
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
-from vprobot.files import append_line, csv_text, save_figure, write_text
+from vprobot.files import append_line, csv_text, exclusive_lock, save_figure, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -63,6 +65,10 @@ EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_p
                    "cartesian_m", "paper_m", "reachable_pct", "plan_s", "plan_ms_per_view",
                    "episode_s", *CURVE_COLUMNS)
 PLOT_NAME = "coverage_vs_views.png"
+SETTINGS_NAME = "evaluation_settings.json"
+"""The settings an evaluation folder's rows were run with (the config and the estimator)."""
+LOCK_NAME = "evaluation.lock"
+"""Locked by the process evaluating into the folder (holds its pid)."""
 PAPER_TABLE_9 = (
     ("agent 8 (A_2S0R)", 92.20, 5.26, 0.0521),
     ("agent 9 (A_3S0R)", 92.16, 4.63, 0.0538),
@@ -213,24 +219,35 @@ _INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested", "views_to_go
 _TEXT_COLUMNS = ("planner", "carrier", "motor")
 
 
-def _typed(row: dict[str, str]) -> dict[str, Any]:
-    """A row read back from the episodes CSV, with the types `episode_row` wrote."""
+def _typed(line: str) -> dict[str, Any] | None:
+    """A line of the episodes CSV as the row `episode_row` wrote; None for a damaged line (too
+    few or too many cells, or a cell that does not parse: a torn write)."""
+    cells = next(csv.reader([line]), [])
+    if len(cells) != len(EPISODE_COLUMNS):
+        return None
     typed: dict[str, Any] = {}
-    for key, text in row.items():
+    for key, text in zip(EPISODE_COLUMNS, cells, strict=True):
         if key in _TEXT_COLUMNS:
             typed[key] = text
         elif key == "success":
+            if text not in ("True", "False"):
+                return None
             typed[key] = text == "True"
         elif text == "":
             typed[key] = None
         else:
-            typed[key] = int(text) if key in _INTEGER_COLUMNS else float(text)
+            try:
+                typed[key] = int(text) if key in _INTEGER_COLUMNS else float(text)
+            except ValueError:
+                return None
     return typed
 
 
 def finished_rows(path: Path) -> list[dict[str, Any]]:
-    """The episode rows an earlier run wrote to `path`; a row cut short by a kill is dropped
-    (and cut from the file, so that appending goes on cleanly).
+    """The episode rows an earlier run wrote to `path`. A last line cut short by a kill, a
+    damaged row and a second row of the same episode are dropped, and cut from the file, so
+    that appending goes on cleanly and a dropped row's episode runs again; the dropped rows are
+    named in one warning (a cut last line is the expected end of a kill: silently).
 
     Raises:
         ValueError: If the file is not an episodes table of this version.
@@ -242,17 +259,33 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     if len(complete) != len(data):
         with path.open("r+b") as stream:
             stream.truncate(len(complete))
-    lines = complete.decode().splitlines()
+    lines = complete.decode(errors="replace").splitlines()
     if not lines:
         return []
     if lines[0].split(",") != list(EPISODE_COLUMNS):
         # An older version's table lacks the coverage curve, so its episodes cannot be reused.
         raise ValueError(f"{path} is not an episodes table of this vprobot version (its columns "
                          f"differ); use another --out")
-    try:
-        return [_typed(row) for row in csv.DictReader(lines)]
-    except ValueError as error:
-        raise ValueError(f"{path} holds a malformed row ({error}); use another --out") from None
+    rows: dict[tuple[int, str, str], dict[str, Any]] = {}
+    kept, damaged, repeated = [lines[0]], [], []
+    for number, line in enumerate(lines[1:], start=2):
+        row = _typed(line)
+        if row is None:
+            damaged.append(number)
+            continue
+        key = (row["episode"], row["carrier"], row["planner"])
+        if key in rows:
+            repeated.append(number)
+            continue
+        rows[key] = row
+        kept.append(line)
+    if damaged or repeated:
+        parts = [f"{len(numbers)} {what} row(s) at line(s) {', '.join(map(str, numbers))}"
+                 for what, numbers in (("damaged", damaged), ("repeated", repeated)) if numbers]
+        warnings.warn(f"{path}: dropped {' and '.join(parts)}; a damaged row's episode runs "
+                      f"again", stacklevel=2)
+        write_text(path, "\n".join(kept) + "\n")
+    return list(rows.values())
 
 
 def _append_row(path: Path, row: dict[str, Any]) -> None:
@@ -288,6 +321,42 @@ def _start_episode_list(path: Path, specs: Sequence[EpisodeSpec]) -> None:
     if read_episode_list(path) != list(specs):
         raise ValueError(f"{path.parent} holds an evaluation of other episodes; use another "
                          f"--out, or --episodes {path} to resume that one")
+
+
+def _settings(config: Config, estimator: str | Path | None) -> dict[str, Any]:
+    """What an evaluation's rows depend on besides its episodes, planners and carriers, as
+    JSON data: the config and the estimator file."""
+    return {"config": config_document(config),
+            "estimator": None if estimator is None else str(Path(estimator).resolve())}
+
+
+def _flat_settings(settings: dict[str, Any]) -> dict[str, Any]:
+    """Settings by `section.key` (and `estimator`)."""
+    return {"estimator": settings.get("estimator"),
+            **{f"{section}.{key}": value for section, values in settings["config"].items()
+               for key, value in values.items()}}
+
+
+def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None:
+    """Record an evaluation's settings, or check that a resumed evaluation ran with the same.
+
+    Raises:
+        ValueError: If the folder holds an evaluation of other settings.
+    """
+    if not path.exists():
+        if resumed:
+            warnings.warn(f"{path.parent} holds episodes of an evaluation that did not record "
+                          f"its settings (an older vprobot); they are taken to be this run's",
+                          stacklevel=3)
+        write_text(path, json.dumps(settings, indent=1) + "\n")
+        return
+    recorded, current = _flat_settings(json.loads(path.read_text())), _flat_settings(settings)
+    changed = [key for key in {**recorded, **current} if recorded.get(key) != current.get(key)]
+    if changed:
+        key = changed[0]
+        raise ValueError(f"{path.parent} holds an evaluation of other settings ({key} "
+                         f"{recorded.get(key)!r} there, {current.get(key)!r} now; see {path}); "
+                         f"resume it with those settings, or use another --out")
 
 
 def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: Path,
@@ -417,9 +486,11 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     """Run every planner on every episode with every carrier; write the tables into `out_dir`.
 
     Resumable: each finished episode is appended to `evaluation_episodes.csv` at once, and a
-    rerun into the same folder skips the episodes already there. On Ctrl-C (or SIGTERM via the
-    CLI) the tables and the plot of the finished episodes are written before the interrupt
-    goes on.
+    rerun into the same folder skips the episodes already there (a damaged row is dropped and
+    its episode run again). On Ctrl-C (or SIGTERM via the CLI) the tables and the plot of the
+    finished episodes are written before the interrupt goes on. The folder is locked
+    (`evaluation.lock`) while this runs, and records the settings (`evaluation_settings.json`)
+    that a rerun must share. A planner, carrier or stop rule given twice runs once.
 
     Args:
         config: The configuration.
@@ -428,8 +499,8 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         specs: The episodes (`evaluation_episodes`).
         out_dir: Folder for `evaluation.md`, `evaluation.csv` (one row per planner and
             carrier), `evaluation_episodes.csv` (one row per episode) and `episodes.json` (the
-            episode list), `coverage_vs_views.png` (the mean coverage curves); created if
-            missing.
+            episode list), `coverage_vs_views.png` (the mean coverage curves) and
+            `evaluation_settings.json`; created if missing.
         progress: Show a progress bar.
         carriers: `robot` and/or `free`.
         workers: Ray tasks at once (one CPU each); 1 without `address` runs in this process.
@@ -444,8 +515,13 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     Raises:
         ValueError: For an unknown planner, carrier or stop rule, no planners, episodes,
             carriers or stop rules, a rule that does not apply to a planner, a motor that does
-            not load, or an output folder holding another evaluation.
+            not load, or an output folder holding an evaluation of other episodes or settings
+            (`InUseError`: or in use by another process).
+        OSError: If a row cannot be written whole (a full disk); the rows before it are kept.
     """
+    # Given twice, a planner, carrier or rule would run each of its episodes twice.
+    planners, stops = list(dict.fromkeys(planners)), list(dict.fromkeys(stops))
+    carriers = list(dict.fromkeys(carriers))
     parsed = [(stop_label(spec, stop), *parse_planner(spec), stop) for stop in stops
               for spec in planners]
     unknown = [carrier for carrier in carriers if carrier not in CARRIERS]
@@ -466,36 +542,40 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         return [row for row in finished_rows(rows_path)
                 if (row["episode"], row["carrier"], row["planner"]) in wanted]
 
-    # Read first: a folder holding an older version's table is refused before anything is
-    # written into it.
-    rows = recorded()
-    _start_episode_list(out / "episodes.json", specs)
-    done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
-    if done and progress:
-        print(f"resuming: {len(done)} of {len(wanted)} episodes already in {rows_path}")
-    jobs = [(index, spec, carrier, label, name, views, stop)
-            for index, spec in enumerate(specs) for carrier in carriers
-            for label, name, views, stop in parsed if (index, carrier, label) not in done]
-    try:
-        with tqdm(total=len(wanted), initial=len(done), desc="evaluate",
-                  disable=not progress) as bar:
-            # Closed at once on an interrupt: Ray's pending episodes are cancelled before the
-            # partial tables are written.
-            with contextlib.closing(_rows(config, jobs, workers, address,
-                                          estimator)) as finished:
-                for row in finished:
-                    _append_row(rows_path, row)
-                    rows.append(row)
-                    bar.update()
-    except KeyboardInterrupt:
-        # From the file: the interrupt may have come between a row's line and `rows.append`.
+    # Two evaluations appending to one table would both run its missing episodes.
+    with exclusive_lock(out / LOCK_NAME, str(out)):
+        # Read first: a folder holding an older version's table is refused before anything is
+        # written into it.
         rows = recorded()
-        _write_tables(out, rows, specs, config, len(wanted))
-        print(f"saved {len(rows)} of {len(wanted)} episodes in {out}; run the same command "
-              f"again to resume", file=sys.stderr)
-        raise
-    order = {key: position for position, key in enumerate(
-        (index, carrier, label) for index in range(len(specs)) for carrier in carriers
-        for label, *_ in parsed)}
-    rows.sort(key=lambda row: order[(row["episode"], row["carrier"], row["planner"])])
-    return _write_tables(out, rows, specs, config, len(wanted))
+        _start_episode_list(out / "episodes.json", specs)
+        _start_settings(out / SETTINGS_NAME, _settings(config, estimator), bool(rows))
+        done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
+        if done and progress:
+            print(f"resuming: {len(done)} of {len(wanted)} episodes already in {rows_path}")
+        jobs = [(index, spec, carrier, label, name, views, stop)
+                for index, spec in enumerate(specs) for carrier in carriers
+                for label, name, views, stop in parsed if (index, carrier, label) not in done]
+        try:
+            with tqdm(total=len(wanted), initial=len(done), desc="evaluate",
+                      disable=not progress) as bar:
+                # Closed at once on an interrupt: Ray's pending episodes are cancelled before
+                # the partial tables are written.
+                with contextlib.closing(_rows(config, jobs, workers, address,
+                                              estimator)) as finished:
+                    for row in finished:
+                        _append_row(rows_path, row)
+                        rows.append(row)
+                        bar.update()
+        except KeyboardInterrupt:
+            # From the file: the interrupt may have come between a row's line and
+            # `rows.append`.
+            rows = recorded()
+            _write_tables(out, rows, specs, config, len(wanted))
+            print(f"saved {len(rows)} of {len(wanted)} episodes in {out}; run the same command "
+                  f"again to resume", file=sys.stderr)
+            raise
+        order = {key: position for position, key in enumerate(
+            (index, carrier, label) for index in range(len(specs)) for carrier in carriers
+            for label, *_ in parsed)}
+        rows.sort(key=lambda row: order[(row["episode"], row["carrier"], row["planner"])])
+        return _write_tables(out, rows, specs, config, len(wanted))

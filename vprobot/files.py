@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import errno
 import io
 import os
 import re
@@ -95,10 +96,25 @@ def atomic_output(path: Path) -> Iterator[Path]:
 
 def append_line(path: Path, text: str) -> None:
     """Append whole lines in one write, flushed to disk: a kill leaves whole lines, and at worst
-    a last line cut short (readers drop a line without its newline)."""
+    a last line cut short (readers drop a line without its newline).
+
+    The caller must be the file's only writer (hold a lock): a short write is cut back to the
+    length the file had before it.
+
+    Raises:
+        OSError: If the write fails or is short (a full disk): the file is as it was.
+    """
+    data = text.encode()
     descriptor = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
     try:
-        os.write(descriptor, text.encode())
+        start = os.lseek(descriptor, 0, os.SEEK_END)
+        written = os.write(descriptor, data)
+        if written != len(data):
+            # A cut line would glue the next append onto it; the next write would most likely
+            # fail anyway (a full disk writes what fits, then nothing).
+            os.ftruncate(descriptor, start)
+            raise OSError(errno.ENOSPC, f"only {written} of {len(data)} bytes could be "
+                          f"appended (disk full?); the file is left as it was", str(path))
         os.fsync(descriptor)
     finally:
         os.close(descriptor)

@@ -62,6 +62,7 @@ from vprobot.config import (
     AgentConfig,
     Config,
     ConfigError,
+    config_document,
     load_config,
     parse_yaml,
     replace,
@@ -241,11 +242,6 @@ def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgo
     return PPO(policy, env, learning_rate=rate, gamma=agent.gamma, n_steps=agent.n_steps,
                batch_size=agent.batch_size, n_epochs=agent.n_epochs,
                policy_kwargs=policy_kwargs, seed=seed, device=device)
-
-
-def config_document(config: Config) -> dict[str, Any]:
-    """The config as plain YAML data (tuples as lists)."""
-    return json.loads(json.dumps(dataclasses.asdict(config)))
 
 
 def _commit() -> str:
