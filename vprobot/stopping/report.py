@@ -45,7 +45,7 @@ from vprobot.stopping.dataset import (
     training_jobs,
     validation_jobs,
 )
-from vprobot.stopping.estimator import fit, load_estimator, widened_std
+from vprobot.stopping.estimator import TrainingDomain, fit, load_estimator, widened_std
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.folds import FOLDS_DIR, family_folds
 
@@ -120,7 +120,8 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
                          progress)
     seconds["folds"] = time.perf_counter() - start
     scale = unseen_scale(folds.mean, folds.std, folds.disagreement, folds.truth)
-    estimator = dataclasses.replace(stated, unseen_scale=scale)
+    estimator = dataclasses.replace(stated, unseen_scale=scale, domain=TrainingDomain.of(
+        training.features, config.sensor, planners))
     estimator.save(out / ESTIMATOR_NAME)
     write_text(out / "family_folds.csv", csv_text(
         ("family", "planner", "view", "coverage", "mean", "std", "disagreement"),
