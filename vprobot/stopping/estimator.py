@@ -51,8 +51,8 @@ WEIGHT_DECAY = 1e-4
 MIN_STD = 1e-3
 """Floor of a member's stated standard deviation (coverage is known to no better anyway)."""
 FORMAT = 3
-"""Format 3 adds the training domain, format 2 the widening for unseen families; older files
-load without them."""
+"""Format 3 may hold the training domain (the folds' estimators have none), format 2 adds the
+widening for unseen families; older files load without them."""
 NEW_SURFACE = 0.002
 """A view that grew the occupied voxels by less than this share added no new surface (on the
 training rollouts such views raised the true coverage by 0.2 pp on average)."""
@@ -280,7 +280,7 @@ class CoverageEstimator:
                 domain = (TrainingDomain(data["domain_low"], data["domain_high"],
                                          tuple(float(v) for v in data["domain_sensor"]),
                                          tuple(str(name) for name in data["domain_planners"]))
-                          if version >= 3 else None)
+                          if "domain_low" in data.files else None)
                 return cls(tuple(str(name) for name in data["features"]), data["shift"],
                            data["scale"], layers, unseen, domain)
         # An empty or cut file is an EOFError or a BadZipFile; a wrong array a TypeError.
