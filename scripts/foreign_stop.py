@@ -10,7 +10,8 @@ the view budget, and appends one row per view (its features and true coverage, t
 rule follows the same views until the rule stops it): `before`, the estimator's plain estimate
 after each view (the rule before issue 30); `after`, the estimate as the rule now states it
 (`vprobot.stopping.estimator.EstimateTracker`: no rise without new surface, widened or refused
-outside what the estimator was fit on). It writes `episodes.csv` and `foreign.md`.
+outside what the estimator was fit on). It writes `rollouts-stops.csv` and `rollouts-stops.md`
+(or NAME-stops.* beside any table of rollouts given, e.g. those of `vprobot stop error`).
 """
 
 from __future__ import annotations
@@ -86,12 +87,13 @@ def replay(mean: np.ndarray, std: np.ndarray, truth: np.ndarray, goal: float,
             "refused_views": int(np.isnan(mean).sum())}
 
 
-def score(folder: Path, estimator: CoverageEstimator, config: Config) -> None:
-    """Replay both rules on every episode of `rollouts.csv`; write `episodes.csv` and
-    `foreign.md`."""
-    data = read_dataset(folder / "rollouts.csv")
-    with (folder / "rollouts.csv").open(newline="") as stream:
-        keys = [(row["object"], row["seed"], row["planner"]) for row in csv.DictReader(stream)]
+def score(rollouts: Path, estimator: CoverageEstimator, config: Config) -> None:
+    """Replay both rules on every episode of a table of rollouts; write `NAME-stops.csv` and
+    `NAME-stops.md` beside it (NAME its stem)."""
+    data = read_dataset(rollouts)
+    with rollouts.open(newline="") as stream:
+        keys = [(row["object"], row["seed"], row["planner"], row["episode"])
+                for row in csv.DictReader(stream)]
     goal = config.env.coverage_goal
     z = NormalDist().inv_cdf(CONFIDENCE)
     rows = []
@@ -107,8 +109,8 @@ def score(folder: Path, estimator: CoverageEstimator, config: Config) -> None:
             rows.append({"part": Path(key[0]).stem, "seed": key[1], "planner": key[2],
                          "rule": rule, **replay(mean, std, truth, goal, z)})
     columns = list(rows[0])
-    write_text(folder / "episodes.csv", csv_text(columns, rows))
-    write_text(folder / "foreign.md", table(rows, goal))
+    write_text(rollouts.with_name(f"{rollouts.stem}-stops.csv"), csv_text(columns, rows))
+    write_text(rollouts.with_name(f"{rollouts.stem}-stops.md"), table(rows, goal))
 
 
 def table(rows: list[dict[str, Any]], goal: float) -> str:
@@ -142,7 +144,10 @@ def table(rows: list[dict[str, Any]], goal: float) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("step", choices=("rollouts", "score"))
-    parser.add_argument("--folder", type=Path, default=FOLDER)
+    parser.add_argument("--folder", type=Path, default=FOLDER,
+                        help="rollouts: the folder of the parts and of rollouts.csv")
+    parser.add_argument("--rollouts", type=Path, nargs="+", default=None,
+                        help="score: tables of rollouts (default: FOLDER/rollouts.csv)")
     parser.add_argument("--planners", nargs="+", default=list(PLANNERS))
     parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
     parser.add_argument("--estimator", type=Path, default=None,
@@ -151,7 +156,8 @@ def main() -> None:
     if args.step == "rollouts":
         rollouts(args.folder, tuple(args.planners), tuple(args.seeds))
     else:
-        score(args.folder, load_estimator(args.estimator), Config())
+        for table_path in args.rollouts or [args.folder / "rollouts.csv"]:
+            score(table_path, load_estimator(args.estimator), Config())
 
 
 if __name__ == "__main__":

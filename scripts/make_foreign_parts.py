@@ -1,4 +1,5 @@
-"""Make the foreign parts on which `--stop estimate` is measured (results/stop_estimate/foreign/).
+"""Make the foreign parts on which `--stop estimate` is measured (results/stop_estimate/foreign/,
+foreign-b/).
 
 Parts from outside the project, as a user would bring them: STL files in millimetres, loaded
 with `--scale 0.001`, unlike every part family (flange, housing, lever, spur gear, stepped
@@ -153,25 +154,122 @@ def arch(rng: np.random.Generator) -> trimesh.Trimesh:
     return trimesh.boolean.difference([block, _cylinder(45.0, 100.0, (0.0, 0.0, -55.0), "y")])
 
 
-PARTS: dict[str, Callable[[np.random.Generator], trimesh.Trimesh]] = {
-    part.__name__: part for part in (cup, hex_nut, star, staircase, window_box, holed_cone,
-                                     dumbbell, t_slot, blob, jack, heat_sink, arch)}
-"""The foreign parts by name (one function each, in millimetres)."""
+# The second set (`--set b`), made after the first had been measured: the figures of the final
+# rule on it are the ones no choice of the rule saw.
+
+
+def u_channel(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A long U-channel: a deep open groove along its length."""
+    return trimesh.boolean.difference([_box((240.0, 70.0, 60.0)),
+                                       _box((250.0, 50.0, 60.0), (0.0, 0.0, 10.0))])
+
+
+def honeycomb(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A block with a grid of blind hexagonal pockets: many narrow cavities."""
+    pockets = [_cylinder(13.0, 50.0, (x, y, 15.0), sections=6)
+               for x in (-60.0, -30.0, 0.0, 30.0, 60.0) for y in (-30.0, 0.0, 30.0)]
+    return trimesh.boolean.difference([_box((170.0, 100.0, 50.0)), *pockets])
+
+
+def knob(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A knurled knob: a cylinder ringed by thin ridges, a stem below."""
+    ridges = [_box((6.0, 96.0, 40.0), (0.0, 0.0, 20.0)) for _ in range(12)]
+    for k, ridge in enumerate(ridges):
+        ridge.apply_transform(trimesh.transformations.rotation_matrix(k * np.pi / 12, [0, 0, 1]))
+    return trimesh.boolean.union([_cylinder(44.0, 40.0, (0.0, 0.0, 20.0)), *ridges,
+                                  _cylinder(15.0, 60.0, (0.0, 0.0, -30.0))])
+
+
+def bowl(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A bowl: half a hollow ball, open above."""
+    shell = trimesh.boolean.difference([trimesh.creation.icosphere(subdivisions=3, radius=90.0),
+                                        trimesh.creation.icosphere(subdivisions=3, radius=82.0)])
+    return trimesh.boolean.difference([shell, _box((200.0, 200.0, 100.0), (0.0, 0.0, 50.0))])
+
+
+def rook(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A chess rook: a turret with a hollow top and crenellations."""
+    body = trimesh.boolean.union([_cylinder(50.0, 20.0, (0.0, 0.0, -70.0)),
+                                  _cylinder(35.0, 130.0), _cylinder(45.0, 30.0, (0.0, 0.0, 65.0))])
+    gaps = [_box((100.0, 14.0, 20.0), (0.0, 0.0, 72.0)),
+            _box((14.0, 100.0, 20.0), (0.0, 0.0, 72.0))]
+    return trimesh.boolean.difference([body, _cylinder(32.0, 30.0, (0.0, 0.0, 75.0)), *gaps])
+
+
+def pegboard(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A plate with pegs of random heights on a grid: a forest of occluders."""
+    heights = rng.uniform(20.0, 70.0, size=(5, 4))
+    pegs = [_cylinder(7.0, h, (x, y, 5.0 + h / 2.0), sections=16)
+            for (i, x) in enumerate((-80.0, -40.0, 0.0, 40.0, 80.0))
+            for (j, y) in enumerate((-45.0, -15.0, 15.0, 45.0)) for h in (heights[i, j],)]
+    return trimesh.boolean.union([_box((200.0, 120.0, 10.0)), *pegs])
+
+
+def caltrop(rng: np.random.Generator) -> trimesh.Trimesh:
+    """Four cones from one centre, pointing to the corners of a tetrahedron."""
+    corners = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]]) / np.sqrt(3.0)
+    cones = []
+    for corner in corners:
+        cone = trimesh.creation.cone(radius=22.0, height=110.0, sections=32)
+        align = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], corner)
+        cone.apply_transform(align)
+        cones.append(cone)
+    return trimesh.boolean.union([*cones, trimesh.creation.icosphere(subdivisions=2,
+                                                                     radius=25.0)])
+
+
+def spool(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A cable spool: two wide discs on a narrow core, a bore through."""
+    solid = trimesh.boolean.union([_cylinder(100.0, 12.0, (0.0, 0.0, -54.0)),
+                                   _cylinder(100.0, 12.0, (0.0, 0.0, 54.0)),
+                                   _cylinder(35.0, 100.0)])
+    return trimesh.boolean.difference([solid, _cylinder(15.0, 140.0)])
+
+
+def egg_with_hole(rng: np.random.Generator) -> trimesh.Trimesh:
+    """An egg-shaped solid with a deep blind hole into its side."""
+    egg = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    egg.vertices *= np.array([95.0, 65.0, 65.0])
+    return trimesh.boolean.difference([egg, _cylinder(18.0, 120.0, (40.0, 0.0, 0.0), "x")])
+
+
+def slotted_ramp(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A ramp (a wedge) cut across by three slots."""
+    outline = np.array([[-110.0, -40.0], [110.0, -40.0], [110.0, 40.0]])
+    wedge = trimesh.creation.extrude_triangulation(outline, np.array([[0, 1, 2]]), 90.0)
+    wedge.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    wedge.apply_translation(-wedge.bounds.mean(axis=0))
+    slots = [_box((10.0, 100.0, 60.0), (x, 0.0, 20.0)) for x in (-30.0, 10.0, 50.0)]
+    return trimesh.boolean.difference([wedge, *slots])
+
+
+SETS: dict[str, tuple[Callable[[np.random.Generator], trimesh.Trimesh], ...]] = {
+    "a": (cup, hex_nut, star, staircase, window_box, holed_cone, dumbbell, t_slot, blob, jack,
+          heat_sink, arch),
+    "b": (u_channel, honeycomb, knob, bowl, rook, pegboard, caltrop, spool, egg_with_hole,
+          slotted_ramp)}
+"""The foreign parts of each set, one function each (in millimetres)."""
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--set", choices=sorted(SETS), default="a",
+                        help="a: the first 12 parts (into OUT), b: the second 10 (into OUT-b)")
+    parser.add_argument("--out", type=Path, default=None, help="default: " + str(OUT))
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
-    for number, (name, make) in enumerate(PARTS.items()):
-        mesh = make(np.random.default_rng([args.seed, number]))
+    out = args.out or (OUT if args.set == "a" else OUT.with_name(OUT.name + "-b"))
+    out.mkdir(parents=True, exist_ok=True)
+    for number, make in enumerate(SETS[args.set]):
+        name = make.__name__
+        # Set a's seeds as they were when it was made; set b's apart from them.
+        mesh = make(np.random.default_rng([args.seed, number] if args.set == "a"
+                                          else [args.seed, 100 + number]))
         mesh.apply_translation(-mesh.bounds.mean(axis=0))
         radius = float(np.linalg.norm(mesh.vertices, axis=1).max())
         if not mesh.is_watertight or radius > MAX_RADIUS_MM:
             raise SystemExit(f"{name}: watertight {mesh.is_watertight}, radius {radius:.0f} mm")
-        path = args.out / f"{name}.stl"
+        path = out / f"{name}.stl"
         mesh.export(path)
         print(f"{path}: extents {np.round(mesh.extents).tolist()} mm, radius {radius:.0f} mm, "
               f"{len(mesh.faces)} faces")
