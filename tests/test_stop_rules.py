@@ -100,9 +100,16 @@ def test_views_counts_acquisitions_only() -> None:
 ])
 def test_the_estimate_rule_stops_when_mean_minus_z_std_reaches_the_goal(
         confidence: float, mean: float, std: float, stops: bool) -> None:
-    estimator = types.SimpleNamespace(estimate=lambda features: (np.array(mean), np.array(std)))
+    estimator = types.SimpleNamespace(estimate=lambda features: (np.array(mean), np.array(std)),
+                                      features=FEATURES, domain=None)
     rule = EstimateStop(CONFIG, estimator, confidence)  # type: ignore[arg-type]
-    rule.features = types.SimpleNamespace(update=lambda views: np.zeros(1))  # type: ignore
+
+    def features(views: list[types.SimpleNamespace]) -> np.ndarray:
+        vector = np.zeros(len(FEATURES))
+        vector[FEATURES.index("acquired")] = sum(view.acquired for view in views)
+        return vector
+
+    rule.features = types.SimpleNamespace(update=features, reset=lambda: None)  # type: ignore
     view = types.SimpleNamespace(acquired=True)
     reason = rule.check(types.SimpleNamespace(views=[view]))  # type: ignore[arg-type]
     assert (reason is not None) == stops
@@ -110,6 +117,7 @@ def test_the_estimate_rule_stops_when_mean_minus_z_std_reaches_the_goal(
         assert reason == (f"estimate {100 * mean:.1f} ± {100 * std:.1f} % ≥ 90 % at "
                           f"{100 * confidence:g} %")
     # Nothing acquired: nothing to estimate from, whatever the estimator would say.
+    rule.reset()
     assert rule.check(types.SimpleNamespace(  # type: ignore[arg-type]
         views=[types.SimpleNamespace(acquired=False)])) is None
 

@@ -171,7 +171,9 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
     document["ground_truth"] = ground_truth_block(record)
     if estimates is not None:
         for view, (mean, std) in zip(document["views"], estimates, strict=True):
-            view["estimate"] = {"mean": float(mean), "std": float(std)}
+            # A refused estimate (NaN) is null: JSON has no NaN.
+            view["estimate"] = (None if np.isnan(mean)
+                                else {"mean": float(mean), "std": float(std)})
     document.update(metadata or {})
     return document
 

@@ -129,7 +129,9 @@ class EpisodeResult:
         stop_rule: The stop rule (`--stop`: `goal`, `estimate:0.9`, ...).
         planner_stopped: Whether the planner ended the episode itself (its own reason, or a
             fixed plan that ran out) rather than the runner.
-        estimates: The model-free coverage estimate (mean, std) after each view, when asked for.
+        estimates: The model-free coverage estimate (mean, std) after each view, when asked for
+            (NaN where it was refused).
+        estimate_notes: Why the estimate was refused, widened or kept, each once.
     """
 
     planner: str
@@ -144,6 +146,7 @@ class EpisodeResult:
     stop_rule: str = "goal"
     planner_stopped: bool = False
     estimates: np.ndarray | None = None
+    estimate_notes: tuple[str, ...] = ()
 
     @property
     def mesh(self) -> str:
@@ -277,14 +280,16 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
     episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable)
     start = time.perf_counter()
     played = run_episode(chosen, episode, spec, config, np.random.default_rng(spec.seed), rule)
+    seconds = time.perf_counter() - start
+    estimated, notes = (view_estimates(config, played.record.views, estimate, chosen.name)
+                        if estimate is not None else (None, []))
     return EpisodeResult(planner=planner if views is None else f"{planner}{views}",
                          carrier=carrier, spec=spec, record=played.record,
                          goal=config.env.coverage_goal, plan_seconds=played.plan_seconds,
-                         episode_seconds=time.perf_counter() - start,
+                         episode_seconds=seconds,
                          candidates=chosen.candidates, stop_reason=played.stop_reason,
                          stop_rule=stop, planner_stopped=played.planner_stopped,
-                         estimates=(None if estimate is None else
-                                    view_estimates(config, played.record.views, estimate)))
+                         estimates=estimated, estimate_notes=tuple(notes))
 
 
 def summary(result: EpisodeResult, config: Config) -> str:
@@ -340,8 +345,9 @@ def summary(result: EpisodeResult, config: Config) -> str:
             line = f"  {index:4d}  {view.coverage:8.1%}  {view.travel.paper:10.2f} m"
         if estimates is not None:
             mean, std = estimates[index - 1]
-            line += f"  {100 * mean:5.1f} ± {100 * std:4.1f} %"
+            line += ("  refused" if np.isnan(mean) else f"  {100 * mean:5.1f} ± {100 * std:4.1f} %")
         lines.append(line.rstrip())
+    lines += [f"  estimate {note}" for note in result.estimate_notes]
     return "\n".join(lines)
 
 

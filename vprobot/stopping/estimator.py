@@ -17,6 +17,11 @@ intervals hold on families left out of the fit in turn (`vprobot.stopping.folds`
 that held on families the estimate had not seen, and it grows where the members disagree (on
 unfamiliar inputs) rather than everywhere.
 
+What the estimator was fit on is recorded with it (`TrainingDomain`: each feature's range over
+the training rows, the sensor, the planners), and `EstimateTracker` states the estimate as a
+stop rule may use it: refused for another sensor or a feature far outside its range, widened a
+little outside it, and never raised by a view that added no new surface.
+
 Training uses torch; `estimate` is plain numpy, so that a stop rule needs neither torch nor a
 pickle: the weights are stored as arrays in an `.npz` file.
 """
@@ -26,11 +31,13 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from vprobot.config import Config, SensorConfig, available_sensors, sensor_preset
 from vprobot.files import atomic_output
 from vprobot.paths import ESTIMATOR_DIR
 
@@ -43,8 +50,16 @@ LEARNING_RATE = 3e-3
 WEIGHT_DECAY = 1e-4
 MIN_STD = 1e-3
 """Floor of a member's stated standard deviation (coverage is known to no better anyway)."""
-FORMAT = 2
-"""Format 2 adds the widening for unseen families; format 1 files load without one."""
+FORMAT = 3
+"""Format 3 may hold the training domain (the folds' estimators have none), format 2 adds the
+widening for unseen families; older files load without them."""
+NEW_SURFACE = 0.002
+"""A view that grew the occupied voxels by less than this share added no new surface (on the
+training rollouts such views raised the true coverage by 0.2 pp on average)."""
+WIDEN_PER_RANGE = 4.0
+"""A feature outside its training range by d ranges multiplies the std by 1 + this x d."""
+REFUSE_RANGES = 0.25
+"""A feature farther than this many ranges outside its training range refuses the estimate."""
 BUNDLED_ESTIMATOR = ESTIMATOR_DIR / "estimator.npz"
 """The estimator `--stop estimate` uses unless told otherwise (its README says how it was fit)."""
 
@@ -54,6 +69,70 @@ def widened_std(variance: np.ndarray, disagreement: np.ndarray,
     """The standard deviation an estimate states: its mixture's variance plus `unseen_scale`
     times the members' disagreement (`CoverageEstimator.mixture`), at least `MIN_STD`."""
     return np.sqrt(np.maximum(variance + unseen_scale * disagreement, MIN_STD ** 2))
+
+SENSOR_GEOMETRY = ("fov_deg", "near_m", "far_m", "working_distance_m")
+"""What of a sensor the features depend on (they count points and blocked pixels per pixel, so
+not its resolution)."""
+
+
+def sensor_geometry(sensor: SensorConfig) -> tuple[float, ...]:
+    """The sensor's opening angles, range and working distance, as `SENSOR_GEOMETRY` lists."""
+    return (*sensor.fov_deg, sensor.near_m, sensor.far_m, sensor.working_distance_m)
+
+
+def sensor_name(geometry: Sequence[float]) -> str:
+    """The preset (`configs/sensors/`) of a sensor geometry, else `custom`."""
+    for name in available_sensors():
+        if np.allclose(sensor_geometry(sensor_preset(name)), geometry):
+            return name
+    return "custom"
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainingDomain:
+    """What an estimator was fit on, to tell inputs unlike it.
+
+    Attributes:
+        low: Each feature's least value over the training rows.
+        high: Its greatest.
+        sensor: The sensor's `sensor_geometry` in the rollouts.
+        planners: The rollouts' planners.
+
+    Raises:
+        ValueError: For ranges of different lengths, not finite or with low > high, or a
+            sensor geometry of another length.
+    """
+
+    low: np.ndarray
+    high: np.ndarray
+    sensor: tuple[float, ...]
+    planners: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        low, high = np.asarray(self.low, dtype=float), np.asarray(self.high, dtype=float)
+        if (low.ndim != 1 or low.shape != high.shape or not np.isfinite([*low, *high]).all()
+                or (low > high).any()):
+            raise ValueError(f"training ranges need finite low <= high of one length, got "
+                             f"shapes {low.shape} and {high.shape}")
+        if len(self.sensor) != len(SENSOR_GEOMETRY) + 1:  # fov_deg holds two angles
+            raise ValueError(f"the sensor geometry holds {len(SENSOR_GEOMETRY) + 1} values "
+                             f"({', '.join(SENSOR_GEOMETRY)}), got {len(self.sensor)}")
+
+    @classmethod
+    def of(cls, features: np.ndarray, sensor: SensorConfig,
+           planners: Sequence[str]) -> TrainingDomain:
+        """The domain of training rows (n, features) from rollouts of `sensor` and `planners`."""
+        x = np.asarray(features, dtype=float)
+        return cls(x.min(axis=0), x.max(axis=0), sensor_geometry(sensor), tuple(planners))
+
+    def outside(self, features: np.ndarray) -> np.ndarray:
+        """How far each feature lies outside its range, in units of the range (0 inside; a
+        feature whose training rows all had one value is infinitely far from any other)."""
+        x = np.asarray(features, dtype=float)
+        beyond = np.maximum(np.maximum(self.low - x, x - self.high), 0.0)
+        width = self.high - self.low
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(beyond > 0.0, beyond / width, 0.0)
 
 
 def _softplus(x: np.ndarray) -> np.ndarray:
@@ -72,9 +151,12 @@ class CoverageEstimator:
             outputs are the mean's logit and the standard deviation's softplus argument.
         unseen_scale: The variance stated adds this many times the members' disagreement
             (the variance of their means) to the mixture's own (0: none).
+        domain: What it was fit on (None: not recorded, files before format 3).
 
     Raises:
-        ValueError: For a negative or infinite `unseen_scale`.
+        ValueError: For a negative or infinite `unseen_scale`, arrays of the wrong shapes, a
+            weight that is not finite, a scale that is not finite and positive, or a domain
+            of another feature count.
     """
 
     features: tuple[str, ...]
@@ -82,10 +164,37 @@ class CoverageEstimator:
     scale: np.ndarray
     layers: tuple[tuple[tuple[np.ndarray, np.ndarray], ...], ...]
     unseen_scale: float = 0.0
+    domain: TrainingDomain | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.unseen_scale < np.inf:
             raise ValueError(f"unseen_scale must be finite and >= 0, got {self.unseen_scale}")
+        count = len(self.features)
+        if np.shape(self.shift) != (count,) or np.shape(self.scale) != (count,):
+            raise ValueError(f"shift and scale need one value per feature ({count}), got "
+                             f"shapes {np.shape(self.shift)} and {np.shape(self.scale)}")
+        # A zero or NaN scale would make every estimate NaN, which no rule ever stops on.
+        if not (np.isfinite(self.shift).all() and np.isfinite(self.scale).all()
+                and (np.asarray(self.scale) > 0.0).all()):
+            raise ValueError("shift must be finite and scale finite and > 0")
+        if not self.layers:
+            raise ValueError("an estimator needs at least one member")
+        for m, member in enumerate(self.layers):
+            width = count
+            for k, (weight, bias) in enumerate(member):
+                last = k == len(member) - 1
+                if (np.ndim(weight) != 2 or np.shape(weight)[0] != width
+                        or np.shape(bias) != np.shape(weight)[1:]
+                        or (last and np.shape(weight)[1] != 2)):
+                    raise ValueError(f"member {m} layer {k}: weight {np.shape(weight)} and bias "
+                                     f"{np.shape(bias)} do not take {width} inputs"
+                                     + (" to 2 outputs" if last else ""))
+                if not (np.isfinite(weight).all() and np.isfinite(bias).all()):
+                    raise ValueError(f"member {m} layer {k}: a weight is not finite")
+                width = np.shape(weight)[1]
+        if self.domain is not None and len(self.domain.low) != count:
+            raise ValueError(f"the training domain has {len(self.domain.low)} features, the "
+                             f"estimator {count}")
 
     def estimate(self, features: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The estimated coverage and its standard deviation (widened by `unseen_scale`).
@@ -138,6 +247,10 @@ class CoverageEstimator:
                   "shift": self.shift, "scale": self.scale,
                   "shape": np.array([len(self.layers), len(self.layers[0])]),
                   "unseen_scale": np.array(self.unseen_scale)}
+        if self.domain is not None:
+            arrays |= {"domain_low": self.domain.low, "domain_high": self.domain.high,
+                       "domain_sensor": np.array(self.domain.sensor),
+                       "domain_planners": np.array(self.domain.planners)}
         for m, member in enumerate(self.layers):
             for k, (weight, bias) in enumerate(member):
                 arrays[f"w_{m}_{k}"], arrays[f"b_{m}_{k}"] = weight, bias
@@ -148,24 +261,31 @@ class CoverageEstimator:
 
     @classmethod
     def load(cls, path: str | Path) -> CoverageEstimator:
-        """Read an estimator written by `save`.
+        """Read an estimator written by `save` (or by an older format).
 
         Raises:
-            ValueError: If the file is missing or not an estimator of this format.
+            ValueError: If the file is missing, not an estimator of a known format, or holds
+                arrays of the wrong shapes, weights that are not finite or a scale that is not
+                positive (the message names the file).
         """
         try:
             with np.load(Path(path), allow_pickle=False) as data:
                 version = int(data["format"])
-                if version not in (1, FORMAT):
-                    raise ValueError(f"{path}: estimator format {version}, expected 1 to "
-                                     f"{FORMAT}")
+                if version not in range(1, FORMAT + 1):
+                    raise ValueError(f"estimator format {version}, expected 1 to {FORMAT}")
                 members, depth = (int(n) for n in data["shape"])
                 layers = tuple(tuple((data[f"w_{m}_{k}"], data[f"b_{m}_{k}"])
                                      for k in range(depth)) for m in range(members))
                 unseen = float(data["unseen_scale"]) if version >= 2 else 0.0
+                domain = (TrainingDomain(data["domain_low"], data["domain_high"],
+                                         tuple(float(v) for v in data["domain_sensor"]),
+                                         tuple(str(name) for name in data["domain_planners"]))
+                          if "domain_low" in data.files else None)
                 return cls(tuple(str(name) for name in data["features"]), data["shift"],
-                           data["scale"], layers, unseen)
-        except (OSError, KeyError, ValueError) as error:
+                           data["scale"], layers, unseen, domain)
+        # An empty or cut file is an EOFError or a BadZipFile; a wrong array a TypeError.
+        except (OSError, EOFError, zipfile.BadZipFile, KeyError, TypeError,
+                ValueError) as error:
             raise ValueError(f"cannot read coverage estimator {path}: {error}") from None
 
 
@@ -274,3 +394,126 @@ def fit(features: np.ndarray, coverage: np.ndarray, validation_features: np.ndar
     layers = tuple(tuple((kept[k][m], kept[k + 1][m, 0]) for k in range(0, len(kept), 2))
                    for m in range(members))
     return CoverageEstimator(tuple(names), shift, scale, layers)
+
+
+@dataclasses.dataclass(frozen=True)
+class Stated:
+    """The estimate after a view as `EstimateTracker` states it.
+
+    Attributes:
+        mean: The estimated coverage (NaN: refused).
+        std: Its standard deviation (NaN: refused).
+        note: Why it was refused, widened or kept from the view before, to follow the word
+            "estimate" (`not used: ...`; None: as estimated).
+    """
+
+    mean: float
+    std: float
+    note: str | None = None
+
+    @property
+    def refused(self) -> bool:
+        return bool(np.isnan(self.mean))
+
+
+def _describe(geometry: Sequence[float]) -> str:
+    fov_x, fov_y, near, far, working = geometry
+    return (f"{sensor_name(geometry)!r} ({fov_x:g} x {fov_y:g} deg, {near:g}-{far:g} m, "
+            f"working distance {working:g} m)")
+
+
+class EstimateTracker:
+    """An episode's estimates view by view, as `--stop estimate` states and uses them.
+
+    - Another sensor than the fit's (`TrainingDomain.sensor`): every estimate is refused.
+    - No view acquired yet: refused (nothing to estimate from).
+    - A view that grew the occupied voxels by less than `NEW_SURFACE` since the estimate last
+      stated keeps that estimate: a view that adds no new surface never raises it.
+    - A feature more than `REFUSE_RANGES` outside its training range (in units of the range):
+      refused, naming the feature; less far: the std is multiplied by 1 + `WIDEN_PER_RANGE`
+      times the distance.
+    - A planner not among the fit's is named in `notes` (the estimate was measured less
+      accurate on such a planner's views, and its widening covered them: the estimator's
+      README).
+
+    Args:
+        estimator: The coverage estimator (its features include `occupied` and `acquired`).
+        config: The run's configuration (its sensor is checked against the fit's).
+        planner: The planner's name (`PLANNERS`, e.g. `uniform` for `uniform8`); None: not
+            checked.
+
+    Raises:
+        ValueError: If the estimator's features lack `occupied` or `acquired`.
+    """
+
+    def __init__(self, estimator: CoverageEstimator, config: Config,
+                 planner: str | None = None):
+        missing = {"occupied", "acquired"} - set(estimator.features)
+        if missing:
+            raise ValueError(f"the estimate rule needs the features {sorted(missing)}")
+        self.estimator = estimator
+        self._occupied = estimator.features.index("occupied")
+        self._acquired = estimator.features.index("acquired")
+        self.notes: list[str] = []
+        """Every note stated so far, once each, in order."""
+        domain = estimator.domain
+        self._refusal = None
+        if domain is None:
+            self._note("not checked for inputs unlike its training data: its file records no "
+                       "training domain (format before 3)")
+        else:
+            geometry = sensor_geometry(config.sensor)
+            if not np.allclose(geometry, domain.sensor):
+                self._refusal = (f"not used: fitted on sensor {_describe(domain.sensor)}, this "
+                                 f"run uses {_describe(geometry)}")
+            if planner is not None and not any(
+                    label == planner or (label.startswith(planner)
+                                         and label[len(planner):].isdigit())
+                    for label in domain.planners):
+                self._note(f"may be less accurate: planner {planner!r} is not among those it "
+                           f"was fit on ({', '.join(domain.planners)})")
+        self.reset()
+
+    def reset(self) -> None:
+        """A new episode."""
+        self._last: Stated | None = None
+        self._last_occupied = 0.0
+
+    def _note(self, note: str | None) -> None:
+        if note is not None and note not in self.notes:
+            self.notes.append(note)
+
+    def update(self, features: np.ndarray) -> Stated:
+        """The estimate after the next view, from its features (len(features),)."""
+        x = np.asarray(features, dtype=float)
+        occupied = float(x[self._occupied])
+        if self._refusal is not None:
+            stated = Stated(np.nan, np.nan, self._refusal)
+        elif x[self._acquired] < 1:
+            stated = Stated(np.nan, np.nan, "not made: no view acquired yet")
+        elif self._last is not None and occupied * (1.0 - NEW_SURFACE) <= self._last_occupied:
+            stated = dataclasses.replace(self._last, note=(
+                f"kept: a view that grew the seen surface by less than {100 * NEW_SURFACE:g} % "
+                f"keeps the estimate before it"))
+        else:
+            stated = self._fresh(x)
+            self._last, self._last_occupied = stated, occupied
+        self._note(stated.note)
+        return stated
+
+    def _fresh(self, x: np.ndarray) -> Stated:
+        mean, std = (float(value) for value in self.estimator.estimate(x))
+        domain = self.estimator.domain
+        if domain is None:
+            return Stated(mean, std)
+        far = domain.outside(x)
+        worst = int(np.argmax(far))
+        if far[worst] == 0.0:
+            return Stated(mean, std)
+        where = (f"{self.estimator.features[worst]} outside its training range "
+                 f"{domain.low[worst]:.4g} to {domain.high[worst]:.4g}")
+        if far[worst] > REFUSE_RANGES:
+            return Stated(np.nan, np.nan, f"not used: {where} by more than "
+                                          f"{REFUSE_RANGES:g} of that range")
+        return Stated(mean, std * (1.0 + WIDEN_PER_RANGE * float(far[worst])),
+                      f"widened: {where}")

@@ -47,7 +47,13 @@ from vprobot.stopping.dataset import (
     training_jobs,
     validation_jobs,
 )
-from vprobot.stopping.estimator import CoverageEstimator, fit, load_estimator, widened_std
+from vprobot.stopping.estimator import (
+    CoverageEstimator,
+    TrainingDomain,
+    fit,
+    load_estimator,
+    widened_std,
+)
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.folds import FOLDS_DIR, family_folds
 from vprobot.stopping.study import list_names
@@ -104,11 +110,11 @@ def fit_estimate(config: Config, out_dir: str | Path, episodes: int = 400, seed:
     out = Path(out_dir)
     with folder_lock(out, str(out)):
         seconds = _dataset(out, config, jobs, recipe, progress)
-        return _fit_and_report(out, seed, planners, split, seconds, progress)
+        return _fit_and_report(out, config, seed, planners, split, seconds, progress)
 
 
-def _fit_and_report(out: Path, seed: int, planners: Sequence[str], split: Split,
-                    seconds: dict[str, float], progress: bool) -> dict[str, Any]:
+def _fit_and_report(out: Path, config: Config, seed: int, planners: Sequence[str],
+                    split: Split, seconds: dict[str, float], progress: bool) -> dict[str, Any]:
     """`fit_estimate` once the rollouts are in `out` (whose lock this process holds)."""
     training = read_dataset(out / "training.csv")
     validation = read_dataset(out / "validation.csv")
@@ -121,7 +127,8 @@ def _fit_and_report(out: Path, seed: int, planners: Sequence[str], split: Split,
                          progress)
     seconds["folds"] = time.perf_counter() - start
     scale = unseen_scale(folds.mean, folds.std, folds.disagreement, folds.truth)
-    estimator = dataclasses.replace(stated, unseen_scale=scale)
+    estimator = dataclasses.replace(stated, unseen_scale=scale, domain=TrainingDomain.of(
+        training.features, config.sensor, planners))
     estimator.save(out / ESTIMATOR_NAME)
     write_text(out / "family_folds.csv", csv_text(
         ("family", "planner", "view", "coverage", "mean", "std", "disagreement"),

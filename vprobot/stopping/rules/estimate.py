@@ -1,6 +1,10 @@
 """`estimate[:C]`: stop when the model-free coverage estimate says the goal is reached with
 confidence C, i.e. when mean - z(C) std >= goal (z the one-sided normal quantile).
 
+The estimate is stated as `vprobot.stopping.estimator.EstimateTracker` states it: a view that
+added no new surface never raises it, and it is widened or refused (the rule then never stops)
+for inputs unlike those it was fit on: another sensor, features outside their training range.
+
 The estimate (`vprobot.stopping.estimator`) reads only the features of the acquired frames and
 the sensor poses (`vprobot.stopping.features`), never the mesh, the ground truth or the
 coverage (`tests/test_model_free.py` guards it), so the rule runs in a real cell.
@@ -16,12 +20,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.stopping.estimator import CoverageEstimator, load_estimator
+from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, Stated, load_estimator
 from vprobot.stopping.features import CoverageFeatures, episode_features
 from vprobot.stopping.rules.base import StopRule, register_stop
 
 if TYPE_CHECKING:
     from vprobot.episode import Episode, ViewRecord
+    from vprobot.planners.base import Planner
 
 DEFAULT_CONFIDENCE = 0.95
 
@@ -48,10 +53,13 @@ class EstimateStop(StopRule):
         if not 0.0 < confidence < 1.0:
             raise ValueError(f"the confidence of estimate:C must lie in (0, 1), got {confidence}")
         self.goal = config.env.coverage_goal
+        self.config = config
         self.estimator = estimator
         self.confidence = confidence
         self.z = NormalDist().inv_cdf(confidence)
         self.features = CoverageFeatures(config)
+        self.tracker = EstimateTracker(estimator, config)
+        self._stated = 0
 
     @classmethod
     def options(cls, **groups: str) -> dict[str, Any]:
@@ -71,26 +79,37 @@ class EstimateStop(StopRule):
               **options: Any) -> StopRule:
         return cls(config, load_estimator(estimator), **options)
 
+    def bind(self, planner: Planner) -> None:
+        super().bind(planner)
+        # The tracker notes a planner the estimate was not fit on.
+        self.tracker = EstimateTracker(self.estimator, self.config, planner.name)
+
     def reset(self) -> None:
         self.features.reset()
+        self.tracker.reset()
+        self._stated = 0
 
     def check(self, episode: Episode) -> str | None:
         views = episode.views
-        if not any(view.acquired for view in views):
-            return None  # nothing acquired: the estimator has nothing to go on
-        mean, std = (float(value) for value in
-                     self.estimator.estimate(self.features.update(views)))
-        if mean - self.z * std >= self.goal:
-            return (f"estimate {100 * mean:.1f} ± {100 * std:.1f} % ≥ {100 * self.goal:g} % "
-                    f"at {100 * self.confidence:g} %")
+        stated: Stated | None = None
+        # View by view, as `view_estimates` states them, however many came since the last check.
+        for count in range(self._stated + 1, len(views) + 1):
+            stated = self.tracker.update(self.features.update(views[:count]))
+        self._stated = len(views)
+        if stated is None or stated.refused:
+            return None
+        if stated.mean - self.z * stated.std >= self.goal:
+            return (f"estimate {100 * stated.mean:.1f} ± {100 * stated.std:.1f} % ≥ "
+                    f"{100 * self.goal:g} % at {100 * self.confidence:g} %")
         return None
 
 
-def view_estimates(config: Config, views: Sequence[ViewRecord],
-                   estimator: CoverageEstimator) -> np.ndarray:
-    """The estimated coverage after each view, as `estimate` sees it: (len(views), 2), the
-    mean and the standard deviation."""
-    if not views:
-        return np.zeros((0, 2))
-    mean, std = estimator.estimate(episode_features(config, views))
-    return np.stack([mean, std], axis=1)
+def view_estimates(config: Config, views: Sequence[ViewRecord], estimator: CoverageEstimator,
+                   planner: str | None = None) -> tuple[np.ndarray, list[str]]:
+    """The estimated coverage after each view, as `estimate` states it (`EstimateTracker`):
+    (len(views), 2), the mean and the standard deviation (NaN where refused), and the notes
+    on why it was refused, widened or kept (each once)."""
+    tracker = EstimateTracker(estimator, config, planner)
+    stated = [tracker.update(features) for features in episode_features(config, views)]
+    return (np.array([(one.mean, one.std) for one in stated]).reshape(len(views), 2),
+            tracker.notes)
