@@ -23,7 +23,13 @@ import yaml
 from helpers import TINY_TRAINING, SmokeRuns
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
-from vprobot.agents.callbacks import count_lines, load_buffer, save_buffer
+from vprobot.agents.callbacks import (
+    ResumableCheckpoint,
+    SharedEpisodeEvaluation,
+    count_lines,
+    load_buffer,
+    save_buffer,
+)
 from vprobot.agents.curves import plot_curves, read_monitor
 from vprobot.agents.encoders import ENCODERS
 from vprobot.agents.extractors import (
@@ -434,3 +440,34 @@ def test_the_monitor_file_of_each_env_rank_is_the_name_sb3_writes(tmp_path: Path
         Monitor(gym.make("CartPole-v1"), filename=str(tmp_path / monitor_file(rank))).close()
     assert sorted(path.name for path in tmp_path.iterdir()) == [
         "monitor.csv", "monitor_1.monitor.csv", "monitor_2.monitor.csv"]
+
+
+class _ResumedModel:
+    """What the callbacks read of a model resumed at step 200."""
+
+    num_timesteps = 200
+
+    def get_env(self) -> None:
+        return None
+
+
+def test_a_resumed_run_evaluates_and_checkpoints_on_the_frequency_grid(tmp_path: Path) -> None:
+    """Evaluations every 100 steps, resumed from the checkpoint at step 200: the next ones are
+    at 300 and 400 (SB3's order: set up, training start, then a call per step), not at 201 and
+    301 (an off-grid evaluation would enter the best-model selection)."""
+    model = _ResumedModel()
+    evaluation = SharedEpisodeEvaluation(None, [], tmp_path, 100, 0.0, "coverage")
+    checkpoint = ResumableCheckpoint(tmp_path, 100, [])
+    evaluated: list[int] = []
+    saved: list[int] = []
+    evaluation.evaluate = lambda: evaluated.append(evaluation.num_timesteps) or {}
+    checkpoint.save = lambda: saved.append(checkpoint.num_timesteps) or {}
+    for callback in (evaluation, checkpoint):
+        callback.init_callback(model)
+        callback.on_training_start({}, {})
+    for step in range(201, 401):
+        model.num_timesteps = step
+        for callback in (evaluation, checkpoint):
+            callback.on_step()
+            callback.on_rollout_end()
+    assert evaluated == [300, 400] and saved == [300, 400]

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import signal
 import sys
 import threading
@@ -58,16 +59,22 @@ def _write_json(path: str | None, document: dict[str, Any]) -> None:
         print(f"wrote {write_json(path, document)}")
 
 
-def _number(kind: type, low: float, strict: bool, what: str) -> Callable[[str], Any]:
-    """An argparse type: a number of `kind` above `low` (argparse names the option)."""
+def _number(kind: type, low: float, strict: bool, what: str,
+            high: float = math.inf) -> Callable[[str], Any]:
+    """An argparse type: a number of `kind` above `low`, at most `high` (argparse names the
+    option)."""
 
     def parse(text: str) -> Any:
         try:
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
-        if not np.isfinite(value) or value < low or (strict and value == low):
+        # Integers are finite (and may exceed what a float or numpy holds).
+        if (kind is float and not math.isfinite(value)) or value < low or (
+                strict and value == low):
             raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}, which is too large")
         return value
 
     parse.__name__ = what
@@ -114,6 +121,16 @@ def _family_name(text: str) -> str:
 NON_NEGATIVE_INT = _number(int, 0, False, "an integer >= 0")
 POSITIVE_INT = _number(int, 0, True, "an integer >= 1")
 POSITIVE_FLOAT = _number(float, 0.0, True, "a number > 0")
+MAX_COUNT = 10_000
+"""Most objects one `motors generate` or `objects generate` writes (about a second each)."""
+COUNT = _number(int, 0, True, f"an integer in 1..{MAX_COUNT}", MAX_COUNT)
+
+
+def _view_count(text: str) -> int:
+    """An argparse type: a fixed number of views, 1..MAX_VIEWS."""
+    from vprobot.planners.base import MAX_VIEWS
+
+    return _number(int, 0, True, f"an integer in 1..{MAX_VIEWS}", MAX_VIEWS)(text)
 
 
 def command_reach(args: argparse.Namespace) -> int:
@@ -589,7 +606,7 @@ def build_parser() -> argparse.ArgumentParser:
                          f"agent, agent:NAME another bundled one (cpu: motors only), "
                          f"agent:PATH a training run or model .zip, nbv@RULE nbv "
                          f"stopping itself by a --stop rule (nbv@grid); default: bscp")
-        sub.add_argument("--views", type=POSITIVE_INT,
+        sub.add_argument("--views", type=_view_count,
                          help=f"fixed number of views ({', '.join(counted_planners())}); "
                          f"default: until the coverage goal")
         sub.add_argument("--seed", type=NON_NEGATIVE_INT,
@@ -635,7 +652,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--seeds", type=NON_NEGATIVE_INT, nargs="+",
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
-                            default=["robot", "free"])
+                            default=["robot", "free"],
+                            help="robot: the robot in the loop; free: a free-flying sensor (the "
+                            "paper's setting); each episode runs with each (default: both)")
     add_stop(evaluation, many=["goal"])
     evaluation.add_argument("--out", default="results", help="folder for the tables")
     evaluation.add_argument("--workers", type=POSITIVE_INT, default=1,
@@ -701,8 +720,11 @@ def build_parser() -> argparse.ArgumentParser:
     motor_commands = motors.add_subparsers(dest="motors_command", required=True)
     generate = add("generate", command_motors_generate, "Generate seeded starter motors.",
                    motor_commands)
-    generate.add_argument("--count", type=POSITIVE_INT, required=True)
-    generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0)
+    generate.add_argument("--count", type=COUNT, required=True,
+                          help=f"number of motors (1..{MAX_COUNT})")
+    generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
+                          help="seed of the set: motor i depends only on (seed, i), so a "
+                          "larger count extends a smaller one (default 0: the paper's motors)")
     generate.add_argument("--out", required=True, help="output folder")
 
     objects = commands.add_parser("objects", help="Seeded part families besides motors.")
@@ -714,7 +736,8 @@ def build_parser() -> argparse.ArgumentParser:
                 object_commands, config=False)
     parts.add_argument("--family", type=_family_name, required=True,
                        help="part family (see `vprobot objects list`)")
-    parts.add_argument("--count", type=POSITIVE_INT, required=True)
+    parts.add_argument("--count", type=COUNT, required=True,
+                       help=f"number of instances (1..{MAX_COUNT})")
     parts.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
                        help="seed of the first instance; the others follow it (default 0)")
     parts.add_argument("--out", required=True, help="output folder")

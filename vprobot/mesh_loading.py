@@ -61,7 +61,7 @@ class LoadedMesh:
     simplification: Simplification | None = None
 
 
-def _is_binary_stl(data: bytes) -> bool:
+def is_binary_stl(data: bytes) -> bool:
     """Whether the bytes are a binary STL whose size matches its triangle count."""
     if len(data) < _STL_HEADER_BYTES:
         return False
@@ -75,7 +75,7 @@ def _check_kind(path: Path, data: bytes) -> None:
     Without this, trimesh reads a non-UTF-8 file as text through charset_normalizer, which is
     not always installed, or returns an empty scene.
     """
-    if path.suffix.lower() == ".stl" and _is_binary_stl(data):
+    if path.suffix.lower() == ".stl" and is_binary_stl(data):
         return
     for signature, kind in _NOT_MESH_SIGNATURES:
         if data.startswith(signature):

@@ -53,6 +53,17 @@ def truncate_lines(path: Path, lines: int) -> None:
         stream.truncate(end)
 
 
+def grid_step(steps: int, frequency: int) -> int:
+    """The last multiple of `frequency` at or before `steps`: evaluations and checkpoints stay on
+    that grid, a resumed run's too.
+
+    The callbacks read the model's step count when they are set up: their own `num_timesteps`
+    is still 0 then (SB3 sets it at the first step), which put a resumed run's first
+    evaluation one step after its checkpoint (at 201, then 301, ...), off the grid.
+    """
+    return steps - steps % frequency
+
+
 class SharedEpisodeEvaluation(BaseCallback):
     """Every `frequency` env steps, score the deterministic policy on the validation episodes.
 
@@ -84,11 +95,11 @@ class SharedEpisodeEvaluation(BaseCallback):
         self.latest_step = -1
 
     def _init_callback(self) -> None:
-        self.last = self.num_timesteps - self.num_timesteps % self.frequency
+        self.last = grid_step(self.model.num_timesteps, self.frequency)
 
     def _on_step(self) -> bool:
         if self.num_timesteps - self.last >= self.frequency:
-            self.last = self.num_timesteps - self.num_timesteps % self.frequency
+            self.last = grid_step(self.num_timesteps, self.frequency)
             self.evaluate()
         return True
 
@@ -146,7 +157,7 @@ class ResumableCheckpoint(BaseCallback):
 
     def _init_callback(self) -> None:
         self.folder.mkdir(exist_ok=True)
-        self.last = self.num_timesteps - self.num_timesteps % self.frequency
+        self.last = grid_step(self.model.num_timesteps, self.frequency)
 
     def _on_step(self) -> bool:
         return True
@@ -155,7 +166,7 @@ class ResumableCheckpoint(BaseCallback):
         # At the end of a rollout the buffer holds every step counted so far (during a step
         # the callback runs before the step's transition is stored).
         if self.num_timesteps - self.last >= self.frequency:
-            self.last = self.num_timesteps - self.num_timesteps % self.frequency
+            self.last = grid_step(self.num_timesteps, self.frequency)
             self.save()
 
     def save(self) -> dict[str, Any]:

@@ -1,0 +1,86 @@
+"""Issue 30's user errors and messages of the command line: each is one line naming what is
+wrong and what is allowed (exit code 2), found before the long work."""
+
+from __future__ import annotations
+
+import json
+import socket
+import time
+from pathlib import Path
+
+import pytest
+
+from vprobot.cli import main
+from vprobot.config import Config, parse_yaml
+from vprobot.episode import seeded_episode
+from vprobot.paths import DEFAULT_MOTOR, PROFILES_DIR
+
+
+def _closed_port() -> int:
+    """A local port nothing listens on (bound once, then released)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def test_a_cluster_address_where_nothing_listens_is_one_line_at_once(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    ray = pytest.importorskip("ray")
+    address = f"127.0.0.1:{_closed_port()}"
+    study = tmp_path / "study.yaml"
+    study.write_text("profile: cpu.yaml\nsteps: 100\nseeds: [0]\ngrid:\n  agent.algorithm: [sac]\n")
+    start = time.monotonic()
+    code = main(["sweep", str(study), "--out", str(tmp_path / "out"), "--address", address])
+    elapsed = time.monotonic() - start
+    err = capsys.readouterr().err
+    assert code == 2 and elapsed < 30, (code, elapsed, err)
+    (line,) = err.splitlines()
+    assert line.startswith(f"vprobot sweep: error: cannot reach the Ray cluster at {address}")
+    assert not ray.is_initialized()
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("object_quaternion", {"w": 1, "x": 0, "y": 0, "z": 0}),
+    ("initial_views", {"phi": 1.42, "theta": 0.71}),
+    ("initial_views", [[1.42, 0.71], [1.0]]),
+    ("object_quaternion", "1 0 0 0"),
+])
+def test_a_malformed_episode_field_names_the_episode_and_the_field(
+        field: str, value: object, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    spec = seeded_episode(Config().env, DEFAULT_MOTOR, 0).as_dict()
+    episodes = tmp_path / "episodes.json"
+    episodes.write_text(json.dumps({"version": 1, "episodes": [spec, {**spec, field: value}]}))
+    code = main(["evaluate", "--episodes", str(episodes), "--planners", "uniform2",
+                 "--out", str(tmp_path / "out")])
+    (line,) = capsys.readouterr().err.splitlines()
+    assert code == 2
+    assert line.startswith(f"vprobot evaluate: error: {episodes} episodes[1]: episode spec "
+                           f"{field} must be"), line
+
+
+def test_a_key_given_twice_in_a_yaml_file_is_refused_with_its_lines(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    config = tmp_path / "twice.yaml"
+    config.write_text("cell:\n  robot: ur5\nsensor:\n  near_m: 0.3\n  far_m: 0.5\n"
+                      "  near_m: 0.35\n")
+    code = main(["cell", "--config", str(config), "--candidates", "10"])
+    (line,) = capsys.readouterr().err.splitlines()
+    assert code == 2
+    assert line == (f"vprobot cell: error: {config}: not valid YAML (line 6): key 'near_m' is "
+                    f"given twice (first on line 4)")
+
+
+def test_a_yaml_merge_key_may_still_be_overridden() -> None:
+    assert parse_yaml("base: &base {near_m: 0.3}\nsensor:\n  <<: *base\n  near_m: 0.35\n",
+                      "merge.yaml")["sensor"] == {"near_m": 0.35}
+
+
+def test_unknown_test_lists_are_refused_with_the_profile_before_training(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "seeds"
+    code = main(["train", str(PROFILES_DIR / "cpu.yaml"), "--seeds", "0", "--out", str(out),
+                 "--set", "agent.test_lists=[test-v1, bogus]"])
+    (line,) = capsys.readouterr().err.splitlines()
+    assert code == 2 and not out.exists()
+    assert line == ("vprobot train: error: agent.test_lists must name bundled episode lists "
+                    "(test-v1, shapes-v1, families-test-v1, validation-v1), got 'bogus'")
