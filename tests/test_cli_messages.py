@@ -84,3 +84,59 @@ def test_unknown_test_lists_are_refused_with_the_profile_before_training(
     assert code == 2 and not out.exists()
     assert line == ("vprobot train: error: agent.test_lists must name bundled episode lists "
                     "(test-v1, shapes-v1, families-test-v1, validation-v1), got 'bogus'")
+
+
+@pytest.mark.parametrize(("argv", "expected"), [
+    (["plan", "--planner", "agent", "--views", "1000000"],
+     "vprobot plan: error: argument --views: must be an integer in 1..100, got '1000000', which "
+     "is too large"),
+    (["evaluate", "--planners", "agent1000"],
+     "vprobot evaluate: error: the view count of 'agent1000' must lie in 1..100, got 1000"),
+    (["plan", "--planner", "uniform1000"],
+     "vprobot plan: error: the view count k of uniform<k> must lie in 1..100, got 1000"),
+    (["motors", "generate", "--count", "99999999999999999999"],
+     "vprobot motors generate: error: argument --count: must be an integer in 1..10000, got "
+     "'99999999999999999999', which is too large"),
+    (["plan", "--stop", "views:²"],
+     "vprobot plan: error: argument --stop: bad stop rule 'views:²': N must be an integer >= 1; "
+     "allowed: agent, estimate[:C] (0 < C < 1, default 0.95), goal, grid, views:N (N >= 1)"),
+], ids=["views", "agent-count", "uniform-count", "count", "stop-views-superscript"])
+def test_out_of_range_counts_say_what_is_allowed(argv: list[str], expected: str, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture) -> None:
+    try:
+        code = main([*argv, "--out", str(tmp_path / ("out.json" if argv[0] == "plan" else "out"))])
+    except SystemExit as exit_:  # argparse's errors
+        code = exit_.code
+    (line,) = capsys.readouterr().err.splitlines()
+    assert code == 2 and line == expected
+
+
+@pytest.mark.parametrize(("scale", "shown"), [("1e308", "1e+308"), ("1e-320", "9.99989e-321")])
+def test_a_scale_that_overflows_or_underflows_the_mesh_is_named_by_the_size_check(
+        scale: str, shown: str, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    code = main(["plan", "--scale", scale, "--out", str(tmp_path / "plan.json")])
+    (line,) = capsys.readouterr().err.splitlines()
+    assert code == 2
+    assert line.startswith(f"vprobot plan: error: {DEFAULT_MOTOR}: largest side is ")
+    assert f" m with --scale {shown}, outside the allowed 0.01 .. 5 m; set --scale" in line
+
+
+def test_a_folder_given_as_the_mesh_is_said_to_be_a_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    code = main(["plan", "--mesh", str(tmp_path), "--out", str(tmp_path / "plan.json")])
+    (line,) = capsys.readouterr().err.splitlines()
+    assert code == 2
+    assert line == (f"vprobot plan: error: {tmp_path} is a folder, not a mesh file trimesh can "
+                    f"read (STL, OBJ, PLY, ...)")
+
+
+def test_a_table_that_is_not_utf8_is_named(tmp_path: Path,
+                                           capsys: pytest.CaptureFixture) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "monitor.csv").write_bytes(b'#{"t_start": 0}\nr,l,t\n\xff\xfe,1,2\n')
+    code = main(["curves", str(run), "--out", str(tmp_path / "curves.png")])
+    (line,) = capsys.readouterr().err.splitlines()
+    assert code == 2
+    assert line == (f"vprobot curves: error: {run / 'monitor.csv'} is not UTF-8 text (byte 22 "
+                    f"is b'\\xff'): not a file vprobot wrote, or a damaged one")

@@ -45,7 +45,7 @@ from vprobot.episode import (
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
-from vprobot.files import append_line, csv_text, save_figure, write_text
+from vprobot.files import append_line, csv_text, read_text, save_figure, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -242,7 +242,7 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     if len(complete) != len(data):
         with path.open("r+b") as stream:
             stream.truncate(len(complete))
-    lines = complete.decode().splitlines()
+    lines = read_text(path).splitlines()
     if not lines:
         return []
     if lines[0].split(",") != list(EPISODE_COLUMNS):

@@ -20,7 +20,7 @@ from vprobot.agents.runs import best_evaluation, current_names, evaluation_score
 from vprobot.config import Selection
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.files import append_line, atomic_output, csv_text, write_text
+from vprobot.files import append_line, atomic_output, csv_text, read_text, write_text
 
 EVALUATION_COLUMNS = ("step", "wall_s", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
@@ -31,7 +31,7 @@ BUFFER_ARRAYS = ("observations", "next_observations", "actions", "rewards", "don
 def upgrade_evaluations(path: Path) -> None:
     """Rewrite an `evaluations.csv` written before the one summary in today's columns, so that
     a run resumed by this version appends rows under the header they belong to."""
-    lines = path.read_text().splitlines() if path.is_file() else []
+    lines = read_text(path).splitlines() if path.is_file() else []
     if lines and lines[0].split(",") != list(EVALUATION_COLUMNS):
         rows = [current_names(row) for row in csv.DictReader(lines)]
         write_text(path, csv_text(EVALUATION_COLUMNS, rows))
