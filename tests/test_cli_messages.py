@@ -13,6 +13,7 @@ import pytest
 from vprobot.cli import main
 from vprobot.config import Config, parse_yaml
 from vprobot.episode import seeded_episode
+from vprobot.kinematics import FAILURE_REASONS, OUT_OF_REACH
 from vprobot.paths import DEFAULT_MOTOR, PROFILES_DIR
 
 
@@ -140,3 +141,18 @@ def test_a_table_that_is_not_utf8_is_named(tmp_path: Path,
     assert code == 2
     assert line == (f"vprobot curves: error: {run / 'monitor.csv'} is not UTF-8 text (byte 22 "
                     f"is b'\\xff'): not a file vprobot wrote, or a damaged one")
+
+
+def test_cell_prints_a_table_of_the_failure_reasons_only(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    report = tmp_path / "cell.json"
+    assert main(["cell", "--robot", "ur5", "--candidates", "60", "--json", str(report)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    start = lines.index("unreachable, by reason (docs/cell-and-robots.md#reachability)")
+    rows = [line.split() for line in lines[start + 1:] if not line.startswith("wrote")]
+    document = json.loads(report.read_text())
+    unreachable = round((1 - document["fraction"]) * 60)
+    assert unreachable > 0 and "{" not in "\n".join(lines)
+    assert {reason for reason, *_ in rows} <= set(FAILURE_REASONS) | {OUT_OF_REACH}
+    assert sum(int(count) for _, count, _ in rows) == unreachable
+    assert document["reasons"] == {reason: int(count) for reason, count, _ in rows}

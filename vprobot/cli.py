@@ -136,7 +136,7 @@ def _view_count(text: str) -> int:
 def command_reach(args: argparse.Namespace) -> int:
     """Answer "can the cell reach this view?" and optionally write the plan JSON."""
     from vprobot.geometry import Pose
-    from vprobot.kinematics import RobotArm, SensorTarget
+    from vprobot.kinematics import OUT_OF_REACH, RobotArm, SensorTarget
     from vprobot.plan_export import plan_document, view_entry
     from vprobot.scene import Cell
 
@@ -156,8 +156,13 @@ def command_reach(args: argparse.Namespace) -> int:
     verdict = "REACHABLE" if result.reachable else f"UNREACHABLE ({result.reason})"
     print(f"robot {cell.robot.name}: sensor at {np.round(target.pose.position, 4).tolist()} "
           f"looking at {np.round(args.look_at, 4).tolist()}: {verdict}")
-    print(f"  IK: {result.attempts} attempt(s), {result.iterations} iterations, residual "
-          f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
+    if result.reason == OUT_OF_REACH:
+        distance = np.linalg.norm(target.pose.position - arm.shoulder_position)
+        print(f"  out of the robot's reach: the sensor position lies {distance:.3f} m from its "
+              f"shoulder, which reaches {arm.reach_radius_m:.3f} m at most (no IK attempt)")
+    else:
+        print(f"  IK: {result.attempts} attempt(s), {result.iterations} iterations, residual "
+              f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
     view = view_entry(pose=target.pose, joints=None, reachable=False, reason=result.reason)
     if result.reachable:
         travel = arm.travel(q_from, result.q, cell.object_center)
@@ -195,7 +200,10 @@ def command_cell(args: argparse.Namespace) -> int:
             print(f"  {low:3d}-{low + 15:3d} deg             {band.sum():5d}     "
                   f"{reachable[band].mean():7.1%}")
     print(f"all                          {len(targets):5d}     {survey['fraction']:7.1%}")
-    print(f"failures: {survey['reasons']}")
+    print("unreachable, by reason (docs/cell-and-robots.md#reachability)" if survey["reasons"]
+          else "unreachable: none")
+    for reason, count in survey["reasons"].items():
+        print(f"  {reason:<26} {count:5d}     {count / len(targets):7.1%}")
     _write_json(args.json, {"robot": cell.robot.name, "fraction": survey["fraction"],
                             "reasons": survey["reasons"]})
     return 0
