@@ -328,17 +328,26 @@ def command_train(args: argparse.Namespace) -> int:
         return 0
     result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
                    device=args.device, argv=["vprobot", *args.argv])
+    best = result["best"]
     print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the "
-          f"validation episodes: coverage {result['coverage_pct']:.1f} %, "
-          f"{result['acquisitions']:.2f} acquisitions, {result['success_pct']:.0f} % at the "
-          f"goal" + ("" if result["reachable_pct"] is None
-                     else f", {result['reachable_pct']:.0f} % of requests reachable"))
+          f"validation episodes:")
+    print(f"  best model (the one kept, agent.select), from step {best['step']:,.0f}: "
+          f"{_scores(best)}: {Path(args.out) / 'best_model.zip'}")
+    print(f"  final model, step {result['steps']:,}: {_scores(result)}"
+          + ("" if result["reachable_pct"] is None
+             else f", {result['reachable_pct']:.0f} % of requests reachable"))
     if result["curves"] is None:
-        print(f"run directory: {args.out} (evaluations.csv, best_model.zip); no finished "
-              f"episodes yet, so no curves.png: more --steps, or `vprobot curves` later")
+        print(f"run directory: {args.out} (evaluations.csv); no finished episodes yet, so no "
+              f"curves.png: more --steps, or `vprobot curves` later")
     else:
-        print(f"run directory: {args.out} (curves.png, evaluations.csv, best_model.zip)")
+        print(f"run directory: {args.out} (curves.png, evaluations.csv)")
     return 0
+
+
+def _scores(row: dict[str, Any]) -> str:
+    """An evaluation on the validation episodes, as `train` reports it."""
+    return (f"coverage {row['coverage_pct']:.1f} %, {row['acquisitions']:.2f} acquisitions, "
+            f"{row['success_pct']:.0f} % at the goal")
 
 
 def command_sweep(args: argparse.Namespace) -> int:
