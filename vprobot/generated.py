@@ -43,7 +43,10 @@ def family_object(family: str, seed: int) -> str:
 
 def motor_object(seed: int, index: int) -> str:
     """The name of motor `index` drawn by the motor generator with `seed`."""
-    return f"{PREFIX}motor_{seed}_{index:03d}.stl"
+    # Imported here: the generators need trimesh; the split and the config read names here.
+    from vprobot.motors import motor_stem
+
+    return f"{PREFIX}{motor_stem(seed, index)}.stl"
 
 
 def is_generated(name: str) -> bool:
