@@ -3,6 +3,7 @@ wrong and what is allowed (exit code 2), found before the long work."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import socket
 import time
@@ -10,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.cli import main
+from vprobot.cli import build_parser, main
 from vprobot.config import Config, parse_yaml
 from vprobot.episode import seeded_episode
 from vprobot.kinematics import FAILURE_REASONS, OUT_OF_REACH
@@ -156,3 +157,19 @@ def test_cell_prints_a_table_of_the_failure_reasons_only(
     assert {reason for reason, *_ in rows} <= set(FAILURE_REASONS) | {OUT_OF_REACH}
     assert sum(int(count) for _, count, _ in rows) == unreachable
     assert document["reasons"] == {reason: int(count) for reason, count, _ in rows}
+
+
+def _without_help(parser: argparse.ArgumentParser, command: str) -> list[str]:
+    """The arguments of a parser and its subcommands that --help shows without a text."""
+    missing = []
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                missing += _without_help(sub, f"{command} {name}")
+        elif action.help is None:
+            missing.append(f"{command} {'/'.join(action.option_strings) or action.dest}")
+    return missing
+
+
+def test_every_option_and_argument_has_help() -> None:
+    assert _without_help(build_parser(), "vprobot") == []

@@ -726,7 +726,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(benchmark)
     benchmark.add_argument("suite",
                            choices=["kinematics", "sensor", "env", "planners", "mesh",
-                                    "render", "train", "cluster", "objects"])
+                                    "render", "train", "cluster", "objects"],
+                           help="what to measure (docs/benchmarks.md)")
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
