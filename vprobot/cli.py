@@ -122,7 +122,7 @@ NON_NEGATIVE_INT = _number(int, 0, False, "an integer >= 0")
 POSITIVE_INT = _number(int, 0, True, "an integer >= 1")
 POSITIVE_FLOAT = _number(float, 0.0, True, "a number > 0")
 MAX_COUNT = 10_000
-"""Most objects one `motors generate` or `objects generate` writes (about a second each)."""
+"""Most objects one `motors generate` or `objects generate` writes (0.1 to 1 s each)."""
 COUNT = _number(int, 0, True, f"an integer in 1..{MAX_COUNT}", MAX_COUNT)
 
 
