@@ -125,3 +125,39 @@ def test_cli_plans_with_an_agent_for_a_fixed_view_count(run: Path, tmp_path: Pat
     assert main(["plan", "--planner", f"agent:{tmp_path / 'nothing'}", "--out",
                  str(plan)]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("written", ["./cpu", "cpu/"])
+def test_an_explicit_path_named_like_a_bundled_agent_is_the_path(
+        written: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A local run folder `cpu` holding (a copy of) the generalist: `./cpu` is that folder, only
+    # the bare name `cpu` is the bundled motors-only agent.
+    shutil.copytree(AGENTS_DIR / "generalist", tmp_path / "cpu")
+    monkeypatch.chdir(tmp_path)
+    local = load_agent(written)
+    assert local.path == (tmp_path / "cpu" / "model.zip").resolve()
+    assert local.config.env.action == "A_view"
+    assert load_agent("cpu").path == (AGENTS_DIR / "cpu" / "model.zip").resolve()
+
+
+@pytest.mark.parametrize(("text", "shown"), [("", "NoneType (an empty file)"),
+                                             ("- a\n- b\n", "list")])
+def test_a_run_whose_config_is_empty_or_no_mapping_names_the_file(
+        text: str, shown: str, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    run = tmp_path / "run"
+    shutil.copytree(AGENTS_DIR / "generalist", run)
+    (run / "config.yaml").write_text(text)
+    code = main(["plan", "--planner", f"agent:{run}", "--out", str(tmp_path / "plan.json")])
+    note, line = capsys.readouterr().err.splitlines()
+    assert code == 2 and note == f"loading agent {run} ..."
+    assert line == (f"vprobot plan: error: {run / 'config.yaml'}: a run's config must be a "
+                    f"mapping of config sections, as `vprobot train` writes it; got {shown}")
+
+
+def test_an_agent_planner_says_it_is_loading_before_the_slow_load(
+        capsys: pytest.CaptureFixture) -> None:
+    from vprobot.progress import showing_progress
+
+    with showing_progress():
+        AgentPlanner("cpu")
+    assert capsys.readouterr().err == "loading agent cpu ...\n"

@@ -23,7 +23,13 @@ import yaml
 from helpers import TINY_TRAINING, SmokeRuns
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
-from vprobot.agents.callbacks import count_lines, load_buffer, save_buffer
+from vprobot.agents.callbacks import (
+    ResumableCheckpoint,
+    SharedEpisodeEvaluation,
+    count_lines,
+    load_buffer,
+    save_buffer,
+)
 from vprobot.agents.curves import plot_curves, read_monitor
 from vprobot.agents.encoders import ENCODERS
 from vprobot.agents.extractors import (
@@ -368,8 +374,38 @@ def test_training_before_the_first_finished_episode_succeeds_without_curves(
     run = tmp_path / "run"
     assert main(["train", str(PROFILES / "cpu.yaml"), "--steps", "5", "--set", *TINY,
                  "--out", str(run)]) == 0
-    assert "no finished episodes yet, so no curves.png" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "no finished episodes yet, so no curves.png" in out
+    assert ("  best model (the one kept, agent.select), from step 5: coverage " in out
+            and f"% at the goal: {run / 'best_model.zip'}\n" in out)
     assert (run / "final_model.zip").is_file() and not (run / "curves.png").exists()
+    # Resumed once finished, it says so.
+    assert main(["train", "--resume", "--out", str(run)]) == 0
+    assert (f"{run} has finished: it trained its 5 steps (agent.total_steps) already; nothing "
+            f"more to train\n") in capsys.readouterr().out
+
+
+def test_train_reports_the_selected_best_model_and_where_it_is(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The model kept (best_model.zip, from an earlier evaluation) comes first, with its step
+    and file; the final model, which may be worse, second."""
+    import vprobot.agents.training as training
+    from vprobot.cli import main
+
+    final = {"coverage_pct": 39.5, "acquisitions": 4.0, "success_pct": 20.0,
+             "reachable_pct": 80.0, "steps": 75_000, "wall_s": 600.0, "curves": None}
+    best = {"coverage_pct": 60.9, "acquisitions": 3.25, "success_pct": 50.0, "step": 40_000.0}
+    monkeypatch.setattr(training, "train", lambda *args, **kwargs: {**final, "best": best})
+    run = tmp_path / "run"
+    assert main(["train", str(PROFILES / "cpu.yaml"), "--out", str(run)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[:3] == [
+        "trained 75,000 steps in 10.0 min; on the validation episodes:",
+        f"  best model (the one kept, agent.select), from step 40,000: coverage 60.9 %, 3.25 "
+        f"acquisitions, 50 % at the goal: {run / 'best_model.zip'}",
+        "  final model, step 75,000: coverage 39.5 %, 4.00 acquisitions, 20 % at the goal, 80 % "
+        "of requests reachable"]
 
 
 def _millimetre_motor(path: Path, factor: float) -> Path:
@@ -434,3 +470,34 @@ def test_the_monitor_file_of_each_env_rank_is_the_name_sb3_writes(tmp_path: Path
         Monitor(gym.make("CartPole-v1"), filename=str(tmp_path / monitor_file(rank))).close()
     assert sorted(path.name for path in tmp_path.iterdir()) == [
         "monitor.csv", "monitor_1.monitor.csv", "monitor_2.monitor.csv"]
+
+
+class _ResumedModel:
+    """What the callbacks read of a model resumed at step 200."""
+
+    num_timesteps = 200
+
+    def get_env(self) -> None:
+        return None
+
+
+def test_a_resumed_run_evaluates_and_checkpoints_on_the_frequency_grid(tmp_path: Path) -> None:
+    """Evaluations every 100 steps, resumed from the checkpoint at step 200: the next ones are
+    at 300 and 400 (SB3's order: set up, training start, then a call per step), not at 201 and
+    301 (an off-grid evaluation would enter the best-model selection)."""
+    model = _ResumedModel()
+    evaluation = SharedEpisodeEvaluation(None, [], tmp_path, 100, 0.0, "coverage")
+    checkpoint = ResumableCheckpoint(tmp_path, 100, [])
+    evaluated: list[int] = []
+    saved: list[int] = []
+    evaluation.evaluate = lambda: evaluated.append(evaluation.num_timesteps) or {}
+    checkpoint.save = lambda: saved.append(checkpoint.num_timesteps) or {}
+    for callback in (evaluation, checkpoint):
+        callback.init_callback(model)
+        callback.on_training_start({}, {})
+    for step in range(201, 401):
+        model.num_timesteps = step
+        for callback in (evaluation, checkpoint):
+            callback.on_step()
+            callback.on_rollout_end()
+    assert evaluated == [300, 400] and saved == [300, 400]

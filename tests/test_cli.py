@@ -42,9 +42,14 @@ def test_unreachable_view_is_reported(tmp_path: Path, capsys: pytest.CaptureFixt
     code = main(["reach", "--position", "2.5", "0", "0.75", "--look-at", "3", "0", "0.75",
                  "--robot", "ur5", "--json", str(out)])
     assert code == 1
-    assert "UNREACHABLE (did_not_converge)" in capsys.readouterr().out
+    # Farther from the shoulder than the arm reaches: said so, not "did not converge" after no
+    # attempt.
+    verdict, detail, _ = capsys.readouterr().out.splitlines()
+    assert verdict.endswith("UNREACHABLE (out_of_reach)")
+    assert detail.startswith("  out of the robot's reach: the sensor position lies ")
+    assert "no IK attempt" in detail and "0 attempt(s)" not in detail
     (view,) = json.loads(out.read_text())["views"]
-    assert view == {**view, "reachable": False, "reason": "did_not_converge", "joints": None}
+    assert view == {**view, "reachable": False, "reason": "out_of_reach", "joints": None}
 
 
 @pytest.mark.parametrize(

@@ -102,7 +102,8 @@ def test_unreachable_request_keeps_joints_and_coverage() -> None:
     _, before = env.reset(seed=0)
     _, reward, _, _, info = env.step(np.ones(3, dtype=np.float32))  # 1.7 m from the motor
     assert not info["reachable"]
-    assert info["reason"] in ("did_not_converge", "joint_limits", "collision", "path_collision")
+    assert info["reason"] in ("out_of_reach", "did_not_converge", "joint_limits", "collision",
+                              "path_collision")
     np.testing.assert_array_equal(info["joints"], before["joints"])
     assert info["coverage"] == before["coverage"] and info["delta_coverage"] == 0.0
     assert info["travel_joint_time"] == 0.0

@@ -408,25 +408,29 @@ def test_a_short_row_write_is_an_error_that_leaves_whole_rows_and_resumes(
 
 def test_damaged_rows_are_dropped_with_one_warning_and_their_episodes_rerun(
         tmp_path: Path) -> None:
-    """A row glued onto a cut one (a torn write), a row with too few cells and one with a
-    value that does not parse are dropped and their episodes run again; the good row is kept
-    as it was (not rerun), and the rerun's rows equal a clean evaluation's."""
-    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1, 2, 3])
+    """A row glued onto a cut one (a torn write), a row with too few cells, one with a value
+    that does not parse and one with bytes that are not UTF-8 are dropped and their episodes
+    run again; the good row is kept as it was (not rerun), and the rerun's rows equal a clean
+    evaluation's."""
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1, 2, 3, 4])
     evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
     rows = tmp_path / "evaluation_episodes.csv"
     expected = _rows_by_key(rows)
-    header, first, second, third, fourth = rows.read_text().splitlines()
+    header, first, second, third, fourth, fifth = rows.read_text().splitlines()
     unparsed = fourth.split(",")
     unparsed[EPISODE_COLUMNS.index("coverage_pct")] = "cut"
     # Too many cells (episodes 1 and 2), a cell that does not parse, too few cells (3).
     damaged = [header, first, second[:40] + third, ",".join(unparsed),
                fourth.rsplit(",", 3)[0]]
-    rows.write_text("\n".join(damaged) + "\n")
+    motor = fifth.split(",")[EPISODE_COLUMNS.index("motor")]
+    rows.write_bytes(("\n".join(damaged) + "\n").encode()
+                     + fifth.encode().replace(motor.encode(), b"\xff" + motor.encode()[1:])
+                     + b"\n")
     with pytest.warns(UserWarning) as caught:
         table = evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
     (warning,) = caught
-    assert "dropped 3 damaged row(s) at line(s) 3, 4, 5;" in str(warning.message)
-    assert table[0]["episodes"] == 4
+    assert "dropped 4 damaged row(s) at line(s) 3, 4, 5, 6;" in str(warning.message)
+    assert table[0]["episodes"] == 5
     assert _rows_by_key(rows) == expected
     assert rows.read_text().splitlines()[:2] == [header, first]
 

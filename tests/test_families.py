@@ -13,6 +13,7 @@ from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.families import FAMILIES, family_rng
 from vprobot.fit import check_fits
+from vprobot.generated import VERSION
 from vprobot.mesh_loading import load_mesh
 
 RADIUS_RANGE_M = (0.055, 0.16)
@@ -129,3 +130,55 @@ def test_objects_cache_builds_every_training_object_and_its_ground_truth(
     made = sorted(path.name for path in (tmp_path / "cache" / "objects").rglob("*.stl"))
     assert made == ["lever_0000.stl", "lever_0001.stl"]
     assert len(list((tmp_path / "cache" / "ground_truth").glob("*.npz"))) == 2
+
+
+def _levers(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, count: int) -> Path:
+    """A profile training on `count` instances of the lever family (lever_0000, ...), the
+    cache in tmp_path/cache."""
+    import dataclasses
+
+    from vprobot.paths import CACHE_ENV_VAR
+    from vprobot.splits import Split
+
+    split = dataclasses.replace(Split.load(), training_instances=range(count))
+    monkeypatch.setattr(Split, "load", classmethod(lambda cls, path=None: split))
+    monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path / "cache"))
+    profile = tmp_path / "profile.yaml"
+    profile.write_text("env:\n  objects: [lever]\n")
+    return profile
+
+
+def test_a_cached_object_cut_short_is_built_again(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    whole = FAMILIES["lever"].instance(0).mesh.export(file_type="stl")
+    profile = _levers(tmp_path, monkeypatch, 1)
+    cached = tmp_path / "cache" / "objects" / f"v{VERSION}" / "lever_0000.stl"
+    cached.parent.mkdir(parents=True)
+    cached.write_bytes(whole[: len(whole) // 2])
+    assert main(["objects", "cache", str(profile)]) == 0
+    assert cached.read_bytes() == whole
+
+
+def test_a_read_only_cache_warns_once_and_the_run_goes_on(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import errno
+    import tempfile
+
+    profile = _levers(tmp_path, monkeypatch, 2)
+    cache = tmp_path / "cache"
+    mkstemp = tempfile.mkstemp
+
+    def read_only(*args: object, dir: str | None = None, **kwargs: object) -> tuple[int, str]:
+        # As a read-only file system refuses it (root would write into a chmod 500 folder).
+        if dir is not None and Path(dir).is_relative_to(cache):
+            raise OSError(errno.EROFS, "Read-only file system", dir)
+        return mkstemp(*args, dir=dir, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkstemp", read_only)
+    assert main(["objects", "cache", str(profile)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("generated-objects cache") == 1
+    assert (f"vprobot objects cache: warning: cannot write the generated-objects cache "
+            f"{cache / 'objects' / f'v{VERSION}'} ([Errno 30] Read-only file system") in err
+    assert not list(cache.rglob("*.stl"))

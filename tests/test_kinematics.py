@@ -94,12 +94,12 @@ def test_look_at_axis_passes_through_point(arm: RobotArm) -> None:
         assert np.dot(offset, pose.view_axis) > 0  # looking at it, not away from it
 
 
-def test_far_target_does_not_converge(arm: RobotArm) -> None:
+def test_far_target_is_out_of_reach(arm: RobotArm) -> None:
     base = arm.cell.robot_base.position
     target = SensorTarget.look_at(base + [2.0, 0.0, 0.0], base + [3.0, 0.0, 0.0])
     result = arm.reach(target, arm.joints.home)
     assert not result.reachable
-    assert result.reason == "did_not_converge"
+    assert result.reason == "out_of_reach" and result.attempts == 0
 
 
 def test_target_inside_the_fixture_collides(arm: RobotArm) -> None:

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from vprobot import generated
 from vprobot.motors import (
     MotorParameters,
     build_motor,
@@ -108,14 +109,16 @@ def test_invalid_parameters_name_the_field(field: str, value: float | str) -> No
 
 def test_generate_motors_writes_stl_and_json(tmp_path: Path) -> None:
     paths = generate_motors(2, seed=9, out_dir=tmp_path / "set", progress=False)
-    assert [p.name for p in paths] == ["motor_000.stl", "motor_001.stl"]
+    # Named by their set's seed, as part instances are, and as episode lists name them.
+    assert [p.name for p in paths] == ["motor_9_000.stl", "motor_9_001.stl"]
+    assert paths[1].name == generated.motor_object(9, 1).removeprefix(generated.PREFIX)
     assert sorted(p.name for p in (tmp_path / "set").iterdir()) == [
-        "motor_000.json",
-        "motor_000.stl",
-        "motor_001.json",
-        "motor_001.stl",
+        "motor_9_000.json",
+        "motor_9_000.stl",
+        "motor_9_001.json",
+        "motor_9_001.stl",
     ]
-    meta = json.loads((tmp_path / "set" / "motor_001.json").read_text())
+    meta = json.loads((tmp_path / "set" / "motor_9_001.json").read_text())
     assert (meta["seed"], meta["index"]) == (9, 1)
     params = MotorParameters(**meta["parameters"])
     assert params == sample_parameters(motor_rng(9, 1))

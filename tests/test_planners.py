@@ -269,7 +269,7 @@ def test_predicted_visibility_agrees_with_the_sensor(motor: MotorScene) -> None:
         (lambda: make_planner("astar", CONFIG), "unknown planner 'astar'"),
         (lambda: make_planner("hrec", CONFIG, views=4), "applies to bscp, agent only"),
         (lambda: parse_planner("bscp0"), "unknown planner 'bscp0'"),
-        (lambda: SetCoverPlanner(views=0), "views must be >= 1"),
+        (lambda: SetCoverPlanner(views=0), "views must lie in 1..100"),
         (lambda: SetCoverPlanner(goal=1.5), "goal must lie in (0, 1]"),
         (lambda: VisibilityRenderer(trimesh.creation.box(),
                                            SensorModel.from_config(CONFIG.sensor),

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import signal
 import sys
 import threading
@@ -58,16 +59,22 @@ def _write_json(path: str | None, document: dict[str, Any]) -> None:
         print(f"wrote {write_json(path, document)}")
 
 
-def _number(kind: type, low: float, strict: bool, what: str) -> Callable[[str], Any]:
-    """An argparse type: a number of `kind` above `low` (argparse names the option)."""
+def _number(kind: type, low: float, strict: bool, what: str,
+            high: float = math.inf) -> Callable[[str], Any]:
+    """An argparse type: a number of `kind` above `low`, at most `high` (argparse names the
+    option)."""
 
     def parse(text: str) -> Any:
         try:
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
-        if not np.isfinite(value) or value < low or (strict and value == low):
+        # Integers are finite (and may exceed what a float or numpy holds).
+        if (kind is float and not math.isfinite(value)) or value < low or (
+                strict and value == low):
             raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}, which is too large")
         return value
 
     parse.__name__ = what
@@ -114,12 +121,22 @@ def _family_name(text: str) -> str:
 NON_NEGATIVE_INT = _number(int, 0, False, "an integer >= 0")
 POSITIVE_INT = _number(int, 0, True, "an integer >= 1")
 POSITIVE_FLOAT = _number(float, 0.0, True, "a number > 0")
+MAX_COUNT = 10_000
+"""Most objects one `motors generate` or `objects generate` writes (0.1 to 1 s each)."""
+COUNT = _number(int, 0, True, f"an integer in 1..{MAX_COUNT}", MAX_COUNT)
+
+
+def _view_count(text: str) -> int:
+    """An argparse type: a fixed number of views, 1..MAX_VIEWS."""
+    from vprobot.planners.base import MAX_VIEWS
+
+    return _number(int, 0, True, f"an integer in 1..{MAX_VIEWS}", MAX_VIEWS)(text)
 
 
 def command_reach(args: argparse.Namespace) -> int:
     """Answer "can the cell reach this view?" and optionally write the plan JSON."""
     from vprobot.geometry import Pose
-    from vprobot.kinematics import RobotArm, SensorTarget
+    from vprobot.kinematics import OUT_OF_REACH, RobotArm, SensorTarget
     from vprobot.plan_export import plan_document, view_entry
     from vprobot.scene import Cell
 
@@ -139,8 +156,13 @@ def command_reach(args: argparse.Namespace) -> int:
     verdict = "REACHABLE" if result.reachable else f"UNREACHABLE ({result.reason})"
     print(f"robot {cell.robot.name}: sensor at {np.round(target.pose.position, 4).tolist()} "
           f"looking at {np.round(args.look_at, 4).tolist()}: {verdict}")
-    print(f"  IK: {result.attempts} attempt(s), {result.iterations} iterations, residual "
-          f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
+    if result.reason == OUT_OF_REACH:
+        distance = np.linalg.norm(target.pose.position - arm.shoulder_position)
+        print(f"  out of the robot's reach: the sensor position lies {distance:.3f} m from its "
+              f"shoulder, which reaches {arm.reach_radius_m:.3f} m at most (no IK attempt)")
+    else:
+        print(f"  IK: {result.attempts} attempt(s), {result.iterations} iterations, residual "
+              f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
     view = view_entry(pose=target.pose, joints=None, reachable=False, reason=result.reason)
     if result.reachable:
         travel = arm.travel(q_from, result.q, cell.object_center)
@@ -178,7 +200,10 @@ def command_cell(args: argparse.Namespace) -> int:
             print(f"  {low:3d}-{low + 15:3d} deg             {band.sum():5d}     "
                   f"{reachable[band].mean():7.1%}")
     print(f"all                          {len(targets):5d}     {survey['fraction']:7.1%}")
-    print(f"failures: {survey['reasons']}")
+    print("unreachable, by reason (docs/cell-and-robots.md#reachability)" if survey["reasons"]
+          else "unreachable: none")
+    for reason, count in survey["reasons"].items():
+        print(f"  {reason:<26} {count:5d}     {count / len(targets):7.1%}")
     _write_json(args.json, {"robot": cell.robot.name, "fraction": survey["fraction"],
                             "reasons": survey["reasons"]})
     return 0
@@ -303,17 +328,26 @@ def command_train(args: argparse.Namespace) -> int:
         return 0
     result = train(config, args.out, seed=args.seed or 0, resume=args.resume,
                    device=args.device, argv=["vprobot", *args.argv])
+    best = result["best"]
     print(f"trained {result['steps']:,} steps in {result['wall_s'] / 60:.1f} min; on the "
-          f"validation episodes: coverage {result['coverage_pct']:.1f} %, "
-          f"{result['acquisitions']:.2f} acquisitions, {result['success_pct']:.0f} % at the "
-          f"goal" + ("" if result["reachable_pct"] is None
-                     else f", {result['reachable_pct']:.0f} % of requests reachable"))
+          f"validation episodes:")
+    print(f"  best model (the one kept, agent.select), from step {best['step']:,.0f}: "
+          f"{_scores(best)}: {Path(args.out) / 'best_model.zip'}")
+    print(f"  final model, step {result['steps']:,}: {_scores(result)}"
+          + ("" if result["reachable_pct"] is None
+             else f", {result['reachable_pct']:.0f} % of requests reachable"))
     if result["curves"] is None:
-        print(f"run directory: {args.out} (evaluations.csv, best_model.zip); no finished "
-              f"episodes yet, so no curves.png: more --steps, or `vprobot curves` later")
+        print(f"run directory: {args.out} (evaluations.csv); no finished episodes yet, so no "
+              f"curves.png: more --steps, or `vprobot curves` later")
     else:
-        print(f"run directory: {args.out} (curves.png, evaluations.csv, best_model.zip)")
+        print(f"run directory: {args.out} (curves.png, evaluations.csv)")
     return 0
+
+
+def _scores(row: dict[str, Any]) -> str:
+    """An evaluation on the validation episodes, as `train` reports it."""
+    return (f"coverage {row['coverage_pct']:.1f} %, {row['acquisitions']:.2f} acquisitions, "
+            f"{row['success_pct']:.0f} % at the goal")
 
 
 def command_sweep(args: argparse.Namespace) -> int:
@@ -589,7 +623,7 @@ def build_parser() -> argparse.ArgumentParser:
                          f"agent, agent:NAME another bundled one (cpu: motors only), "
                          f"agent:PATH a training run or model .zip, nbv@RULE nbv "
                          f"stopping itself by a --stop rule (nbv@grid); default: bscp")
-        sub.add_argument("--views", type=POSITIVE_INT,
+        sub.add_argument("--views", type=_view_count,
                          help=f"fixed number of views ({', '.join(counted_planners())}); "
                          f"default: until the coverage goal")
         sub.add_argument("--seed", type=NON_NEGATIVE_INT,
@@ -635,7 +669,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--seeds", type=NON_NEGATIVE_INT, nargs="+",
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
-                            default=["robot", "free"])
+                            default=["robot", "free"],
+                            help="robot: the robot in the loop; free: a free-flying sensor (the "
+                            "paper's setting); each episode runs with each (default: both)")
     add_stop(evaluation, many=["goal"])
     evaluation.add_argument("--out", default="results", help="folder for the tables")
     evaluation.add_argument("--workers", type=POSITIVE_INT, default=1,
@@ -690,7 +726,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(benchmark)
     benchmark.add_argument("suite",
                            choices=["kinematics", "sensor", "env", "planners", "mesh",
-                                    "render", "train", "cluster", "objects"])
+                                    "render", "train", "cluster", "objects"],
+                           help="what to measure (docs/benchmarks.md)")
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
                            help="random targets (kinematics) or steps (env, train) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
@@ -701,8 +738,11 @@ def build_parser() -> argparse.ArgumentParser:
     motor_commands = motors.add_subparsers(dest="motors_command", required=True)
     generate = add("generate", command_motors_generate, "Generate seeded starter motors.",
                    motor_commands)
-    generate.add_argument("--count", type=POSITIVE_INT, required=True)
-    generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0)
+    generate.add_argument("--count", type=COUNT, required=True,
+                          help=f"number of motors (1..{MAX_COUNT})")
+    generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
+                          help="seed of the set: motor i depends only on (seed, i), so a "
+                          "larger count extends a smaller one (default 0: the paper's motors)")
     generate.add_argument("--out", required=True, help="output folder")
 
     objects = commands.add_parser("objects", help="Seeded part families besides motors.")
@@ -714,7 +754,8 @@ def build_parser() -> argparse.ArgumentParser:
                 object_commands, config=False)
     parts.add_argument("--family", type=_family_name, required=True,
                        help="part family (see `vprobot objects list`)")
-    parts.add_argument("--count", type=POSITIVE_INT, required=True)
+    parts.add_argument("--count", type=COUNT, required=True,
+                       help=f"number of instances (1..{MAX_COUNT})")
     parts.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
                        help="seed of the first instance; the others follow it (default 0)")
     parts.add_argument("--out", required=True, help="output folder")

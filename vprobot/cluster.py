@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import socket
 import sys
 import threading
 import time
@@ -21,6 +22,9 @@ INSTALL_HINT = 'pip install -e ".[cluster]"'
 SHUTDOWN_GRACE_S = 5.0
 """How long an interrupted `parallel_map` lets its local Ray's processes end by themselves before
 it kills those left."""
+PROBE_TIMEOUT_S = 10.0
+"""How long `start` waits for a cluster's `HOST:PORT` to accept a connection before it gives up
+(`ray.init` itself retries an unreachable GCS for many minutes)."""
 
 
 def require_ray() -> Any:
@@ -37,6 +41,25 @@ def require_ray() -> Any:
     return ray
 
 
+def probe(address: str) -> None:
+    """Check that a cluster address of the form `HOST:PORT` (a head node's GCS) accepts a
+    connection; other forms (`ray://...`, `auto`) are left to Ray, which fails fast on them.
+
+    Raises:
+        ValueError: If nothing answers at `HOST:PORT` within `PROBE_TIMEOUT_S`.
+    """
+    host, separator, port = address.rpartition(":")
+    if not separator or not host or "://" in address or not port.isdecimal():
+        return
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), PROBE_TIMEOUT_S):
+            pass
+    except (OSError, OverflowError) as error:
+        raise ValueError(f"cannot reach the Ray cluster at {address}: nothing answers there "
+                         f"({error}); start it with `ray start --head`, or check the address"
+                         ) from None
+
+
 def start(address: str | None, cpus: int) -> Any:
     """Connect to the cluster at `address`, or start a local Ray with `cpus` CPUs (once).
 
@@ -45,6 +68,8 @@ def start(address: str | None, cpus: int) -> Any:
     """
     ray = require_ray()
     if not ray.is_initialized():
+        if address is not None:
+            probe(address)
         in_main_thread = threading.current_thread() is threading.main_thread()
         caller_handler = signal.getsignal(signal.SIGTERM) if in_main_thread else None
         try:

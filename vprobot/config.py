@@ -18,7 +18,7 @@ from typing import Any, Literal
 
 from vprobot.agents.encoders import ENCODERS
 from vprobot.env.rewards import REWARDS
-from vprobot.paths import DEFAULT_CONFIG, SENSORS_DIR
+from vprobot.paths import BUNDLED_EPISODE_LISTS, DEFAULT_CONFIG, SENSORS_DIR
 from vprobot.registry import Registry
 from vprobot.robots import load_robot
 from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
@@ -474,6 +474,10 @@ class AgentConfig:
                      "eval_freq", "checkpoint_freq", "torch_threads"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"agent.{name} must be >= 1, got {getattr(self, name)}")
+        unknown = [name for name in self.test_lists or () if name not in BUNDLED_EPISODE_LISTS]
+        if unknown:
+            raise ConfigError(f"agent.test_lists must name bundled episode lists "
+                              f"({', '.join(BUNDLED_EPISODE_LISTS)}), got {unknown[0]!r}")
         if self.eval_episodes is not None and self.eval_episodes < 1:
             raise ConfigError(f"agent.eval_episodes must be >= 1 (or null for all), got "
                               f"{self.eval_episodes}")

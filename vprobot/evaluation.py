@@ -259,6 +259,7 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     if len(complete) != len(data):
         with path.open("r+b") as stream:
             stream.truncate(len(complete))
+    # Bytes that are not UTF-8 (a damaged row) decode to U+FFFD, and that row is dropped.
     lines = complete.decode(errors="replace").splitlines()
     if not lines:
         return []
@@ -269,7 +270,7 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     rows: dict[tuple[int, str, str], dict[str, Any]] = {}
     kept, damaged, repeated = [lines[0]], [], []
     for number, line in enumerate(lines[1:], start=2):
-        row = _typed(line)
+        row = _typed(line) if "\ufffd" not in line else None
         if row is None:
             damaged.append(number)
             continue

@@ -135,6 +135,22 @@ def batch_folder(out_dir: str | Path, count: int, seed: int) -> Path:
     return folder
 
 
+def read_text(path: Path) -> str:
+    """The text of a file vprobot reads (a table, a log, a list).
+
+    Raises:
+        OSError: If it cannot be read.
+        ValueError: If it is not UTF-8 text; the message names the file.
+    """
+    data = path.read_bytes()
+    try:
+        return data.decode()
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{path} is not UTF-8 text (byte {error.start} is "
+                         f"{data[error.start:error.start + 1]!r}): not a file vprobot wrote, or "
+                         f"a damaged one") from None
+
+
 def write_text(path: Path, text: str) -> Path:
     """Write `text` to `path` atomically (the old file, or none, until it is complete)."""
     with atomic_output(path) as temporary:

@@ -61,7 +61,7 @@ class LoadedMesh:
     simplification: Simplification | None = None
 
 
-def _is_binary_stl(data: bytes) -> bool:
+def is_binary_stl(data: bytes) -> bool:
     """Whether the bytes are a binary STL whose size matches its triangle count."""
     if len(data) < _STL_HEADER_BYTES:
         return False
@@ -75,7 +75,7 @@ def _check_kind(path: Path, data: bytes) -> None:
     Without this, trimesh reads a non-UTF-8 file as text through charset_normalizer, which is
     not always installed, or returns an empty scene.
     """
-    if path.suffix.lower() == ".stl" and _is_binary_stl(data):
+    if path.suffix.lower() == ".stl" and is_binary_stl(data):
         return
     for signature, kind in _NOT_MESH_SIGNATURES:
         if data.startswith(signature):
@@ -176,15 +176,33 @@ def scale_setting(scale: float, option: str = "scale") -> str:
     return f"{option} {scale:g}" if option.startswith("--") else f"{option}={scale:g}"
 
 
-def _unit_hint(extent: float, scale: float, option: str) -> str:
-    """Suggest the scale that brings an out-of-range extent to a plausible object size."""
+def _unit_hint(file_extent: float, scale: float, option: str) -> str:
+    """Suggest the scale that brings an out-of-range extent (`file_extent` in the file's units
+    times `scale`) to a plausible object size."""
+    extent = file_extent * scale
     if extent > MAX_EXTENT_M:
         for unit, factor in (("millimetres", 1e-3), ("centimetres", 1e-2), ("inches", 0.0254)):
             if 0.05 <= extent * factor <= 2.0:
                 return f"looks like {unit}: use {scale_setting(scale * factor, option)}"
-    factor = 10.0 ** round(math.log10(0.2 / extent))
+    # From the file's own extent: the scaled one may have overflowed to inf or lost its digits.
+    suggested = 10.0 ** round(math.log10(0.2 / file_extent))
     return (f"set {option} to convert the file units to metres, e.g. "
-            f"{scale_setting(scale * factor, option)}")
+            f"{scale_setting(suggested, option)}")
+
+
+def _check_size(path: Path, mesh: trimesh.Trimesh, scale: float, option: str) -> None:
+    """Refuse a mesh whose largest side times `scale` lies outside MIN_EXTENT_M .. MAX_EXTENT_M,
+    naming the scale; checked before scaling, which a scale such as 1e308 or 1e-320 would turn
+    into infinite or coinciding vertices (and an error about faces, not the scale)."""
+    used = mesh.vertices[np.unique(mesh.faces)] if len(mesh.faces) else mesh.vertices
+    file_extent = float(np.ptp(used, axis=0).max()) if len(used) else 0.0
+    extent = file_extent * scale
+    if file_extent > 0 and not MIN_EXTENT_M <= extent <= MAX_EXTENT_M:
+        raise ValueError(
+            f"{path}: largest side is {extent:.4g} m with {scale_setting(scale, option)}, "
+            f"outside the allowed {MIN_EXTENT_M:g} .. {MAX_EXTENT_M:g} m; "
+            f"{_unit_hint(file_extent, scale, option)}"
+        )
 
 
 def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale") -> LoadedMesh:
@@ -207,6 +225,8 @@ def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale")
     path = Path(path)
     if not (math.isfinite(scale) and scale > 0):
         raise ValueError(f"scale for {path} must be a positive finite number, got {scale!r}")
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder, not {_FORMATS}")
     if not path.is_file():
         raise FileNotFoundError(f"mesh file not found: {path}; expected {_FORMATS}")
     try:
@@ -218,6 +238,7 @@ def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale")
     if not np.isfinite(mesh.vertices).all():
         # Repairing would quietly drop the faces at such vertices and patch the holes.
         raise ValueError(f"{path} {solid_problem(mesh)}")
+    _check_size(path, mesh, scale, scale_option)
     mesh.apply_scale(scale)
     bounds = mesh.bounds
     simplification = None
@@ -233,14 +254,6 @@ def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale")
     problem = solid_problem(mesh)
     if problem is not None:
         raise ValueError(f"{path} {problem}")
-
-    extent = float(mesh.extents.max())
-    if not MIN_EXTENT_M <= extent <= MAX_EXTENT_M:
-        raise ValueError(
-            f"{path}: largest side is {extent:.4g} m with {scale_setting(scale, scale_option)},"
-            f" outside the allowed {MIN_EXTENT_M:g} .. {MAX_EXTENT_M:g} m; "
-            f"{_unit_hint(extent, scale, scale_option)}"
-        )
 
     # The original's box, so that the plan places the file as stored whatever was simplified.
     offset = bounds.mean(axis=0)

@@ -27,6 +27,12 @@ PROFILES_DIR = CONFIGS_DIR / "agents"
 """Agent profiles: the configs `vprobot train` and the studies start from."""
 EPISODES_DIR = CONFIGS_DIR / "episodes"
 """Bundled episode lists, one JSON file each."""
+BUNDLED_EPISODE_LISTS = {
+    name: EPISODES_DIR / f"{name}.json"
+    for name in ("test-v1", "shapes-v1", "families-test-v1", "validation-v1")}
+"""The bundled episode lists by name (`vprobot evaluate --episodes NAME`, `agent.test_lists`):
+the test motors, the non-motor shapes, the test families' instances, and the validation list of
+split v1 (`vprobot.splits`)."""
 SPLITS_DIR = CONFIGS_DIR / "splits"
 ESTIMATOR_DIR = ASSETS_DIR / "estimator"
 """The bundled model-free coverage estimator (`--stop estimate`)."""
@@ -36,9 +42,16 @@ DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 CACHE_ENV_VAR = "VPROBOT_CACHE_DIR"
 
 
+def names_a_path(text: str) -> bool:
+    """Whether the user wrote a path rather than a bundled name: with a path separator, or
+    starting with `.` or `~` (`./cpu` is the folder `cpu` here, not the bundled agent `cpu`)."""
+    return text.startswith((".", "~")) or "/" in text or os.sep in text
+
+
 def bundled_or_path(value: str | Path, bundled: Mapping[str, Path], what: str,
                     kind: str = "file") -> Path:
-    """Resolve a bundled name, else an existing path (a folder when `kind` ends in "folder").
+    """Resolve a bundled name, else an existing path (a folder when `kind` ends in "folder");
+    an explicit path (`names_a_path`) is always the path.
 
     Args:
         value: What the user wrote.
@@ -49,7 +62,7 @@ def bundled_or_path(value: str | Path, bundled: Mapping[str, Path], what: str,
     Raises:
         ValueError: If `value` is neither; the message names it and lists the bundled names.
     """
-    if str(value) in bundled:
+    if str(value) in bundled and not names_a_path(str(value)):
         return bundled[str(value)]
     path = Path(value).expanduser()
     if path.is_dir() if kind.endswith("folder") else path.is_file():

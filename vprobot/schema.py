@@ -28,14 +28,36 @@ class ConfigError(ValueError):
     """A configuration file or mapping does not match the schema."""
 
 
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """YAML's safe loader, refusing a key given twice in one mapping (which YAML forbids, and
+    PyYAML would read as the last one, silently dropping the first)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        lines: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue  # `<<: *defaults` may be overridden key by key
+            key = self.construct_object(key_node, deep=True)
+            try:
+                if key in lines:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"key {key!r} is given twice (first on line {lines[key]})",
+                        key_node.start_mark)
+                lines[key] = key_node.start_mark.line + 1
+            except TypeError:
+                continue  # an unhashable key, which the safe loader refuses itself
+        return super().construct_mapping(node, deep)
+
+
 def parse_yaml(text: str, source: str) -> Any:
     """The YAML document in `text`; `source` (a file, an option) names it in errors.
 
     Raises:
-        ConfigError: If the text is not valid YAML; the message names the source and the line.
+        ConfigError: If the text is not valid YAML or gives a key twice in one mapping; the
+            message names the source and the line.
     """
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as error:
         where = getattr(error, "problem_mark", None)
         line = f" (line {where.line + 1})" if where is not None else ""

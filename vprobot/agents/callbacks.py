@@ -20,7 +20,7 @@ from vprobot.agents.runs import best_evaluation, current_names, evaluation_score
 from vprobot.config import Selection
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.files import append_line, atomic_output, csv_text, write_text
+from vprobot.files import append_line, atomic_output, csv_text, read_text, write_text
 
 EVALUATION_COLUMNS = ("step", "wall_s", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
@@ -31,7 +31,7 @@ BUFFER_ARRAYS = ("observations", "next_observations", "actions", "rewards", "don
 def upgrade_evaluations(path: Path) -> None:
     """Rewrite an `evaluations.csv` written before the one summary in today's columns, so that
     a run resumed by this version appends rows under the header they belong to."""
-    lines = path.read_text().splitlines() if path.is_file() else []
+    lines = read_text(path).splitlines() if path.is_file() else []
     if lines and lines[0].split(",") != list(EVALUATION_COLUMNS):
         rows = [current_names(row) for row in csv.DictReader(lines)]
         write_text(path, csv_text(EVALUATION_COLUMNS, rows))
@@ -51,6 +51,17 @@ def truncate_lines(path: Path, lines: int) -> None:
         end = data.index(b"\n", end) + 1
     with path.open("r+b") as stream:
         stream.truncate(end)
+
+
+def grid_step(steps: int, frequency: int) -> int:
+    """The last multiple of `frequency` at or before `steps`: evaluations and checkpoints stay on
+    that grid, a resumed run's too.
+
+    The callbacks read the model's step count when they are set up: their own `num_timesteps`
+    is still 0 then (SB3 sets it at the first step), which put a resumed run's first
+    evaluation one step after its checkpoint (at 201, then 301, ...), off the grid.
+    """
+    return steps - steps % frequency
 
 
 class SharedEpisodeEvaluation(BaseCallback):
@@ -84,11 +95,11 @@ class SharedEpisodeEvaluation(BaseCallback):
         self.latest_step = -1
 
     def _init_callback(self) -> None:
-        self.last = self.num_timesteps - self.num_timesteps % self.frequency
+        self.last = grid_step(self.model.num_timesteps, self.frequency)
 
     def _on_step(self) -> bool:
         if self.num_timesteps - self.last >= self.frequency:
-            self.last = self.num_timesteps - self.num_timesteps % self.frequency
+            self.last = grid_step(self.num_timesteps, self.frequency)
             self.evaluate()
         return True
 
@@ -146,7 +157,7 @@ class ResumableCheckpoint(BaseCallback):
 
     def _init_callback(self) -> None:
         self.folder.mkdir(exist_ok=True)
-        self.last = self.num_timesteps - self.num_timesteps % self.frequency
+        self.last = grid_step(self.model.num_timesteps, self.frequency)
 
     def _on_step(self) -> bool:
         return True
@@ -155,7 +166,7 @@ class ResumableCheckpoint(BaseCallback):
         # At the end of a rollout the buffer holds every step counted so far (during a step
         # the callback runs before the step's transition is stored).
         if self.num_timesteps - self.last >= self.frequency:
-            self.last = self.num_timesteps - self.num_timesteps % self.frequency
+            self.last = grid_step(self.num_timesteps, self.frequency)
             self.save()
 
     def save(self) -> dict[str, Any]:

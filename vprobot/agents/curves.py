@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.config import read_yaml
-from vprobot.files import save_figure
+from vprobot.files import read_text, save_figure
 
 PANELS = (("coverage", "coverage at episode end", 100.0, "%"),
           ("acquisitions", "acquisitions per episode", 1.0, ""),
@@ -26,7 +26,7 @@ class NoEpisodesError(ValueError):
 def _whole_lines(path: Path) -> list[str]:
     """The lines of a file a running training may be appending to, a last one cut short
     dropped."""
-    text = path.read_text()
+    text = read_text(path)
     return text.splitlines() if text.endswith("\n") else text.splitlines()[:-1]
 
 

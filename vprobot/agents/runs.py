@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from vprobot.config import Selection
+from vprobot.files import read_text
 
 RESULT_FILE = "result.json"
 """Written into a run directory when its training has finished (sweep trials, seed runs)."""
@@ -56,6 +57,6 @@ def best_evaluation(path: Path, select: Selection) -> dict[str, Any] | None:
     """The row of an evaluations file whose model `best_model.zip` is under `agent.select`
     (the earliest of equal ones), in today's columns (`current_names`), None when there is
     none."""
-    rows = ([current_names(row) for row in csv.DictReader(path.read_text().splitlines())]
+    rows = ([current_names(row) for row in csv.DictReader(read_text(path).splitlines())]
             if path.is_file() else [])
     return max(rows, key=lambda row: evaluation_score(row, select)) if rows else None

@@ -27,7 +27,7 @@ from vprobot.cluster import parallel_map, require_ray
 from vprobot.config import Config, Selection
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list
-from vprobot.files import csv_text, write_text
+from vprobot.files import csv_text, read_text, write_text
 
 VALIDATION = "validation"
 """The name of the validation row of the summary (the test rows are named by their lists)."""
@@ -50,7 +50,7 @@ def tested(run_dir: Path, test_lists: Sequence[str]) -> bool:
         if not table.is_file():
             return False
         scored = sum(int(row["episodes"])
-                     for row in csv.DictReader(table.read_text().splitlines()))
+                     for row in csv.DictReader(read_text(table).splitlines()))
         if scored < len(read_episode_list(bundled_episode_list(name))):
             return False
     return True
@@ -97,7 +97,7 @@ def list_scores(run_dir: Path, name: str) -> dict[str, float]:
     """The best model's scores on a test list that `tested` found complete (its row of the
     list's `evaluation.csv`; views to goal missing when no episode reached the goal)."""
     path = run_dir / "test" / name / "evaluation.csv"
-    row = next(csv.DictReader(path.read_text().splitlines()))
+    row = next(csv.DictReader(read_text(path).splitlines()))
     return {key: float(row[key]) for key, _, _ in METRICS if row[key]}
 
 

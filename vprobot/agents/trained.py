@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -12,9 +13,9 @@ from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from vprobot.agents.candidate_q import CandidateDQN
-from vprobot.config import Config, from_mapping, read_yaml
+from vprobot.config import Config, ConfigError, from_mapping, read_yaml
 from vprobot.env.observations import observation_space
-from vprobot.paths import AGENTS_DIR
+from vprobot.paths import AGENTS_DIR, names_a_path
 
 BUNDLED_AGENTS = {path.name: path for path in sorted(AGENTS_DIR.iterdir()) if path.is_dir()}
 """The agents vprobot ships, by name (`--planner agent:NAME`), one run folder each with a README
@@ -44,12 +45,15 @@ class TrainedAgent:
     path: Path
 
 
-def _model_file(source: Path) -> Path:
-    source = BUNDLED_AGENTS.get(str(source), source)
+def _model_file(name: str) -> Path:
+    """The model file of a bundled agent's name, a run directory or a model file; an explicit
+    path (`./cpu`) is never a bundled agent's name."""
+    source = (BUNDLED_AGENTS[name] if name in BUNDLED_AGENTS and not names_a_path(name)
+              else Path(name).expanduser())
     if source.is_dir():
-        for name in RUN_MODELS:
-            if (source / name).is_file():
-                return source / name
+        for model in RUN_MODELS:
+            if (source / model).is_file():
+                return source / model
         raise ValueError(f"agent {source}: no {', '.join(RUN_MODELS)} in the folder; is it a "
                          f"training run?")
     if source.is_file():
@@ -62,12 +66,20 @@ def load_run_config(run_dir: Path) -> Config:
     """The resolved config a run was started with.
 
     Raises:
-        ValueError: If the run directory has none.
+        ValueError: If the run directory has none, or it is empty or not a config (naming it).
     """
     path = run_dir / "config.yaml"
     if not path.is_file():
         raise ValueError(f"{run_dir} is not a training run (no config.yaml)")
-    return from_mapping(Config, read_yaml(path))
+    data = read_yaml(path)
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{path}: a run's config must be a mapping of config sections, as "
+                          f"`vprobot train` writes it; got {type(data).__name__}"
+                          f"{' (an empty file)' if data is None else ''}")
+    try:
+        return from_mapping(Config, data)
+    except ConfigError as error:
+        raise ConfigError(f"{path}: {error}") from None
 
 
 def _run_config(model_file: Path, shown: Path) -> Config:
@@ -91,7 +103,7 @@ def load_agent(source: str | Path | None = None) -> TrainedAgent:
             missing, a file that is not a loadable model, or a model whose observations are not
             those of its run's config.
     """
-    shown = _model_file(Path(source) if source is not None else BUNDLED_AGENT)
+    shown = _model_file(str(source if source is not None else BUNDLED_AGENT))
     model_file = shown.resolve()
     return _load(model_file, model_file.stat().st_mtime_ns, shown)
 

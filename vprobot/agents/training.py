@@ -55,6 +55,7 @@ from vprobot.agents.evaluation import evaluation_env
 from vprobot.agents.extractors import split_space
 from vprobot.agents.pretrain import pretrain
 from vprobot.agents.runs import RESULT_FILE
+from vprobot.agents.seeds import best_validation
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import check_teacher_reward
 from vprobot.agents.trained import ALGORITHMS, load_run_config
@@ -322,8 +323,9 @@ def train(config: Config | None, run_dir: str | Path, seed: int = 0, resume: boo
         argv: The command line, recorded in the run directory.
 
     Returns:
-        The final evaluation summary on the validation episodes, plus `steps`, `wall_s` and
-        `curves` (the curves.png written, None before the first finished episode).
+        The final evaluation summary on the validation episodes, plus `steps`, `wall_s`,
+        `curves` (the curves.png written, None before the first finished episode) and `best`:
+        the evaluation of `best_model.zip`, the model selected (`seeds.best_validation`).
 
     Raises:
         ValueError, ConfigError: For a bad config, a run directory in the wrong state or in use
@@ -401,6 +403,9 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
         evaluation.evaluate_model(model)
     checkpoints = ResumableCheckpoint(run_dir, agent.checkpoint_freq, logs)
     remaining = agent.total_steps - model.num_timesteps
+    if remaining <= 0 and resume and progress:
+        print(f"{run_dir} has finished: it trained its {agent.total_steps:,} steps "
+              f"(agent.total_steps) already; nothing more to train")
     if remaining > 0:
         model.learn(remaining, callback=CallbackList([evaluation, checkpoints]),
                     reset_num_timesteps=checkpoint is None, progress_bar=progress)
@@ -415,7 +420,7 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
     except NoEpisodesError:
         curves = None
     return {**summary, "steps": model.num_timesteps, "wall_s": time.time() - clock_start,
-            "curves": curves}
+            "curves": curves, "best": best_validation(run_dir, agent.select)}
 
 
 def train_to_result(config_of: Callable[[], Config], run_dir: Path, seed: int,

@@ -58,7 +58,7 @@ def run_kinematics_benchmark(
         start = time.perf_counter()
         result = arm.reach(target, arm.joints.home)
         ik_ms.append((time.perf_counter() - start) * 1e3)
-        converged += result.reason not in ("did_not_converge", "joint_limits")
+        converged += result.reason not in ("out_of_reach", "did_not_converge", "joint_limits")
 
     rng = np.random.default_rng(12)
     far_ms = []

@@ -39,7 +39,8 @@ class ViewRecord:
     Attributes:
         requested: The requested sensor pose in the world.
         reachable: Whether the carrier took the view (a free-flying sensor takes every view).
-        reason: Why not (`did_not_converge`, `joint_limits`, `collision`, `path_collision`).
+        reason: Why not (`out_of_reach`, `did_not_converge`, `joint_limits`, `collision`,
+            `path_collision`).
         joints: Robot configuration after the step (unchanged when the robot stayed); None for
             a free-flying sensor.
         path: Joint-space path (n, dof) the robot moved along; None when it stayed or without a

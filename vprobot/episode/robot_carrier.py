@@ -77,7 +77,7 @@ class RobotCarrier(Carrier):
 
     def _feasible_nearest(self, result: ReachResult, q_from: np.ndarray) -> bool:
         """Whether the configuration a failed IK ended in can be driven to and used."""
-        return (result.reason in ("did_not_converge", "joint_limits")
+        return (result.reason in ("out_of_reach", "did_not_converge", "joint_limits")
                 and self.arm.joints.within_limits(result.q)
                 and not self.collisions.in_collision(result.q)
                 and self.path_is_free(q_from, result.q))

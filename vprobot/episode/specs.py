@@ -34,7 +34,7 @@ from vprobot.geometry import (
     spherical_position,
 )
 from vprobot.kinematics import SensorTarget
-from vprobot.paths import ASSETS_DIR, EPISODES_DIR, MOTORS_DIR
+from vprobot.paths import ASSETS_DIR, BUNDLED_EPISODE_LISTS, EPISODES_DIR, MOTORS_DIR
 from vprobot.splits import MOTORS, Split
 from vprobot.viewsphere import sphere_directions
 
@@ -43,12 +43,6 @@ BUNDLED_TEST_EPISODES = EPISODES_DIR / "test-v1.json"
 """The evaluation episodes over the bundled test motors: 3 seeds each (0, 1, 2)."""
 BUNDLED_SHAPE_EPISODES = EPISODES_DIR / "shapes-v1.json"
 """The evaluation episodes over the bundled non-motor objects: 5 seeds each (0 to 4)."""
-BUNDLED_EPISODE_LISTS = {
-    name: EPISODES_DIR / f"{name}.json"
-    for name in ("test-v1", "shapes-v1", "families-test-v1", "validation-v1")}
-"""The bundled episode lists by name (`vprobot evaluate --episodes NAME`): the test motors, the
-non-motor shapes, the test families' instances, and the validation list of split v1
-(`vprobot.splits`)."""
 
 
 def bundled_episode_list(name: str) -> Path:
@@ -159,12 +153,12 @@ class EpisodeSpec:
         missing = sorted(fields - {"scale"} - set(block))
         if missing:
             raise ValueError(f"episode spec has no {missing[0]!r}")
-        quaternion = np.asarray(block["object_quaternion"], dtype=float)
+        quaternion = _numbers(block["object_quaternion"])
         if quaternion.shape != (4,) or not np.all(np.isfinite(quaternion)) or not np.linalg.norm(
                 quaternion) > 0:
             raise ValueError(f"episode spec object_quaternion must be 4 finite numbers, not all "
                              f"zero; got {block['object_quaternion']!r}")
-        views = np.asarray(block["initial_views"], dtype=float)
+        views = _numbers(block["initial_views"])
         if views.ndim != 2 or views.shape[1] != 2 or len(views) == 0 or not np.all(
                 np.isfinite(views)):
             raise ValueError(f"episode spec initial_views must be a non-empty list of "
@@ -178,6 +172,17 @@ class EpisodeSpec:
                    object_quaternion=tuple(float(x) for x in quaternion),
                    initial_views=tuple((float(phi), float(theta)) for phi, theta in views),
                    seed=seed, scale=float(scale))
+
+
+def _numbers(value: Any) -> np.ndarray:
+    """A JSON list (of lists) of numbers as an array; anything else (a mapping, a string,
+    ragged lists) as an empty one, which the caller's shape check refuses, naming the field."""
+    if not isinstance(value, list | tuple):
+        return np.empty(0)
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return np.empty(0)
 
 
 def sample_episode(env: EnvConfig, motors: Sequence[str | Path], rng: np.random.Generator,

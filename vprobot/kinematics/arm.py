@@ -31,7 +31,8 @@ from vprobot.kinematics.travel import (
 from vprobot.robots.urdf_import import GEOM_GROUP_ROBOT
 from vprobot.scene import Cell
 
-FailureReason = Literal["did_not_converge", "joint_limits", "collision", "path_collision"]
+FailureReason = Literal["out_of_reach", "did_not_converge", "joint_limits", "collision",
+                        "path_collision"]
 ROLL_TURNS = (np.pi / 2, -np.pi / 2, np.pi)
 MAX_ROLL_VARIANTS = 2
 """Converged but colliding attempts whose roll variants are tried (each adds ROLL_TURNS)."""
@@ -45,6 +46,9 @@ gets fewer seeds instead of an endless search."""
 FAILURE_REASONS: tuple[FailureReason, ...] = (
     "did_not_converge", "joint_limits", "collision", "path_collision"
 )
+"""The stages an IK attempt fails at, in order; a failure carries the furthest one reached."""
+OUT_OF_REACH: FailureReason = "out_of_reach"
+"""The failure of a target farther from the shoulder than the arm reaches: no attempt is made."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,10 +60,11 @@ class ReachResult:
             collision-free joint-space path connects to the start.
         q: The configuration reached; for a failure, the best attempt's final configuration
             (never to be executed).
-        reason: None on success, otherwise the furthest stage a failing attempt got to:
+        reason: None on success; `out_of_reach` for a target beyond the arm's reach (no
+            attempt made); otherwise the furthest stage a failing attempt got to:
             `did_not_converge`, `joint_limits`, `collision` (at the goal) or `path_collision`.
         iterations: IK iterations over all attempts.
-        attempts: IK attempts made (1 + restarts used).
+        attempts: IK attempts made (1 + restarts used; 0 out of reach).
         position_error_m: Residual position error of the reported `q`.
         orientation_error_deg: Residual orientation error of the reported `q`.
         path: The collision-free joint-space path (n, dof) on success, else None.
@@ -215,7 +220,7 @@ class RobotArm:
         distance = np.linalg.norm(target.pose.position - self.shoulder_position)
         if distance > self.reach_radius_m:
             position_error, orientation_error = residuals(self.fk(q_from), target)
-            return ReachResult(False, q_from.copy(), "did_not_converge", 0, 0, position_error,
+            return ReachResult(False, q_from.copy(), OUT_OF_REACH, 0, 0, position_error,
                                float(np.rad2deg(orientation_error)))
         failures: list[tuple[int, IKAttempt]] = []
         iterations = 0

@@ -43,7 +43,8 @@ def view_sphere_targets(cell: Cell, count: int = VIEW_SPHERE_CANDIDATES) -> list
 
 def view_sphere_survey(arm: RobotArm, targets: Sequence[SensorTarget],
                        progress: bool = True, label: str = "") -> dict[str, Any]:
-    """Reach every target from home; fraction reachable, failure reasons and verdict times."""
+    """Reach every target from home; fraction reachable, the count of each failure reason
+    (`RobotArm.reach`'s, most frequent first) and verdict times."""
     reasons: dict[str, int] = {}
     reachable, reachable_ms, unreachable_ms = [], [], []
     for target in tqdm(targets, desc=f"view sphere {label}", disable=not progress, leave=False):
@@ -52,12 +53,12 @@ def view_sphere_survey(arm: RobotArm, targets: Sequence[SensorTarget],
         elapsed = (time.perf_counter() - start) * 1e3
         reachable.append(result.reachable)
         (reachable_ms if result.reachable else unreachable_ms).append(elapsed)
-        key = "reachable" if result.reachable else str(result.reason)
-        reasons[key] = reasons.get(key, 0) + 1
+        if not result.reachable:
+            reasons[str(result.reason)] = reasons.get(str(result.reason), 0) + 1
     return {
         "fraction": len(reachable_ms) / len(targets),
         "reachable": reachable,
-        "reasons": reasons,
+        "reasons": dict(sorted(reasons.items(), key=lambda item: -item[1])),
         "reachable_ms": reachable_ms,
         "unreachable_ms": unreachable_ms,
     }

@@ -1,6 +1,7 @@
 """Seeded, parametric synthetic starter motors (docs/episodes-and-carriers.md#starter-motors)."""
 
-from vprobot.motors.generator import build_motor, generate_motors, motor_rng
+from vprobot.motors.generator import build_motor, generate_motors, motor_rng, motor_stem
 from vprobot.motors.parameters import MotorParameters, sample_parameters
 
-__all__ = ["MotorParameters", "build_motor", "generate_motors", "motor_rng", "sample_parameters"]
+__all__ = ["MotorParameters", "build_motor", "generate_motors", "motor_rng", "motor_stem",
+           "sample_parameters"]

@@ -228,8 +228,16 @@ def _write_atomic(path: Path, data: bytes) -> None:
         temporary.write_bytes(data)
 
 
+def motor_stem(seed: int, index: int) -> str:
+    """File name of motor `index` of the set `seed`, without suffix (`motor_0_007`): named by
+    its seed, as `vprobot objects generate` names part instances, and as episode lists name a
+    generated motor (`generated/motor_0_007.stl`)."""
+    return f"motor_{seed}_{index:03d}"
+
+
 def generate_motors(count: int, seed: int, out_dir: Path, progress: bool = True) -> list[Path]:
-    """Generate a seeded set of motors as `motor_XXX.stl` (binary, metres) + `motor_XXX.json`.
+    """Generate a seeded set of motors as `motor_<seed>_<iii>.stl` (binary, metres) and
+    `motor_<seed>_<iii>.json` (`motor_stem`).
 
     Motor i depends only on (seed, i), so a larger set extends a smaller one.
 
@@ -250,7 +258,7 @@ def generate_motors(count: int, seed: int, out_dir: Path, progress: bool = True)
     for index in tqdm(range(count), desc="motors", unit="motor", disable=not progress):
         params = sample_parameters(motor_rng(seed, index))
         mesh = build_motor(params)
-        stem = out_dir / f"motor_{index:03d}"
+        stem = out_dir / motor_stem(seed, index)
         meta = {"seed": seed, "index": index, "parameters": asdict(params)}
         _write_atomic(stem.with_suffix(".stl"), mesh.export(file_type="stl"))
         _write_atomic(stem.with_suffix(".json"), (json.dumps(meta, indent=2) + "\n").encode())

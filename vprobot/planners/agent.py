@@ -20,7 +20,8 @@ from vprobot.config import Config
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Planner, register_planner
+from vprobot.planners.base import Planner, check_views, register_planner
+from vprobot.progress import note
 
 
 @register_planner
@@ -33,7 +34,7 @@ class AgentPlanner(Planner):
         views: Stop after this many views in all (None: at the goal or the view budget).
 
     Raises:
-        ValueError: If the agent cannot be loaded or views < 1.
+        ValueError: If views is not in 1..MAX_VIEWS or the agent cannot be loaded.
     """
 
     name = "agent"
@@ -43,11 +44,12 @@ class AgentPlanner(Planner):
     initial_view = True
 
     def __init__(self, source: str | Path | None = None, views: int | None = None):
+        if views is not None:
+            check_views(views)
+        note(f"loading agent {source or 'generalist (bundled)'} ...")
         # Imported here: the agent needs torch and stable-baselines3, the other planners do not.
         from vprobot.agents.trained import load_agent
 
-        if views is not None and views < 1:
-            raise ValueError(f"views must be >= 1, got {views}")
         self.agent = load_agent(source)
         config = self.agent.config
         self.mapping = ActionMapping(config.env, config.sensor.working_distance_m)

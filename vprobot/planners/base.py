@@ -25,6 +25,18 @@ if TYPE_CHECKING:
     from vprobot.planners.candidates import CandidateViews
 
 
+MAX_VIEWS = 100
+"""Most views a plan may be asked for (`--views`, `bscp<N>`, `agent<N>`, `uniform<k>`): ten
+times the view budget of an episode (`env.max_acquisitions`, 10), and at a policy step or a
+greedy pick per view still a run of minutes, where a count of millions ran for days."""
+
+
+def check_views(views: int, what: str = "views") -> None:
+    """Raise ValueError unless a fixed view count lies in 1..MAX_VIEWS."""
+    if not 1 <= views <= MAX_VIEWS:
+        raise ValueError(f"{what} must lie in 1..{MAX_VIEWS}, got {views}")
+
+
 class Planner(abc.ABC):
     """Chooses the views of an episode.
 

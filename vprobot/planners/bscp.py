@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Planner, PlanPlanner, register_planner
+from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
     CONFIRMATIONS_PER_PICK,
@@ -42,7 +42,8 @@ class SetCoverPlanner(PlanPlanner):
         gains: GT points each pick added (measured by its simulated acquisition).
 
     Raises:
-        ValueError: If views or max_views is < 1, or the goal is outside (0, 1].
+        ValueError: If views is not in 1..MAX_VIEWS, max_views is < 1, or the goal is outside
+            (0, 1].
     """
 
     name = "bscp"
@@ -52,8 +53,8 @@ class SetCoverPlanner(PlanPlanner):
                  candidate_count: int = CANDIDATE_COUNT,
                  resolution: tuple[int, int] = DEFAULT_RESOLUTION):
         super().__init__()
-        if views is not None and views < 1:
-            raise ValueError(f"views must be >= 1 (or None for 'until the goal'), got {views}")
+        if views is not None:
+            check_views(views)
         if max_views < 1:
             raise ValueError(f"max_views must be >= 1, got {max_views}")
         if not 0.0 < goal <= 1.0:

@@ -24,7 +24,7 @@ from vprobot.kinematics import TravelCost
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
 from vprobot.planners import agent, bscp, hrec, nbv, oracle, random_views, uniform
-from vprobot.planners.base import PLANNERS, Planner
+from vprobot.planners.base import PLANNERS, Planner, check_views
 from vprobot.planners.candidates import CandidateViews
 from vprobot.stopping.estimator import load_estimator
 from vprobot.stopping.rules import StopRule, make_stop_rule
@@ -68,8 +68,8 @@ def make_planner(name: str, config: Config, views: int | None = None) -> Planner
     B_SCP,n; an agent, the initial view included).
 
     Raises:
-        ValueError: For an unknown name, `views` with a planner that has no view count, or an
-            agent that cannot be loaded.
+        ValueError: For an unknown name, `views` with a planner that has no view count or
+            outside 1..MAX_VIEWS (`check_views`), or an agent that cannot be loaded.
     """
     found = _match(name)
     if found is None:
@@ -100,6 +100,7 @@ def parse_planner(spec: str, counted: bool = True) -> tuple[str, int | None]:
         match = re.fullmatch(re.escape(name) + r"(\d+)", spec)
         if match is not None and int(match[1]) >= 1:
             if counted:
+                check_views(int(match[1]), f"the view count of {spec!r}")
                 return name, int(match[1])
             raise ValueError(f"give the view count with --views, not in the name: "
                              f"--planner {name} --views {match[1]}")

@@ -33,7 +33,7 @@ from vprobot.episode import Episode, ViewRequest
 from vprobot.fit import fit_limit
 from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
-from vprobot.planners.base import Planner, PlanPlanner, register_planner
+from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
     arm_hides_view,
@@ -127,7 +127,7 @@ class UniformPlanner(PlanPlanner):
         count: Number of views k.
 
     Raises:
-        ValueError: If count < 1.
+        ValueError: If count is not in 1..MAX_VIEWS.
     """
 
     name = "uniform"
@@ -136,8 +136,7 @@ class UniformPlanner(PlanPlanner):
     stops_at_goal = False
 
     def __init__(self, config: Config, count: int):
-        if count < 1:
-            raise ValueError(f"a uniform pattern needs at least one view, got {count}")
+        check_views(count, "the view count k of uniform<k>")
         super().__init__()
         self.config = config
         self.count = count

@@ -27,7 +27,7 @@ class ViewsStop(StopRule):
     @classmethod
     def options(cls, **groups: str) -> dict[str, Any]:
         text = groups.get("count")
-        if text is None or not text.isdigit() or int(text) < 1:
+        if text is None or not text.isdecimal() or int(text) < 1:
             raise ValueError("N must be an integer >= 1")
         return {"count": int(text)}
 
