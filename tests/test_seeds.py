@@ -17,8 +17,8 @@ from vprobot.agents.callbacks import (
     SharedEpisodeEvaluation,
     upgrade_evaluations,
 )
-from vprobot.agents.runs import best_evaluation
-from vprobot.agents.seeds import best_validation, seeds_table, write_summary
+from vprobot.agents.runs import best_evaluation, best_validation
+from vprobot.agents.seeds import seeds_table, write_summary
 from vprobot.agents.training import profile_config
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, replace

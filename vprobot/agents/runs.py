@@ -60,3 +60,18 @@ def best_evaluation(path: Path, select: Selection) -> dict[str, Any] | None:
     rows = ([current_names(row) for row in csv.DictReader(read_text(path).splitlines())]
             if path.is_file() else [])
     return max(rows, key=lambda row: evaluation_score(row, select)) if rows else None
+
+
+def best_validation(run_dir: Path, select: Selection) -> dict[str, float]:
+    """The row of `evaluations.csv` whose model `best_model.zip` is: the best under `select`
+    (`agent.select`), the earliest of equal ones (as the training callback keeps it), in the
+    units of `vprobot evaluate` (percentages).
+
+    Raises:
+        ValueError: If the run has no evaluation.
+    """
+    best = best_evaluation(run_dir / "evaluations.csv", select)
+    if best is None:
+        raise ValueError(f"{run_dir} holds no validation evaluation (evaluations.csv)")
+    return {key: float(best[key])
+            for key in ("coverage_pct", "acquisitions", "success_pct", "step")}

@@ -22,9 +22,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vprobot.agents.runs import RESULT_FILE, best_evaluation
+from vprobot.agents.runs import RESULT_FILE, best_validation
 from vprobot.cluster import parallel_map, require_ray
-from vprobot.config import Config, Selection
+from vprobot.config import Config
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.files import csv_text, read_text, write_text
@@ -76,21 +76,6 @@ def run_seed(config: Config, seed: int, run_dir: Path, argv: Sequence[str],
         train_to_result(lambda: config, run_dir, seed, argv, device, progress)
     score_test_lists(config, run_dir, progress=progress)
     return best_validation(run_dir, config.agent.select)
-
-
-def best_validation(run_dir: Path, select: Selection) -> dict[str, float]:
-    """The row of `evaluations.csv` whose model `best_model.zip` is: the best under `select`
-    (`agent.select`), the earliest of equal ones (as the training callback keeps it), in the
-    units of `vprobot evaluate` (percentages).
-
-    Raises:
-        ValueError: If the run has no evaluation.
-    """
-    best = best_evaluation(run_dir / "evaluations.csv", select)
-    if best is None:
-        raise ValueError(f"{run_dir} holds no validation evaluation (evaluations.csv)")
-    return {key: float(best[key])
-            for key in ("coverage_pct", "acquisitions", "success_pct", "step")}
 
 
 def list_scores(run_dir: Path, name: str) -> dict[str, float]:

@@ -54,8 +54,7 @@ from vprobot.agents.encoders import ENCODERS
 from vprobot.agents.evaluation import evaluation_env
 from vprobot.agents.extractors import split_space
 from vprobot.agents.pretrain import pretrain
-from vprobot.agents.runs import RESULT_FILE
-from vprobot.agents.seeds import best_validation
+from vprobot.agents.runs import RESULT_FILE, best_validation
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import check_teacher_reward
 from vprobot.agents.trained import ALGORITHMS, load_run_config
@@ -325,7 +324,7 @@ def train(config: Config | None, run_dir: str | Path, seed: int = 0, resume: boo
     Returns:
         The final evaluation summary on the validation episodes, plus `steps`, `wall_s`,
         `curves` (the curves.png written, None before the first finished episode) and `best`:
-        the evaluation of `best_model.zip`, the model selected (`seeds.best_validation`).
+        the evaluation of `best_model.zip`, the model selected (`runs.best_validation`).
 
     Raises:
         ValueError, ConfigError: For a bad config, a run directory in the wrong state or in use
