@@ -86,22 +86,26 @@ def differences(folder: Path, out: Path, episodes: Sequence[int] | None = None) 
         out: The folder `regenerate` wrote.
         episodes: The indices it regenerated; None: all (the summary table is compared too).
     """
-    indices = list(episodes) if episodes is not None else None
+    committed = read_rows(folder / "evaluation_episodes.csv")
     new = read_rows(out / "tables" / "evaluation_episodes.csv")
-    for row in new:
+    if episodes is not None:
         # Back to the committed list's numbering.
-        if indices is not None:
-            row["episode"] = str(indices[int(row["episode"])])
-    wanted = {tuple(row[name] for name in EPISODE_KEY) for row in new}
-    old = [row for row in read_rows(folder / "evaluation_episodes.csv")
-           if tuple(row[name] for name in EPISODE_KEY) in wanted]
-    moved, _ = moved_cells(old, new, EPISODE_KEY)
-    if indices is None:
+        for row in new:
+            row["episode"] = str(episodes[int(row["episode"])])
+    moved, _ = moved_cells(committed, new, EPISODE_KEY)
+    if episodes is None:
+        regenerated = {episode_key(row) for row in new}
+        moved += [f"{episode_key(row)}: not regenerated" for row in committed
+                  if episode_key(row) not in regenerated]
         summary, _ = moved_cells(read_rows(folder / "evaluation.csv"),
                                  read_rows(out / "tables" / "evaluation.csv"),
                                  ("planner", "carrier"))
         moved += summary
     return moved
+
+
+def episode_key(row: dict[str, str]) -> tuple[str, ...]:
+    return tuple(row[name] for name in EPISODE_KEY)
 
 
 def main() -> int:

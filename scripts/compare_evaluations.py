@@ -26,16 +26,16 @@ def moved_cells(old: Sequence[dict[str, str]], new: Sequence[dict[str, str]],
     """The cells of `new` that differ from `old`, rows matched by the `key` columns.
 
     Returns:
-        One line per moved cell, per row of `new` missing from `old` and per row of `old`
-        missing from `new`; and the number of cells compared.
+        One line per moved cell and per row of `new` missing from `old`; and the number of
+        cells compared.
     """
     before = {tuple(row[name] for name in key): row for row in old}
     after = {tuple(row[name] for name in key): row for row in new}
-    lines = [f"{name}: not regenerated" for name in before if name not in after]
+    lines = []
     compared = 0
     for name, row in after.items():
         if name not in before:
-            lines.append(f"{name}: not in the committed table")
+            lines.append(f"{name}: not in the old table")
             continue
         for column in sorted((set(row) & set(before[name])) - TIMING - set(key)):
             was, now = before[name][column], row[column]
