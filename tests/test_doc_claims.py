@@ -1,6 +1,7 @@
-"""What the docs claim to list is all there: `configs/default.yaml` lists every setting of the
-schema with its default (README, docs/running.md), and docs/README.md's Layout names every
-module and subpackage of `vprobot/`."""
+"""What the docs claim holds: `configs/default.yaml` lists every setting of the schema with its
+default (README, docs/running.md), docs/README.md's Layout names every module and subpackage of
+`vprobot/`; the README's tour gives each long command's run time and says how to install torch's
+CPU build, and no example writes into the repository's own `results/`."""
 
 from __future__ import annotations
 
@@ -62,3 +63,33 @@ def test_docs_layout_names_every_module_and_subpackage() -> None:
     packages = {f"{path.parent.name}/" for path in PACKAGE.glob("*/__init__.py")}
     missing = sorted((modules | packages) - named)
     assert not missing, f"docs/README.md#layout does not name {missing}"
+
+
+def bash_blocks(path: Path) -> list[str]:
+    """The lines of a Markdown file's ```bash blocks."""
+    return [line for block in re.findall(r"```bash\n(.*?)```", path.read_text(), re.S)
+            for line in block.splitlines()]
+
+
+def test_readme_tour_states_the_run_time_of_each_long_command() -> None:
+    readme = ROOT / "README.md"
+    tour = bash_blocks(readme)
+    long = [line for line in tour if re.match(r"vprobot (evaluate|train|sweep)\b", line)]
+    assert len(long) >= 5
+    untimed = [line for line in long if not re.search(r"# .*~\d+ (s|min|h)\b", line)]
+    assert untimed == []
+
+
+def test_readme_says_how_to_install_the_cpu_build_of_the_pinned_torch() -> None:
+    (pin,) = re.findall(r'"torch==([\d.]+)"', (ROOT / "pyproject.toml").read_text())
+    readme = (ROOT / "README.md").read_text()
+    assert (f"`pip install torch=={pin} --index-url https://download.pytorch.org/whl/cpu`"
+            in readme)
+    assert "CUDA build" in readme
+
+
+def test_doc_examples_do_not_write_into_the_repositorys_results() -> None:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    writing = [f"{page.name}: {line}" for page in pages for line in bash_blocks(page)
+               if re.search(r"--(out|json)\s+results\b", line)]
+    assert writing == []
