@@ -8,7 +8,7 @@ that differs and exits 1 if any does.
 
 The committed tables were made with OpenBLAS's Haswell kernels; on an x86-64 CPU with AVX-512
 OpenBLAS picks other kernels whose rounding moves a few borderline ground-truth points (up to
-about 0.25 pp of a mean). The regeneration therefore runs with `OPENBLAS_CORETYPE=Haswell`
+about 0.5 pp of a mean). The regeneration therefore runs with `OPENBLAS_CORETYPE=Haswell`
 unless the variable is set already.
 
 Usage:
