@@ -1,7 +1,8 @@
 """What the docs claim holds: `configs/default.yaml` lists every setting of the schema with its
 default (README, docs/running.md), docs/README.md's Layout names every module and subpackage of
 `vprobot/`; the README's tour gives each long command's run time and says how to install torch's
-CPU build, and no example writes into the repository's own `results/`."""
+CPU build, and no example writes into the repository's own `results/`; docs/benchmarks.md
+describes every benchmark suite."""
 
 from __future__ import annotations
 
@@ -93,3 +94,17 @@ def test_doc_examples_do_not_write_into_the_repositorys_results() -> None:
     writing = [f"{page.name}: {line}" for page in pages for line in bash_blocks(page)
                if re.search(r"--(out|json)\s+results\b", line)]
     assert writing == []
+
+
+def test_benchmarks_page_describes_every_suite() -> None:
+    import argparse
+
+    from vprobot.cli import build_parser
+
+    (commands,) = [action for action in build_parser()._actions
+                   if isinstance(action, argparse._SubParsersAction)]
+    (suite,) = [action for action in commands.choices["benchmark"]._actions
+                if action.dest == "suite"]
+    section = (ROOT / "docs" / "benchmarks.md").read_text().split("\n## Suites\n", 1)[1]
+    section = section.split("\n## ", 1)[0]
+    assert [name for name in suite.choices if f"- `{name}`:" not in section] == []
