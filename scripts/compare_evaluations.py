@@ -31,7 +31,7 @@ def moved_cells(old: Sequence[dict[str, str]], new: Sequence[dict[str, str]],
     """
     before = {tuple(row[name] for name in key): row for row in old}
     after = {tuple(row[name] for name in key): row for row in new}
-    lines = []
+    lines: list[str] = []
     compared = 0
     for name, row in after.items():
         if name not in before:
@@ -40,18 +40,19 @@ def moved_cells(old: Sequence[dict[str, str]], new: Sequence[dict[str, str]],
         for column in sorted((set(row) & set(before[name])) - TIMING - set(key)):
             was, now = before[name][column], row[column]
             compared += 1
-            if not (was == now or (was and now and _number(was) and _number(now) and math.isclose(
-                    float(was), float(now), rel_tol=1e-9, abs_tol=1e-12))):
+            if not _same(was, now):
                 lines.append(f"{name} {column}: {was} -> {now}")
     return lines, compared
 
 
-def _number(text: str) -> bool:
+def _same(was: str, now: str) -> bool:
+    """Equal text, or numbers equal to rounding (a CSV float may be written differently)."""
+    if was == now:
+        return True
     try:
-        float(text)
+        return math.isclose(float(was), float(now), rel_tol=1e-9, abs_tol=1e-12)
     except ValueError:
         return False
-    return True
 
 
 def main() -> int:
