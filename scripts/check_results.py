@@ -117,6 +117,16 @@ def main() -> int:
     parser.add_argument("--planners", nargs="+", help="default: those of its table")
     parser.add_argument("--carriers", nargs="+", help="default: those of its table")
     args = parser.parse_args()
+    needed = ("episodes.json", "evaluation.csv", "evaluation_episodes.csv")
+    if not all((args.folder / name).is_file() for name in needed):
+        print(f"{args.folder} is not an evaluation folder: it needs {', '.join(needed)}",
+              file=sys.stderr)
+        return 2
+    count = len(json.loads((args.folder / "episodes.json").read_text())["episodes"])
+    if args.episodes and not all(0 <= index < count for index in args.episodes):
+        print(f"--episodes {' '.join(map(str, args.episodes))}: {args.folder} has episodes 0 "
+              f"to {count - 1}", file=sys.stderr)
+        return 2
     with tempfile.TemporaryDirectory(prefix="check-results-") as temporary:
         out = Path(temporary) / "regenerated"
         regenerate(args.folder, out, args.episodes, args.planners, args.carriers)

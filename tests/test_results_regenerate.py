@@ -62,3 +62,18 @@ def test_check_names_a_committed_cell_that_differs(regenerated: tuple[ModuleType
         writer.writerows(rows)
     moved = check.differences(committed, out, EPISODES)
     assert len(moved) == 1 and "('0', 'free', 'agent') coverage_pct" in moved[0]
+
+
+@pytest.mark.parametrize(("arguments", "message"), [
+    (["{tmp}"], "is not an evaluation folder"),
+    ([str(MOTORS), "--episodes", "0", "15"], "has episodes 0 to 14"),
+])
+def test_check_refuses_a_bad_folder_or_episode_in_one_line(
+        arguments: list[str], message: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    check = load_check()
+    monkeypatch.setattr("sys.argv", ["check_results.py",
+                                     *(value.format(tmp=tmp_path) for value in arguments)])
+    assert check.main() == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and message in error
