@@ -15,9 +15,44 @@ import argparse
 import csv
 import math
 import sys
+from collections.abc import Sequence
 
 TIMING = {"plan_s", "plan_ms_per_view", "episode_s"}
 """Columns of wall-clock time, not of behaviour."""
+
+
+def moved_cells(old: Sequence[dict[str, str]], new: Sequence[dict[str, str]],
+                key: Sequence[str]) -> tuple[list[str], int]:
+    """The cells of `new` that differ from `old`, rows matched by the `key` columns.
+
+    Returns:
+        One line per moved cell and per row of `new` missing from `old`; and the number of
+        cells compared.
+    """
+    before = {tuple(row[name] for name in key): row for row in old}
+    after = {tuple(row[name] for name in key): row for row in new}
+    lines: list[str] = []
+    compared = 0
+    for name, row in after.items():
+        if name not in before:
+            lines.append(f"{name}: not in the old table")
+            continue
+        for column in sorted((set(row) & set(before[name])) - TIMING - set(key)):
+            was, now = before[name][column], row[column]
+            compared += 1
+            if not _same(was, now):
+                lines.append(f"{name} {column}: {was} -> {now}")
+    return lines, compared
+
+
+def _same(was: str, now: str) -> bool:
+    """Equal text, or numbers equal to rounding (a CSV float may be written differently)."""
+    if was == now:
+        return True
+    try:
+        return math.isclose(float(was), float(now), rel_tol=1e-9, abs_tol=1e-12)
+    except ValueError:
+        return False
 
 
 def main() -> int:
@@ -25,26 +60,15 @@ def main() -> int:
     parser.add_argument("old")
     parser.add_argument("new")
     args = parser.parse_args()
-    with open(args.old, newline="") as stream:
-        old = {(row["planner"], row["carrier"]): row for row in csv.DictReader(stream)}
-    with open(args.new, newline="") as stream:
-        new = {(row["planner"], row["carrier"]): row for row in csv.DictReader(stream)}
-    moved = compared = 0
-    for key, row in new.items():
-        if key not in old:
-            print(f"{key}: not in {args.old}")
-            moved += 1
-            continue
-        for column in sorted((set(row) & set(old[key])) - TIMING - {"planner", "carrier"}):
-            before, after = old[key][column], row[column]
-            compared += 1
-            same = before == after or (before and after and math.isclose(
-                float(before), float(after), rel_tol=1e-9, abs_tol=1e-12))
-            if not same:
-                moved += 1
-                print(f"{key} {column}: {before} -> {after}")
-    print(f"{len(new)} rows, {compared} cells compared, {moved} moved")
-    return 1 if moved else 0
+    tables = []
+    for path in (args.old, args.new):
+        with open(path, newline="") as stream:
+            tables.append(list(csv.DictReader(stream)))
+    lines, compared = moved_cells(*tables, ("planner", "carrier"))
+    for line in lines:
+        print(line)
+    print(f"{len(tables[1])} rows, {compared} cells compared, {len(lines)} moved")
+    return 1 if lines else 0
 
 
 if __name__ == "__main__":

@@ -25,7 +25,8 @@ mesh frame parallel to the world, the fixture plate under its lowest point):
 P_GT lives in the mesh frame, so it turns with the object when an episode re-poses it; its
 inspectability is that of the upright placement. The result is deterministic and cached in
 memory and on disk (an `.npz` per mesh under `default_cache_dir()`, written atomically), keyed
-by the mesh hash (sha256 of its vertices and faces) and the settings that shape it. A cache
+by the mesh hash (sha256 of its vertices and faces) and the settings that shape it (with the
+robot folder's description and MJCF files, whose scene and base placement occlude). A cache
 file that does not hold a valid GT of the mesh is recomputed and replaced; a cache directory
 that cannot be written draws one warning per process and the GT is then only kept in memory.
 """
@@ -46,6 +47,8 @@ from vprobot.files import atomic_output
 from vprobot.geometry import Pose
 from vprobot.paths import CACHE_ENV_VAR, cache_root
 from vprobot.progress import stage
+from vprobot.robots import robot_folder
+from vprobot.robots.description import DESCRIPTION_FILE
 from vprobot.scene import Cell
 from vprobot.sensor import DepthSensor
 from vprobot.viewsphere import sphere_directions
@@ -249,8 +252,19 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     """`<mesh hash>-<settings hash>`: the mesh, plus everything that shapes its GT."""
     settings = repr((_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
                      ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
-                     dataclasses.astuple(config.sensor)))
+                     dataclasses.astuple(config.sensor), _robot_digest(config.cell.robot)))
     return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(settings.encode()).hexdigest()[:16]}"
+
+
+def _robot_digest(robot: str) -> str:
+    """sha256 of the robot folder's description and MJCF files: the robot's name alone does not
+    fix its scene (floor, fixture plate, pedestal) or its own base placement (the stand), which
+    occlude in the GT and may differ between versions or be edited in a user's folder."""
+    folder = robot_folder(robot)
+    digest = hashlib.sha256()
+    for path in sorted([folder / DESCRIPTION_FILE, *folder.glob("*.xml")]):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
 
 
 _SCALAR_KINDS = {"spacing_m": "f", "voxel_size_m": "f", "mesh_hash": "U", "views": "iu"}

@@ -1,0 +1,110 @@
+"""What the docs claim holds: `configs/default.yaml` lists every setting of the schema with its
+default (README, docs/running.md), docs/README.md's Layout names every module and subpackage of
+`vprobot/`; the README's tour gives each long command's run time and says how to install torch's
+CPU build, and no example writes into the repository's own `results/`; docs/benchmarks.md
+describes every benchmark suite."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from pathlib import Path
+from typing import Any
+
+from vprobot.config import Config, load_config
+from vprobot.paths import DEFAULT_CONFIG
+from vprobot.schema import read_yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "vprobot"
+
+
+def settings(cls: type, prefix: str = "") -> set[str]:
+    """Every setting of the config dataclass `cls`, dotted (`env.reward`); a section is a
+    field whose default is itself a dataclass."""
+    keys = set()
+    for field in dataclasses.fields(cls):
+        default = field.default_factory() if callable(field.default_factory) else field.default
+        if dataclasses.is_dataclass(default):
+            keys |= settings(type(default), f"{prefix}{field.name}.")
+        else:
+            keys.add(prefix + field.name)
+    return keys
+
+
+def written(data: dict[str, Any], prefix: str = "") -> set[str]:
+    """Every key a YAML mapping sets, dotted; a nested mapping is a section."""
+    keys = set()
+    for name, value in data.items():
+        if isinstance(value, dict):
+            keys |= written(value, f"{prefix}{name}.")
+        else:
+            keys.add(prefix + name)
+    return keys
+
+
+def test_default_yaml_lists_every_setting_of_the_schema() -> None:
+    missing = settings(Config) - written(read_yaml(DEFAULT_CONFIG))
+    assert not missing, f"configs/default.yaml lacks {sorted(missing)}"
+
+
+def test_default_yaml_values_are_the_schema_defaults() -> None:
+    assert load_config(DEFAULT_CONFIG) == Config()
+
+
+def layout() -> str:
+    text = (ROOT / "docs" / "README.md").read_text()
+    section = text.split("\n## Layout\n", 1)[1]
+    return section.split("\n## ", 1)[0]
+
+
+def test_docs_layout_names_every_module_and_subpackage() -> None:
+    named = set(re.findall(r"`([\w./-]+)`", layout()))
+    modules = {path.stem for path in PACKAGE.glob("*.py") if path.stem != "__init__"}
+    packages = {f"{path.parent.name}/" for path in PACKAGE.glob("*/__init__.py")}
+    missing = sorted((modules | packages) - named)
+    assert not missing, f"docs/README.md#layout does not name {missing}"
+
+
+def bash_blocks(path: Path) -> list[str]:
+    """The lines of a Markdown file's ```bash blocks."""
+    return [line for block in re.findall(r"```bash\n(.*?)```", path.read_text(), re.S)
+            for line in block.splitlines()]
+
+
+def test_readme_tour_states_the_run_time_of_each_long_command() -> None:
+    readme = ROOT / "README.md"
+    tour = bash_blocks(readme)
+    long = [line for line in tour if re.match(r"vprobot (evaluate|train|sweep)\b", line)]
+    assert len(long) >= 5
+    untimed = [line for line in long if not re.search(r"# .*~\d+ (s|min|h)\b", line)]
+    assert untimed == []
+
+
+def test_readme_says_how_to_install_the_cpu_build_of_the_pinned_torch() -> None:
+    (pin,) = re.findall(r'"torch==([\d.]+)"', (ROOT / "pyproject.toml").read_text())
+    readme = (ROOT / "README.md").read_text()
+    assert (f"`pip install torch=={pin} --index-url https://download.pytorch.org/whl/cpu`"
+            in readme)
+    assert "CUDA build" in readme
+
+
+def test_doc_examples_do_not_write_into_the_repositorys_results() -> None:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    writing = [f"{page.name}: {line}" for page in pages for line in bash_blocks(page)
+               if re.search(r"--(out|json)\s+results\b", line)]
+    assert writing == []
+
+
+def test_benchmarks_page_describes_every_suite() -> None:
+    import argparse
+
+    from vprobot.cli import build_parser
+
+    (commands,) = [action for action in build_parser()._actions
+                   if isinstance(action, argparse._SubParsersAction)]
+    (suite,) = [action for action in commands.choices["benchmark"]._actions
+                if action.dest == "suite"]
+    section = (ROOT / "docs" / "benchmarks.md").read_text().split("\n## Suites\n", 1)[1]
+    section = section.split("\n## ", 1)[0]
+    assert [name for name in suite.choices if f"- `{name}`:" not in section] == []
