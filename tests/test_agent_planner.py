@@ -161,3 +161,16 @@ def test_an_agent_planner_says_it_is_loading_before_the_slow_load(
     with showing_progress():
         AgentPlanner("cpu")
     assert capsys.readouterr().err == "loading agent cpu ...\n"
+
+
+def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """`evaluate` checks its planners (loading the agent: seconds) before the first episode;
+    with its progress shown, that load is announced instead of a silent start."""
+    from vprobot.episode import episode_list
+    from vprobot.evaluation import evaluate
+    from vprobot.paths import DEFAULT_MOTOR
+
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
+    evaluate(CONFIG, ["agent:cpu"], specs, tmp_path, progress=True, carriers=["free"])
+    assert capsys.readouterr().err.startswith("loading agent cpu ...\n")

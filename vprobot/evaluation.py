@@ -51,6 +51,7 @@ from vprobot.files import append_line, csv_text, exclusive_lock, save_figure, wr
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
+from vprobot.progress import showing_progress
 from vprobot.stopping.rules import make_stop_rule
 
 CURVE_VIEWS = 10
@@ -532,7 +533,9 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         raise ValueError("evaluate needs at least one planner, episode, carrier and stop rule")
     if workers > 1 or address is not None:
         require_ray()
-    _check_inputs(config, specs, parsed, estimator)
+    # Loading an agent takes seconds: its note says so rather than a silent start.
+    with showing_progress() if progress else contextlib.nullcontext():
+        _check_inputs(config, specs, parsed, estimator)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows_path = out / "evaluation_episodes.csv"
