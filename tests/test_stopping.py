@@ -269,7 +269,7 @@ def test_the_widening_scales_the_disagreement_and_survives_a_save(tmp_path: Path
     np.savez(tmp_path / "old.npz", **(arrays | {"format": np.array(1)}))
     assert np.array_equal(CoverageEstimator.load(tmp_path / "old.npz").estimate(x)[1], std)
     np.savez(tmp_path / "new.npz", **(arrays | {"format": np.array(9)}))
-    with pytest.raises(ValueError, match="estimator format 9, expected 1 to 3"):
+    with pytest.raises(ValueError, match="estimator format 9, expected 1 to 4"):
         CoverageEstimator.load(tmp_path / "new.npz")
     with pytest.raises(ValueError, match="unseen_scale must be finite and >= 0, got -1"):
         dataclasses.replace(stated, unseen_scale=-1.0)
