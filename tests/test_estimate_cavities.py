@@ -4,6 +4,7 @@ material to the estimate, which then claims the goal too early."""
 
 from __future__ import annotations
 
+import types
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from vprobot.stopping.dataset import read_dataset
 from vprobot.stopping.estimator import (
     CoverageEstimator,
     EstimateTracker,
+    claim_limits,
     load_estimator,
 )
 from vprobot.stopping.features import FEATURES
@@ -38,6 +40,20 @@ def test_the_limits_of_a_stop_are_the_98th_percentile_of_unexplored_space_on_tra
         column = FEATURES.index(name)
         expected[column] = np.quantile(claims[:, column], 0.98)
     np.testing.assert_allclose(estimator.domain.claimed, expected)
+
+
+def test_claim_limits_take_the_quantile_over_the_claimed_rows_only() -> None:
+    rows = np.arange(20 * len(FEATURES), dtype=float).reshape(20, len(FEATURES))
+    claimed = np.arange(20) % 2 == 0  # the even rows: mean 0.99, std 0.01; the odd: mean 0.5
+    estimator = types.SimpleNamespace(
+        features=FEATURES, estimate=lambda x: (np.where(claimed, 0.99, 0.5), np.full(20, 0.01)))
+    limits = claim_limits(estimator, rows, 0.9, 0.95)  # type: ignore[arg-type]
+    rear_side, extent = FEATURES.index("rear_side"), FEATURES.index("extent")
+    assert limits[rear_side] == np.quantile(rows[claimed, rear_side], 0.98)
+    assert limits[rear_side] < rows[claimed, rear_side].max()
+    assert limits[extent] == np.inf  # not a feature of unexplored space
+    # No claim in training: nothing shows where one holds, so no stop.
+    assert claim_limits(estimator, rows, 0.999, 0.95)[rear_side] == -np.inf  # type: ignore
 
 
 @pytest.mark.parametrize(("part", "seed", "old_stop"), [
