@@ -8,10 +8,13 @@ the view budget, and appends one row per view (its features and true coverage, t
 `vprobot.stopping.dataset`) to `rollouts.csv`; it resumes after the episodes already there.
 `score` replays `--stop estimate` on those views, as the rule meets them (a planner under the
 rule follows the same views until the rule stops it): `before`, the estimator's plain estimate
-after each view (the rule before issue 30); `after`, the estimate as the rule now states it
-(`vprobot.stopping.estimator.EstimateTracker`: no rise without new surface, widened or refused
-outside what the estimator was fit on). It writes `rollouts-stops.csv` and `rollouts-stops.md`
-(or NAME-stops.* beside any table of rollouts given, e.g. those of `vprobot stop error`).
+after each view (the rule before issue 30); `after`, the estimate as
+`vprobot.stopping.estimator.EstimateTracker` states it (no rise without new surface, widened or
+refused outside what the estimator was fit on) but stopping wherever its bound reaches the goal;
+`held`, the rule as it is now: `after`, and no stop while more space is unexplored than on the
+training views where the estimate claimed the goal (`Stated.held`). It writes
+`rollouts-stops.csv` and `rollouts-stops.md` (or NAME-stops.* beside any table of rollouts
+given, e.g. those of `vprobot stop error`).
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ import numpy as np
 from vprobot.config import Config
 from vprobot.episode import seeded_episode
 from vprobot.files import append_line, csv_text, write_text
-from vprobot.stopping.dataset import COLUMNS, collect, read_dataset
+from vprobot.stopping.dataset import COLUMNS, read_dataset, rollout
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, load_estimator
 
 FOLDER = Path("results/stop_estimate/foreign")
@@ -56,20 +59,22 @@ def rollouts(folder: Path, planners: tuple[str, ...], seeds: tuple[int, ...]) ->
             for planner in planners:
                 if (spec.motor, str(spec.seed), planner) in done:
                     continue
-                rows = collect(config, [(spec, planner)], progress=False)
+                rows = [{"episode": 0, "object": spec.motor, "family": "foreign",
+                         "planner": planner, "seed": spec.seed, **row}
+                        for row in rollout(config, spec, planner)]
                 # One write per episode: a killed run leaves whole episodes.
-                append_line(table, csv_text(COLUMNS, [{**row, "episode": 0, "family": "foreign"}
-                                                      for row in rows], header=False))
+                append_line(table, csv_text(COLUMNS, rows, header=False))
                 print(f"{part.stem} seed {seed} {planner}: {len(rows)} views, coverage "
                       f"{100 * rows[-1]['coverage']:.1f} %", flush=True)
 
 
-def replay(mean: np.ndarray, std: np.ndarray, truth: np.ndarray, goal: float,
-           z: float) -> dict[str, Any]:
-    """One episode under `estimate`: where it stops (mean - z std >= goal; NaN: refused) and
-    how its statement then compares with the truth."""
+def replay(mean: np.ndarray, std: np.ndarray, truth: np.ndarray, goal: float, z: float,
+           held: np.ndarray | None = None) -> dict[str, Any]:
+    """One episode under `estimate`: where it stops (mean - z std >= goal and not `held`; NaN:
+    refused) and how its statement then compares with the truth."""
     with np.errstate(invalid="ignore"):
-        confident = np.flatnonzero(mean - z * std >= goal)
+        confident = np.flatnonzero((mean - z * std >= goal)
+                                   & (True if held is None else ~held))
     reached = np.flatnonzero(truth >= goal - 1e-12)
     stop = int(confident[0]) if len(confident) else len(truth) - 1
     two_sided = NormalDist().inv_cdf(0.5 + CONFIDENCE / 2.0)
@@ -88,8 +93,8 @@ def replay(mean: np.ndarray, std: np.ndarray, truth: np.ndarray, goal: float,
 
 
 def score(rollouts: Path, estimator: CoverageEstimator, config: Config) -> None:
-    """Replay both rules on every episode of a table of rollouts; write `NAME-stops.csv` and
-    `NAME-stops.md` beside it (NAME its stem)."""
+    """Replay the three rules on every episode of a table of rollouts; write `NAME-stops.csv`
+    and `NAME-stops.md` beside it (NAME its stem)."""
     data = read_dataset(rollouts)
     with rollouts.open(newline="") as stream:
         keys = [(row["object"], row["seed"], row["planner"], row["episode"])
@@ -105,9 +110,11 @@ def score(rollouts: Path, estimator: CoverageEstimator, config: Config) -> None:
         tracker = EstimateTracker(estimator, config, key[2].rstrip("0123456789"))
         stated = [tracker.update(vector) for vector in features]
         after = (np.array([one.mean for one in stated]), np.array([one.std for one in stated]))
-        for rule, (mean, std) in (("before", before), ("after", after)):
+        held = np.array([one.held is not None for one in stated])
+        for rule, (mean, std), holds in (("before", before, None), ("after", after, None),
+                                         ("held", after, held)):
             rows.append({"part": Path(key[0]).stem, "seed": key[1], "planner": key[2],
-                         "rule": rule, **replay(mean, std, truth, goal, z)})
+                         "rule": rule, **replay(mean, std, truth, goal, z, holds)})
     columns = list(rows[0])
     write_text(rollouts.with_name(f"{rollouts.stem}-stops.csv"), csv_text(columns, rows))
     write_text(rollouts.with_name(f"{rollouts.stem}-stops.md"), table(rows, goal))
@@ -122,7 +129,7 @@ def table(rows: list[dict[str, Any]], goal: float) -> str:
              "goal (true) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for planner in dict.fromkeys(row["planner"] for row in rows):
-        for rule in ("before", "after"):
+        for rule in ("before", "after", "held"):
             chosen = [row for row in rows if row["planner"] == planner and row["rule"] == rule]
             stopped = [row for row in chosen if row["stopped_on_estimate"]]
             false = [row for row in stopped if row["below_goal"]]

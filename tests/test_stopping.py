@@ -31,7 +31,7 @@ from vprobot.stopping import report as report_module
 from vprobot.stopping import study as study_module
 from vprobot.stopping.calibration import interval_coverage, mae_per_view, unseen_scale
 from vprobot.stopping.dataset import Dataset, training_jobs
-from vprobot.stopping.estimator import CoverageEstimator, fit
+from vprobot.stopping.estimator import UNEXPLORED, CoverageEstimator, fit
 from vprobot.stopping.features import BAND_NEAR_DEG, FEATURES, CoverageFeatures
 from vprobot.stopping.folds import family_folds
 from vprobot.stopping.report import fit_estimate
@@ -269,7 +269,7 @@ def test_the_widening_scales_the_disagreement_and_survives_a_save(tmp_path: Path
     np.savez(tmp_path / "old.npz", **(arrays | {"format": np.array(1)}))
     assert np.array_equal(CoverageEstimator.load(tmp_path / "old.npz").estimate(x)[1], std)
     np.savez(tmp_path / "new.npz", **(arrays | {"format": np.array(9)}))
-    with pytest.raises(ValueError, match="estimator format 9, expected 1 to 3"):
+    with pytest.raises(ValueError, match="estimator format 9, expected 1 to 4"):
         CoverageEstimator.load(tmp_path / "new.npz")
     with pytest.raises(ValueError, match="unseen_scale must be finite and >= 0, got -1"):
         dataclasses.replace(stated, unseen_scale=-1.0)
@@ -364,6 +364,18 @@ def test_stop_fit_refuses_a_count_that_draws_no_episode_of_a_family_before_any_r
     for count in range(6, FAMILIES_DRAWN):
         with pytest.raises(ValueError, match=f"--episodes {FAMILIES_DRAWN} is the least"):
             training_jobs(CONFIG, count, 0)
+
+
+def test_stop_fit_records_the_limits_of_unexplored_space_for_a_stop(
+        tmp_path: Path, fake_rollouts: FakeRollouts) -> None:
+    fit_estimate(CONFIG, tmp_path, episodes=FAMILIES_DRAWN, planners=["random2"],
+                 progress=False)
+    estimator = CoverageEstimator.load(tmp_path / "estimator.npz")
+    assert estimator.domain is not None and estimator.domain.claimed is not None
+    unexplored = [FEATURES.index(name) for name in UNEXPLORED]
+    others = np.setdiff1d(np.arange(len(FEATURES)), unexplored)
+    assert np.all(estimator.domain.claimed[others] == np.inf)
+    assert np.all(estimator.domain.claimed[unexplored] < np.inf)
 
 
 def test_an_interrupted_stop_fit_keeps_its_finished_episodes_and_a_rerun_runs_only_the_rest(

@@ -18,9 +18,12 @@ that held on families the estimate had not seen, and it grows where the members 
 unfamiliar inputs) rather than everywhere.
 
 What the estimator was fit on is recorded with it (`TrainingDomain`: each feature's range over
-the training rows, the sensor, the planners), and `EstimateTracker` states the estimate as a
+the training rows, the sensor, the planners, and how much unexplored space the training views
+showed where the estimate claimed the goal), and `EstimateTracker` states the estimate as a
 stop rule may use it: refused for another sensor or a feature far outside its range, widened a
-little outside it, and never raised by a view that added no new surface.
+little outside it, never raised by a view that added no new surface, and held back from a stop
+where more space is unexplored than on any training view it claimed the goal on (cavities no
+view has seen into, which the estimate takes for solid material).
 
 Training uses torch; `estimate` is plain numpy, so that a stop rule needs neither torch nor a
 pickle: the weights are stored as arrays in an `.npz` file.
@@ -34,6 +37,7 @@ import itertools
 import zipfile
 from collections.abc import Sequence
 from pathlib import Path
+from statistics import NormalDist
 
 import numpy as np
 
@@ -50,9 +54,10 @@ LEARNING_RATE = 3e-3
 WEIGHT_DECAY = 1e-4
 MIN_STD = 1e-3
 """Floor of a member's stated standard deviation (coverage is known to no better anyway)."""
-FORMAT = 3
-"""Format 3 may hold the training domain (the folds' estimators have none), format 2 adds the
-widening for unseen families; older files load without them."""
+FORMAT = 4
+"""Format 4 may hold the limits on unexplored space of the claims (`TrainingDomain.claimed`),
+format 3 the training domain (the folds' estimators have none), format 2 adds the widening for
+unseen families; older files load without them."""
 NEW_SURFACE = 0.002
 """A view that grew the occupied voxels by less than this share added no new surface (on the
 training rollouts such views raised the true coverage by 0.2 pp on average)."""
@@ -60,6 +65,12 @@ WIDEN_PER_RANGE = 4.0
 """A feature outside its training range by d ranges multiplies the std by 1 + this x d."""
 REFUSE_RANGES = 0.25
 """A feature farther than this many ranges outside its training range refuses the estimate."""
+UNEXPLORED = ("unknown", "rear_side", "open_surface", "hull_unknown")
+"""The features that measure space not explored yet (`vprobot.stopping.features`)."""
+CLAIM_QUANTILE = 0.98
+"""The limit on each `UNEXPLORED` feature for a stop: this quantile of it over the training
+views on which the estimate claimed the goal (chosen on the validation list and the foreign
+parts of sets a and b, then frozen; results/stop_estimate/README.md)."""
 BUNDLED_ESTIMATOR = ESTIMATOR_DIR / "estimator.npz"
 """The estimator `--stop estimate` uses unless told otherwise (its README says how it was fit)."""
 
@@ -97,16 +108,19 @@ class TrainingDomain:
         high: Its greatest.
         sensor: The sensor's `sensor_geometry` in the rollouts.
         planners: The rollouts' planners.
+        claimed: Per feature, the most of it a stop may see (`claim_limits`; +inf: any);
+            None: not recorded (files before format 4).
 
     Raises:
-        ValueError: For ranges of different lengths, not finite or with low > high, or a
-            sensor geometry of another length.
+        ValueError: For ranges of different lengths, not finite or with low > high, a sensor
+            geometry of another length, or limits of another length or NaN.
     """
 
     low: np.ndarray
     high: np.ndarray
     sensor: tuple[float, ...]
     planners: tuple[str, ...]
+    claimed: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         low, high = np.asarray(self.low, dtype=float), np.asarray(self.high, dtype=float)
@@ -117,13 +131,19 @@ class TrainingDomain:
         if len(self.sensor) != len(SENSOR_GEOMETRY) + 1:  # fov_deg holds two angles
             raise ValueError(f"the sensor geometry holds {len(SENSOR_GEOMETRY) + 1} values "
                              f"({', '.join(SENSOR_GEOMETRY)}), got {len(self.sensor)}")
+        if self.claimed is not None and (np.shape(self.claimed) != low.shape
+                                         or np.isnan(self.claimed).any()):
+            raise ValueError(f"the limits of the claims need one value per feature "
+                             f"({len(low)}), none NaN, got shape {np.shape(self.claimed)}")
 
     @classmethod
-    def of(cls, features: np.ndarray, sensor: SensorConfig,
-           planners: Sequence[str]) -> TrainingDomain:
-        """The domain of training rows (n, features) from rollouts of `sensor` and `planners`."""
+    def of(cls, features: np.ndarray, sensor: SensorConfig, planners: Sequence[str],
+           claimed: np.ndarray | None = None) -> TrainingDomain:
+        """The domain of training rows (n, features) from rollouts of `sensor` and `planners`,
+        with the limits of the claims (`claim_limits`) if given."""
         x = np.asarray(features, dtype=float)
-        return cls(x.min(axis=0), x.max(axis=0), sensor_geometry(sensor), tuple(planners))
+        return cls(x.min(axis=0), x.max(axis=0), sensor_geometry(sensor), tuple(planners),
+                   claimed)
 
     def outside(self, features: np.ndarray) -> np.ndarray:
         """How far each feature lies outside its range, in units of the range (0 inside; a
@@ -133,6 +153,13 @@ class TrainingDomain:
         width = self.high - self.low
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(beyond > 0.0, beyond / width, 0.0)
+
+    def unexplored(self, features: np.ndarray) -> int | None:
+        """The first feature above the most a stop may see (`claimed`), or None."""
+        if self.claimed is None:
+            return None
+        above = np.flatnonzero(np.asarray(features, dtype=float) > self.claimed)
+        return int(above[0]) if len(above) else None
 
 
 def _softplus(x: np.ndarray) -> np.ndarray:
@@ -251,6 +278,8 @@ class CoverageEstimator:
             arrays |= {"domain_low": self.domain.low, "domain_high": self.domain.high,
                        "domain_sensor": np.array(self.domain.sensor),
                        "domain_planners": np.array(self.domain.planners)}
+            if self.domain.claimed is not None:
+                arrays["domain_claimed"] = self.domain.claimed
         for m, member in enumerate(self.layers):
             for k, (weight, bias) in enumerate(member):
                 arrays[f"w_{m}_{k}"], arrays[f"b_{m}_{k}"] = weight, bias
@@ -279,7 +308,9 @@ class CoverageEstimator:
                 unseen = float(data["unseen_scale"]) if version >= 2 else 0.0
                 domain = (TrainingDomain(data["domain_low"], data["domain_high"],
                                          tuple(float(v) for v in data["domain_sensor"]),
-                                         tuple(str(name) for name in data["domain_planners"]))
+                                         tuple(str(name) for name in data["domain_planners"]),
+                                         data["domain_claimed"] if "domain_claimed" in data.files
+                                         else None)
                           if "domain_low" in data.files else None)
                 return cls(tuple(str(name) for name in data["features"]), data["shift"],
                            data["scale"], layers, unseen, domain)
@@ -287,6 +318,27 @@ class CoverageEstimator:
         except (OSError, EOFError, zipfile.BadZipFile, KeyError, TypeError,
                 ValueError) as error:
             raise ValueError(f"cannot read coverage estimator {path}: {error}") from None
+
+
+def claim_limits(estimator: CoverageEstimator, features: np.ndarray, goal: float,
+                 confidence: float) -> np.ndarray:
+    """The most of each `UNEXPLORED` feature a stop may see: its `CLAIM_QUANTILE` quantile
+    over the training rows (n, features) on which the estimate claimed the goal (its one-sided
+    lower bound at `confidence` reached `goal`); +inf for the other features.
+
+    Where the estimate claimed the goal on no training row, nothing shows that a claim holds:
+    the limits are -inf (never a stop).
+    """
+    x = np.asarray(features, dtype=float)
+    mean, std = estimator.estimate(x)
+    claims = x[mean - NormalDist().inv_cdf(confidence) * std >= goal]
+    limits = np.full(x.shape[1], np.inf)
+    for name in UNEXPLORED:
+        if name in estimator.features:
+            column = estimator.features.index(name)
+            limits[column] = (np.quantile(claims[:, column], CLAIM_QUANTILE) if len(claims)
+                              else -np.inf)
+    return limits
 
 
 def load_estimator(path: str | Path | None = None) -> CoverageEstimator:
@@ -405,11 +457,15 @@ class Stated:
         std: Its standard deviation (NaN: refused).
         note: Why it was refused, widened or kept from the view before, to follow the word
             "estimate" (`not used: ...`; None: as estimated).
+        held: Why a stop rule may not stop on it although it is stated (more space unexplored
+            than on the training views it claimed the goal on), to follow "estimate"; None:
+            it may.
     """
 
     mean: float
     std: float
     note: str | None = None
+    held: str | None = None
 
     @property
     def refused(self) -> bool:
@@ -435,6 +491,9 @@ class EstimateTracker:
     - A planner not among the fit's is named in `notes` (the estimate was measured less
       accurate on such a planner's views, and its widening covered them: the estimator's
       README).
+    - An `UNEXPLORED` feature above the most the training views showed where the estimate
+      claimed the goal (`TrainingDomain.claimed`): stated, but held back from a stop
+      (`Stated.held`): a cavity no view has seen into looks like solid material to it.
 
     Args:
         estimator: The coverage estimator (its features include `occupied` and `acquired`).
@@ -461,7 +520,10 @@ class EstimateTracker:
         if domain is None:
             self._note("not checked for inputs unlike its training data: its file records no "
                        "training domain (format before 3)")
-        else:
+        elif domain.claimed is None:
+            self._note("not checked for unexplored space beyond that of its claims in training: "
+                       "its file records no limits (format before 4)")
+        if domain is not None:
             geometry = sensor_geometry(config.sensor)
             if not np.allclose(geometry, domain.sensor):
                 self._refusal = (f"not used: fitted on sensor {_describe(domain.sensor)}, this "
@@ -498,8 +560,21 @@ class EstimateTracker:
         else:
             stated = self._fresh(x)
             self._last, self._last_occupied = stated, occupied
+        if not stated.refused:
+            stated = dataclasses.replace(stated, held=self._held(x))
         self._note(stated.note)
+        self._note(stated.held)
         return stated
+
+    def _held(self, x: np.ndarray) -> str | None:
+        domain = self.estimator.domain
+        column = domain.unexplored(x) if domain is not None else None
+        if domain is None or domain.claimed is None or column is None:
+            return None
+        return (f"held back from a stop: {self.estimator.features[column]} above "
+                f"{domain.claimed[column]:.4g}, the {100 * CLAIM_QUANTILE:g}th percentile over "
+                f"the training views on which it claimed the goal (space it was not shown to "
+                f"judge)")
 
     def _fresh(self, x: np.ndarray) -> Stated:
         mean, std = (float(value) for value in self.estimator.estimate(x))

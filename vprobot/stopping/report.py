@@ -50,12 +50,14 @@ from vprobot.stopping.dataset import (
 from vprobot.stopping.estimator import (
     CoverageEstimator,
     TrainingDomain,
+    claim_limits,
     fit,
     load_estimator,
     widened_std,
 )
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.folds import FOLDS_DIR, family_folds
+from vprobot.stopping.rules.estimate import DEFAULT_CONFIDENCE
 from vprobot.stopping.study import list_names
 
 ESTIMATOR_NAME = "estimator.npz"
@@ -127,8 +129,10 @@ def _fit_and_report(out: Path, config: Config, seed: int, planners: Sequence[str
                          progress)
     seconds["folds"] = time.perf_counter() - start
     scale = unseen_scale(folds.mean, folds.std, folds.disagreement, folds.truth)
-    estimator = dataclasses.replace(stated, unseen_scale=scale, domain=TrainingDomain.of(
-        training.features, config.sensor, planners))
+    widened = dataclasses.replace(stated, unseen_scale=scale)
+    estimator = dataclasses.replace(widened, domain=TrainingDomain.of(
+        training.features, config.sensor, planners, claim_limits(
+            widened, training.features, config.env.coverage_goal, DEFAULT_CONFIDENCE)))
     estimator.save(out / ESTIMATOR_NAME)
     write_text(out / "family_folds.csv", csv_text(
         ("family", "planner", "view", "coverage", "mean", "std", "disagreement"),

@@ -4,6 +4,8 @@ confidence C, i.e. when mean - z(C) std >= goal (z the one-sided normal quantile
 The estimate is stated as `vprobot.stopping.estimator.EstimateTracker` states it: a view that
 added no new surface never raises it, and it is widened or refused (the rule then never stops)
 for inputs unlike those it was fit on: another sensor, features outside their training range.
+Nor does the rule stop while more space is unexplored than on the training views where the
+estimate claimed the goal (`Stated.held`: cavities no view has seen into).
 
 The estimate (`vprobot.stopping.estimator`) reads only the features of the acquired frames and
 the sensor poses (`vprobot.stopping.features`), never the mesh, the ground truth or the
@@ -96,7 +98,7 @@ class EstimateStop(StopRule):
         for count in range(self._stated + 1, len(views) + 1):
             stated = self.tracker.update(self.features.update(views[:count]))
         self._stated = len(views)
-        if stated is None or stated.refused:
+        if stated is None or stated.refused or stated.held is not None:
             return None
         if stated.mean - self.z * stated.std >= self.goal:
             return (f"estimate {100 * stated.mean:.1f} ± {100 * stated.std:.1f} % ≥ "
