@@ -33,6 +33,7 @@ import numpy as np
 from vprobot.geometry import Pose
 from vprobot.raster import covered_pixels, index_range, max3, min3
 from vprobot.scene import Cell
+from vprobot.sensing import SensingModel, StructuredLight, frame_generator
 from vprobot.sensor_model import SensorModel
 
 TRAINING_RESOLUTION = (320, 224)
@@ -45,6 +46,9 @@ quarter of the rays (215 x 150) would lose about 2 points (`vprobot benchmark se
 _SPAN_SLACK = 1e-12
 # Vertices closer than this to the image plane through the optical centre are not projected.
 _MIN_DEPTH = 1e-9
+# A surface nearer to the projector than a point by more than this many pixel footprints (at the
+# point's depth) shadows it; less is the point's own surface or a neighbouring facet of it.
+_SHADOW_TOLERANCE_PIXELS = 1.0
 # Fewer MuJoCo rays than this per thread are cast on one thread.
 _MIN_RAYS_PER_THREAD = 2000
 
@@ -90,6 +94,14 @@ class _MeshGeom:
     faces: np.ndarray
     radius: float
 
+    @functools.cached_property
+    def normals(self) -> np.ndarray:
+        """Unit normals (m, 3) of the triangles in the geom frame (zero for degenerate ones)."""
+        a, b, c = (self.vertices[self.faces[:, k]] for k in range(3))
+        normals = np.cross(b - a, c - a)
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
     @classmethod
     def of(cls, model: mujoco.MjModel, geom: int) -> _MeshGeom:
         mesh = model.geom_dataid[geom]
@@ -127,20 +139,27 @@ class DepthSensor:
         workers: Threads for the MuJoCo ray casts.
         groups: Geom groups the rays see, as MuJoCo's geomgroup; all when omitted. Leaving out
             the robot's group (2) measures as if the robot were not there.
+        sensing: How hits become points (`vprobot.sensing`): `IDEAL` or a `StructuredLight`;
+            the cell's sensor config's model when omitted.
 
     Raises:
         ValueError: If the resolution or worker count is invalid, an object geom is not a mesh,
             a primitive geom shares the object's geom group, or `groups` leaves out the object.
+        TypeError: If `sensing` is not a sensing model.
     """
 
     def __init__(self, cell: Cell, sensor: SensorModel | None = None,
                  resolution: tuple[int, int] | None = None, workers: int = 2,
-                 groups: Sequence[int] | None = None):
+                 groups: Sequence[int] | None = None, sensing: SensingModel | None = None):
         sensor = sensor if sensor is not None else SensorModel.from_config(cell.config.sensor)
         self.sensor = sensor.at_resolution(resolution) if resolution is not None else sensor
         self.resolution = self.sensor.resolution
         if not (isinstance(workers, int) and workers >= 1):
             raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        sensing = sensing if sensing is not None else cell.config.sensor.sensing_model
+        if not isinstance(sensing, SensingModel):
+            raise TypeError(f"sensing must be IDEAL or a StructuredLight, got {sensing!r}")
+        self.sensing = sensing
         self.model = cell.model
         self._site_id = cell.sensor_site_id
         self._sensor_body_id = cell.sensor_body_id
@@ -153,6 +172,10 @@ class DepthSensor:
         self._object_depth = np.empty(self.rays_per_frame)
         self._occluder_depth = np.empty(self.rays_per_frame)
         self._geomid = np.empty(self.rays_per_frame, dtype=np.int32)
+        # The object triangle each pixel keeps (an index into `_object_normals`); only the
+        # structured-light model needs normals.
+        self._face = (np.empty(self.rays_per_frame, dtype=np.int64)
+                      if isinstance(sensing, StructuredLight) else None)
         self._distance = np.empty(self.rays_per_frame)
         self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
@@ -192,6 +215,7 @@ class DepthSensor:
                                  f"also holds primitive geoms; the object needs a group of "
                                  f"meshes only")
         self._object_meshes = [_MeshGeom.of(model, g) for g in object_geom_ids]
+        self._face_offsets = np.cumsum([0] + [len(mesh.faces) for mesh in self._object_meshes])
         self._occluder_meshes = [
             _MeshGeom.of(model, g) for g in considered
             if groups[g] not in primitive_groups and g not in set(object_geom_ids.tolist())
@@ -206,12 +230,14 @@ class DepthSensor:
         return self.sensor.rays_per_frame
 
     def acquire_at(self, pose: Pose, object_rotation: np.ndarray,
-                   joints: np.ndarray | None = None) -> Acquisition:
+                   joints: np.ndarray | None = None,
+                   rng: np.random.Generator | None = None) -> Acquisition:
         """Measure from `pose` with the object turned by `object_rotation` and the robot at
         `joints` (`home` when omitted), on the sensor's own MjData.
 
         The state is passed whole on every call, so that no other user of the cell (kinematics,
-        collision checks, a renderer) can change what the sensor sees.
+        collision checks, a renderer) can change what the sensor sees. `rng` as in
+        `acquire_from_pose`.
         """
         cell, data = self._cell, self._own_data
         joints = cell.joints.home if joints is None else joints
@@ -223,27 +249,37 @@ class DepthSensor:
         elif not np.array_equal(data.qpos, joints):
             data.qpos[:] = joints
             mujoco.mj_kinematics(self.model, data)
-        return self.acquire_from_pose(data, pose)
+        return self.acquire_from_pose(data, pose, rng)
 
     @functools.cached_property
     def _own_data(self) -> mujoco.MjData:
         return self._cell.make_data()
 
-    def acquire(self, data: mujoco.MjData) -> Acquisition:
-        """Measure from the `sensor` site of `data` (kinematics already computed)."""
+    def acquire(self, data: mujoco.MjData, rng: np.random.Generator | None = None
+                ) -> Acquisition:
+        """Measure from the `sensor` site of `data` (kinematics already computed); `rng` as in
+        `acquire_from_pose`."""
         site = self._site_id
         pose = Pose(data.site_xpos[site].copy(), data.site_xmat[site].reshape(3, 3).copy())
-        return self.acquire_from_pose(data, pose)
+        return self.acquire_from_pose(data, pose, rng)
 
-    def acquire_from_pose(self, data: mujoco.MjData, pose: Pose) -> Acquisition:
+    def acquire_from_pose(self, data: mujoco.MjData, pose: Pose,
+                          rng: np.random.Generator | None = None) -> Acquisition:
         """Measure from an arbitrary sensor pose in the cell state `data`.
 
         The robot stays where `data` has it (it can occlude); the rays start at `pose`.
+
+        Args:
+            data: The cell state.
+            pose: The sensor frame in the world.
+            rng: The structured-light model's noise and dropout draws; when omitted, a generator
+                seeded from the sensor and object poses (`vprobot.sensing.frame_generator`), so
+                that the same frame always gets the same noise. The ideal model draws nothing.
         """
         body = self._object_body_id
         object_pose = Pose(data.xpos[body].copy(), data.xmat[body].reshape(3, 3).copy())
         pixels = self._first_hits(self._object_meshes, data, pose, self._object_depth,
-                                  self.sensor.far_m)
+                                  self.sensor.far_m, faces=self._face)
         distance = self._object_depth[pixels] * self._ray_scale[pixels]
         in_range = self.sensor.in_range(distance)
         pixels, distance = pixels[in_range], distance[in_range]
@@ -256,16 +292,106 @@ class DepthSensor:
             visible = ~self._occluded_by_ray_geoms(data, pose.position, directions, distance,
                                                    points)
             pixels, points = pixels[visible], points[visible]
+        # Pixels the camera sees the object in are not blocked, whether or not the projector
+        # lights them: the cell does not see its own occluder there.
+        blocked_pixels = np.setdiff1d(in_range_pixels, pixels, assume_unique=True)
+        if isinstance(self.sensing, StructuredLight) and len(pixels):
+            rng = rng if rng is not None else frame_generator(
+                pose.position, pose.rotation, object_pose.position, object_pose.rotation)
+            pixels, points = self._structured_light(data, pose, pixels, points, rng)
         return Acquisition(points_world=points, points_object=points - object_pose.position,
-                           pixels=pixels,
-                           blocked_pixels=np.setdiff1d(in_range_pixels, pixels,
-                                                       assume_unique=True),
+                           pixels=pixels, blocked_pixels=blocked_pixels,
                            sensor_pose=pose, object_pose=object_pose,
                            rays_cast=self.rays_per_frame)
 
+    def _structured_light(self, data: mujoco.MjData, pose: Pose, pixels: np.ndarray,
+                          points: np.ndarray, rng: np.random.Generator
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """Keep the camera's points that the projector lights within both incidence limits,
+        drop some by the dropout law and move the rest along their rays by the noise law."""
+        model = self.sensing
+        normals = self._normals(data, pixels)
+        rays = self.directions[pixels] @ pose.rotation.T
+        projector = pose.position + model.baseline_m * pose.rotation[:, 0]
+        light = points - projector
+        light_distance = np.linalg.norm(light, axis=1)
+        light /= light_distance[:, None]
+        cos_camera = np.einsum("ij,ij->i", rays, normals)
+        cos_projector = np.einsum("ij,ij->i", light, normals)
+        min_camera, min_projector = model.min_cos_incidence
+        # Both rays must meet the surface from the same side (a sheet lit from behind is dark).
+        kept = ((cos_camera * cos_projector > 0.0) & (np.abs(cos_camera) >= min_camera)
+                & (np.abs(cos_projector) >= min_projector))
+        kept[kept] = self._lit(data, Pose(projector, pose.rotation), points[kept],
+                               normals[kept], light[kept], light_distance[kept])
+        pixels, points, rays = pixels[kept], points[kept], rays[kept]
+        cos_camera = np.abs(cos_camera[kept])
+        incidence = np.arccos(np.minimum(cos_camera, 1.0))
+        measured = rng.random(len(pixels)) >= model.dropout_probability(incidence)
+        depth = self._object_depth[pixels]
+        noise = rng.standard_normal(len(pixels)) * model.noise_sigma(depth, cos_camera)
+        return pixels[measured], (points + rays * noise[:, None])[measured]
+
+    def _normals(self, data: mujoco.MjData, pixels: np.ndarray) -> np.ndarray:
+        """World unit normals (n, 3) of the object triangles the pixels keep."""
+        faces = self._face[pixels]
+        normals = np.empty((len(pixels), 3))
+        for index, mesh in enumerate(self._object_meshes):
+            first, stop = self._face_offsets[index], self._face_offsets[index + 1]
+            own = (faces >= first) & (faces < stop)
+            rotation = data.geom_xmat[mesh.geom_id].reshape(3, 3)
+            normals[own] = mesh.normals[faces[own] - first] @ rotation.T
+        return normals
+
+    def _lit(self, data: mujoco.MjData, projector: Pose, points: np.ndarray,
+             normals: np.ndarray, light: np.ndarray, light_distance: np.ndarray) -> np.ndarray:
+        """Whether the projector reaches each point unoccluded.
+
+        A depth map from the projector's centre, scan converted like the camera's frame on a
+        grid of the camera's pixel pitch that covers the points, holds the nearest object or
+        robot surface per pixel; a point is lit when that surface is not nearer than the point's
+        own surface at the same pixel (its triangle's plane, extended to the pixel's ray) by
+        more than a pixel's footprint. The fixture and the other primitives are cast with
+        MuJoCo, ray by ray.
+        """
+        local = (points - projector.position) @ projector.rotation
+        u, v = self._u, self._v
+        step_u, step_v = u[1] - u[0] if len(u) > 1 else 1.0, v[1] - v[0] if len(v) > 1 else 1.0
+        column = np.rint((local[:, 0] / local[:, 2] - u[0]) / step_u).astype(np.int64)
+        row = np.rint((local[:, 1] / local[:, 2] - v[0]) / step_v).astype(np.int64)
+        first_column, first_row = int(column.min()), int(row.min())
+        grid_u = u[0] + step_u * np.arange(first_column, int(column.max()) + 1)
+        grid_v = v[0] + step_v * np.arange(first_row, int(row.max()) + 1)
+        column -= first_column
+        row -= first_row
+        depth = np.full(len(grid_u) * len(grid_v), np.inf)
+        max_distance = float(light_distance.max())
+        cone = float(np.arctan(np.hypot(np.abs(grid_u).max(), np.abs(grid_v).max())))
+        for mesh in self._object_meshes + self._occluder_meshes:
+            if self._in_view(mesh, data, projector, max_distance, cone):
+                hit_row, hit_column, z_depth, _ = _scan_convert(
+                    mesh.in_frame(data, projector), mesh.faces, grid_u, grid_v, max_distance)
+                np.minimum.at(depth, hit_row * len(grid_u) + hit_column, z_depth)
+        nearest = depth[row * len(grid_u) + column]
+        # The point's own plane where the pixel's ray meets it (the point's depth if that ray
+        # runs along the plane).
+        local_normals = normals @ projector.rotation
+        pixel_rays = np.stack([grid_u[column], grid_v[row], np.ones(len(points))], axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            own = (np.einsum("ij,ij->i", local_normals, local)
+                   / np.einsum("ij,ij->i", local_normals, pixel_rays))
+        own = np.where(np.isfinite(own) & (own > 0.0), own, local[:, 2])
+        tolerance = _SHADOW_TOLERANCE_PIXELS * max(step_u, step_v) * local[:, 2]
+        lit = nearest >= own - tolerance
+        if lit.any():
+            lit[lit] = ~self._occluded_by_ray_geoms(data, projector.position, light[lit],
+                                                    light_distance[lit], points[lit])
+        return lit
+
     def _in_view(self, mesh: _MeshGeom, data: mujoco.MjData, pose: Pose,
-                 max_distance: float) -> bool:
-        """Whether the mesh's bounding sphere meets the frustum's cone within `max_distance`."""
+                 max_distance: float, cone_angle: float | None = None) -> bool:
+        """Whether the mesh's bounding sphere meets the frustum's cone (or a cone of half-angle
+        `cone_angle` around +z) within `max_distance`."""
         offset = data.geom_xpos[mesh.geom_id] - pose.position
         distance = float(np.linalg.norm(offset))
         if distance - mesh.radius > max_distance:
@@ -273,27 +399,35 @@ class DepthSensor:
         if distance <= mesh.radius:
             return True
         off_axis = np.arccos(np.clip(offset @ pose.rotation[:, 2] / distance, -1.0, 1.0))
-        return bool(off_axis - np.arcsin(mesh.radius / distance) <= self.sensor.cone_angle_rad)
+        cone_angle = cone_angle if cone_angle is not None else self.sensor.cone_angle_rad
+        return bool(off_axis - np.arcsin(mesh.radius / distance) <= cone_angle)
 
     def _first_hits(self, meshes: list[_MeshGeom], data: mujoco.MjData, pose: Pose,
                     depth: np.ndarray, max_distance: float,
-                    window: tuple[slice, slice] | None = None) -> np.ndarray:
+                    window: tuple[slice, slice] | None = None,
+                    faces: np.ndarray | None = None) -> np.ndarray:
         """Z-buffer the meshes into `depth`; return the pixels that have a hit.
 
         Only hits that can lie within `max_distance` matter; `window` (rows, columns) limits
-        the scan to part of the frame.
+        the scan to part of the frame. `faces`, if given, receives the triangle each pixel keeps
+        (numbered across the meshes in order).
         """
         depth.fill(np.inf)
         rows, columns = window if window is not None else (slice(None), slice(None))
         u, v = self._u[columns], self._v[rows]
         row_offset, column_offset = rows.start or 0, columns.start or 0
+        face_offset = 0
         for mesh in meshes:
-            if not self._in_view(mesh, data, pose, max_distance):
-                continue
-            row, column, z_depth = _scan_convert(mesh.in_frame(data, pose), mesh.faces, u, v,
-                                                 max_distance)
-            pixels = (row + row_offset) * self.resolution[0] + column + column_offset
-            np.minimum.at(depth, pixels, z_depth)
+            if self._in_view(mesh, data, pose, max_distance):
+                row, column, z_depth, face = _scan_convert(
+                    mesh.in_frame(data, pose), mesh.faces, u, v, max_distance, faces is not None)
+                pixels = (row + row_offset) * self.resolution[0] + column + column_offset
+                np.minimum.at(depth, pixels, z_depth)
+                if faces is not None:
+                    # A later mesh that comes nearer overwrites the pixel again.
+                    nearest = z_depth == depth[pixels]
+                    faces[pixels[nearest]] = face[nearest] + face_offset
+            face_offset += len(mesh.faces)
         return np.flatnonzero(np.isfinite(depth))
 
     def _unoccluded_by_meshes(self, data: mujoco.MjData, pose: Pose, pixels: np.ndarray,
@@ -372,7 +506,8 @@ class DepthSensor:
 
 
 def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.ndarray,
-                  max_depth: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  max_depth: float, with_faces: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """Exact ray-triangle hits of a pinhole grid of rays through the origin.
 
     Args:
@@ -381,9 +516,12 @@ def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.
         u: Tangents of the pixel columns (image x / z), evenly spaced.
         v: Tangents of the pixel rows (image y / z), evenly spaced.
         max_depth: Triangles entirely deeper (z) than this are skipped.
+        with_faces: Also return the triangle of each hit.
 
     Returns:
-        Row, column and z-depth of every (triangle, pixel) hit; a pixel can repeat.
+        Row, column, z-depth and triangle (index into `faces`) of every (triangle, pixel) hit;
+        a pixel can repeat. The triangles are computed only when asked for (`face` is None
+        otherwise), which keeps the ideal sensor's frame as fast as before.
     """
     depth = vertices[:, 2]
     safe_depth = np.where(depth > _MIN_DEPTH, depth, 1.0)
@@ -422,7 +560,8 @@ def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.
         row_term = normal[1][face] * v[row] + normal[2][face]
         z_depth = plane[face] / (normal[0][face] * u[column] + row_term)
     valid = np.isfinite(z_depth) & (z_depth > 0)
-    return row[valid], column[valid], z_depth[valid]
+    return (row[valid], column[valid], z_depth[valid],
+            keep[face[valid]] if with_faces else None)
 
 
 def _segments_meet_box(origin: np.ndarray, directions: np.ndarray, length: np.ndarray,
