@@ -444,26 +444,25 @@ def command_benchmark(args: argparse.Namespace) -> int:
 
 
 def command_sensors(args: argparse.Namespace) -> int:
-    """List the sensor presets: resolution, opening angles, range, working distance, sensing
-    model and structured-light figures, and the file that gives their sources."""
+    """List the sensor presets: resolution, opening angles, range, working distance, default
+    sensing model, structured-light figures and the file that gives their sources."""
     from vprobot.config import sensor_preset
-    from vprobot.paths import SENSORS_DIR
 
-    print("preset            resolution    fov (deg)        range (m)      working distance (m)")
+    print("preset            resolution    fov (deg)        range (m)      working distance (m)  "
+          "sensing  structured light (baseline, max incidence camera / projector, noise, "
+          "dropout)  sources")
     for name in available_sensors():
         sensor = sensor_preset(name)
+        light = sensor.structured_light
+        figures = ("-" if light is None else
+                   f"{light.baseline_m * 1e3:g} mm, {light.max_incidence_deg:g} / "
+                   f"{light.projector_max_incidence_deg:g} deg, {light.noise_sigma_m * 1e3:g} mm "
+                   f"at {light.noise_distance_m:g} m, {light.dropout_grazing:g} (theta / 90 deg)"
+                   f"^{light.dropout_exponent:g}")
         print(f"{name:<17} {sensor.resolution[0]:>4} x {sensor.resolution[1]:<4}   "
               f"{sensor.fov_deg[0]:5.2f} x {sensor.fov_deg[1]:5.2f}   "
-              f"{sensor.near_m:.3f} - {sensor.far_m:.3f}  {sensor.working_distance_m:.3f}")
-        light = sensor.structured_light
-        figures = ("no structured-light figures" if light is None else
-                   f"structured light: baseline {light.baseline_m * 1e3:g} mm, incidence <= "
-                   f"{light.max_incidence_deg:g} / {light.projector_max_incidence_deg:g} deg "
-                   f"(camera / projector), noise {light.noise_sigma_m * 1e3:g} mm at "
-                   f"{light.noise_distance_m:g} m, dropout {light.dropout_grazing:g} (theta / "
-                   f"90 deg)^{light.dropout_exponent:g}")
-        print(f"{'':<17} sensing: {sensor.sensing} (default); {figures}")
-        print(f"{'':<17} sources: {SENSORS_DIR / f'{name}.yaml'}")
+              f"{sensor.near_m:.3f} - {sensor.far_m:.3f}  {sensor.working_distance_m:.3f}"
+              f"                 {sensor.sensing:<8} {figures}  configs/sensors/{name}.yaml")
     return 0
 
 

@@ -322,8 +322,9 @@ class DepthSensor:
         # Both rays must meet the surface from the same side (a sheet lit from behind is dark).
         kept = ((cos_camera * cos_projector > 0.0) & (np.abs(cos_camera) >= min_camera)
                 & (np.abs(cos_projector) >= min_projector))
-        kept[kept] = self._lit(data, Pose(projector, pose.rotation), points[kept],
-                               normals[kept], light[kept], light_distance[kept])
+        if kept.any():
+            kept[kept] = self._lit(data, Pose(projector, pose.rotation), points[kept],
+                                   normals[kept], light[kept], light_distance[kept])
         pixels, points, rays = pixels[kept], points[kept], rays[kept]
         cos_camera = np.abs(cos_camera[kept])
         incidence = np.arccos(np.minimum(cos_camera, 1.0))
