@@ -119,15 +119,19 @@ def test_step_edge_casts_the_shadow_the_baseline_predicts() -> None:
     predicted = (baseline - edge) * height / (depth - height)
     pitch = 2 * math.tan(math.radians(CAMERA.fov_deg[0] / 2)) / CAMERA.resolution[0] * depth
     assert predicted > 10 * pitch
-    # Every lost floor point lies in the predicted band, and the band is lost whole.
+    # Every lost floor point lies in the predicted band, and the band is lost whole, to within
+    # the sampling: half a projector pixel (one camera pixel: the projector's depth map has half
+    # the camera's resolution) and one camera pixel.
+    slack = 2 * pitch
     band = (local[:, 0] >= edge - predicted) & (local[:, 0] <= edge)
-    assert np.all(band[lost] | (np.abs(local[lost, 0] - (edge - predicted)) < 1.5 * pitch))
+    assert np.all(band[lost] | (np.abs(local[lost, 0] - (edge - predicted)) < slack))
     kept_in_band = on_floor & band & ~lost
-    assert np.all(np.abs(local[kept_in_band, 0] - (edge - predicted)) < 1.5 * pitch)
+    assert np.all(np.abs(local[kept_in_band, 0] - (edge - predicted)) < slack)
     rows = np.unique(ideal.pixels[lost] // CAMERA.resolution[0])
+    assert len(rows) > 50
     widths = [np.ptp(local[lost & (ideal.pixels // CAMERA.resolution[0] == row), 0]) + pitch
               for row in rows]
-    assert np.mean(widths) == pytest.approx(predicted, abs=pitch)
+    assert np.mean(widths) == pytest.approx(predicted, abs=slack)
     # Off the floor only the wall facing away from the projector is lost: the block's top is lit.
     top = np.abs(local[:, 2] - (depth - height)) < 1e-6
     assert np.isin(ideal.pixels[top], shadowed.pixels).all()

@@ -46,8 +46,13 @@ quarter of the rays (215 x 150) would lose about 2 points (`vprobot benchmark se
 _SPAN_SLACK = 1e-12
 # Vertices closer than this to the image plane through the optical centre are not projected.
 _MIN_DEPTH = 1e-9
-# A surface nearer to the projector than a point by more than this many pixel footprints (at the
-# point's depth) shadows it; less is the point's own surface or a neighbouring facet of it.
+# The projector's depth map has this many times the camera's pixel pitch along each axis: a
+# quarter of the pixels to scan convert (a projector has fewer pixels than the camera, and shadow
+# edges fall within one of its pixels).
+_PROJECTOR_PITCH = 2
+# A surface nearer to the projector than a point by more than this many projector pixel
+# footprints (at the point's depth) shadows it; less is the point's own surface or a
+# neighbouring facet of it.
 _SHADOW_TOLERANCE_PIXELS = 1.0
 # Fewer MuJoCo rays than this per thread are cast on one thread.
 _MIN_RAYS_PER_THREAD = 2000
@@ -215,7 +220,6 @@ class DepthSensor:
                                  f"also holds primitive geoms; the object needs a group of "
                                  f"meshes only")
         self._object_meshes = [_MeshGeom.of(model, g) for g in object_geom_ids]
-        self._face_offsets = np.cumsum([0] + [len(mesh.faces) for mesh in self._object_meshes])
         self._occluder_meshes = [
             _MeshGeom.of(model, g) for g in considered
             if groups[g] not in primitive_groups and g not in set(object_geom_ids.tolist())
@@ -307,59 +311,73 @@ class DepthSensor:
     def _structured_light(self, data: mujoco.MjData, pose: Pose, pixels: np.ndarray,
                           points: np.ndarray, rng: np.random.Generator
                           ) -> tuple[np.ndarray, np.ndarray]:
-        """Keep the camera's points that the projector lights within both incidence limits,
-        drop some by the dropout law and move the rest along their rays by the noise law."""
+        """Keep the camera's points within both incidence limits that the projector lights,
+        drop some by the dropout law and move the rest along their rays by the noise law.
+
+        The geometry is done in the sensor frame, where the rays are the grid's own and the
+        projector sits at (baseline, 0, 0) with the camera's axes: no point is rotated.
+        """
         model = self.sensing
-        normals = self._normals(data, pixels)
-        rays = self.directions[pixels] @ pose.rotation.T
-        projector = pose.position + model.baseline_m * pose.rotation[:, 0]
-        light = points - projector
-        light_distance = np.linalg.norm(light, axis=1)
-        light /= light_distance[:, None]
-        cos_camera = np.einsum("ij,ij->i", rays, normals)
-        cos_projector = np.einsum("ij,ij->i", light, normals)
         min_camera, min_projector = model.min_cos_incidence
+        normals = self._normals(data, pose)[self._face[pixels]]
+        rays = self.directions[pixels]
+        cos_camera = np.einsum("ij,ij->i", rays, normals)
+        # The camera's limit and the dropout first: they need the camera ray alone, and fewer
+        # points are left for the projector.
+        incidence = np.arccos(np.minimum(np.abs(cos_camera), 1.0))
+        kept = ((np.abs(cos_camera) >= min_camera)
+                & (rng.random(len(pixels)) >= model.dropout_probability(incidence)))
+        pixels, points, rays, normals, cos_camera = (
+            pixels[kept], points[kept], rays[kept], normals[kept], cos_camera[kept])
+        distance = self._object_depth[pixels] * self._ray_scale[pixels]
+        light = rays * distance[:, None] - [model.baseline_m, 0.0, 0.0]
+        light_distance = np.sqrt(np.einsum("ij,ij->i", light, light))
+        cos_projector = np.einsum("ij,ij->i", light, normals) / light_distance
         # Both rays must meet the surface from the same side (a sheet lit from behind is dark).
-        kept = ((cos_camera * cos_projector > 0.0) & (np.abs(cos_camera) >= min_camera)
-                & (np.abs(cos_projector) >= min_projector))
-        if kept.any():
-            kept[kept] = self._lit(data, Pose(projector, pose.rotation), points[kept],
-                                   normals[kept], light[kept], light_distance[kept])
-        pixels, points, rays = pixels[kept], points[kept], rays[kept]
-        cos_camera = np.abs(cos_camera[kept])
-        incidence = np.arccos(np.minimum(cos_camera, 1.0))
-        measured = rng.random(len(pixels)) >= model.dropout_probability(incidence)
+        lit = (cos_camera * cos_projector > 0.0) & (np.abs(cos_projector) >= min_projector)
+        if lit.any():
+            lit[lit] = self._lit(data, pose, light[lit], light_distance[lit], points[lit],
+                                 normals[lit])
+        pixels, points, distance = pixels[lit], points[lit], distance[lit]
         depth = self._object_depth[pixels]
-        noise = rng.standard_normal(len(pixels)) * model.noise_sigma(depth, cos_camera)
-        return pixels[measured], (points + rays * noise[:, None])[measured]
+        noise = rng.standard_normal(len(pixels)) * model.noise_sigma(
+            depth, np.abs(cos_camera[lit]))
+        # Along the camera ray: the point moves from `distance` to `distance + noise`.
+        return pixels, points + (points - pose.position) * (noise / distance)[:, None]
 
-    def _normals(self, data: mujoco.MjData, pixels: np.ndarray) -> np.ndarray:
-        """World unit normals (n, 3) of the object triangles the pixels keep."""
-        faces = self._face[pixels]
-        normals = np.empty((len(pixels), 3))
-        for index, mesh in enumerate(self._object_meshes):
-            first, stop = self._face_offsets[index], self._face_offsets[index + 1]
-            own = (faces >= first) & (faces < stop)
-            rotation = data.geom_xmat[mesh.geom_id].reshape(3, 3)
-            normals[own] = mesh.normals[faces[own] - first] @ rotation.T
-        return normals
+    def _normals(self, data: mujoco.MjData, pose: Pose) -> np.ndarray:
+        """Unit normals (m, 3) of every object triangle in the sensor frame, numbered as the
+        pixels' triangles are."""
+        return np.concatenate([
+            mesh.normals @ (pose.rotation.T @ data.geom_xmat[mesh.geom_id].reshape(3, 3)).T
+            for mesh in self._object_meshes])
 
-    def _lit(self, data: mujoco.MjData, projector: Pose, points: np.ndarray,
-             normals: np.ndarray, light: np.ndarray, light_distance: np.ndarray) -> np.ndarray:
+    def _lit(self, data: mujoco.MjData, pose: Pose, light: np.ndarray,
+             light_distance: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """Whether the projector reaches each point unoccluded.
 
+        Args:
+            data: The cell state.
+            pose: The sensor (camera) frame in the world; the projector shares its axes.
+            light: The points relative to the projector's centre, in the sensor frame.
+            light_distance: Their distances from the projector's centre.
+            points: The same points in the world.
+            normals: Their surfaces' unit normals in the sensor frame.
+
         A depth map from the projector's centre, scan converted like the camera's frame on a
-        grid of the camera's pixel pitch that covers the points, holds the nearest object or
-        robot surface per pixel; a point is lit when that surface is not nearer than the point's
-        own surface at the same pixel (its triangle's plane, extended to the pixel's ray) by
-        more than a pixel's footprint. The fixture and the other primitives are cast with
-        MuJoCo, ray by ray.
+        grid of `_PROJECTOR_PITCH` times the camera's pixel pitch covering the points, holds the
+        nearest object or robot surface per pixel; a point is lit when that surface is not
+        nearer than the point's own surface at the same pixel (its triangle's plane, extended to
+        the pixel's ray) by more than a projector pixel's footprint. The fixture and the other
+        primitives are cast with MuJoCo, ray by ray.
         """
-        local = (points - projector.position) @ projector.rotation
+        origin = pose.position + self.sensing.baseline_m * pose.rotation[:, 0]
+        projector = Pose(origin, pose.rotation)
         u, v = self._u, self._v
-        step_u, step_v = u[1] - u[0] if len(u) > 1 else 1.0, v[1] - v[0] if len(v) > 1 else 1.0
-        column = np.rint((local[:, 0] / local[:, 2] - u[0]) / step_u).astype(np.int64)
-        row = np.rint((local[:, 1] / local[:, 2] - v[0]) / step_v).astype(np.int64)
+        step_u = _PROJECTOR_PITCH * (u[1] - u[0] if len(u) > 1 else 1.0)
+        step_v = _PROJECTOR_PITCH * (v[1] - v[0] if len(v) > 1 else 1.0)
+        column = np.rint((light[:, 0] / light[:, 2] - u[0]) / step_u).astype(np.int64)
+        row = np.rint((light[:, 1] / light[:, 2] - v[0]) / step_v).astype(np.int64)
         first_column, first_row = int(column.min()), int(row.min())
         grid_u = u[0] + step_u * np.arange(first_column, int(column.max()) + 1)
         grid_v = v[0] + step_v * np.arange(first_row, int(row.max()) + 1)
@@ -376,16 +394,16 @@ class DepthSensor:
         nearest = depth[row * len(grid_u) + column]
         # The point's own plane where the pixel's ray meets it (the point's depth if that ray
         # runs along the plane).
-        local_normals = normals @ projector.rotation
-        pixel_rays = np.stack([grid_u[column], grid_v[row], np.ones(len(points))], axis=1)
+        pixel_rays = np.stack([grid_u[column], grid_v[row], np.ones(len(light))], axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            own = (np.einsum("ij,ij->i", local_normals, local)
-                   / np.einsum("ij,ij->i", local_normals, pixel_rays))
-        own = np.where(np.isfinite(own) & (own > 0.0), own, local[:, 2])
-        tolerance = _SHADOW_TOLERANCE_PIXELS * max(step_u, step_v) * local[:, 2]
+            own = (np.einsum("ij,ij->i", normals, light)
+                   / np.einsum("ij,ij->i", normals, pixel_rays))
+        own = np.where(np.isfinite(own) & (own > 0.0), own, light[:, 2])
+        tolerance = _SHADOW_TOLERANCE_PIXELS * max(step_u, step_v) * light[:, 2]
         lit = nearest >= own - tolerance
         if lit.any():
-            lit[lit] = ~self._occluded_by_ray_geoms(data, projector.position, light[lit],
+            directions = (points[lit] - origin) / light_distance[lit, None]
+            lit[lit] = ~self._occluded_by_ray_geoms(data, origin, directions,
                                                     light_distance[lit], points[lit])
         return lit
 
