@@ -319,31 +319,36 @@ class DepthSensor:
         """
         model = self.sensing
         min_camera, min_projector = model.min_cos_incidence
-        normals = self._normals(data, pose)[self._face[pixels]]
-        rays = self.directions[pixels]
+        normals = np.take(self._normals(data, pose), self._face[pixels], axis=0)
+        rays = np.take(self.directions, pixels, axis=0)
         cos_camera = np.einsum("ij,ij->i", rays, normals)
         # The camera's limit and the dropout first: they need the camera ray alone, and fewer
-        # points are left for the projector.
+        # points are left for the projector. (Rows are picked with np.take: boolean indexing of
+        # (n, 3) arrays costs several times more.)
         incidence = np.arccos(np.minimum(np.abs(cos_camera), 1.0))
-        kept = ((np.abs(cos_camera) >= min_camera)
-                & (rng.random(len(pixels)) >= model.dropout_probability(incidence)))
-        pixels, points, rays, normals, cos_camera = (
-            pixels[kept], points[kept], rays[kept], normals[kept], cos_camera[kept])
+        seen = np.flatnonzero((np.abs(cos_camera) >= min_camera)
+                              & (rng.random(len(pixels)) >= model.dropout_probability(incidence)))
+        rays, normals = np.take(rays, seen, axis=0), np.take(normals, seen, axis=0)
+        cos_camera, pixels = cos_camera[seen], pixels[seen]
         distance = self._object_depth[pixels] * self._ray_scale[pixels]
-        light = rays * distance[:, None] - [model.baseline_m, 0.0, 0.0]
+        light = rays * distance[:, None]
+        light[:, 0] -= model.baseline_m
         light_distance = np.sqrt(np.einsum("ij,ij->i", light, light))
         cos_projector = np.einsum("ij,ij->i", light, normals) / light_distance
         # Both rays must meet the surface from the same side (a sheet lit from behind is dark).
-        lit = (cos_camera * cos_projector > 0.0) & (np.abs(cos_projector) >= min_projector)
-        if lit.any():
-            lit[lit] = self._lit(data, pose, light[lit], light_distance[lit], points[lit],
-                                 normals[lit])
-        pixels, points, distance = pixels[lit], points[lit], distance[lit]
-        depth = self._object_depth[pixels]
-        noise = rng.standard_normal(len(pixels)) * model.noise_sigma(
-            depth, np.abs(cos_camera[lit]))
+        facing = np.flatnonzero((cos_camera * cos_projector > 0.0)
+                                & (np.abs(cos_projector) >= min_projector))
+        if len(facing):
+            facing = facing[self._lit(data, pose, np.take(light, facing, axis=0),
+                                      light_distance[facing],
+                                      np.take(points, seen[facing], axis=0),
+                                      np.take(normals, facing, axis=0))]
+        points = np.take(points, seen[facing], axis=0)
+        distance = distance[facing]
+        noise = rng.standard_normal(len(facing)) * model.noise_sigma(
+            light[facing, 2], np.abs(cos_camera[facing]))
         # Along the camera ray: the point moves from `distance` to `distance + noise`.
-        return pixels, points + (points - pose.position) * (noise / distance)[:, None]
+        return pixels[facing], points + (points - pose.position) * (noise / distance)[:, None]
 
     def _normals(self, data: mujoco.MjData, pose: Pose) -> np.ndarray:
         """Unit normals (m, 3) of every object triangle in the sensor frame, numbered as the
@@ -354,7 +359,7 @@ class DepthSensor:
 
     def _lit(self, data: mujoco.MjData, pose: Pose, light: np.ndarray,
              light_distance: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
-        """Whether the projector reaches each point unoccluded.
+        """The indices of the points the projector reaches unoccluded.
 
         Args:
             data: The cell state.
@@ -392,19 +397,19 @@ class DepthSensor:
                     mesh.in_frame(data, projector), mesh.faces, grid_u, grid_v, max_distance)
                 np.minimum.at(depth, hit_row * len(grid_u) + hit_column, z_depth)
         nearest = depth[row * len(grid_u) + column]
-        # The point's own plane where the pixel's ray meets it (the point's depth if that ray
-        # runs along the plane).
-        pixel_rays = np.stack([grid_u[column], grid_v[row], np.ones(len(light))], axis=1)
+        # The point's own plane where the pixel's ray (u, v, 1) meets it (the point's depth if
+        # that ray runs along the plane).
         with np.errstate(divide="ignore", invalid="ignore"):
-            own = (np.einsum("ij,ij->i", normals, light)
-                   / np.einsum("ij,ij->i", normals, pixel_rays))
+            own = np.einsum("ij,ij->i", normals, light) / (
+                normals[:, 0] * grid_u[column] + normals[:, 1] * grid_v[row] + normals[:, 2])
         own = np.where(np.isfinite(own) & (own > 0.0), own, light[:, 2])
         tolerance = _SHADOW_TOLERANCE_PIXELS * max(step_u, step_v) * light[:, 2]
-        lit = nearest >= own - tolerance
-        if lit.any():
-            directions = (points[lit] - origin) / light_distance[lit, None]
-            lit[lit] = ~self._occluded_by_ray_geoms(data, origin, directions,
-                                                    light_distance[lit], points[lit])
+        lit = np.flatnonzero(nearest >= own - tolerance)
+        if len(lit):
+            points = np.take(points, lit, axis=0)
+            directions = (points - origin) / light_distance[lit, None]
+            lit = lit[~self._occluded_by_ray_geoms(data, origin, directions,
+                                                   light_distance[lit], points)]
         return lit
 
     def _in_view(self, mesh: _MeshGeom, data: mujoco.MjData, pose: Pose,
