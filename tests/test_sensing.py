@@ -137,6 +137,42 @@ def test_step_edge_casts_the_shadow_the_baseline_predicts() -> None:
     assert np.isin(ideal.pixels[top], shadowed.pixels).all()
 
 
+@pytest.mark.parametrize("kind", ["primitive", "mesh"])
+def test_plate_before_the_projector_shadows_what_the_camera_sees(kind: str) -> None:
+    """A plate outside the camera's view, in the projector's light: the fixture (a primitive,
+    cast by MuJoCo) and the robot (meshes, in the projector's depth map) shadow the object."""
+    baseline = 0.10
+    floor = trimesh.creation.box((0.8, 0.6, 0.01))
+    floor.apply_translation([0.0, 0.0, 0.505])
+    mesh = _in_world(floor)
+    # Sensor frame (x, y, z) is world (x, -y, -z) about POSE: the plate spans x 0.10 - 0.14 at
+    # depth 0.25, beyond the camera's half-angle tangent (0.364) but before the projector.
+    center, half = (0.12, 0.0, 0.25), (0.02, 0.03, 0.002)
+    plate = (POSE.position + POSE.rotation @ np.array(center), half)
+    plain_scene, plain_data = make_scene(mesh)
+    scene, data = make_scene(mesh, **{"boxes" if kind == "primitive" else "mesh_boxes": [plate]})
+    ideal = DepthSensor(plain_scene, CAMERA, sensing=IDEAL).acquire_from_pose(plain_data, POSE)
+    camera_only = DepthSensor(scene, CAMERA, sensing=IDEAL).acquire_from_pose(data, POSE)
+    np.testing.assert_array_equal(camera_only.pixels, ideal.pixels)
+    model = dataclasses.replace(PLAIN, baseline_m=baseline)
+    shadowed = DepthSensor(scene, CAMERA, sensing=model).acquire_from_pose(data, POSE)
+    # Reference: the segment from the projector to the point crosses the plate's top or bottom.
+    local = (ideal.points_world - POSE.position) @ POSE.rotation
+    light = local - [baseline, 0.0, 0.0]
+    expected_lost = np.zeros(len(local), dtype=bool)
+    for depth in (center[2] - half[2], center[2] + half[2]):
+        crossing = light * (depth / light[:, 2])[:, None]
+        expected_lost |= ((np.abs(crossing[:, 0] + baseline - center[0]) <= half[0])
+                          & (np.abs(crossing[:, 1] - center[1]) <= half[1]))
+    assert expected_lost.sum() > 1000
+    lost = ~np.isin(ideal.pixels, shadowed.pixels)
+    if kind == "primitive":
+        np.testing.assert_array_equal(lost, expected_lost)
+    else:
+        # The depth map's pixels are twice the camera's: its edges move by up to one of them.
+        assert np.sum(lost != expected_lost) < 0.05 * expected_lost.sum()
+
+
 def test_noise_on_a_plane_matches_sigma_within_five_percent() -> None:
     model = dataclasses.replace(PLAIN, noise_sigma_m=0.0005, noise_distance_m=0.45)
     mesh, normal = _tilted_sheet(35.0)

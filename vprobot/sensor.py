@@ -512,10 +512,12 @@ class DepthSensor:
         def cast(worker: int) -> None:
             start, stop = bounds[worker], bounds[worker + 1]
             worker_data = self._worker_data[worker]
-            # mj_multiRay reads only these frames; copying them is cheaper than kinematics.
+            # mj_multiRay reads only these frames (the bodies' inertial frames bound their geoms);
+            # copying them is cheaper than kinematics.
             worker_data.geom_xpos[:] = data.geom_xpos
             worker_data.geom_xmat[:] = data.geom_xmat
             worker_data.xipos[:] = data.xipos
+            worker_data.ximat[:] = data.ximat
             mujoco.mj_multiRay(self.model, worker_data, origin, directions[start:stop].ravel(),
                                self._geomgroup, 1, self._sensor_body_id,
                                self._geomid[start:stop], self._distance[start:stop], None,
