@@ -66,7 +66,8 @@ def check_registered(name: str, registry: Registry[Any], key: str) -> None:
 
 MAX_RAYS_PER_AXIS = 4096
 """Largest sensor resolution along either image axis. A `DepthSensor` keeps 60 bytes per ray
-(unit direction, distance scale, two depth buffers, MuJoCo's ray distance and geom id): about
+(unit direction, distance scale, two depth buffers, MuJoCo's ray distance and geom id; 64 under
+the structured-light model, which also keeps each pixel's triangle): about
 0.3 GB for a Zivid 2+ frame (2448 x 2048) and 1.0 GB at this cap (4096 x 4096, 16.8 million rays),
 plus the scan conversion's working arrays, which grow with the pixels the object covers. Real 3D
 sensors stay below the cap; the `sensors/` presets give their own resolutions."""

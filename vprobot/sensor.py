@@ -18,6 +18,10 @@ scan converted first; the robot's meshes then only within the window of its in-r
 primitive geoms (fixture plate, pedestal, floor, robot stand) are left to `mujoco.mj_multiRay`,
 for the few rays whose segment to the object crosses their bounding boxes, on worker threads
 (MuJoCo releases the GIL; each thread has its own MjData).
+
+The sensing model (`vprobot.sensing`) then decides which hits become points: all of them,
+exactly (`ideal`), or under `structured_light` those within the incidence limits that a second
+visibility pass from the projector finds lit, with noise and dropout (docs/sensor.md#sensing).
 """
 
 from __future__ import annotations
@@ -177,9 +181,9 @@ class DepthSensor:
         self._object_depth = np.empty(self.rays_per_frame)
         self._occluder_depth = np.empty(self.rays_per_frame)
         self._geomid = np.empty(self.rays_per_frame, dtype=np.int32)
-        # The object triangle each pixel keeps (an index into `_object_normals`); only the
+        # The object triangle each pixel keeps (numbered as `_normals` numbers them); only the
         # structured-light model needs normals.
-        self._face = (np.empty(self.rays_per_frame, dtype=np.int64)
+        self._face = (np.empty(self.rays_per_frame, dtype=np.int32)
                       if isinstance(sensing, StructuredLight) else None)
         self._distance = np.empty(self.rays_per_frame)
         self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
@@ -361,6 +365,13 @@ class DepthSensor:
              light_distance: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """The indices of the points the projector reaches unoccluded.
 
+        A depth map from the projector's centre, scan converted like the camera's frame on a
+        grid of `_PROJECTOR_PITCH` times the camera's pixel pitch covering the points, holds the
+        nearest object or robot surface per pixel; a point is lit when that surface is not
+        nearer than the point's own surface at the same pixel (its triangle's plane, extended to
+        the pixel's ray) by more than a projector pixel's footprint. The fixture and the other
+        primitives are cast with MuJoCo, ray by ray.
+
         Args:
             data: The cell state.
             pose: The sensor (camera) frame in the world; the projector shares its axes.
@@ -368,13 +379,6 @@ class DepthSensor:
             light_distance: Their distances from the projector's centre.
             points: The same points in the world.
             normals: Their surfaces' unit normals in the sensor frame.
-
-        A depth map from the projector's centre, scan converted like the camera's frame on a
-        grid of `_PROJECTOR_PITCH` times the camera's pixel pitch covering the points, holds the
-        nearest object or robot surface per pixel; a point is lit when that surface is not
-        nearer than the point's own surface at the same pixel (its triangle's plane, extended to
-        the pixel's ray) by more than a projector pixel's footprint. The fixture and the other
-        primitives are cast with MuJoCo, ray by ray.
         """
         origin = pose.position + self.sensing.baseline_m * pose.rotation[:, 0]
         projector = Pose(origin, pose.rotation)
@@ -546,8 +550,8 @@ def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.
 
     Returns:
         Row, column, z-depth and triangle (index into `faces`) of every (triangle, pixel) hit;
-        a pixel can repeat. The triangles are computed only when asked for (`face` is None
-        otherwise), which keeps the ideal sensor's frame as fast as before.
+        a pixel can repeat. The triangles are None unless asked for, which keeps the ideal
+        sensor's frame as fast as before.
     """
     depth = vertices[:, 2]
     safe_depth = np.where(depth > _MIN_DEPTH, depth, 1.0)
