@@ -94,7 +94,8 @@ def test_tilted_plane_loses_its_points_exactly_past_the_incidence_limit(ray: str
                                      / np.linalg.norm(incoming, axis=1)))
     # The frame spans the limit: the tilt puts it inside the image.
     assert incidence.min() < limit - 5 and incidence.max() > limit + 5
-    clear = np.abs(incidence - limit) > 1e-6
+    # MuJoCo holds the plate in float32: its normal is the analytic one to about 1e-5 deg.
+    clear = np.abs(incidence - limit) > 1e-3
     expected = np.flatnonzero((incidence <= limit) & clear)
     measured = acquisition.pixels[clear[acquisition.pixels]]
     np.testing.assert_array_equal(measured, expected)
