@@ -64,7 +64,7 @@ def test_sensor_scan_conversion_matches_brute_force_rays() -> None:
     u, v = SENSOR.pixel_tangents
     vertices = TRIANGLES.reshape(-1, 3)
     faces = np.arange(len(vertices)).reshape(-1, 3)
-    row, column, z_depth = _scan_convert(vertices, faces, u, v, max_depth=10.0)
+    row, column, z_depth, _ = _scan_convert(vertices, faces, u, v, max_depth=10.0)
     depth = np.full((len(v), len(u)), np.inf)
     np.minimum.at(depth, (row, column), z_depth)
     expected = _brute_force_depth(TRIANGLES)

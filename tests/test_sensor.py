@@ -177,6 +177,27 @@ def test_plate_over_half_the_frustum_removes_the_shadowed_points(kind: str) -> N
     np.testing.assert_allclose(shadowed.points_world, plain.points_world[~shadowed_rays])
 
 
+def test_primitive_occluder_away_from_the_world_origin_hides_the_object() -> None:
+    """MuJoCo's ray casts bound each body by its inertial frame: the sensor's own MjData copies
+    must carry it (`ximat`), or a primitive off the rays' way to the world origin is missed."""
+    floor = trimesh.creation.box((0.8, 0.6, 0.01))
+    floor.apply_translation([0.0, 0.0, 0.095])
+    pose = Pose.look_at([0.1013, -0.0007, 0.5], [0.1013, -0.0007, 0.0])
+    center, half = np.array([0.1213, -0.0007, 0.3]), np.array([0.02, 0.03, 0.002])
+    plain_scene, plain_data = make_scene(floor)
+    scene, data = make_scene(floor, boxes=[(center, half)])
+    resolution = (172, 120)
+    plain = DepthSensor(plain_scene, resolution=resolution).acquire_from_pose(plain_data, pose)
+    shadowed = DepthSensor(scene, resolution=resolution).acquire_from_pose(data, pose)
+    rays = plain.points_world - pose.position
+    hidden = np.zeros(len(rays), dtype=bool)
+    for height in (center[2] - half[2], center[2] + half[2]):
+        crossing = pose.position + rays * ((height - pose.position[2]) / rays[:, 2])[:, None]
+        hidden |= np.all(np.abs(crossing[:, :2] - center[:2]) <= half[:2], axis=1)
+    assert 0.1 < hidden.mean() < 0.5
+    np.testing.assert_array_equal(shadowed.pixels, plain.pixels[~hidden])
+
+
 @pytest.fixture(scope="module")
 def motor_cell() -> Cell:
     return Cell(Config(), load_mesh(MOTORS_DIR / "test" / "motor_000.stl").mesh)

@@ -24,10 +24,18 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from vprobot.config import Config, available_sensors, load_config, replace, with_sensor
+from vprobot.config import (
+    Config,
+    available_sensors,
+    load_config,
+    replace,
+    with_sensing,
+    with_sensor,
+)
 from vprobot.outputs import check_output_file, check_output_folder
 from vprobot.progress import showing_progress
 from vprobot.robots import available_robots, load_robot
+from vprobot.sensing import SENSING_MODELS
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
@@ -36,7 +44,8 @@ INTERRUPTED = 130
 
 
 def _config(args: argparse.Namespace) -> Config:
-    """The config file (or the default), with `--robot` and `--sensor` applied when given."""
+    """The config file (or the default), with `--robot`, `--sensor` and `--sensing` applied
+    when given."""
     config = load_config(args.config)
     if getattr(args, "robot", None):
         try:
@@ -48,8 +57,16 @@ def _config(args: argparse.Namespace) -> Config:
 
 
 def _sensor_option(config: Config, args: argparse.Namespace) -> Config:
-    """`config` with the `--sensor` preset, when given, in place of its sensor (same mount)."""
-    return with_sensor(config, args.sensor) if getattr(args, "sensor", None) else config
+    """`config` with the `--sensor` preset, when given, in place of its sensor (same mount),
+    then with the `--sensing` model, when given."""
+    if getattr(args, "sensor", None):
+        config = with_sensor(config, args.sensor)
+    if getattr(args, "sensing", None):
+        try:
+            config = with_sensing(config, args.sensing)
+        except ValueError as error:  # named as the user gave it
+            raise ValueError(f"--sensing: {error}") from None
+    return config
 
 
 def _write_json(path: str | None, document: dict[str, Any]) -> None:
@@ -306,9 +323,9 @@ def command_train(args: argparse.Namespace) -> int:
         raise ValueError("give a profile (e.g. configs/agents/cpu.yaml), or --resume a run")
     if args.resume and (args.profile is not None or args.set or args.steps is not None
                         or args.seed is not None or args.sensor is not None
-                        or args.seeds is not None):
-        raise ValueError("--resume goes on with the run's own profile, overrides, sensor, steps "
-                         "and seed; give only --out (and --device)")
+                        or args.sensing is not None or args.seeds is not None):
+        raise ValueError("--resume goes on with the run's own profile, overrides, sensor, "
+                         "sensing, steps and seed; give only --out (and --device)")
     if args.seeds is not None and args.seed is not None:
         raise ValueError("give --seed (one run) or --seeds (one run per seed), not both")
     if args.seeds is None and (args.workers is not None or args.address is not None):
@@ -321,6 +338,7 @@ def command_train(args: argparse.Namespace) -> int:
 
         command = ["vprobot", "train", args.profile, *(["--set", *args.set] if args.set else []),
                    *(["--sensor", args.sensor] if args.sensor else []),
+                   *(["--sensing", args.sensing] if args.sensing else []),
                    *(["--steps", str(args.steps)] if args.steps is not None else [])]
         train_seeds(config, args.out, args.seeds, command, device=args.device,
                     workers=args.workers, address=args.address)
@@ -426,15 +444,25 @@ def command_benchmark(args: argparse.Namespace) -> int:
 
 
 def command_sensors(args: argparse.Namespace) -> int:
-    """List the sensor presets: resolution, opening angles, range and working distance."""
+    """List the sensor presets: resolution, opening angles, range, working distance, default
+    sensing model, structured-light figures and the file that gives their sources."""
     from vprobot.config import sensor_preset
 
-    print("preset            resolution    fov (deg)        range (m)      working distance (m)")
+    print("preset            resolution    fov (deg)        range (m)      working distance (m)  "
+          "sensing  structured light (baseline, max incidence camera / projector, noise, "
+          "dropout)  sources")
     for name in available_sensors():
         sensor = sensor_preset(name)
+        light = sensor.structured_light
+        figures = ("-" if light is None else
+                   f"{light.baseline_m * 1e3:g} mm, {light.max_incidence_deg:g} / "
+                   f"{light.projector_max_incidence_deg:g} deg, {light.noise_sigma_m * 1e3:g} mm "
+                   f"at {light.noise_distance_m:g} m, {light.dropout_grazing:g} (theta / 90 deg)"
+                   f"^{light.dropout_exponent:g}")
         print(f"{name:<17} {sensor.resolution[0]:>4} x {sensor.resolution[1]:<4}   "
               f"{sensor.fov_deg[0]:5.2f} x {sensor.fov_deg[1]:5.2f}   "
-              f"{sensor.near_m:.3f} - {sensor.far_m:.3f}  {sensor.working_distance_m:.3f}")
+              f"{sensor.near_m:.3f} - {sensor.far_m:.3f}  {sensor.working_distance_m:.3f}"
+              f"                 {sensor.sensing:<8} {figures}  configs/sensors/{name}.yaml")
     return 0
 
 
@@ -577,6 +605,9 @@ def build_parser() -> argparse.ArgumentParser:
         sub.add_argument("--sensor", choices=available_sensors(),
                          help="sensor preset (configs/sensors/) to use instead of the config's "
                          "sensor, on the config's mount")
+        sub.add_argument("--sensing", choices=SENSING_MODELS,
+                         help="sensing model instead of the sensor's (docs/sensor.md#sensing); "
+                         "structured_light needs a preset with its figures (`vprobot sensors`)")
 
     def add_stop(sub: argparse.ArgumentParser, many: Sequence[str] | None = None) -> None:
         """`--stop RULE`, or with `many` (their default) `--stop RULE [RULE ...]`."""

@@ -23,6 +23,7 @@ from vprobot.registry import Registry
 from vprobot.robots import load_robot
 from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
 from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
+from vprobot.sensing import IDEAL, SensingModel, StructuredLight, check_sensing
 from vprobot.splits import Split
 
 
@@ -65,7 +66,8 @@ def check_registered(name: str, registry: Registry[Any], key: str) -> None:
 
 MAX_RAYS_PER_AXIS = 4096
 """Largest sensor resolution along either image axis. A `DepthSensor` keeps 60 bytes per ray
-(unit direction, distance scale, two depth buffers, MuJoCo's ray distance and geom id): about
+(unit direction, distance scale, two depth buffers, MuJoCo's ray distance and geom id; 64 under
+the structured-light model, which also keeps each pixel's triangle): about
 0.3 GB for a Zivid 2+ frame (2448 x 2048) and 1.0 GB at this cap (4096 x 4096, 16.8 million rays),
 plus the scan conversion's working arrays, which grow with the pixels the object covers. Real 3D
 sensors stay below the cap; the `sensors/` presets give their own resolutions."""
@@ -123,6 +125,10 @@ class SensorConfig:
         working_distance_m: Optimal distance to the object's centre.
         mount_position_m: Optical centre in the flange frame (`tool0`).
         mount_quaternion_wxyz: Sensor frame orientation in the flange frame.
+        sensing: How the rays' hits become points (`vprobot.sensing`): `ideal` or
+            `structured_light` (which needs `structured_light`).
+        structured_light: The device's structured-light figures (baseline, incidence limits,
+            noise, dropout); None where the sensor has none (the paper's).
     """
 
     resolution: tuple[int, int] = (430, 300)
@@ -132,10 +138,18 @@ class SensorConfig:
     working_distance_m: float = 0.47
     mount_position_m: Vec3 = (0.0, 0.0, 0.09)
     mount_quaternion_wxyz: Quat = (1.0, 0.0, 0.0, 0.0)
+    sensing: str = "ideal"
+    structured_light: StructuredLight | None = None
 
     def __post_init__(self) -> None:
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
+        check_sensing(self.sensing, self.structured_light)
+
+    @property
+    def sensing_model(self) -> SensingModel:
+        """The sensing model in use: `IDEAL` or the sensor's `StructuredLight` figures."""
+        return self.structured_light if self.sensing == "structured_light" else IDEAL
 
 
 SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
@@ -178,6 +192,15 @@ def sensor_preset(name: str) -> SensorConfig:
         ConfigError: If no preset has that name (the message lists the presets).
     """
     return from_mapping(SensorConfig, _preset_mapping(name, "sensor"), "sensor")
+
+
+def with_sensing(config: Config, name: str) -> Config:
+    """`config` with the sensor's sensing model `name` (`ideal` or `structured_light`).
+
+    Raises:
+        ConfigError: If the name is unknown, or the sensor has no figures for that model.
+    """
+    return replace(config, "sensor", sensing=name)
 
 
 def with_sensor(config: Config, name: str) -> Config:

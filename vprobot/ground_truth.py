@@ -37,12 +37,13 @@ import dataclasses
 import hashlib
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from vprobot.config import Config
+from vprobot.config import Config, SensorConfig
 from vprobot.files import atomic_output
 from vprobot.geometry import Pose
 from vprobot.paths import CACHE_ENV_VAR, cache_root
@@ -50,6 +51,7 @@ from vprobot.progress import stage
 from vprobot.robots import robot_folder
 from vprobot.robots.description import DESCRIPTION_FILE
 from vprobot.scene import Cell
+from vprobot.sensing import IDEAL
 from vprobot.sensor import DepthSensor
 from vprobot.viewsphere import sphere_directions
 
@@ -161,8 +163,11 @@ def inspectable_points(mesh: trimesh.Trimesh, config: Config) -> tuple[np.ndarra
     """
     cell = Cell(config, mesh)
     data = cell.make_data()
+    # Ideal sensing whatever the config's model: the GT under a sensing model is not built yet
+    # (docs/sensor.md#sensing).
     sensor = DepthSensor(cell, resolution=RESOLUTION, workers=1, groups=(
-        ENVIRONMENT_GROUP, *{int(g) for g in cell.model.geom_group[cell.object_geom_ids]}))
+        ENVIRONMENT_GROUP, *{int(g) for g in cell.model.geom_group[cell.object_geom_ids]}),
+        sensing=IDEAL)
     directions = sphere_directions(VIEW_COUNT, np.deg2rad(MAX_POLAR_DEG))
     center = cell.object_center
     clouds = []
@@ -252,8 +257,15 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     """`<mesh hash>-<settings hash>`: the mesh, plus everything that shapes its GT."""
     settings = repr((_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
                      ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
-                     dataclasses.astuple(config.sensor), _robot_digest(config.cell.robot)))
+                     _sensor_geometry(config.sensor), _robot_digest(config.cell.robot)))
     return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(settings.encode()).hexdigest()[:16]}"
+
+
+def _sensor_geometry(sensor: SensorConfig) -> tuple[Any, ...]:
+    """The sensor's settings as the GT key has always held them: all but the sensing model,
+    which the GT does not use (it is measured ideally, `inspectable_points`)."""
+    return tuple(getattr(sensor, field.name) for field in dataclasses.fields(sensor)
+                 if field.name not in ("sensing", "structured_light"))
 
 
 def _robot_digest(robot: str) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -95,6 +96,9 @@ def sensor_block(cell: Cell) -> dict[str, Any]:
         "range": [sensor.near_m, sensor.far_m],
         "working_distance_m": sensor.working_distance_m,
         "frame": "+z viewing direction, +x image right, +y image down",
+        "sensing": sensor.sensing,
+        "structured_light": (dataclasses.asdict(sensor.structured_light)
+                             if sensor.structured_light is not None else None),
     }
 
 

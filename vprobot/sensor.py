@@ -18,6 +18,10 @@ scan converted first; the robot's meshes then only within the window of its in-r
 primitive geoms (fixture plate, pedestal, floor, robot stand) are left to `mujoco.mj_multiRay`,
 for the few rays whose segment to the object crosses their bounding boxes, on worker threads
 (MuJoCo releases the GIL; each thread has its own MjData).
+
+The sensing model (`vprobot.sensing`) then decides which hits become points: all of them,
+exactly (`ideal`), or under `structured_light` those within the incidence limits that a second
+visibility pass from the projector finds lit, with noise and dropout (docs/sensor.md#sensing).
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ import numpy as np
 from vprobot.geometry import Pose
 from vprobot.raster import covered_pixels, index_range, max3, min3
 from vprobot.scene import Cell
+from vprobot.sensing import SensingModel, StructuredLight, frame_generator
 from vprobot.sensor_model import SensorModel
 
 TRAINING_RESOLUTION = (320, 224)
@@ -45,6 +50,14 @@ quarter of the rays (215 x 150) would lose about 2 points (`vprobot benchmark se
 _SPAN_SLACK = 1e-12
 # Vertices closer than this to the image plane through the optical centre are not projected.
 _MIN_DEPTH = 1e-9
+# The projector's depth map has this many times the camera's pixel pitch along each axis: a
+# quarter of the pixels to scan convert (a projector has fewer pixels than the camera, and shadow
+# edges fall within one of its pixels).
+_PROJECTOR_PITCH = 2
+# A surface nearer to the projector than a point by more than this many projector pixel
+# footprints (at the point's depth) shadows it; less is the point's own surface or a
+# neighbouring facet of it.
+_SHADOW_TOLERANCE_PIXELS = 1.0
 # Fewer MuJoCo rays than this per thread are cast on one thread.
 _MIN_RAYS_PER_THREAD = 2000
 
@@ -90,6 +103,14 @@ class _MeshGeom:
     faces: np.ndarray
     radius: float
 
+    @functools.cached_property
+    def normals(self) -> np.ndarray:
+        """Unit normals (m, 3) of the triangles in the geom frame (zero for degenerate ones)."""
+        a, b, c = (self.vertices[self.faces[:, k]] for k in range(3))
+        normals = np.cross(b - a, c - a)
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
     @classmethod
     def of(cls, model: mujoco.MjModel, geom: int) -> _MeshGeom:
         mesh = model.geom_dataid[geom]
@@ -127,20 +148,27 @@ class DepthSensor:
         workers: Threads for the MuJoCo ray casts.
         groups: Geom groups the rays see, as MuJoCo's geomgroup; all when omitted. Leaving out
             the robot's group (2) measures as if the robot were not there.
+        sensing: How hits become points (`vprobot.sensing`): `IDEAL` or a `StructuredLight`;
+            the cell's sensor config's model when omitted.
 
     Raises:
         ValueError: If the resolution or worker count is invalid, an object geom is not a mesh,
             a primitive geom shares the object's geom group, or `groups` leaves out the object.
+        TypeError: If `sensing` is not a sensing model.
     """
 
     def __init__(self, cell: Cell, sensor: SensorModel | None = None,
                  resolution: tuple[int, int] | None = None, workers: int = 2,
-                 groups: Sequence[int] | None = None):
+                 groups: Sequence[int] | None = None, sensing: SensingModel | None = None):
         sensor = sensor if sensor is not None else SensorModel.from_config(cell.config.sensor)
         self.sensor = sensor.at_resolution(resolution) if resolution is not None else sensor
         self.resolution = self.sensor.resolution
         if not (isinstance(workers, int) and workers >= 1):
             raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        sensing = sensing if sensing is not None else cell.config.sensor.sensing_model
+        if not isinstance(sensing, SensingModel):
+            raise TypeError(f"sensing must be IDEAL or a StructuredLight, got {sensing!r}")
+        self.sensing = sensing
         self.model = cell.model
         self._site_id = cell.sensor_site_id
         self._sensor_body_id = cell.sensor_body_id
@@ -153,6 +181,10 @@ class DepthSensor:
         self._object_depth = np.empty(self.rays_per_frame)
         self._occluder_depth = np.empty(self.rays_per_frame)
         self._geomid = np.empty(self.rays_per_frame, dtype=np.int32)
+        # The object triangle each pixel keeps (numbered as `_normals` numbers them); only the
+        # structured-light model needs normals.
+        self._face = (np.empty(self.rays_per_frame, dtype=np.int32)
+                      if isinstance(sensing, StructuredLight) else None)
         self._distance = np.empty(self.rays_per_frame)
         self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
@@ -206,12 +238,14 @@ class DepthSensor:
         return self.sensor.rays_per_frame
 
     def acquire_at(self, pose: Pose, object_rotation: np.ndarray,
-                   joints: np.ndarray | None = None) -> Acquisition:
+                   joints: np.ndarray | None = None,
+                   rng: np.random.Generator | None = None) -> Acquisition:
         """Measure from `pose` with the object turned by `object_rotation` and the robot at
         `joints` (`home` when omitted), on the sensor's own MjData.
 
         The state is passed whole on every call, so that no other user of the cell (kinematics,
-        collision checks, a renderer) can change what the sensor sees.
+        collision checks, a renderer) can change what the sensor sees. `rng` as in
+        `acquire_from_pose`.
         """
         cell, data = self._cell, self._own_data
         joints = cell.joints.home if joints is None else joints
@@ -223,27 +257,37 @@ class DepthSensor:
         elif not np.array_equal(data.qpos, joints):
             data.qpos[:] = joints
             mujoco.mj_kinematics(self.model, data)
-        return self.acquire_from_pose(data, pose)
+        return self.acquire_from_pose(data, pose, rng)
 
     @functools.cached_property
     def _own_data(self) -> mujoco.MjData:
         return self._cell.make_data()
 
-    def acquire(self, data: mujoco.MjData) -> Acquisition:
-        """Measure from the `sensor` site of `data` (kinematics already computed)."""
+    def acquire(self, data: mujoco.MjData, rng: np.random.Generator | None = None
+                ) -> Acquisition:
+        """Measure from the `sensor` site of `data` (kinematics already computed); `rng` as in
+        `acquire_from_pose`."""
         site = self._site_id
         pose = Pose(data.site_xpos[site].copy(), data.site_xmat[site].reshape(3, 3).copy())
-        return self.acquire_from_pose(data, pose)
+        return self.acquire_from_pose(data, pose, rng)
 
-    def acquire_from_pose(self, data: mujoco.MjData, pose: Pose) -> Acquisition:
+    def acquire_from_pose(self, data: mujoco.MjData, pose: Pose,
+                          rng: np.random.Generator | None = None) -> Acquisition:
         """Measure from an arbitrary sensor pose in the cell state `data`.
 
         The robot stays where `data` has it (it can occlude); the rays start at `pose`.
+
+        Args:
+            data: The cell state.
+            pose: The sensor frame in the world.
+            rng: The structured-light model's noise and dropout draws; when omitted, a generator
+                seeded from the sensor and object poses (`vprobot.sensing.frame_generator`), so
+                that the same frame always gets the same noise. The ideal model draws nothing.
         """
         body = self._object_body_id
         object_pose = Pose(data.xpos[body].copy(), data.xmat[body].reshape(3, 3).copy())
         pixels = self._first_hits(self._object_meshes, data, pose, self._object_depth,
-                                  self.sensor.far_m)
+                                  self.sensor.far_m, faces=self._face)
         distance = self._object_depth[pixels] * self._ray_scale[pixels]
         in_range = self.sensor.in_range(distance)
         pixels, distance = pixels[in_range], distance[in_range]
@@ -256,16 +300,126 @@ class DepthSensor:
             visible = ~self._occluded_by_ray_geoms(data, pose.position, directions, distance,
                                                    points)
             pixels, points = pixels[visible], points[visible]
+        # Pixels the camera sees the object in are not blocked, whether or not the projector
+        # lights them: the cell does not see its own occluder there.
+        blocked_pixels = np.setdiff1d(in_range_pixels, pixels, assume_unique=True)
+        if isinstance(self.sensing, StructuredLight) and len(pixels):
+            rng = rng if rng is not None else frame_generator(
+                pose.position, pose.rotation, object_pose.position, object_pose.rotation)
+            pixels, points = self._structured_light(data, pose, pixels, points, rng)
         return Acquisition(points_world=points, points_object=points - object_pose.position,
-                           pixels=pixels,
-                           blocked_pixels=np.setdiff1d(in_range_pixels, pixels,
-                                                       assume_unique=True),
+                           pixels=pixels, blocked_pixels=blocked_pixels,
                            sensor_pose=pose, object_pose=object_pose,
                            rays_cast=self.rays_per_frame)
 
+    def _structured_light(self, data: mujoco.MjData, pose: Pose, pixels: np.ndarray,
+                          points: np.ndarray, rng: np.random.Generator
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """Keep the camera's points within both incidence limits that the projector lights,
+        drop some by the dropout law and move the rest along their rays by the noise law.
+
+        The geometry is done in the sensor frame, where the rays are the grid's own and the
+        projector sits at (baseline, 0, 0) with the camera's axes: no point is rotated.
+        """
+        model = self.sensing
+        min_camera, min_projector = model.min_cos_incidence
+        normals = np.take(self._normals(data, pose), self._face[pixels], axis=0)
+        rays = np.take(self.directions, pixels, axis=0)
+        cos_camera = np.einsum("ij,ij->i", rays, normals)
+        # The camera's limit and the dropout first: they need the camera ray alone, and fewer
+        # points are left for the projector. (Rows are picked with np.take: boolean indexing of
+        # (n, 3) arrays costs several times more.)
+        incidence = np.arccos(np.minimum(np.abs(cos_camera), 1.0))
+        seen = np.flatnonzero((np.abs(cos_camera) >= min_camera)
+                              & (rng.random(len(pixels)) >= model.dropout_probability(incidence)))
+        rays, normals = np.take(rays, seen, axis=0), np.take(normals, seen, axis=0)
+        cos_camera, pixels = cos_camera[seen], pixels[seen]
+        distance = self._object_depth[pixels] * self._ray_scale[pixels]
+        light = rays * distance[:, None]
+        light[:, 0] -= model.baseline_m
+        light_distance = np.sqrt(np.einsum("ij,ij->i", light, light))
+        cos_projector = np.einsum("ij,ij->i", light, normals) / light_distance
+        # Both rays must meet the surface from the same side (a sheet lit from behind is dark).
+        facing = np.flatnonzero((cos_camera * cos_projector > 0.0)
+                                & (np.abs(cos_projector) >= min_projector))
+        if len(facing):
+            facing = facing[self._lit(data, pose, np.take(light, facing, axis=0),
+                                      light_distance[facing],
+                                      np.take(points, seen[facing], axis=0),
+                                      np.take(normals, facing, axis=0))]
+        points = np.take(points, seen[facing], axis=0)
+        distance = distance[facing]
+        noise = rng.standard_normal(len(facing)) * model.noise_sigma(
+            light[facing, 2], np.abs(cos_camera[facing]))
+        # Along the camera ray: the point moves from `distance` to `distance + noise`.
+        return pixels[facing], points + (points - pose.position) * (noise / distance)[:, None]
+
+    def _normals(self, data: mujoco.MjData, pose: Pose) -> np.ndarray:
+        """Unit normals (m, 3) of every object triangle in the sensor frame, numbered as the
+        pixels' triangles are."""
+        return np.concatenate([
+            mesh.normals @ (pose.rotation.T @ data.geom_xmat[mesh.geom_id].reshape(3, 3)).T
+            for mesh in self._object_meshes])
+
+    def _lit(self, data: mujoco.MjData, pose: Pose, light: np.ndarray,
+             light_distance: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """The indices of the points the projector reaches unoccluded.
+
+        A depth map from the projector's centre, scan converted like the camera's frame on a
+        grid of `_PROJECTOR_PITCH` times the camera's pixel pitch covering the points, holds the
+        nearest object or robot surface per pixel; a point is lit when that surface is not
+        nearer than the point's own surface at the same pixel (its triangle's plane, extended to
+        the pixel's ray) by more than a projector pixel's footprint. The fixture and the other
+        primitives are cast with MuJoCo, ray by ray.
+
+        Args:
+            data: The cell state.
+            pose: The sensor (camera) frame in the world; the projector shares its axes.
+            light: The points relative to the projector's centre, in the sensor frame.
+            light_distance: Their distances from the projector's centre.
+            points: The same points in the world.
+            normals: Their surfaces' unit normals in the sensor frame.
+        """
+        origin = pose.position + self.sensing.baseline_m * pose.rotation[:, 0]
+        projector = Pose(origin, pose.rotation)
+        u, v = self._u, self._v
+        step_u = _PROJECTOR_PITCH * (u[1] - u[0] if len(u) > 1 else 1.0)
+        step_v = _PROJECTOR_PITCH * (v[1] - v[0] if len(v) > 1 else 1.0)
+        column = np.rint((light[:, 0] / light[:, 2] - u[0]) / step_u).astype(np.int64)
+        row = np.rint((light[:, 1] / light[:, 2] - v[0]) / step_v).astype(np.int64)
+        first_column, first_row = int(column.min()), int(row.min())
+        grid_u = u[0] + step_u * np.arange(first_column, int(column.max()) + 1)
+        grid_v = v[0] + step_v * np.arange(first_row, int(row.max()) + 1)
+        column -= first_column
+        row -= first_row
+        depth = np.full(len(grid_u) * len(grid_v), np.inf)
+        max_distance = float(light_distance.max())
+        cone = float(np.arctan(np.hypot(np.abs(grid_u).max(), np.abs(grid_v).max())))
+        for mesh in self._object_meshes + self._occluder_meshes:
+            if self._in_view(mesh, data, projector, max_distance, cone):
+                hit_row, hit_column, z_depth, _ = _scan_convert(
+                    mesh.in_frame(data, projector), mesh.faces, grid_u, grid_v, max_distance)
+                np.minimum.at(depth, hit_row * len(grid_u) + hit_column, z_depth)
+        nearest = depth[row * len(grid_u) + column]
+        # The point's own plane where the pixel's ray (u, v, 1) meets it (the point's depth if
+        # that ray runs along the plane).
+        with np.errstate(divide="ignore", invalid="ignore"):
+            own = np.einsum("ij,ij->i", normals, light) / (
+                normals[:, 0] * grid_u[column] + normals[:, 1] * grid_v[row] + normals[:, 2])
+        own = np.where(np.isfinite(own) & (own > 0.0), own, light[:, 2])
+        tolerance = _SHADOW_TOLERANCE_PIXELS * max(step_u, step_v) * light[:, 2]
+        lit = np.flatnonzero(nearest >= own - tolerance)
+        if len(lit):
+            points = np.take(points, lit, axis=0)
+            directions = (points - origin) / light_distance[lit, None]
+            lit = lit[~self._occluded_by_ray_geoms(data, origin, directions,
+                                                   light_distance[lit], points)]
+        return lit
+
     def _in_view(self, mesh: _MeshGeom, data: mujoco.MjData, pose: Pose,
-                 max_distance: float) -> bool:
-        """Whether the mesh's bounding sphere meets the frustum's cone within `max_distance`."""
+                 max_distance: float, cone_angle: float | None = None) -> bool:
+        """Whether the mesh's bounding sphere meets the frustum's cone (or a cone of half-angle
+        `cone_angle` around +z) within `max_distance`."""
         offset = data.geom_xpos[mesh.geom_id] - pose.position
         distance = float(np.linalg.norm(offset))
         if distance - mesh.radius > max_distance:
@@ -273,27 +427,35 @@ class DepthSensor:
         if distance <= mesh.radius:
             return True
         off_axis = np.arccos(np.clip(offset @ pose.rotation[:, 2] / distance, -1.0, 1.0))
-        return bool(off_axis - np.arcsin(mesh.radius / distance) <= self.sensor.cone_angle_rad)
+        cone_angle = cone_angle if cone_angle is not None else self.sensor.cone_angle_rad
+        return bool(off_axis - np.arcsin(mesh.radius / distance) <= cone_angle)
 
     def _first_hits(self, meshes: list[_MeshGeom], data: mujoco.MjData, pose: Pose,
                     depth: np.ndarray, max_distance: float,
-                    window: tuple[slice, slice] | None = None) -> np.ndarray:
+                    window: tuple[slice, slice] | None = None,
+                    faces: np.ndarray | None = None) -> np.ndarray:
         """Z-buffer the meshes into `depth`; return the pixels that have a hit.
 
         Only hits that can lie within `max_distance` matter; `window` (rows, columns) limits
-        the scan to part of the frame.
+        the scan to part of the frame. `faces`, if given, receives the triangle each pixel keeps
+        (numbered across the meshes in order).
         """
         depth.fill(np.inf)
         rows, columns = window if window is not None else (slice(None), slice(None))
         u, v = self._u[columns], self._v[rows]
         row_offset, column_offset = rows.start or 0, columns.start or 0
+        face_offset = 0
         for mesh in meshes:
-            if not self._in_view(mesh, data, pose, max_distance):
-                continue
-            row, column, z_depth = _scan_convert(mesh.in_frame(data, pose), mesh.faces, u, v,
-                                                 max_distance)
-            pixels = (row + row_offset) * self.resolution[0] + column + column_offset
-            np.minimum.at(depth, pixels, z_depth)
+            if self._in_view(mesh, data, pose, max_distance):
+                row, column, z_depth, face = _scan_convert(
+                    mesh.in_frame(data, pose), mesh.faces, u, v, max_distance, faces is not None)
+                pixels = (row + row_offset) * self.resolution[0] + column + column_offset
+                np.minimum.at(depth, pixels, z_depth)
+                if faces is not None:
+                    # A later mesh that comes nearer overwrites the pixel again.
+                    nearest = z_depth == depth[pixels]
+                    faces[pixels[nearest]] = face[nearest] + face_offset
+            face_offset += len(mesh.faces)
         return np.flatnonzero(np.isfinite(depth))
 
     def _unoccluded_by_meshes(self, data: mujoco.MjData, pose: Pose, pixels: np.ndarray,
@@ -354,10 +516,12 @@ class DepthSensor:
         def cast(worker: int) -> None:
             start, stop = bounds[worker], bounds[worker + 1]
             worker_data = self._worker_data[worker]
-            # mj_multiRay reads only these frames; copying them is cheaper than kinematics.
+            # mj_multiRay reads only these frames (the bodies' inertial frames bound their geoms);
+            # copying them is cheaper than kinematics.
             worker_data.geom_xpos[:] = data.geom_xpos
             worker_data.geom_xmat[:] = data.geom_xmat
             worker_data.xipos[:] = data.xipos
+            worker_data.ximat[:] = data.ximat
             mujoco.mj_multiRay(self.model, worker_data, origin, directions[start:stop].ravel(),
                                self._geomgroup, 1, self._sensor_body_id,
                                self._geomid[start:stop], self._distance[start:stop], None,
@@ -372,7 +536,8 @@ class DepthSensor:
 
 
 def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.ndarray,
-                  max_depth: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  max_depth: float, with_faces: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """Exact ray-triangle hits of a pinhole grid of rays through the origin.
 
     Args:
@@ -381,9 +546,12 @@ def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.
         u: Tangents of the pixel columns (image x / z), evenly spaced.
         v: Tangents of the pixel rows (image y / z), evenly spaced.
         max_depth: Triangles entirely deeper (z) than this are skipped.
+        with_faces: Also return the triangle of each hit.
 
     Returns:
-        Row, column and z-depth of every (triangle, pixel) hit; a pixel can repeat.
+        Row, column, z-depth and triangle (index into `faces`) of every (triangle, pixel) hit;
+        a pixel can repeat. The triangles are None unless asked for, which keeps the ideal
+        sensor's frame as fast as before.
     """
     depth = vertices[:, 2]
     safe_depth = np.where(depth > _MIN_DEPTH, depth, 1.0)
@@ -422,7 +590,8 @@ def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.
         row_term = normal[1][face] * v[row] + normal[2][face]
         z_depth = plane[face] / (normal[0][face] * u[column] + row_term)
     valid = np.isfinite(z_depth) & (z_depth > 0)
-    return row[valid], column[valid], z_depth[valid]
+    return (row[valid], column[valid], z_depth[valid],
+            keep[face[valid]] if with_faces else None)
 
 
 def _segments_meet_box(origin: np.ndarray, directions: np.ndarray, length: np.ndarray,

@@ -124,6 +124,10 @@ def plan_config(config: Config, document: dict[str, Any], object_center: np.ndar
         # Plans written before the working distance was exported keep the config's.
         if "working_distance_m" in block:
             sensor["working_distance_m"] = block["working_distance_m"]
+        # ... and those written before the sensing model was, the config's model.
+        if "sensing" in block:
+            sensor["sensing"] = block["sensing"]
+            sensor["structured_light"] = block.get("structured_light")
     return replace(config, "sensor", **sensor)
 
 

@@ -1,0 +1,296 @@
+"""The structured-light sensing model against closed forms: incidence limits, the projector's
+shadow, the noise law and the dropout law; and the ideal model left as it was.
+
+Every reference is computed here from the documented laws and the pixel grid (ray-plane
+intersections, similar triangles), not read back from the acquisition's code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from helpers import make_scene
+
+from vprobot.cli import main
+from vprobot.config import (
+    ConfigError,
+    SensorConfig,
+    load_config,
+    sensor_preset,
+    with_sensing,
+    with_sensor,
+)
+from vprobot.geometry import Pose
+from vprobot.ground_truth import _cache_key
+from vprobot.sensing import IDEAL, StructuredLight
+from vprobot.sensor import DepthSensor
+from vprobot.sensor_model import SensorModel
+
+CAMERA = SensorModel(resolution=(400, 300), fov_deg=(40.0, 30.0), near_m=0.2, far_m=0.8,
+                     working_distance_m=0.5)
+# Looking straight down from here: image x is world x, image y is world -y (test_sensor.py).
+POSE = Pose.look_at([0.0013, -0.0007, 0.5], [0.0013, -0.0007, 0.0])
+# A model that only does what a test switches on.
+PLAIN = StructuredLight(baseline_m=1e-4, max_incidence_deg=90.0, projector_max_incidence_deg=90.0,
+                        noise_sigma_m=0.0, noise_distance_m=0.5, dropout_grazing=0.0,
+                        dropout_exponent=1.0)
+
+
+def _in_world(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """`mesh`, given in the sensor frame of POSE, moved into the world."""
+    placed = mesh.copy()
+    transform = np.eye(4)
+    transform[:3, :3], transform[:3, 3] = POSE.rotation, POSE.position
+    placed.apply_transform(transform)
+    return placed
+
+
+def _tilted_sheet(tilt_deg: float, depth: float = 0.5) -> tuple[trimesh.Trimesh, np.ndarray]:
+    """A 2 m square plate whose face towards the sensor passes through (0, 0, depth) of the
+    sensor frame, turned by `tilt_deg` about the sensor's y axis; with the face's unit normal in
+    the world."""
+    plate = trimesh.creation.box((2.0, 2.0, 0.01))
+    plate.apply_translation([0.0, 0.0, 0.005])
+    turn = trimesh.transformations.rotation_matrix(math.radians(tilt_deg), [0.0, 1.0, 0.0])
+    plate.apply_transform(turn)
+    plate.apply_translation([0.0, 0.0, depth])
+    return _in_world(plate), POSE.rotation @ turn[:3, 2]
+
+
+def _rays_on_sheet(normal: np.ndarray, depth: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel of CAMERA: where its ray from POSE meets the sheet's plane, and its distance."""
+    rays = CAMERA.ray_directions @ POSE.rotation.T
+    on_plane = POSE.position + depth * POSE.rotation[:, 2]
+    distance = ((on_plane - POSE.position) @ normal) / (rays @ normal)
+    return POSE.position + rays * distance[:, None], distance
+
+
+def _acquire(mesh: trimesh.Trimesh, sensing: StructuredLight | None,
+             rng: np.random.Generator | None = None):
+    scene, data = make_scene(mesh)
+    sensor = DepthSensor(scene, CAMERA, sensing=sensing if sensing is not None else IDEAL)
+    return sensor.acquire_from_pose(data, POSE, rng)
+
+
+@pytest.mark.parametrize("ray", ["camera", "projector"])
+@pytest.mark.parametrize("tilt_deg", [40.0, 45.0])
+def test_tilted_plane_loses_its_points_exactly_past_the_incidence_limit(ray: str,
+                                                                        tilt_deg: float) -> None:
+    limit = 50.0
+    baseline = 0.12
+    model = dataclasses.replace(
+        PLAIN, baseline_m=baseline,
+        **{"max_incidence_deg" if ray == "camera" else "projector_max_incidence_deg": limit})
+    mesh, normal = _tilted_sheet(tilt_deg)
+    acquisition = _acquire(mesh, model)
+    points, _ = _rays_on_sheet(normal)
+    origin = POSE.position if ray == "camera" else POSE.position + baseline * POSE.rotation[:, 0]
+    incoming = points - origin
+    incidence = np.degrees(np.arccos(np.abs(incoming @ normal)
+                                     / np.linalg.norm(incoming, axis=1)))
+    # The frame spans the limit: the tilt puts it inside the image.
+    assert incidence.min() < limit - 5 and incidence.max() > limit + 5
+    # MuJoCo holds the plate in float32: its normal is the analytic one to about 1e-5 deg.
+    clear = np.abs(incidence - limit) > 1e-3
+    expected = np.flatnonzero((incidence <= limit) & clear)
+    measured = acquisition.pixels[clear[acquisition.pixels]]
+    np.testing.assert_array_equal(measured, expected)
+
+
+def test_step_edge_casts_the_shadow_the_baseline_predicts() -> None:
+    """A block of height h on a floor at depth D, its edge at x_e < b: the projector at x = b
+    lights the floor past the edge only beyond x_e - (b - x_e) h / (D - h) (similar triangles),
+    a shadow the camera at x = 0 sees whole."""
+    baseline, depth, height, edge = 0.10, 0.5, 0.05, 0.01
+    floor = trimesh.creation.box((0.8, 0.6, 0.01))
+    floor.apply_translation([0.0, 0.0, depth + 0.005])
+    block = trimesh.creation.box((0.2, 0.3, height + 0.005))
+    block.apply_translation([edge + 0.1, 0.0, depth - height + (height + 0.005) / 2])
+    mesh = _in_world(trimesh.util.concatenate([floor, block]))
+    ideal = _acquire(mesh, None)
+    shadowed = _acquire(mesh, dataclasses.replace(PLAIN, baseline_m=baseline))
+    local = (ideal.points_world - POSE.position) @ POSE.rotation
+    # The floor's points along the block's middle, away from its ends.
+    on_floor = (np.abs(local[:, 2] - depth) < 1e-6) & (np.abs(local[:, 1]) < 0.05)
+    lost = on_floor & ~np.isin(ideal.pixels, shadowed.pixels)
+    predicted = (baseline - edge) * height / (depth - height)
+    pitch = 2 * math.tan(math.radians(CAMERA.fov_deg[0] / 2)) / CAMERA.resolution[0] * depth
+    assert predicted > 10 * pitch
+    # Every lost floor point lies in the predicted band, and the band is lost whole, to within
+    # the sampling: half a projector pixel (one camera pixel: the projector's depth map has half
+    # the camera's resolution) and one camera pixel.
+    slack = 2 * pitch
+    band = (local[:, 0] >= edge - predicted) & (local[:, 0] <= edge)
+    assert np.all(band[lost] | (np.abs(local[lost, 0] - (edge - predicted)) < slack))
+    kept_in_band = on_floor & band & ~lost
+    assert np.all(np.abs(local[kept_in_band, 0] - (edge - predicted)) < slack)
+    rows = np.unique(ideal.pixels[lost] // CAMERA.resolution[0])
+    assert len(rows) > 50
+    widths = [np.ptp(local[lost & (ideal.pixels // CAMERA.resolution[0] == row), 0]) + pitch
+              for row in rows]
+    assert np.mean(widths) == pytest.approx(predicted, abs=slack)
+    # Off the floor only the wall facing away from the projector is lost: the block's top is lit.
+    top = np.abs(local[:, 2] - (depth - height)) < 1e-6
+    assert np.isin(ideal.pixels[top], shadowed.pixels).all()
+
+
+@pytest.mark.parametrize("kind", ["primitive", "mesh"])
+def test_plate_before_the_projector_shadows_what_the_camera_sees(kind: str) -> None:
+    """A plate outside the camera's view, in the projector's light: the fixture (a primitive,
+    cast by MuJoCo) and the robot (meshes, in the projector's depth map) shadow the object."""
+    baseline = 0.10
+    floor = trimesh.creation.box((0.8, 0.6, 0.01))
+    floor.apply_translation([0.0, 0.0, 0.505])
+    mesh = _in_world(floor)
+    # Sensor frame (x, y, z) is world (x, -y, -z) about POSE: the plate spans x 0.10 - 0.14 at
+    # depth 0.25, beyond the camera's half-angle tangent (0.364) but before the projector.
+    center, half = (0.12, 0.0, 0.25), (0.02, 0.03, 0.002)
+    plate = (POSE.position + POSE.rotation @ np.array(center), half)
+    plain_scene, plain_data = make_scene(mesh)
+    scene, data = make_scene(mesh, **{"boxes" if kind == "primitive" else "mesh_boxes": [plate]})
+    ideal = DepthSensor(plain_scene, CAMERA, sensing=IDEAL).acquire_from_pose(plain_data, POSE)
+    camera_only = DepthSensor(scene, CAMERA, sensing=IDEAL).acquire_from_pose(data, POSE)
+    np.testing.assert_array_equal(camera_only.pixels, ideal.pixels)
+    model = dataclasses.replace(PLAIN, baseline_m=baseline)
+    shadowed = DepthSensor(scene, CAMERA, sensing=model).acquire_from_pose(data, POSE)
+    # Reference: the segment from the projector to the point crosses the plate's top or bottom.
+    local = (ideal.points_world - POSE.position) @ POSE.rotation
+    light = local - [baseline, 0.0, 0.0]
+    expected_lost = np.zeros(len(local), dtype=bool)
+    for depth in (center[2] - half[2], center[2] + half[2]):
+        crossing = light * (depth / light[:, 2])[:, None]
+        expected_lost |= ((np.abs(crossing[:, 0] + baseline - center[0]) <= half[0])
+                          & (np.abs(crossing[:, 1] - center[1]) <= half[1]))
+    assert expected_lost.sum() > 1000
+    lost = ~np.isin(ideal.pixels, shadowed.pixels)
+    if kind == "primitive":
+        np.testing.assert_array_equal(lost, expected_lost)
+    else:
+        # The depth map's pixels are twice the camera's: its edges move by up to one of them.
+        assert np.sum(lost != expected_lost) < 0.05 * expected_lost.sum()
+
+
+def test_noise_on_a_plane_matches_sigma_within_five_percent() -> None:
+    model = dataclasses.replace(PLAIN, noise_sigma_m=0.0005, noise_distance_m=0.45)
+    mesh, normal = _tilted_sheet(35.0)
+    acquisition = _acquire(mesh, model, np.random.default_rng(3))
+    points, distance = _rays_on_sheet(normal)
+    pixels = acquisition.pixels
+    assert len(pixels) >= 100_000
+    rays = CAMERA.ray_directions[pixels] @ POSE.rotation.T
+    offsets = acquisition.points_world - POSE.position
+    measured = np.linalg.norm(offsets, axis=1)
+    # Along the camera ray, and only along it.
+    np.testing.assert_allclose(offsets / measured[:, None], rays, atol=1e-9)
+    depth = (points[pixels] - POSE.position) @ POSE.rotation[:, 2]
+    cos_incidence = np.abs(rays @ normal)
+    sigma = 0.0005 * (depth / 0.45) ** 2 / cos_incidence
+    residual = measured - distance[pixels]
+    assert np.std(residual / sigma) == pytest.approx(1.0, abs=0.05)
+    assert abs(np.mean(residual / sigma)) < 0.02
+    assert np.std(residual) == pytest.approx(np.sqrt(np.mean(sigma**2)), rel=0.05)
+
+
+def test_dropout_rate_matches_its_law_within_one_point() -> None:
+    model = dataclasses.replace(PLAIN, dropout_grazing=0.6, dropout_exponent=2.0)
+    mesh, normal = _tilted_sheet(50.0)
+    ideal = _acquire(mesh, None)
+    acquisition = _acquire(mesh, model, np.random.default_rng(5))
+    assert len(ideal) >= 100_000
+    rays = CAMERA.ray_directions[ideal.pixels] @ POSE.rotation.T
+    incidence = np.arccos(np.abs(rays @ normal))
+    probability = 0.6 * (incidence / (math.pi / 2)) ** 2
+    dropped = ~np.isin(ideal.pixels, acquisition.pixels)
+    assert dropped.mean() == pytest.approx(probability.mean(), abs=0.01)
+    # And across the frame's incidences (from about 30 to 70 degrees), quarter by quarter.
+    quarters = np.array_split(np.argsort(incidence), 4)
+    for quarter in quarters:
+        assert dropped[quarter].mean() == pytest.approx(probability[quarter].mean(), abs=0.01)
+    assert probability[quarters[-1]].mean() - probability[quarters[0]].mean() > 0.1
+
+
+def test_noise_and_dropout_are_reproducible() -> None:
+    model = dataclasses.replace(PLAIN, noise_sigma_m=0.001, dropout_grazing=0.5)
+    mesh, _ = _tilted_sheet(30.0)
+    scene, data = make_scene(mesh)
+    sensor = DepthSensor(scene, CAMERA, sensing=model)
+    first, again = (sensor.acquire_from_pose(data, POSE) for _ in range(2))
+    # Without a generator: the frame's own draws, the same every time.
+    np.testing.assert_array_equal(first.points_world, again.points_world)
+    seeded = [sensor.acquire_from_pose(data, POSE, np.random.default_rng(seed))
+              for seed in (1, 1, 2)]
+    np.testing.assert_array_equal(seeded[0].points_world, seeded[1].points_world)
+    assert not np.array_equal(seeded[0].pixels, seeded[2].pixels)
+
+
+def test_ideal_model_draws_nothing_and_measures_as_before() -> None:
+    mesh, _ = _tilted_sheet(30.0)
+    scene, data = make_scene(mesh)
+    rng = np.random.default_rng(0)
+    state = rng.bit_generator.state
+    ideal = DepthSensor(scene, CAMERA, sensing=IDEAL).acquire_from_pose(data, POSE, rng)
+    assert rng.bit_generator.state == state
+    default = DepthSensor(scene, CAMERA).acquire_from_pose(data, POSE)
+    np.testing.assert_array_equal(ideal.pixels, default.pixels)
+    np.testing.assert_array_equal(ideal.points_world, default.points_world)
+
+
+@pytest.mark.parametrize(("change", "key"), [
+    ({"baseline_m": 0.0}, "baseline_m"),
+    ({"max_incidence_deg": 95.0}, "max_incidence_deg"),
+    ({"projector_max_incidence_deg": 0.0}, "projector_max_incidence_deg"),
+    ({"noise_sigma_m": -1e-4}, "noise_sigma_m"),
+    ({"dropout_grazing": 1.5}, "dropout_grazing"),
+    ({"dropout_exponent": float("nan")}, "dropout_exponent"),
+])
+def test_bad_structured_light_figures_are_rejected(change: dict, key: str) -> None:
+    with pytest.raises(ConfigError, match=f"sensor.structured_light.{key}"):
+        dataclasses.replace(PLAIN, **change)
+
+
+def test_presets_default_to_ideal_and_opt_in_to_their_figures() -> None:
+    for name in ("paper", "phoxi_m", "zivid2plus_mr60"):
+        assert sensor_preset(name).sensing_model is IDEAL
+    config = with_sensing(with_sensor(load_config(), "zivid2plus_mr60"), "structured_light")
+    model = config.sensor.sensing_model
+    assert isinstance(model, StructuredLight)
+    # The Zivid 2+ M60 datasheet figure issue 31 quotes: 0.08 mm at 600 mm.
+    assert (model.noise_sigma_m, model.noise_distance_m) == (0.00008, 0.60)
+    # The simulator's PhoXi M baseline.
+    assert sensor_preset("phoxi_m").structured_light.baseline_m == 0.35
+    with pytest.raises(ConfigError, match="structured_light"):
+        SensorConfig(sensing="structured_light")
+    with pytest.raises(ConfigError, match="must be one of"):
+        SensorConfig(sensing="laser")
+
+
+def test_ground_truth_key_does_not_follow_the_sensing_model(cube) -> None:
+    """The GT is measured ideally whatever the model, so one cache serves both."""
+    config = with_sensor(load_config(), "zivid2plus_mr60")
+    assert _cache_key(cube, config) == _cache_key(cube, with_sensing(config, "structured_light"))
+
+
+@pytest.fixture
+def cube() -> trimesh.Trimesh:
+    return trimesh.creation.box((0.1, 0.1, 0.1))
+
+
+def test_sensing_option_without_figures_is_one_line(capsys: pytest.CaptureFixture) -> None:
+    assert main(["plan", "--sensing", "structured_light", "--out", "unused.json"]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert "--sensing" in line and "structured_light" in line
+
+
+def test_sensors_lists_each_presets_model_and_sources(capsys: pytest.CaptureFixture) -> None:
+    assert main(["sensors"]) == 0
+    header, *rows = capsys.readouterr().out.splitlines()
+    assert "sensing" in header and "sources" in header
+    for row, name in zip(rows, ("paper", "phoxi_m", "zivid2plus_mr60"), strict=True):
+        assert row.startswith(name) and row.endswith(f"configs/sensors/{name}.yaml")
+        assert " ideal " in row
+    assert "350 mm, 70 / 70 deg, 0.062 mm at 0.788 m, 0.5 (theta / 90 deg)^4" in rows[1]
+    assert "150 mm" in rows[2] and "0.08 mm at 0.6 m" in rows[2]
