@@ -291,3 +291,18 @@ def test_parse_planner() -> None:
     for bad in ("agent:", "agent0", "hrec3"):
         with pytest.raises(ValueError, match="unknown planner"):
             parse_planner(bad)
+
+
+def test_uniform_targets_beyond_the_usable_band_name_the_count_and_the_way_out() -> None:
+    """With the Zivid preset and the robot, the band screened around the largest object the
+    cell fits leaves fewer views than uniform4 asks for: the error says how many are usable
+    and what to do, not an index range."""
+    from vprobot.config import with_sensor
+    from vprobot.planners.uniform import uniform_targets, view_band
+
+    config = with_sensor(Config(), "zivid2plus_mr60")
+    usable = len(view_band(config, True)[0])
+    assert usable < 4
+    with pytest.raises(ValueError, match=rf"uniform4 needs 4 views of the band, but only "
+                                         rf"{usable} are usable with robot 'ur10'.*--carrier free"):
+        uniform_targets(config, 4, True)

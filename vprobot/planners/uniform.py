@@ -112,6 +112,15 @@ def uniform_targets(config: Config, count: int, robot: bool
         ValueError: If count < 1 or exceeds the band's usable candidates.
     """
     band, joints = view_band(config, robot)
+    if count > len(band):
+        # With the robot the band is screened around the largest object the cell fits, so a
+        # sensor whose range lets that object grow close to the sensor can leave few views.
+        raise ValueError(f"uniform{count} needs {count} views of the band, but only {len(band)} "
+                         f"are usable with robot {config.cell.robot!r} and this sensor (working "
+                         f"distance {config.sensor.working_distance_m:g} m) around the largest "
+                         f"object the cell fits (radius {fit_limit(config).radius_m:.3f} m); "
+                         f"use --carrier free, or a planner that screens views around the object "
+                         f"itself (bscp, nbv)")
     chosen = spread(band, count)
     targets = look_at_targets(np.asarray(config.cell.object_center_m),
                               config.sensor.working_distance_m, band[chosen])
