@@ -29,6 +29,7 @@ from vprobot.config import (
 from vprobot.coverage import CoverageTracker
 from vprobot.geometry import Pose
 from vprobot.ground_truth import _cache_key, inspectable_points
+from vprobot.occupancy import FREE, OCCUPIED, OccupancyGrid
 from vprobot.sensing import IDEAL, StructuredLight
 from vprobot.sensor import DepthSensor
 from vprobot.sensor_model import SensorModel
@@ -352,6 +353,25 @@ def test_epsilon_marks_what_a_noisy_frame_measured_at_the_far_end_of_the_range()
     beyond = cKDTree(exact.points_world).query(gt)[0] > 2.0 * tracker.epsilon
     assert beyond.sum() > 1000
     assert not np.any(marked & beyond)
+
+
+def test_occupancy_grid_integrates_a_noisy_frame_as_the_noise_free_one() -> None:
+    """The grid's voxels (10 mm) and its free space, which stops half a voxel short of a point,
+    dwarf the noise (σ well under 1 mm here): a noisy frame marks the same voxels occupied but
+    for a few at voxel boundaries, and frees none of the ones the noise-free frame marks."""
+    model = dataclasses.replace(PLAIN, noise_sigma_m=0.0005, noise_distance_m=0.5)
+    mesh, _ = _tilted_sheet(40.0)
+    scene, data = make_scene(mesh)
+    states = []
+    for sensing in (model, model.limits_only()):
+        frame = DepthSensor(scene, CAMERA, sensing=sensing).acquire_from_pose(data, POSE)
+        grid = OccupancyGrid.around(POSE.position + 0.5 * POSE.rotation[:, 2], 0.15)
+        grid.integrate(CAMERA, POSE, frame.points_world, frame.pixels, frame.blocked_pixels)
+        states.append(grid.state)
+    noisy, exact = states
+    assert (exact == OCCUPIED).sum() > 500
+    assert np.mean(noisy[exact == OCCUPIED] == OCCUPIED) > 0.97
+    assert not np.any(noisy[exact == OCCUPIED] == FREE)
 
 
 @pytest.fixture
