@@ -256,10 +256,17 @@ def test_bad_structured_light_figures_are_rejected(change: dict, key: str) -> No
         dataclasses.replace(PLAIN, **change)
 
 
-def test_presets_default_to_ideal_and_opt_in_to_their_figures() -> None:
-    for name in ("paper", "phoxi_m", "zivid2plus_mr60"):
-        assert sensor_preset(name).sensing_model is IDEAL
-    config = with_sensing(with_sensor(load_config(), "zivid2plus_mr60"), "structured_light")
+DEFAULT_SENSING = {"paper": "ideal", "phoxi_m": "structured_light",
+                   "zivid2plus_mr60": "structured_light"}
+"""The paper's sensor is ideal, as in the paper; the real devices are structured-light ones."""
+
+
+def test_real_presets_default_to_structured_light_and_the_paper_to_ideal() -> None:
+    for name, sensing in DEFAULT_SENSING.items():
+        assert sensor_preset(name).sensing == sensing
+    assert sensor_preset("paper").sensing_model is IDEAL
+    config = with_sensor(load_config(), "zivid2plus_mr60")
+    assert with_sensing(config, "ideal").sensor.sensing_model is IDEAL
     model = config.sensor.sensing_model
     assert isinstance(model, StructuredLight)
     # The Zivid 2+ M60 datasheet figure issue 31 quotes: 0.08 mm at 600 mm.
@@ -276,7 +283,7 @@ def test_ground_truth_key_follows_the_models_limits_not_its_noise(cube) -> None:
     """The GT is measured with the model's deterministic limits, so its key changes with them
     and not with noise or dropout; the ideal key stays the old one (`test_results_regenerate`
     reads the committed tables' GTs through it)."""
-    config = with_sensor(load_config(), "zivid2plus_mr60")
+    config = with_sensing(with_sensor(load_config(), "zivid2plus_mr60"), "ideal")
     light = with_sensing(config, "structured_light")
     figures = dataclasses.asdict(light.sensor.structured_light)
     noisier = replace(light, "sensor", structured_light={**figures, "noise_sigma_m": 0.001,
@@ -391,6 +398,7 @@ def test_sensors_lists_each_presets_model_and_sources(capsys: pytest.CaptureFixt
     assert "sensing" in header and "sources" in header
     for row, name in zip(rows, ("paper", "phoxi_m", "zivid2plus_mr60"), strict=True):
         assert row.startswith(name) and row.endswith(f"configs/sensors/{name}.yaml")
-        assert " ideal " in row
+        assert f" {DEFAULT_SENSING[name]} " in row
+    assert header.index("sensing") == rows[0].index("ideal") == rows[2].index("structured_light")
     assert "350 mm, 70 / 70 deg, 0.062 mm at 0.788 m, 0.5 (theta / 90 deg)^4" in rows[1]
     assert "150 mm" in rows[2] and "0.08 mm at 0.6 m" in rows[2]
