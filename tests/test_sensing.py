@@ -364,7 +364,7 @@ def test_epsilon_marks_what_a_noisy_frame_measured_at_the_far_end_of_the_range()
 
 def test_occupancy_grid_integrates_a_noisy_frame_as_the_noise_free_one() -> None:
     """The grid's voxels (10 mm) and its free space, which stops half a voxel short of a point,
-    dwarf the noise (σ well under 1 mm here): a noisy frame marks the same voxels occupied but
+    dwarf the noise (sigma well under 1 mm here): a noisy frame marks the same voxels occupied but
     for a few at voxel boundaries, and frees none of the ones the noise-free frame marks."""
     model = dataclasses.replace(PLAIN, noise_sigma_m=0.0005, noise_distance_m=0.5)
     mesh, _ = _tilted_sheet(40.0)
