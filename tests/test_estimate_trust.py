@@ -69,6 +69,22 @@ def test_another_sensor_refuses_the_estimate_and_the_summary_says_why(
     assert text.count("refused") == len(result.record.views)
 
 
+def test_another_sensing_model_refuses_the_estimate_with_the_reason(tmp_path: Path) -> None:
+    # The bundled estimator was fit on the ideal sensor (its file predates the record, which
+    # reads as ideal); one recorded as fit on structured light is refused on the ideal sensor.
+    estimator = load_estimator()
+    assert estimator.domain is not None and estimator.domain.sensing == "ideal"
+    other = CoverageEstimator.load(dataclasses.replace(estimator, domain=dataclasses.replace(
+        estimator.domain, sensing="structured_light")).save(tmp_path / "other.npz"))
+    assert other.domain.sensing == "structured_light"
+    features = (estimator.domain.low + estimator.domain.high) / 2
+    assert not EstimateTracker(estimator, CONFIG).update(features).refused
+    stated = EstimateTracker(other, CONFIG).update(features)
+    assert stated.refused and np.isnan(stated.mean)
+    assert stated.note == ("not used: fitted on the structured_light sensing model, this run "
+                           "uses ideal")
+
+
 def test_a_feature_outside_its_training_range_widens_the_estimate_and_far_outside_refuses_it(
 ) -> None:
     estimator = load_estimator()

@@ -14,18 +14,22 @@ import numpy as np
 import pytest
 import trimesh
 from helpers import make_scene
+from scipy.spatial import cKDTree
 
 from vprobot.cli import main
 from vprobot.config import (
     ConfigError,
     SensorConfig,
     load_config,
+    replace,
     sensor_preset,
     with_sensing,
     with_sensor,
 )
+from vprobot.coverage import CoverageTracker
 from vprobot.geometry import Pose
-from vprobot.ground_truth import _cache_key
+from vprobot.ground_truth import _cache_key, inspectable_points
+from vprobot.occupancy import FREE, OCCUPIED, OccupancyGrid
 from vprobot.sensing import IDEAL, StructuredLight
 from vprobot.sensor import DepthSensor
 from vprobot.sensor_model import SensorModel
@@ -252,10 +256,17 @@ def test_bad_structured_light_figures_are_rejected(change: dict, key: str) -> No
         dataclasses.replace(PLAIN, **change)
 
 
-def test_presets_default_to_ideal_and_opt_in_to_their_figures() -> None:
-    for name in ("paper", "phoxi_m", "zivid2plus_mr60"):
-        assert sensor_preset(name).sensing_model is IDEAL
-    config = with_sensing(with_sensor(load_config(), "zivid2plus_mr60"), "structured_light")
+DEFAULT_SENSING = {"paper": "ideal", "phoxi_m": "structured_light",
+                   "zivid2plus_mr60": "structured_light"}
+"""The paper's sensor is ideal, as in the paper; the real devices are structured-light ones."""
+
+
+def test_real_presets_default_to_structured_light_and_the_paper_to_ideal() -> None:
+    for name, sensing in DEFAULT_SENSING.items():
+        assert sensor_preset(name).sensing == sensing
+    assert sensor_preset("paper").sensing_model is IDEAL
+    config = with_sensor(load_config(), "zivid2plus_mr60")
+    assert with_sensing(config, "ideal").sensor.sensing_model is IDEAL
     model = config.sensor.sensing_model
     assert isinstance(model, StructuredLight)
     # The Zivid 2+ M60 datasheet figure issue 31 quotes: 0.08 mm at 600 mm.
@@ -268,10 +279,106 @@ def test_presets_default_to_ideal_and_opt_in_to_their_figures() -> None:
         SensorConfig(sensing="laser")
 
 
-def test_ground_truth_key_does_not_follow_the_sensing_model(cube) -> None:
-    """The GT is measured ideally whatever the model, so one cache serves both."""
-    config = with_sensor(load_config(), "zivid2plus_mr60")
-    assert _cache_key(cube, config) == _cache_key(cube, with_sensing(config, "structured_light"))
+def test_ground_truth_key_follows_the_models_limits_not_its_noise(cube) -> None:
+    """The GT is measured with the model's deterministic limits, so its key changes with them
+    and not with noise or dropout; the ideal key stays the old one (`test_results_regenerate`
+    reads the committed tables' GTs through it)."""
+    config = with_sensing(with_sensor(load_config(), "zivid2plus_mr60"), "ideal")
+    light = with_sensing(config, "structured_light")
+    figures = dataclasses.asdict(light.sensor.structured_light)
+    noisier = replace(light, "sensor", structured_light={**figures, "noise_sigma_m": 0.001,
+                                                         "dropout_grazing": 0.9})
+    wider = replace(light, "sensor", structured_light={**figures, "baseline_m": 0.2})
+    assert _cache_key(cube, light) == _cache_key(cube, noisier)
+    assert len({_cache_key(cube, config), _cache_key(cube, light), _cache_key(cube, wider)}) == 3
+
+
+def _mushroom() -> tuple[trimesh.Trimesh, float]:
+    """A 0.2 m square cap, 0.03 m thick, on a 0.04 m column (0.18 m high in all, centred); and
+    the height of the cap's underside. No GT view (at most 30 deg below the equator, 0.6 m from
+    the centre) meets the underside at less than about 50 deg of incidence."""
+    column = trimesh.creation.box((0.04, 0.04, 0.15))
+    cap = trimesh.creation.box((0.2, 0.2, 0.03))
+    cap.apply_translation([0.0, 0.0, 0.09])
+    mesh = trimesh.util.concatenate([column, cap])
+    mesh.apply_translation(-mesh.bounds.mean(axis=0))
+    return mesh, float(mesh.bounds[1, 2]) - 0.03
+
+
+def test_ground_truth_under_structured_light_is_what_its_limits_let_some_view_measure() -> None:
+    config = with_sensing(with_sensor(load_config(), "zivid2plus_mr60"), "structured_light")
+    figures = dataclasses.asdict(config.sensor.structured_light)
+    limited = replace(config, "sensor", structured_light={**figures, "max_incidence_deg": 40.0})
+    mesh, underside = _mushroom()
+    ideal, _ = inspectable_points(mesh, with_sensing(config, "ideal"))
+    light, _ = inspectable_points(mesh, limited)
+
+    def on_underside(points: np.ndarray) -> np.ndarray:
+        return ((np.abs(points[:, 2] - underside) < 1e-4)
+                & (np.abs(points[:, :2]).max(axis=1) > 0.03)
+                & (np.abs(points[:, :2]).max(axis=1) < 0.099))
+
+    # The ideal views see the underside; under a 40 deg camera limit no view measures it.
+    assert on_underside(ideal).sum() > 1000
+    assert not on_underside(light).any()
+    # Without noise every point is one an ideal view measured, exactly there; the baseline's
+    # shadow and the incidence limits leave out more than the underside.
+    assert len(light) < len(ideal) - on_underside(ideal).sum()
+    assert np.isin(light.view("V24"), ideal.view("V24")).all()
+
+
+def test_epsilon_marks_what_a_noisy_frame_measured_at_the_far_end_of_the_range() -> None:
+    """With the Zivid preset's sigma at the far end of its range (incidences up to the 70 deg
+    limit: up to 0.8 mm, ε / 2.5), the ε-test marks at least 99 % of the GT points the
+    noise-free frame covers, and none that lies beyond 2 ε of it (past the incidence limit)."""
+    preset = sensor_preset("zivid2plus_mr60")
+    camera = SensorModel.from_config(preset).at_resolution((612, 512))
+    model = dataclasses.replace(preset.structured_light, baseline_m=1e-4, dropout_grazing=0.0)
+    depth = 1.05
+    mesh, normal = _tilted_sheet(60.0, depth)
+    scene, data = make_scene(mesh)
+    noisy = DepthSensor(scene, camera, sensing=model).acquire_from_pose(data, POSE)
+    exact = DepthSensor(scene, camera, sensing=model.limits_only()).acquire_from_pose(data, POSE)
+    np.testing.assert_array_equal(noisy.pixels, exact.pixels)
+    offsets = np.linalg.norm(noisy.points_world - exact.points_world, axis=1)
+    sigma_max = model.noise_sigma(np.array(preset.far_m), np.cos(np.radians(70.0)))
+    assert offsets.max() > 2.0 * sigma_max / 3
+    # GT points 4.5 mm apart on the sheet (the bundled motors' spacing), where the frame looks.
+    spacing = 0.0045
+    grid = np.arange(-0.6, 0.6, spacing)
+    across = np.cross(normal, POSE.rotation[:, 1])
+    across /= np.linalg.norm(across)
+    along = np.cross(normal, across)
+    centre = POSE.position + depth * POSE.rotation[:, 2]
+    gt = (centre + grid[:, None, None] * across + grid[None, :, None] * along).reshape(-1, 3)
+    tracker = CoverageTracker(gt, spacing)
+    assert tracker.epsilon >= 2.5 * sigma_max
+    truly = tracker.match(exact.points_world)
+    marked = tracker.match(noisy.points_world)
+    assert truly.sum() > 5000
+    assert marked[truly].mean() >= 0.99
+    beyond = cKDTree(exact.points_world).query(gt)[0] > 2.0 * tracker.epsilon
+    assert beyond.sum() > 1000
+    assert not np.any(marked & beyond)
+
+
+def test_occupancy_grid_integrates_a_noisy_frame_as_the_noise_free_one() -> None:
+    """The grid's voxels (10 mm) and its free space, which stops half a voxel short of a point,
+    dwarf the noise (sigma well under 1 mm here): a noisy frame marks the same voxels occupied but
+    for a few at voxel boundaries, and frees none of the ones the noise-free frame marks."""
+    model = dataclasses.replace(PLAIN, noise_sigma_m=0.0005, noise_distance_m=0.5)
+    mesh, _ = _tilted_sheet(40.0)
+    scene, data = make_scene(mesh)
+    states = []
+    for sensing in (model, model.limits_only()):
+        frame = DepthSensor(scene, CAMERA, sensing=sensing).acquire_from_pose(data, POSE)
+        grid = OccupancyGrid.around(POSE.position + 0.5 * POSE.rotation[:, 2], 0.15)
+        grid.integrate(CAMERA, POSE, frame.points_world, frame.pixels, frame.blocked_pixels)
+        states.append(grid.state)
+    noisy, exact = states
+    assert (exact == OCCUPIED).sum() > 500
+    assert np.mean(noisy[exact == OCCUPIED] == OCCUPIED) > 0.97
+    assert not np.any(noisy[exact == OCCUPIED] == FREE)
 
 
 @pytest.fixture
@@ -291,6 +398,7 @@ def test_sensors_lists_each_presets_model_and_sources(capsys: pytest.CaptureFixt
     assert "sensing" in header and "sources" in header
     for row, name in zip(rows, ("paper", "phoxi_m", "zivid2plus_mr60"), strict=True):
         assert row.startswith(name) and row.endswith(f"configs/sensors/{name}.yaml")
-        assert " ideal " in row
+        assert f" {DEFAULT_SENSING[name]} " in row
+    assert header.index("sensing") == rows[0].index("ideal") == rows[2].index("structured_light")
     assert "350 mm, 70 / 70 deg, 0.062 mm at 0.788 m, 0.5 (theta / 90 deg)^4" in rows[1]
     assert "150 mm" in rows[2] and "0.08 mm at 0.6 m" in rows[2]

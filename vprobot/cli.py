@@ -449,7 +449,7 @@ def command_sensors(args: argparse.Namespace) -> int:
     from vprobot.config import sensor_preset
 
     print("preset            resolution    fov (deg)        range (m)      working distance (m)  "
-          "sensing  structured light (baseline, max incidence camera / projector, noise, "
+          "sensing           structured light (baseline, max incidence camera / projector, noise, "
           "dropout)  sources")
     for name in available_sensors():
         sensor = sensor_preset(name)
@@ -462,7 +462,7 @@ def command_sensors(args: argparse.Namespace) -> int:
         print(f"{name:<17} {sensor.resolution[0]:>4} x {sensor.resolution[1]:<4}   "
               f"{sensor.fov_deg[0]:5.2f} x {sensor.fov_deg[1]:5.2f}   "
               f"{sensor.near_m:.3f} - {sensor.far_m:.3f}  {sensor.working_distance_m:.3f}"
-              f"                 {sensor.sensing:<8} {figures}  configs/sensors/{name}.yaml")
+              f"                  {sensor.sensing:<17} {figures}  configs/sensors/{name}.yaml")
     return 0
 
 

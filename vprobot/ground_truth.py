@@ -13,7 +13,10 @@ mesh frame parallel to the world, the fixture plate under its lowest point):
    measures the object with the fixture plate, pedestal, floor and robot stand occluding; the
    robot arm is left out, since its configuration differs from view to view. A surface point
    is inspectable when some view measures it within [near, far]: the face resting on the fixture
-   plate and cavities no view reaches get no points.
+   plate and cavities no view reaches get no points. The views measure under the sensor's
+   sensing model without its noise and dropout (`gt_sensing`): under `structured_light` a point
+   must also be lit by the projector and within both incidence limits in some view, so that
+   the inspectable surface is what the modelled sensor can measure and 90 % stays reachable.
 3. The union of the measured points, in the mesh frame, is voxel-downsampled to exactly
    N_GT = 2048 points: the voxel size is found by bisection as the largest size for which at
    least 2048 voxels are occupied; each voxel is represented by its measured point nearest the
@@ -26,7 +29,8 @@ P_GT lives in the mesh frame, so it turns with the object when an episode re-pos
 inspectability is that of the upright placement. The result is deterministic and cached in
 memory and on disk (an `.npz` per mesh under `default_cache_dir()`, written atomically), keyed
 by the mesh hash (sha256 of its vertices and faces) and the settings that shape it (with the
-robot folder's description and MJCF files, whose scene and base placement occlude). A cache
+robot folder's description and MJCF files, whose scene and base placement occlude, and a
+sensing model other than `ideal` with its baseline and incidence limits). A cache
 file that does not hold a valid GT of the mesh is recomputed and replaced; a cache directory
 that cannot be written draws one warning per process and the GT is then only kept in memory.
 """
@@ -51,7 +55,7 @@ from vprobot.progress import stage
 from vprobot.robots import robot_folder
 from vprobot.robots.description import DESCRIPTION_FILE
 from vprobot.scene import Cell
-from vprobot.sensing import IDEAL
+from vprobot.sensing import SensingModel, StructuredLight
 from vprobot.sensor import DepthSensor
 from vprobot.viewsphere import sphere_directions
 
@@ -163,11 +167,9 @@ def inspectable_points(mesh: trimesh.Trimesh, config: Config) -> tuple[np.ndarra
     """
     cell = Cell(config, mesh)
     data = cell.make_data()
-    # Ideal sensing whatever the config's model: the GT under a sensing model is not built yet
-    # (docs/sensor.md#sensing).
     sensor = DepthSensor(cell, resolution=RESOLUTION, workers=1, groups=(
         ENVIRONMENT_GROUP, *{int(g) for g in cell.model.geom_group[cell.object_geom_ids]}),
-        sensing=IDEAL)
+        sensing=gt_sensing(config.sensor))
     directions = sphere_directions(VIEW_COUNT, np.deg2rad(MAX_POLAR_DEG))
     center = cell.object_center
     clouds = []
@@ -178,6 +180,17 @@ def inspectable_points(mesh: trimesh.Trimesh, config: Config) -> tuple[np.ndarra
             clouds.append(acquisition.points_mesh)
     points = np.concatenate(clouds) if clouds else np.zeros((0, 3))
     return points, len(clouds)
+
+
+def gt_sensing(sensor: SensorConfig) -> SensingModel:
+    """The sensing model the GT views measure with: the sensor's, without noise or dropout.
+
+    A point some view measures with a probability above 0 is inspectable (dropout is drawn per
+    frame, and noise moves a point without losing it), so only the model's deterministic limits,
+    the projector's shadow and the incidence limits, shape the inspectable surface.
+    """
+    model = sensor.sensing_model
+    return model.limits_only() if isinstance(model, StructuredLight) else model
 
 
 def _packed_voxel_keys(points: np.ndarray, voxel_size: float) -> np.ndarray:
@@ -255,15 +268,22 @@ def _farthest_point_order(points: np.ndarray, count: int) -> np.ndarray:
 
 def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     """`<mesh hash>-<settings hash>`: the mesh, plus everything that shapes its GT."""
-    settings = repr((_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
-                     ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
-                     _sensor_geometry(config.sensor), _robot_digest(config.cell.robot)))
+    settings = (_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
+                ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
+                _sensor_geometry(config.sensor), _robot_digest(config.cell.robot))
+    sensing = gt_sensing(config.sensor)
+    if isinstance(sensing, StructuredLight):
+        # Only a model other than the ideal one joins the key: the ideal GTs keep the keys they
+        # always had, and their caches stay valid. Noise and dropout do not shape the GT.
+        settings += (sensing.name, sensing.baseline_m, sensing.max_incidence_deg,
+                     sensing.projector_max_incidence_deg)
+    settings = repr(settings)
     return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(settings.encode()).hexdigest()[:16]}"
 
 
 def _sensor_geometry(sensor: SensorConfig) -> tuple[Any, ...]:
-    """The sensor's settings as the GT key has always held them: all but the sensing model,
-    which the GT does not use (it is measured ideally, `inspectable_points`)."""
+    """The sensor's geometry as the GT key has always held it: all but the sensing model, which
+    `_cache_key` adds where it is not the ideal one."""
     return tuple(getattr(sensor, field.name) for field in dataclasses.fields(sensor)
                  if field.name not in ("sensing", "structured_light"))
 

@@ -96,6 +96,13 @@ class StructuredLight:
         return (math.cos(math.radians(self.max_incidence_deg)),
                 math.cos(math.radians(self.projector_max_incidence_deg)))
 
+    def limits_only(self) -> StructuredLight:
+        """The same sensor without noise and dropout: its deterministic limits (the projector's
+        shadow, the incidence limits). What some view of it can measure at all is what this
+        model measures: a point that a frame keeps with a probability above 0 is inspectable,
+        since dropout is drawn anew per frame, and noise moves a point without losing it."""
+        return dataclasses.replace(self, noise_sigma_m=0.0, dropout_grazing=0.0)
+
     def noise_sigma(self, depth: np.ndarray, cos_incidence: np.ndarray) -> np.ndarray:
         """sigma(z, theta) = sigma_0 (z / z_0)^2 / cos(theta), per point (metres)."""
         return self.noise_sigma_m * (depth / self.noise_distance_m) ** 2 / cos_incidence

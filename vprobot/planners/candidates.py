@@ -17,7 +17,8 @@ a view is executed); it then acquires from the FK pose of that configuration, ro
 Without the robot every candidate is usable at its look-at pose.
 
 Visibility of the ground-truth points from every usable candidate is predicted by
-`VisibilityRenderer` (all candidates in a few numpy passes); planners confirm the candidates they
+`VisibilityRenderer` (all candidates in a few numpy passes), within the sensing model's
+deterministic limits (projector shadow, incidence limits); planners confirm the candidates they
 are about to take with a simulated acquisition (`measured`).
 
 The band candidates (`band_candidates`) know nothing of the object: `BAND_COUNT` look-at views
@@ -191,7 +192,8 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
     start = time.perf_counter()
     ground_truth = scene.ground_truth
     renderer = VisibilityRenderer(scene.mesh.mesh, scene.sensor.sensor, resolution,
-                                  tolerance_m=EPSILON_PER_SPACING * ground_truth.spacing_m)
+                                  tolerance_m=EPSILON_PER_SPACING * ground_truth.spacing_m,
+                                  sensing=scene.sensor.sensing)
     to_mesh = episode.object_pose.inverse()
     indices = np.flatnonzero(usable)
     visibility = np.zeros((count, len(ground_truth.points)), dtype=bool)

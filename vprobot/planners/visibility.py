@@ -15,6 +15,13 @@ occluder in front covers all four; only a band of about a pixel along occluding 
 ambiguous. Triangles facing away from the sensor are culled when the mesh is watertight (a
 closed surface is always first met from its front). The fixture and the robot are not modelled:
 they hide little from the candidate views, and executed views are measured by the real sensor.
+
+Under a `structured_light` sensing model the prediction follows the model's deterministic limits
+(docs/sensor.md#sensing; its noise and dropout are drawn per frame and left to the confirming
+acquisitions): a point is visible only where the camera ray and the projector ray meet its
+surface (the nearest triangle's normal) within their incidence limits from the same side, and
+where the projector, at the baseline along the sensor's x axis, sees it by the same depth test on
+a grid of the camera's pixel pitch wide enough to hold every point the camera can see.
 """
 
 from __future__ import annotations
@@ -24,9 +31,11 @@ import dataclasses
 import numpy as np
 import trimesh
 
+from vprobot.config import MAX_FOV_DEG
 from vprobot.geometry import Pose
 from vprobot.progress import stage
 from vprobot.raster import covered_pixels, index_range, max3, min3
+from vprobot.sensing import IDEAL, SensingModel, StructuredLight
 from vprobot.sensor_model import SensorModel
 
 DEFAULT_RESOLUTION = (86, 60)
@@ -69,6 +78,7 @@ class VisibilityRenderer:
         sensor: The sensor's geometry (opening angles and range).
         resolution: (width, height) of the coarse grid.
         tolerance_m: How far behind the visible surface a point may lie and still count.
+        sensing: The sensing model whose deterministic limits the prediction follows.
 
     Raises:
         ValueError: If the mesh has no faces, the resolution is not two integers >= 2, or the
@@ -76,7 +86,8 @@ class VisibilityRenderer:
     """
 
     def __init__(self, mesh: trimesh.Trimesh, sensor: SensorModel,
-                 resolution: tuple[int, int] = DEFAULT_RESOLUTION, tolerance_m: float = 0.002):
+                 resolution: tuple[int, int] = DEFAULT_RESOLUTION, tolerance_m: float = 0.002,
+                 sensing: SensingModel = IDEAL):
         if len(mesh.faces) == 0:
             raise ValueError("mesh has no faces: nothing to render")
         if len(resolution) != 2 or not all(isinstance(n, int | np.integer) and n >= 2
@@ -96,6 +107,28 @@ class VisibilityRenderer:
         self.u, self.v = self.sensor.pixel_tangents
         self._du = self.u[1] - self.u[0]
         self._dv = self.v[1] - self.v[0]
+        self.sensing = sensing
+        self._mesh = mesh
+        self._projector = (self._projector_renderer(mesh, sensing)
+                           if isinstance(sensing, StructuredLight) else None)
+
+    def _projector_renderer(self, mesh: trimesh.Trimesh,
+                            sensing: StructuredLight) -> VisibilityRenderer:
+        """An ideal renderer from the projector's centre, on the camera's pixel pitch, whose
+        frustum holds every point the camera can see: at depth z the projector's tangent along x
+        is the camera's less baseline / z, and z >= near / |(u, v, 1)| at the frame's corner."""
+        half_x, half_y = self.sensor.half_tangents
+        near_depth = self.sensor.near_m / np.sqrt(1.0 + half_x**2 + half_y**2)
+        wide_x = half_x + sensing.baseline_m / max(near_depth, _MIN_DEPTH)
+        width = int(np.ceil(self.resolution[0] * wide_x / half_x))
+        # A projector wider than a sensor may be lights no more than that (real ones are
+        # narrower): points beyond it count as dark.
+        fov_x = min(float(np.degrees(2.0 * np.arctan(wide_x))), MAX_FOV_DEG)
+        # Its rays run up to a baseline longer than the camera's; z is the camera's.
+        sensor = SensorModel((width, self.resolution[1]), (fov_x, self.sensor.fov_deg[1]), 0.0,
+                             self.sensor.far_m + sensing.baseline_m,
+                             self.sensor.working_distance_m)
+        return VisibilityRenderer(mesh, sensor, sensor.resolution, self.tolerance_m)
 
     def visible(self, poses: list[Pose], points: np.ndarray) -> np.ndarray:
         """Which points (n, 3) each pose sees; poses and points in the mesh frame.
@@ -115,7 +148,30 @@ class VisibilityRenderer:
                 result[start:start + len(batch)] = self._points_visible(depth, positions,
                                                                         rotations, points)
                 bar.update(len(batch))
+        if self._projector is not None:
+            result &= self._within_limits(poses, points)
         return result
+
+    def _within_limits(self, poses: list[Pose], points: np.ndarray) -> np.ndarray:
+        """Which points (n, 3) each pose's projector lights within both incidence limits."""
+        sensing = self.sensing
+        min_camera, min_projector = sensing.min_cos_incidence
+        _, _, triangle = self._mesh.nearest.on_surface(points)
+        normals = self.normals[triangle]
+        positions = np.array([pose.position for pose in poses])
+        lights = positions + sensing.baseline_m * np.array([pose.rotation[:, 0]
+                                                            for pose in poses])
+
+        def cos_incidence(origins: np.ndarray) -> np.ndarray:
+            rays = points[None] - origins[:, None]
+            return (np.einsum("kij,ij->ki", rays, normals) / np.linalg.norm(rays, axis=2))
+
+        cos_camera, cos_projector = cos_incidence(positions), cos_incidence(lights)
+        within = ((np.abs(cos_camera) >= min_camera) & (np.abs(cos_projector) >= min_projector)
+                  & (cos_camera * cos_projector > 0.0))
+        return within & self._projector.visible(
+            [Pose(light, pose.rotation) for light, pose in zip(lights, poses, strict=True)],
+            points)
 
     def depth_maps(self, positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
         """Z-depth of the nearest triangle at every pixel centre, per pose (k, h, w); inf where

@@ -18,12 +18,13 @@ that held on families the estimate had not seen, and it grows where the members 
 unfamiliar inputs) rather than everywhere.
 
 What the estimator was fit on is recorded with it (`TrainingDomain`: each feature's range over
-the training rows, the sensor, the planners, and how much unexplored space the training views
-showed where the estimate claimed the goal), and `EstimateTracker` states the estimate as a
-stop rule may use it: refused for another sensor or a feature far outside its range, widened a
-little outside it, never raised by a view that added no new surface, and held back from a stop
-where more space is unexplored than on any training view it claimed the goal on (cavities no
-view has seen into, which the estimate takes for solid material).
+the training rows, the sensor and its sensing model, the planners, and how much unexplored
+space the training views showed where the estimate claimed the goal), and `EstimateTracker`
+states the estimate as a stop rule may use it: refused for another sensor, another sensing model
+or a feature far outside its range, widened a little outside it, never raised by a view that
+added no new surface, and held back from a stop where more space is unexplored than on any
+training view it claimed the goal on (cavities no view has seen into, which the estimate takes
+for solid material).
 
 Training uses torch; `estimate` is plain numpy, so that a stop rule needs neither torch nor a
 pickle: the weights are stored as arrays in an `.npz` file.
@@ -110,6 +111,8 @@ class TrainingDomain:
         planners: The rollouts' planners.
         claimed: Per feature, the most of it a stop may see (`claim_limits`; +inf: any);
             None: not recorded (files before format 4).
+        sensing: The sensing model of the rollouts (`ideal` or `structured_light`); files that
+            do not record it were fit before the model existed, on `ideal`.
 
     Raises:
         ValueError: For ranges of different lengths, not finite or with low > high, a sensor
@@ -121,6 +124,7 @@ class TrainingDomain:
     sensor: tuple[float, ...]
     planners: tuple[str, ...]
     claimed: np.ndarray | None = None
+    sensing: str = "ideal"
 
     def __post_init__(self) -> None:
         low, high = np.asarray(self.low, dtype=float), np.asarray(self.high, dtype=float)
@@ -143,7 +147,7 @@ class TrainingDomain:
         with the limits of the claims (`claim_limits`) if given."""
         x = np.asarray(features, dtype=float)
         return cls(x.min(axis=0), x.max(axis=0), sensor_geometry(sensor), tuple(planners),
-                   claimed)
+                   claimed, sensor.sensing)
 
     def outside(self, features: np.ndarray) -> np.ndarray:
         """How far each feature lies outside its range, in units of the range (0 inside; a
@@ -277,7 +281,8 @@ class CoverageEstimator:
         if self.domain is not None:
             arrays |= {"domain_low": self.domain.low, "domain_high": self.domain.high,
                        "domain_sensor": np.array(self.domain.sensor),
-                       "domain_planners": np.array(self.domain.planners)}
+                       "domain_planners": np.array(self.domain.planners),
+                       "domain_sensing": np.array(self.domain.sensing)}
             if self.domain.claimed is not None:
                 arrays["domain_claimed"] = self.domain.claimed
         for m, member in enumerate(self.layers):
@@ -310,7 +315,9 @@ class CoverageEstimator:
                                          tuple(float(v) for v in data["domain_sensor"]),
                                          tuple(str(name) for name in data["domain_planners"]),
                                          data["domain_claimed"] if "domain_claimed" in data.files
-                                         else None)
+                                         else None,
+                                         str(data["domain_sensing"])
+                                         if "domain_sensing" in data.files else "ideal")
                           if "domain_low" in data.files else None)
                 return cls(tuple(str(name) for name in data["features"]), data["shift"],
                            data["scale"], layers, unseen, domain)
@@ -481,7 +488,8 @@ def _describe(geometry: Sequence[float]) -> str:
 class EstimateTracker:
     """An episode's estimates view by view, as `--stop estimate` states and uses them.
 
-    - Another sensor than the fit's (`TrainingDomain.sensor`): every estimate is refused.
+    - Another sensor than the fit's (`TrainingDomain.sensor`) or another sensing model
+      (`TrainingDomain.sensing`): every estimate is refused.
     - No view acquired yet: refused (nothing to estimate from).
     - A view that grew the occupied voxels by less than `NEW_SURFACE` since the estimate last
       stated keeps that estimate: a view that adds no new surface never raises it.
@@ -528,6 +536,10 @@ class EstimateTracker:
             if not np.allclose(geometry, domain.sensor):
                 self._refusal = (f"not used: fitted on sensor {_describe(domain.sensor)}, this "
                                  f"run uses {_describe(geometry)}")
+            elif config.sensor.sensing != domain.sensing:
+                # What a frame holds, and so every feature, depends on the sensing model.
+                self._refusal = (f"not used: fitted on the {domain.sensing} sensing model, this "
+                                 f"run uses {config.sensor.sensing}")
             if planner is not None and not any(
                     label == planner or (label.startswith(planner)
                                          and label[len(planner):].isdigit())
