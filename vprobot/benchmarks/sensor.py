@@ -20,7 +20,7 @@ from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.scene import Cell
-from vprobot.sensing import StructuredLight
+from vprobot.sensing import IDEAL, StructuredLight
 from vprobot.sensor import TRAINING_RESOLUTION, DepthSensor
 
 MAX_POLAR_DEG = 120.0
@@ -111,7 +111,8 @@ def run_sensor_benchmark(config: Config, views: int = 20, coverage_views: int = 
     cell = Cell(config, mesh)
     arm = RobotArm(cell)
     data = cell.make_data()
-    sensor = DepthSensor(cell)
+    # Ideal explicitly: a real-device preset's own default is the structured-light model.
+    sensor = DepthSensor(cell, sensing=IDEAL)
     light, light_source = _structured_light(config)
     structured = DepthSensor(cell, sensing=light)
     configurations = _random_reachable_views(arm, max(views, coverage_views), seed=7,
@@ -157,7 +158,8 @@ def run_sensor_benchmark(config: Config, views: int = 20, coverage_views: int = 
     gt_build_s = time.perf_counter() - start
 
     resolutions = (TRAINING_RESOLUTION, *OTHER_RESOLUTIONS)
-    coarse = {resolution: DepthSensor(cell, resolution=resolution) for resolution in resolutions}
+    coarse = {resolution: DepthSensor(cell, resolution=resolution, sensing=IDEAL)
+              for resolution in resolutions}
     differences: dict[tuple[int, int], list[float]] = {r: [] for r in resolutions}
     coarse_ms: list[float] = []
     for q in tqdm(configurations[:coverage_views], desc="training resolution",
