@@ -1,0 +1,154 @@
+"""Draw one acquisition under both sensing models into docs/media/sensing.png (README).
+
+The bundled motor stands in the cell with the Zivid 2+ MR60 preset on the UR10; the robot
+reaches one look-at view at the working distance, and the sensor measures from there under
+`ideal` and under `structured_light` (docs/sensor.md#sensing). The panels are the camera image:
+the ideal frame's depth, the structured-light frame's depth, and which ideal points the
+structured-light model lost and why. The causes are told apart by measuring the same frame
+under three reductions of the preset's model, each losing a subset of the next one's points:
+the projector alone (limits at 90 deg, no noise, no dropout: its shadow, including surfaces it
+lights from behind), then the incidence limits (`limits_only`), then the dropout (the full
+model, drawn from the frame's own seeded generator). Nothing is random between runs.
+
+    python scripts/make_sensing_picture.py [--resolution 612 512] [--out docs/media/sensing.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import itertools
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import ListedColormap
+
+from vprobot.config import load_config, with_sensor
+from vprobot.geometry import Pose, rotation_about_z
+from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.kinematics.collision import CollisionChecker
+from vprobot.mesh_loading import load_mesh
+from vprobot.paths import DEFAULT_MOTOR
+from vprobot.scene import Cell
+from vprobot.sensing import IDEAL, StructuredLight
+from vprobot.sensor import Acquisition, DepthSensor
+
+OUT = Path(__file__).resolve().parent.parent / "docs" / "media" / "sensing.png"
+PRESET = "zivid2plus_mr60"
+RESOLUTION = (612, 512)
+"""A quarter of the Zivid's 2448 x 2048 along each axis, as the sensing study uses."""
+OBJECT_YAW_RAD = 0.6
+"""Turn the motor a little so that its long axis is not parallel to the camera's view."""
+POLAR_DEG = 55.0
+"""The view's angle from straight above: the motor's top and one side at once."""
+AZIMUTHS_DEG = (120.0, 90.0, 150.0)
+"""Azimuths tried in turn, the first one the robot reaches drawn: 120 deg looks at the motor
+from the side away from the robot, which hides none of it there."""
+CAUSES = ("projector shadow", "beyond an incidence limit", "dropout")
+CAUSE_COLOURS = ("#7b3294", "#e66101", "#1b9e77")
+KEPT_COLOUR = "#e4e4e4"
+
+
+def _reached_view(cell: Cell, rotation: np.ndarray) -> tuple[Pose, np.ndarray, float]:
+    """The sensor pose and joints of the first look-at view the robot reaches, and its
+    azimuth (degrees)."""
+    arm = RobotArm(cell)
+    collisions = CollisionChecker(cell, rotation)
+    center = cell.object_center
+    distance = cell.config.sensor.working_distance_m
+    polar = np.deg2rad(POLAR_DEG)
+    for azimuth in AZIMUTHS_DEG:
+        a = np.deg2rad(azimuth)
+        direction = np.array([np.sin(polar) * np.cos(a), np.sin(polar) * np.sin(a),
+                              np.cos(polar)])
+        target = SensorTarget.look_at(center + distance * direction, center)
+        result = arm.reach(target, cell.joints.home, collisions)
+        if result.reachable:
+            return arm.fk(result.q), result.q, azimuth
+    raise RuntimeError(f"the robot reaches none of the azimuths {AZIMUTHS_DEG}")
+
+
+def _depth_image(acquisition: Acquisition, resolution: tuple[int, int]) -> np.ndarray:
+    """The frame's depth along the optical axis per pixel (NaN where nothing was measured)."""
+    width, height = resolution
+    image = np.full(width * height, np.nan)
+    image[acquisition.pixels] = ((acquisition.points_world - acquisition.sensor_pose.position)
+                                 @ acquisition.sensor_pose.rotation[:, 2])
+    return image.reshape(height, width)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--resolution", type=int, nargs=2, default=RESOLUTION,
+                        metavar=("WIDTH", "HEIGHT"))
+    parser.add_argument("--out", type=Path, default=OUT)
+    args = parser.parse_args()
+    resolution = tuple(args.resolution)
+    config = with_sensor(load_config(), PRESET)
+    model = config.sensor.sensing_model
+    assert isinstance(model, StructuredLight), f"{PRESET} defaults to structured light"
+    cell = Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
+    rotation = rotation_about_z(OBJECT_YAW_RAD)
+    pose, joints, azimuth = _reached_view(cell, rotation)
+    shadow_only = dataclasses.replace(model.limits_only(), max_incidence_deg=90.0,
+                                      projector_max_incidence_deg=90.0)
+    # From the most to the fewest points: each model keeps a subset of the one before.
+    models = {"ideal": IDEAL, "shadow": shadow_only, "limits": model.limits_only(),
+              "structured_light": model}
+    frames = {name: DepthSensor(cell, resolution=resolution, sensing=sensing)
+              .acquire_at(pose, rotation, joints)
+              for name, sensing in models.items()}
+    ideal, measured = frames["ideal"], frames["structured_light"]
+    width, height = resolution
+    lost = np.zeros(width * height)
+    kept = [set(frames[name].pixels.tolist()) for name in models]
+    counts = []
+    for cause, (before, after) in enumerate(itertools.pairwise(kept), start=1):
+        gone = np.array(sorted(before - after), dtype=np.int64)
+        lost[gone] = cause
+        counts.append(len(gone))
+    lost[measured.pixels] = 0  # kept: drawn pale, for the motor's outline
+    lost[np.setdiff1d(np.arange(width * height), ideal.pixels)] = np.nan
+
+    # The motor fills a part of the frame: the panels show the box around its ideal points.
+    rows, columns = np.divmod(ideal.pixels, width)
+    margin = 10
+    crop = (slice(max(rows.min() - margin, 0), rows.max() + margin + 1),
+            slice(max(columns.min() - margin, 0), columns.max() + margin + 1))
+    figure, axes = plt.subplots(1, 3, figsize=(15, 4.3))
+    depths = [_depth_image(frame, resolution)[crop] for frame in (ideal, measured)]
+    low, high = np.nanpercentile(depths[0], [1, 99])
+    titles = [f"ideal: {len(ideal):,} points",
+              f"structured light: {len(measured):,} points "
+              f"({100 * len(measured) / len(ideal):.1f} %)"]
+    for ax, depth, title in zip(axes, depths, titles, strict=False):
+        shown = ax.imshow(depth, cmap="viridis", vmin=low, vmax=high, interpolation="nearest")
+        ax.set_title(title, fontsize=10)
+    figure.colorbar(shown, ax=axes[:2], shrink=0.8, label="depth (m)")
+    axes[2].imshow(lost.reshape(height, width)[crop],
+                   cmap=ListedColormap((KEPT_COLOUR, *CAUSE_COLOURS)), vmin=-0.5, vmax=3.5,
+                   interpolation="nearest")
+    axes[2].set_title(f"lost: {len(ideal) - len(measured):,} points (grey: kept)", fontsize=10)
+    labels = [f"{cause} ({count:,})" for cause, count in zip(CAUSES, counts, strict=True)]
+    axes[2].legend(handles=[plt.Rectangle((0, 0), 1, 1, color=colour)
+                            for colour in CAUSE_COLOURS], labels=labels,
+                   loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
+    for ax in axes:
+        ax.set_xticks([])
+        ax.set_yticks([])
+    figure.suptitle(f"Bundled motor, Zivid 2+ MR60 preset at {width} x {height}, one view the "
+                    f"UR10 reaches (azimuth {azimuth:.0f} deg, {POLAR_DEG:.0f} deg from above); "
+                    f"projector {1000 * model.baseline_m:.0f} mm along +x (right)", fontsize=10)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(args.out, dpi=80, bbox_inches="tight")
+    print(f"ideal {len(ideal)} points, structured light {len(measured)}; lost: "
+          + ", ".join(f"{cause} {count}" for cause, count in zip(CAUSES, counts, strict=True)))
+    print(f"wrote {args.out} ({args.out.stat().st_size // 1024} KB)")
+
+
+if __name__ == "__main__":
+    main()
