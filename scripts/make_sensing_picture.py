@@ -81,6 +81,28 @@ def _depth_image(acquisition: Acquisition, resolution: tuple[int, int]) -> np.nd
     return image.reshape(height, width)
 
 
+def acquire_frames(resolution: tuple[int, int]
+                   ) -> tuple[dict[str, Acquisition], float, StructuredLight]:
+    """The picture's view measured under `ideal`, the projector alone, the incidence limits and
+    the full structured-light model, in that order (each keeps a subset of the one before's
+    pixels); the view's azimuth (degrees) and the preset's model."""
+    config = with_sensor(load_config(), PRESET)
+    model = config.sensor.sensing_model
+    if not isinstance(model, StructuredLight):
+        raise ValueError(f"{PRESET} must default to structured light, got {model.name}")
+    cell = Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
+    rotation = rotation_about_z(OBJECT_YAW_RAD)
+    pose, joints, azimuth = _reached_view(cell, rotation)
+    shadow_only = dataclasses.replace(model.limits_only(), max_incidence_deg=90.0,
+                                      projector_max_incidence_deg=90.0)
+    models = {"ideal": IDEAL, "shadow": shadow_only, "limits": model.limits_only(),
+              "structured_light": model}
+    frames = {name: DepthSensor(cell, resolution=resolution, sensing=sensing)
+              .acquire_at(pose, rotation, joints)
+              for name, sensing in models.items()}
+    return frames, azimuth, model
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolution", type=int, nargs=2, default=RESOLUTION,
@@ -88,24 +110,11 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
     resolution = tuple(args.resolution)
-    config = with_sensor(load_config(), PRESET)
-    model = config.sensor.sensing_model
-    assert isinstance(model, StructuredLight), f"{PRESET} defaults to structured light"
-    cell = Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
-    rotation = rotation_about_z(OBJECT_YAW_RAD)
-    pose, joints, azimuth = _reached_view(cell, rotation)
-    shadow_only = dataclasses.replace(model.limits_only(), max_incidence_deg=90.0,
-                                      projector_max_incidence_deg=90.0)
-    # From the most to the fewest points: each model keeps a subset of the one before.
-    models = {"ideal": IDEAL, "shadow": shadow_only, "limits": model.limits_only(),
-              "structured_light": model}
-    frames = {name: DepthSensor(cell, resolution=resolution, sensing=sensing)
-              .acquire_at(pose, rotation, joints)
-              for name, sensing in models.items()}
+    frames, azimuth, model = acquire_frames(resolution)
     ideal, measured = frames["ideal"], frames["structured_light"]
     width, height = resolution
     lost = np.zeros(width * height)
-    kept = [set(frames[name].pixels.tolist()) for name in models]
+    kept = [set(frame.pixels.tolist()) for frame in frames.values()]
     counts = []
     for cause, (before, after) in enumerate(itertools.pairwise(kept), start=1):
         gone = np.array(sorted(before - after), dtype=np.int64)
