@@ -174,3 +174,17 @@ def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(
     specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
     evaluate(CONFIG, ["agent:cpu"], specs, tmp_path, progress=True, carriers=["free"])
     assert capsys.readouterr().err.startswith("loading agent cpu ...\n")
+
+
+def test_an_agent_asked_to_plan_with_another_sensor_says_which_it_was_trained_with() -> None:
+    """The agent's observations are built from its training sensor's frames (430 x 300 rays for
+    the bundled ones); another sensor's frames used to index past that grid (an IndexError deep
+    in the occupancy grid). Now the planner is refused, naming both sensors."""
+    from vprobot.config import with_sensor
+    from vprobot.planners.runner import make_planner
+
+    with pytest.raises(ValueError, match=r"agent cpu was trained with the sensor 430 x 300 rays, "
+                                         r"27 x 25 deg, 0.3-0.5 m and plans only with it; this "
+                                         r"run's sensor is 2448 x 2048 rays"):
+        make_planner("agent:cpu", with_sensor(CONFIG, "zivid2plus_mr60"))
+    assert isinstance(make_planner("agent:cpu", CONFIG), AgentPlanner)

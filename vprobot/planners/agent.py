@@ -22,6 +22,7 @@ from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
 from vprobot.planners.base import Planner, check_views, register_planner
 from vprobot.progress import note
+from vprobot.sensor_model import SensorModel
 
 
 @register_planner
@@ -64,8 +65,20 @@ class AgentPlanner(Planner):
 
     @classmethod
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
-        """The agent of `agent:NAME` or `agent:PATH`, or the default bundled one (`agent`)."""
-        return cls(params.get("source"), views)
+        """The agent of `agent:NAME` or `agent:PATH`, or the default bundled one (`agent`).
+
+        Raises:
+            ValueError: If `config`'s sensor is not the one the agent was trained with (its
+                observations are built from that sensor's frames).
+        """
+        planner = cls(params.get("source"), views)
+        trained, given = (SensorModel.from_config(sensor)
+                          for sensor in (planner.agent.config.sensor, config.sensor))
+        if trained != given:
+            raise ValueError(f"agent {params.get('source') or 'generalist (bundled)'} was "
+                             f"trained with the sensor {_describe(trained)} and plans only with "
+                             f"it; this run's sensor is {_describe(given)}")
+        return planner
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._rng = rng
@@ -85,3 +98,9 @@ class AgentPlanner(Planner):
             self.stop_reason = "stop action"
             return None
         return self.observer.request(self.mapping, action, episode.center, self.roll_free)
+
+
+def _describe(sensor: SensorModel) -> str:
+    width, height = sensor.resolution
+    return (f"{width} x {height} rays, {sensor.fov_deg[0]:g} x {sensor.fov_deg[1]:g} deg, "
+            f"{sensor.near_m:g}-{sensor.far_m:g} m")
