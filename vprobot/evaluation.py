@@ -47,7 +47,7 @@ from vprobot.episode import (
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
-from vprobot.files import append_line, csv_text, exclusive_lock, save_figure, write_text
+from vprobot.files import append_line, csv_text, folder_lock, save_figure, write_text
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -68,8 +68,6 @@ EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_p
 PLOT_NAME = "coverage_vs_views.png"
 SETTINGS_NAME = "evaluation_settings.json"
 """The settings an evaluation folder's rows were run with (the config and the estimator)."""
-LOCK_NAME = "evaluation.lock"
-"""Locked by the process evaluating into the folder (holds its pid)."""
 PAPER_TABLE_9 = (
     ("agent 8 (A_2S0R)", 92.20, 5.26, 0.0521),
     ("agent 9 (A_3S0R)", 92.16, 4.63, 0.0538),
@@ -491,7 +489,7 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     rerun into the same folder skips the episodes already there (a damaged row is dropped and
     its episode run again). On Ctrl-C (or SIGTERM via the CLI) the tables and the plot of the
     finished episodes are written before the interrupt goes on. The folder is locked
-    (`evaluation.lock`) while this runs, and records the settings (`evaluation_settings.json`)
+    (`folder.lock`) while this runs, and records the settings (`evaluation_settings.json`)
     that a rerun must share. A planner, carrier or stop rule given twice runs once.
 
     Args:
@@ -537,7 +535,6 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     with showing_progress() if progress else contextlib.nullcontext():
         _check_inputs(config, specs, parsed, estimator)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     rows_path = out / "evaluation_episodes.csv"
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
               for label, *_ in parsed}
@@ -547,7 +544,7 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
                 if (row["episode"], row["carrier"], row["planner"]) in wanted]
 
     # Two evaluations appending to one table would both run its missing episodes.
-    with exclusive_lock(out / LOCK_NAME, str(out)):
+    with folder_lock(out, str(out)):
         # Read first: a folder holding an older version's table is refused before anything is
         # written into it.
         rows = recorded()
