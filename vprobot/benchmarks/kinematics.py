@@ -10,7 +10,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import Config
-from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.kinematics import UNSOLVED, RobotArm, SensorTarget
 from vprobot.kinematics.survey import (
     VIEW_SPHERE_CANDIDATES,
     default_cell,
@@ -58,7 +58,7 @@ def run_kinematics_benchmark(
         start = time.perf_counter()
         result = arm.reach(target, arm.joints.home)
         ik_ms.append((time.perf_counter() - start) * 1e3)
-        converged += result.reason not in ("out_of_reach", "did_not_converge", "joint_limits")
+        converged += result.reason not in UNSOLVED
 
     rng = np.random.default_rng(12)
     far_ms = []

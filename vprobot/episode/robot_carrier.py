@@ -10,7 +10,7 @@ from vprobot.episode.carrier import Carrier, CarrierName
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.geometry import Pose
-from vprobot.kinematics import ReachResult
+from vprobot.kinematics import UNSOLVED, ReachResult
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.sensor import Acquisition
 
@@ -77,7 +77,7 @@ class RobotCarrier(Carrier):
 
     def _feasible_nearest(self, result: ReachResult, q_from: np.ndarray) -> bool:
         """Whether the configuration a failed IK ended in can be driven to and used."""
-        return (result.reason in ("out_of_reach", "did_not_converge", "joint_limits")
+        return (result.reason in UNSOLVED
                 and self.arm.joints.within_limits(result.q)
                 and not self.collisions.in_collision(result.q)
                 and self.path_is_free(q_from, result.q))

@@ -1,6 +1,12 @@
 """Robot kinematics of the inspection cell: FK, IK, collisions, joint-space paths, travel."""
 
-from vprobot.kinematics.arm import FAILURE_REASONS, OUT_OF_REACH, ReachResult, RobotArm
+from vprobot.kinematics.arm import (
+    FAILURE_REASONS,
+    OUT_OF_REACH,
+    UNSOLVED,
+    ReachResult,
+    RobotArm,
+)
 from vprobot.kinematics.ik import IKAttempt, IKSolver, SensorTarget
 from vprobot.kinematics.travel import TRAVEL_COSTS, TravelCost
 
@@ -8,6 +14,7 @@ __all__ = [
     "FAILURE_REASONS",
     "OUT_OF_REACH",
     "TRAVEL_COSTS",
+    "UNSOLVED",
     "IKAttempt",
     "IKSolver",
     "ReachResult",

@@ -49,6 +49,8 @@ FAILURE_REASONS: tuple[FailureReason, ...] = (
 """The stages an IK attempt fails at, in order; a failure carries the furthest one reached."""
 OUT_OF_REACH: FailureReason = "out_of_reach"
 """The failure of a target farther from the shoulder than the arm reaches: no attempt is made."""
+UNSOLVED: tuple[FailureReason, ...] = (OUT_OF_REACH, "did_not_converge", "joint_limits")
+"""The failures without a valid IK solution (the others found one that collides)."""
 
 
 @dataclasses.dataclass(frozen=True)
