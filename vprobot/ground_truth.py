@@ -270,7 +270,7 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     """`<mesh hash>-<settings hash>`: the mesh, plus everything that shapes its GT."""
     settings = (_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
                 ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
-                _sensor_geometry(config.sensor), _robot_digest(config.cell.robot))
+                _sensor_settings(config.sensor), _robot_digest(config.cell.robot))
     sensing = gt_sensing(config.sensor)
     if isinstance(sensing, StructuredLight):
         # Only a model other than the ideal one joins the key: the ideal GTs keep the keys they
@@ -281,8 +281,8 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(settings.encode()).hexdigest()[:16]}"
 
 
-def _sensor_geometry(sensor: SensorConfig) -> tuple[Any, ...]:
-    """The sensor's geometry as the GT key has always held it: all but the sensing model, which
+def _sensor_settings(sensor: SensorConfig) -> tuple[Any, ...]:
+    """The sensor's settings as the GT key has always held them: all but the sensing model, which
     `_cache_key` adds where it is not the ideal one."""
     return tuple(getattr(sensor, field.name) for field in dataclasses.fields(sensor)
                  if field.name not in ("sensing", "structured_light"))
