@@ -263,11 +263,12 @@ def command_render(args: argparse.Namespace) -> int:
     _check_render_outputs(args, args.out, "--out")
     config = _config(args)
     if args.plan:
-        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "robot", "sensor")
+        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "robot", "sensor", "sensing")
                  if getattr(args, name) is not None]
         if given:
             raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose, robot, "
-                             f"sensor and views; {', '.join(given)} cannot be combined with it")
+                             f"sensor, sensing model and views; {', '.join(given)} cannot be "
+                             f"combined with it")
         with showing_progress():
             scene, record = episode_from_plan(config, args.plan)
     else:

@@ -149,6 +149,17 @@ class TrainingDomain:
         return cls(x.min(axis=0), x.max(axis=0), sensor_geometry(sensor), tuple(planners),
                    claimed, sensor.sensing)
 
+    def sensor_mismatch(self, sensor: SensorConfig) -> str | None:
+        """Why frames of `sensor` are not those the estimate was fitted on, or None."""
+        geometry = sensor_geometry(sensor)
+        if not np.allclose(geometry, self.sensor):
+            return (f"fitted on sensor {_describe(self.sensor)}, this run uses "
+                    f"{_describe(geometry)}")
+        if sensor.sensing != self.sensing:
+            # What a frame holds, and so every feature, depends on the sensing model.
+            return f"fitted on the {self.sensing} sensing model, this run uses {sensor.sensing}"
+        return None
+
     def outside(self, features: np.ndarray) -> np.ndarray:
         """How far each feature lies outside its range, in units of the range (0 inside; a
         feature whose training rows all had one value is infinitely far from any other)."""
@@ -532,14 +543,8 @@ class EstimateTracker:
             self._note("not checked for unexplored space beyond that of its claims in training: "
                        "its file records no limits (format before 4)")
         if domain is not None:
-            geometry = sensor_geometry(config.sensor)
-            if not np.allclose(geometry, domain.sensor):
-                self._refusal = (f"not used: fitted on sensor {_describe(domain.sensor)}, this "
-                                 f"run uses {_describe(geometry)}")
-            elif config.sensor.sensing != domain.sensing:
-                # What a frame holds, and so every feature, depends on the sensing model.
-                self._refusal = (f"not used: fitted on the {domain.sensing} sensing model, this "
-                                 f"run uses {config.sensor.sensing}")
+            mismatch = domain.sensor_mismatch(config.sensor)
+            self._refusal = None if mismatch is None else f"not used: {mismatch}"
             if planner is not None and not any(
                     label == planner or (label.startswith(planner)
                                          and label[len(planner):].isdigit())

@@ -262,13 +262,18 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
         with `view` "all".
 
     Raises:
-        ValueError: For an unknown list, planner or estimator file, two lists of one name, or a
-            folder holding rollouts drawn otherwise or in use by another process.
+        ValueError: For an unknown list, planner or estimator file, an estimator fitted on
+            another sensor or sensing model, two lists of one name, or a folder holding rollouts
+            drawn otherwise or in use by another process.
     """
     planners = tuple(planners) if planners is not None else DEFAULT_PLANNERS
     for planner in planners:
         make_planner(planner, config)
     model = load_estimator(estimator)
+    mismatch = None if model.domain is None else model.domain.sensor_mismatch(config.sensor)
+    if mismatch is not None:
+        raise ValueError(f"the estimator cannot be scored on these rollouts: {mismatch}; fit one "
+                         f"on this sensor with `vprobot stop fit`")
     specs = {name: evaluation_episodes(config, episodes=entry)
              for name, entry in zip(list_names(lists), lists, strict=True)}
     recipes = {name: rollout_recipe(config, planners,
