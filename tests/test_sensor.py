@@ -13,7 +13,7 @@ from vprobot.geometry import Pose
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import MOTORS_DIR
 from vprobot.scene import Cell
-from vprobot.sensor import DepthSensor
+from vprobot.sensor import DepthSensor, _segments_meet_box
 from vprobot.sensor_model import SensorModel
 from vprobot.viewsphere import sphere_directions
 
@@ -302,3 +302,29 @@ def test_groups_leave_geoms_out(motor_cell: Cell) -> None:
     assert len(with_robot) == 0 and len(without_robot) > 1000
     with pytest.raises(ValueError, match="leave out the object"):
         DepthSensor(cell, groups=(0, 2))
+
+
+def test_segment_box_test_matches_dense_sampling_of_each_segment() -> None:
+    """The slab test against a brute-force reference: points every 0.1 mm along each segment,
+    one inside the box. Segments with a zero direction component (parallel to a face) included;
+    those that only graze the box (within 0.1 mm) are left out as undecidable by sampling."""
+    rng = np.random.default_rng(5)
+    half = np.array([0.2, 0.1, 0.05])
+    origin = np.array([0.05, -0.3, 0.02])
+    # Half of them aimed at points in the box, half anywhere.
+    directions = np.concatenate([rng.uniform(-half, half, (200, 3)) - origin,
+                                 rng.normal(size=(200, 3))])
+    directions[:50, 0] = 0.0  # parallel to the x faces, the origin between them
+    directions[50:100, 2] = 0.0  # and to the z faces
+    directions[200:250, 1] = 0.0  # parallel to the y faces, the origin outside them: no hit
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    length = rng.uniform(0.05, 0.8, 400)
+    steps = np.linspace(0.0, 1.0, 8001)
+    samples = origin + (steps[None, :, None] * length[:, None, None]) * directions[:, None, :]
+    # The deepest sample of each segment: <= 0 inside the box.
+    depth = np.min(np.max(np.abs(samples) - half, axis=2), axis=1)
+    meets = depth <= 0.0
+    decidable = np.abs(depth) > 1e-4
+    assert meets[decidable].sum() > 50 and (~meets[decidable]).sum() > 50
+    np.testing.assert_array_equal(
+        _segments_meet_box(origin, directions, length, half)[decidable], meets[decidable])
