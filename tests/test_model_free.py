@@ -18,7 +18,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.trained import TrainedAgent
 from vprobot.agents.training import build_model
-from vprobot.config import Config, replace
+from vprobot.config import Config, replace, with_sensing, with_sensor
 from vprobot.env.grid_state import FEATURES as GRID_FEATURES
 from vprobot.env.grid_state import candidate_count
 from vprobot.env.observations import observation_space
@@ -34,11 +34,13 @@ from vprobot.occupancy import (
     OccupancyGrid,
     ViewGains,
 )
+from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
 from vprobot.planners.candidates import band_candidates
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.planners.runner import make_planner, parse_planner
+from vprobot.planners.uniform import view_band
 from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
 from vprobot.stopping.rules import make_stop_rule
@@ -234,6 +236,22 @@ def test_uniform_views_are_the_same_whatever_the_object_and_its_pose(
         offsets = [view.requested.position - episode.center for view in episode.views]
         assert np.allclose(np.linalg.norm(offsets, axis=1), CONFIG.sensor.working_distance_m)
     assert len(seen[0]) == 5 and seen[0] == seen[1]
+
+
+@pytest.mark.parametrize("sensor", ["phoxi_m", "zivid2plus_mr60"])
+def test_uniform8_with_the_robot_and_a_real_sensor_takes_8_reachable_views_of_the_motor(
+        sensor: str) -> None:
+    """At these working distances the UR10 reaches no view of the band around the largest
+    object the cell fits: the band is screened around the part, reading no model."""
+    # Reachability does not depend on the sensing model; the ideal one builds the GT faster.
+    config = with_sensing(with_sensor(CONFIG, sensor), "ideal")
+    assert len(view_band(config, True)[0]) == 0
+    scene = MotorScene.load(config, DEFAULT_MOTOR, resolution=RESOLUTION)
+    episode = guarded_run(make_planner("uniform8", config), scene, "robot", views=9)
+    assert len(episode.views) == 8
+    assert all(view.reachable and view.acquired for view in episode.views)
+    offsets = [view.requested.position - episode.center for view in episode.views]
+    assert np.allclose(np.linalg.norm(offsets, axis=1), config.sensor.working_distance_m)
 
 
 def test_nbv_never_asks_again_for_a_view_near_an_earlier_one(bracket: MotorScene) -> None:

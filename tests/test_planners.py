@@ -11,7 +11,7 @@ import pytest
 import trimesh
 from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
-from vprobot.config import Config, with_sensing, with_sensor
+from vprobot.config import Config, replace, with_sensing, with_sensor
 from vprobot.coverage import CoverageTracker
 from vprobot.episode import Episode, EpisodeSpec, MotorScene, ViewRequest, seeded_episode
 from vprobot.geometry import Pose
@@ -327,15 +327,19 @@ def test_parse_planner() -> None:
 
 
 def test_uniform_targets_beyond_the_usable_band_name_the_count_and_the_way_out() -> None:
-    """With the Zivid preset and the robot, the band screened around the largest object the
-    cell fits leaves fewer views than uniform4 asks for: the error says how many are usable
-    and what to do, not an index range."""
-    from vprobot.config import with_sensor
-    from vprobot.planners.uniform import uniform_targets, view_band
+    """The Panda cannot hold the PhoXi M at its working distance (0.79 m) around the motor:
+    neither around the largest object the cell fits nor around the part itself does the band
+    leave 4 views, and the error says how many are usable and what to do, not an index range."""
+    from vprobot.planners.uniform import episode_band, uniform_targets, view_band
 
-    config = with_sensor(Config(), "zivid2plus_mr60")
-    usable = len(view_band(config, True)[0])
-    assert usable < 4
+    config = replace(with_sensing(with_sensor(CONFIG, "phoxi_m"), "ideal"), "cell",
+                     robot="panda")
+    episode = Episode.from_spec(MotorScene.load(config, DEFAULT_MOTOR, resolution=(43, 30)),
+                                seeded_episode(config.env, DEFAULT_MOTOR, 0), "robot")
+    enveloped, usable = len(view_band(config, True)[0]), len(episode_band(config, episode)[0])
+    assert enveloped < 4 and usable < 4
     with pytest.raises(ValueError, match=rf"uniform4 needs 4 views of the band, but only "
-                                         rf"{usable} are usable with robot 'ur10'.*--carrier free"):
-        uniform_targets(config, 4, True)
+                                         rf"{usable} are usable with robot 'panda'.* around this "
+                                         rf"part at its pose \({enveloped} around the largest "
+                                         rf"object.*--carrier free"):
+        uniform_targets(config, 4, episode)

@@ -1,4 +1,4 @@
-"""`uniform<k>`: k fixed look-at views spread evenly over the view band, whatever the object.
+"""`uniform<k>`: k fixed look-at views spread evenly over the view band.
 
 The view band is the part of the view sphere (working distance about the fixture's centre,
 from the top down to `ground_truth.MAX_POLAR_DEG`, 30 degrees below the equator: where the
@@ -13,7 +13,15 @@ each other as the band allows), found by farthest-point sampling and then moving
 neighbouring candidates while the energy drops. They depend on k and the cell only: not on the
 object, its pose or its mesh.
 
-With the robot, each view is reached from the configuration that reached it around the envelope
+Where the envelope leaves fewer than k views, the band is screened in the episode's own cell
+instead, around the part at its pose (the robot's collision checker holds it, as for every
+request; the mesh is not read). The envelope is far larger than the parts it is meant for where
+the working distance is long or the arm short: with the Zivid and PhoXi presets (0.6 m and more)
+the UR10 reaches no view around the 0.425 m sphere that its column bounds, with the UR5 and
+the Panda not even with the paper's sensor; around the bundled motor it reaches hundreds. The
+views then depend on the part's placement too.
+
+With the robot, each view is reached from the configuration that reached it in the screening
 (the IK checks it against the part's placement and restarts if need be); the reachable ones are
 ordered for short joint travel (the others follow and are reported unreachable when
 executed); free-flying, they are ordered for a short sensor path. The plan runs to its end: a fixed
@@ -33,6 +41,7 @@ from vprobot.episode import Episode, ViewRequest
 from vprobot.fit import fit_limit
 from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.kinematics.collision import CollisionChecker
 from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
@@ -47,22 +56,43 @@ from vprobot.viewsphere import sphere_directions
 _NEIGHBOURS = 8
 
 
+def _band() -> np.ndarray:
+    """Unit directions (`CANDIDATE_COUNT`, 3) of the band's candidates from the centre."""
+    return sphere_directions(CANDIDATE_COUNT, np.deg2rad(MAX_POLAR_DEG))
+
+
+def _reachable_band(arm: RobotArm, collisions: CollisionChecker, start_q: np.ndarray,
+                    center: np.ndarray, distance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Unit directions (n, 3) of the band's candidates that the arm reaches in the cell of
+    `collisions` with the view of `center` unhidden, and a configuration (n, dof) for each."""
+    directions = _band()
+    targets = look_at_targets(center, distance, directions)
+    joints, _ = screen_reachability(arm, collisions, start_q, directions, targets)
+    usable = [index for index, q in enumerate(joints)
+              if not np.isnan(q).any() and not arm_hides_view(arm, q, center)]
+    return directions[usable], joints[usable]
+
+
 @functools.lru_cache(maxsize=4)
 def view_band(config: Config, robot: bool) -> tuple[np.ndarray, np.ndarray | None]:
     """Unit directions (n, 3) of the band's candidates the cell can use (see the module
     docstring) and, with the robot, a configuration (n, dof) reaching each around the cell's
     object envelope; cached, as they depend on the cell only."""
-    directions = sphere_directions(CANDIDATE_COUNT, np.deg2rad(MAX_POLAR_DEG))
     if not robot:
-        return directions, None
-    center = np.asarray(config.cell.object_center_m, dtype=float)
-    targets = look_at_targets(center, config.sensor.working_distance_m, directions)
+        return _band(), None
     envelope = trimesh.creation.icosphere(subdivisions=3, radius=fit_limit(config).radius_m)
     arm = RobotArm(Cell(config, envelope))
-    joints, _ = screen_reachability(arm, arm.collisions, arm.joints.home, directions, targets)
-    usable = [index for index, q in enumerate(joints)
-              if not np.isnan(q).any() and not arm_hides_view(arm, q, center)]
-    return directions[usable], joints[usable]
+    return _reachable_band(arm, arm.collisions, arm.joints.home,
+                           np.asarray(config.cell.object_center_m, dtype=float),
+                           config.sensor.working_distance_m)
+
+
+def episode_band(config: Config, episode: Episode) -> tuple[np.ndarray, np.ndarray]:
+    """Unit directions (n, 3) of the band's candidates the robot reaches around the episode's
+    part at its pose, screened from its current configuration, and a configuration (n, dof)
+    for each."""
+    return _reachable_band(episode.scene.arm, episode.carrier.collisions, episode.q,
+                           episode.center, config.sensor.working_distance_m)
 
 
 def _energy(points: np.ndarray) -> float:
@@ -103,27 +133,31 @@ def spread(directions: np.ndarray, count: int) -> np.ndarray:
     return np.array(chosen)
 
 
-def uniform_targets(config: Config, count: int, robot: bool
+def uniform_targets(config: Config, count: int, episode: Episode
                     ) -> tuple[list[SensorTarget], np.ndarray | None]:
-    """The `count` look-at targets of `uniform<count>` in the configured cell, and with the
-    robot the configurations reaching them around the cell's object envelope.
+    """The `count` look-at targets of `uniform<count>` in the episode's cell, and with the
+    robot the configurations reaching them (see the module docstring for where).
 
     Raises:
-        ValueError: If count < 1 or exceeds the band's usable candidates.
+        ValueError: If count < 1, or exceeds the band's usable candidates around the part too.
     """
-    band, joints = view_band(config, robot)
-    if count > len(band):
-        # With the robot the band is screened around the largest object the cell fits, so a
-        # sensor whose range lets that object grow close to the sensor can leave few views.
-        raise ValueError(f"uniform{count} needs {count} views of the band, but only {len(band)} "
-                         f"are usable with robot {config.cell.robot!r} and this sensor (working "
-                         f"distance {config.sensor.working_distance_m:g} m) around the largest "
-                         f"object the cell fits (radius {fit_limit(config).radius_m:.3f} m); "
-                         f"use --carrier free, or a planner that screens views around the object "
-                         f"itself (bscp, nbv)")
+    band, joints = view_band(config, episode.uses_robot)
+    center = np.asarray(config.cell.object_center_m, dtype=float)
+    if episode.uses_robot and count > len(band):
+        enveloped = len(band)
+        band, joints = episode_band(config, episode)
+        center = episode.center
+        if count > len(band):
+            fewer = f"uniform{len(band)} or fewer, " if len(band) else ""
+            raise ValueError(f"uniform{count} needs {count} views of the band, but only "
+                             f"{len(band)} are usable with robot {config.cell.robot!r} and this "
+                             f"sensor (working distance {config.sensor.working_distance_m:g} m) "
+                             f"around this part at its pose ({enveloped} around the largest "
+                             f"object the cell fits, radius {fit_limit(config).radius_m:.3f} m); "
+                             f"use {fewer}a robot or placement that reaches the working "
+                             f"distance, or --carrier free")
     chosen = spread(band, count)
-    targets = look_at_targets(np.asarray(config.cell.object_center_m),
-                              config.sensor.working_distance_m, band[chosen])
+    targets = look_at_targets(center, config.sensor.working_distance_m, band[chosen])
     return list(targets), None if joints is None else joints[chosen]
 
 
@@ -155,4 +189,4 @@ class UniformPlanner(PlanPlanner):
         return cls(config, int(params["count"]))
 
     def plan(self, episode: Episode) -> list[ViewRequest]:
-        return fixed_plan(episode, *uniform_targets(self.config, self.count, episode.uses_robot))
+        return fixed_plan(episode, *uniform_targets(self.config, self.count, episode))
