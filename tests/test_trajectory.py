@@ -111,7 +111,8 @@ def test_every_corner_is_reached_exactly_and_at_rest() -> None:
     plan = timed(moves, limits)
     corners = [corner for move in moves for corner in move[1:]]
     for segment, corner in zip(plan.segments, corners, strict=True):
-        position, velocity, acceleration = plan.state(segment.start_s + segment.duration_s)
+        (position,), (velocity,), (acceleration,) = plan.states(
+            segment.start_s + segment.duration_s)
         np.testing.assert_allclose(position, corner, rtol=0, atol=1e-9)
         np.testing.assert_allclose(velocity, 0, atol=1e-9)
         np.testing.assert_allclose(acceleration, 0, atol=1e-9)

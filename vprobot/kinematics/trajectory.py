@@ -19,7 +19,6 @@ acquisition of `acquisition_time_s` at every view (standing still) and the retur
 
 from __future__ import annotations
 
-import bisect
 import dataclasses
 import itertools
 import math
@@ -77,9 +76,14 @@ class Segment:
     def duration_s(self) -> float:
         return float(self.profile.duration)
 
-    def state(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Position, velocity and acceleration `t` seconds after the segment's start."""
-        (s,), (ds,), (dds,) = self.profile.at_time(min(max(t, 0.0), self.duration_s))
+    def states(self, local: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities and accelerations (k, dof) at times `local` (k,) after the
+        segment's start; at rest at its end from then on."""
+        local = np.clip(local, 0.0, self.duration_s)
+        profile = np.array([self.profile.at_time(t) for t in local]).reshape(len(local), 3)
+        # Rest to rest: exactly still once the profile is done.
+        profile[local >= self.duration_s] = [self.length, 0.0, 0.0]
+        s, ds, dds = (profile[:, [column]] for column in range(3))
         return self.start + s * self.direction, ds * self.direction, dds * self.direction
 
 
@@ -154,22 +158,28 @@ class TimedPlan:
     def duration_s(self) -> float:
         return self.cycle.total_s
 
-    def state(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Position, velocity and acceleration at time `t` (clamped to the cycle).
+    def states(self, times: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities and accelerations (k, dof) at `times` (k,), clamped to the cycle.
 
         Raises:
             ValueError: If the plan has no motion.
         """
         if not self.segments:
             raise ValueError("the plan has no motion to follow")
-        starts = [segment.start_s for segment in self.segments]
-        segment = self.segments[max(bisect.bisect_right(starts, t) - 1, 0)]
-        if t >= segment.start_s + segment.duration_s:
-            # At rest past the segment's end: at a corner or acquiring until the next one starts.
-            end, _, _ = segment.state(segment.duration_s)
-            zero = np.zeros_like(end)
-            return end, zero, zero.copy()
-        return segment.state(t - segment.start_s)
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        # Each time belongs to the last segment started by then; past its end the robot rests
+        # at its last corner (at a corner, or acquiring) until the next one starts.
+        owner = np.searchsorted([segment.start_s for segment in self.segments], times,
+                                side="right") - 1
+        owner = np.maximum(owner, 0)
+        shape = (len(times), len(self.joint_names))
+        positions, velocities, accelerations = np.empty(shape), np.zeros(shape), np.zeros(shape)
+        for index, segment in enumerate(self.segments):
+            mine = owner == index
+            if mine.any():
+                positions[mine], velocities[mine], accelerations[mine] = segment.states(
+                    times[mine] - segment.start_s)
+        return positions, velocities, accelerations
 
     def sample(self, dt: float) -> Trajectory:
         """The trajectory at every multiple of `dt` and at every corner and acquisition bound.
@@ -189,9 +199,7 @@ class TimedPlan:
         grid = np.arange(0.0, self.duration_s, dt)
         nearest = np.abs(grid[:, None] - bounds[None, :]).min(axis=1)
         times = np.union1d(grid[nearest >= dt / 2], bounds)
-        states = [self.state(t) for t in times]
-        positions, velocities, accelerations = (np.array(part)
-                                                for part in zip(*states, strict=True))
+        positions, velocities, accelerations = self.states(times)
         return Trajectory(times, positions, velocities, accelerations, self.joint_names,
                           tuple((a.start_s, a.end_s, a.view) for a in self.acquisitions))
 
@@ -240,7 +248,8 @@ def time_plan(moves: Sequence[npt.ArrayLike], limits: MotionLimits, acquisition_
     Raises:
         ValueError: If a move is not a (m >= 2, dof) array of finite values, a move does not
             start where the one before ends, the return does not end at the approach's start,
-            there is a single move, or the acquisition time is negative.
+            there is a single move, the acquisition time is negative, or the joint names do not
+            match the limits.
     """
     if not 0.0 <= acquisition_time_s < math.inf:
         raise ValueError(f"acquisition_time_s must be >= 0 s (finite), got {acquisition_time_s!r}")
