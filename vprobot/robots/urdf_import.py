@@ -51,7 +51,8 @@ CONVERSION_STEPS = """\
 6. Body pairs whose convex hulls already touch at the zero or home configuration are excluded
    from self-collision, so that a self-collision means a real fold-over of the arm.
 7. A `home` keyframe, and `robot.yaml` with the base, flange, pan joint (the first), roll joint
-   (the last), home, the URDF's velocity limits and the base placement in the cell.
+   (the last), home, the URDF's velocity limits, acceleration and jerk limits (given, or
+   assumptions labelled so: a URDF has none) and the base placement in the cell.
 """
 
 ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
