@@ -15,6 +15,7 @@ import dataclasses
 import importlib.metadata
 from pathlib import Path
 
+from vprobot.robots.description import ASSUMED_LIMIT_SOURCES
 from vprobot.robots.urdf_import import Provenance, convert_urdf
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -65,7 +66,24 @@ class BundledRobot:
     base_yaw_deg: float = 0.0
     base_tilt_deg: float = 0.0
     license_text: str | None = None
+    acceleration_limits_rad_s2: tuple[float, ...] | None = None
+    jerk_limits_rad_s3: tuple[float, ...] | None = None
+    limit_sources: dict[str, str] | None = None
 
+
+UR_LIMIT_SOURCES = {
+    "velocity_limits_rad_s": "The URDF's joint velocity limits (example-robot-data's "
+                             "ur_description).",
+    **ASSUMED_LIMIT_SOURCES,
+}
+FRANKA_LIMITS = ("Franka's published limits for the Panda (Franka Control Interface docs, "
+                 "'Robot and interface specifications', Limits for Panda; libfranka "
+                 "rate_limiting.h kMaxJoint{Velocity,Acceleration,Jerk}): ")
+PANDA_LIMIT_SOURCES = {
+    "velocity_limits_rad_s": FRANKA_LIMITS + "q_dot_max, as in the URDF.",
+    "acceleration_limits_rad_s2": FRANKA_LIMITS + "q_ddot_max.",
+    "jerk_limits_rad_s3": FRANKA_LIMITS + "q_dddot_max.",
+}
 
 # Homes: the sensor looking toward the motor. Placements: where the arm reaches most of the
 # 0.47 m view sphere around the motor at (0.45, 0, 0.75) (`vprobot benchmark kinematics`:
@@ -73,16 +91,20 @@ class BundledRobot:
 ROBOTS = {
     "ur5": BundledRobot("Universal Robots UR5", "ur_description", "urdf/ur5_robot.urdf", "tool0",
                         (0.0, -1.9, 1.9, -1.57, -1.57, 0.0), (0.0, 0.0, 0.5),
-                        license_text=UR_LICENSE),
+                        license_text=UR_LICENSE, limit_sources=UR_LIMIT_SOURCES),
     "ur10": BundledRobot("Universal Robots UR10", "ur_description", "urdf/ur10_robot.urdf",
                          "tool0", (0.0, -1.9, 1.9, -1.57, -1.57, 0.0), (0.0, 0.0, 0.5),
-                         license_text=UR_LICENSE),
+                         license_text=UR_LICENSE, limit_sources=UR_LIMIT_SOURCES),
     # The Panda's 0.855 m reach cannot wrap the far side of the view sphere from the floor
     # (at most 69 % of it from any base position tried); hanging from the ceiling above the
     # motor, it reaches all round except the lowest band and the cap right under its base.
     "panda": BundledRobot("Franka Emika Panda", "panda_description", "urdf/panda.urdf",
                           "panda_link8", (-0.68, 1.57, -1.6, -1.27, -0.49, 0.43, 0.08),
-                          (0.5, 0.0, 1.25), base_tilt_deg=180.0),
+                          (0.5, 0.0, 1.25), base_tilt_deg=180.0,
+                          acceleration_limits_rad_s2=(15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0),
+                          jerk_limits_rad_s3=(7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0,
+                                              10000.0),
+                          limit_sources=PANDA_LIMIT_SOURCES),
 }
 
 
@@ -109,7 +131,9 @@ def convert(name: str, source: Path) -> None:
             upstream_readme=package / "README.md"),
         home=robot.home, base_position_m=robot.base_position_m, base_yaw_deg=robot.base_yaw_deg,
         base_tilt_deg=robot.base_tilt_deg,
-        package_paths={"example-robot-data": source.parent}, overwrite=True)
+        package_paths={"example-robot-data": source.parent}, overwrite=True,
+        acceleration_limits_rad_s2=robot.acceleration_limits_rad_s2,
+        jerk_limits_rad_s3=robot.jerk_limits_rad_s3, limit_sources=robot.limit_sources)
 
 
 def main() -> None:

@@ -38,6 +38,8 @@ def test_unknown_key_names_key_and_allowed_keys() -> None:
         ({"sensor": {"fov_deg": [27.0, 0.0]}}, r"sensor\.fov_deg .* \(0, 120\]"),
         ({"sensor": {"working_distance_m": 0.8}},
          r"sensor\.working_distance_m must lie in \(near_m, far_m\] = \(0\.3, 0\.5\], got 0\.8"),
+        ({"sensor": {"acquisition_time_s": -0.1}},
+         r"sensor\.acquisition_time_s must be >= 0 s \(finite\), got -0\.1"),
         ({"kinematics": {"roll": "loose"}}, r"kinematics.roll must be one of \['free', 'fixed'\]"),
         ({"kinematics": {"restarts": 1.5}}, r"kinematics.restarts must be an integer"),
         ({"kinematics": {"max_step_rad": -1.0}}, r"kinematics.max_step_rad must be > 0"),

@@ -34,3 +34,9 @@ def test_ground_truth_key_changes_with_the_robot_folders_placement_and_scene(
     scene.write_text(scene.read_text().replace('size="0.035"', 'size="0.05"'))
     assert len({first, raised, key()}) == 3
 
+
+
+def test_ground_truth_key_ignores_the_acquisition_time() -> None:
+    box = trimesh.creation.box((0.1, 0.1, 0.1))
+    slower = replace(Config(), "sensor", acquisition_time_s=2.0)
+    assert gt_module._cache_key(box, slower) == gt_module._cache_key(box, Config())

@@ -42,6 +42,10 @@ def test_importing_the_ur5_urdf_reproduces_the_committed_ur5(tmp_path: Path,
     assert (imported.base, imported.flange, imported.pan_joint, imported.roll_joint) == (
         committed.base, committed.flange, committed.pan_joint, committed.roll_joint)
     assert imported.velocity_limits_rad_s == committed.velocity_limits_rad_s
+    # A URDF has no acceleration or jerk limits: the import writes the assumption the UR5 has.
+    assert imported.acceleration_limits_rad_s2 == committed.acceleration_limits_rad_s2
+    assert imported.jerk_limits_rad_s3 == committed.jerk_limits_rad_s3
+    assert "# ASSUMPTION, not a maker's figure" in (out / "robot.yaml").read_text()
     placement = {"robot_base_position_m": (0.1, 0.2, 0.4), "robot_base_yaw_deg": 25.0}
     ours, theirs = cell_of("ur5", **placement), cell_of(out, **placement)
     assert ours.joints.names == theirs.joints.names
@@ -110,12 +114,22 @@ def edit_description(folder: Path, **changes: object) -> None:
     ({"pan_joint": "wrist_1_joint"}, r"pan_joint must be the first joint of the chain "
                                      r"\('shoulder_pan_joint'\)"),
     ({"roll_joint": "knuckle"}, r"roll_joint 'knuckle' is not a joint of the chain"),
-    ({"home": [0.0] * 7, "velocity_limits_rad_s": [1.0] * 7},
+    ({"home": [0.0] * 7, "velocity_limits_rad_s": [1.0] * 7,
+      "acceleration_limits_rad_s2": [1.0] * 7, "jerk_limits_rad_s3": [1.0] * 7},
      r"home has 7 joints, the chain from 'base_link' to 'tool0' has 6"),
     ({"home": [0.0, 0.0, 4.0, 0.0, 0.0, 0.0]}, r"home\[2\] = 4\.0 lies outside elbow_joint"),
     ({"home": [0.0] * 5}, r"home has 5 joints; vprobot supports arms with 6 or 7 joints"),
     ({"velocity_limits_rad_s": [1.0] * 5}, r"velocity_limits_rad_s has 5 values, home 6"),
     ({"velocity_limits_rad_s": [1.0, 1.0, 1.0, 1.0, 1.0, 0.0]}, r"must be > 0"),
+    ({"acceleration_limits_rad_s2": [5.0] * 7},
+     r"acceleration_limits_rad_s2 has 7 values, home 6"),
+    ({"jerk_limits_rad_s3": [100.0] * 5 + [-1.0]},
+     r"jerk_limits_rad_s3 must be > 0, got \[100\.0, .*-1\.0\]"),
+    ({"acceleration_limits_rad_s2": [5.0] * 5 + [float("inf")]},
+     r"acceleration_limits_rad_s2\[5\] must be finite, got inf"),
+    ({"jerk_limits_rad_s3": None},
+     r"missing 'jerk_limits_rad_s3'.*add the joints' limits, see "
+     r"docs/cell-and-robots\.md#motion-limits"),
     ({"model": "arm.xml"}, r"has no arm\.xml"),
     ({"colour": "blue"}, r"unknown key 'colour'"),
 ])
@@ -124,6 +138,21 @@ def test_a_bad_robot_folder_names_the_missing_piece(ur5_folder: Path, changes: d
     edit_description(ur5_folder, **changes)
     with pytest.raises(ValueError, match=message):
         cell_of(ur5_folder)
+
+
+def test_bundled_robots_carry_their_makers_limits_or_labelled_assumptions() -> None:
+    # Franka's published joint limits of the Panda (FCI docs, "Limits for Panda").
+    panda = load_robot("panda")
+    assert panda.velocity_limits_rad_s == (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)
+    assert panda.acceleration_limits_rad_s2 == (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+    assert panda.jerk_limits_rad_s3 == (7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0,
+                                        10000.0)
+    for name in ("ur5", "ur10"):
+        lines = (ROBOTS_DIR / name / "robot.yaml").read_text().splitlines()
+        for key in ("acceleration_limits_rad_s2", "jerk_limits_rad_s3"):
+            at = next(i for i, line in enumerate(lines) if line.startswith(f"{key}:"))
+            comment = next(i for i in range(at - 1, -1, -1) if lines[i].startswith("# ASSUMPTION"))
+            assert all(line.startswith("#") for line in lines[comment:at])
 
 
 def test_a_folder_without_description_or_home_keyframe_match(ur5_folder: Path) -> None:

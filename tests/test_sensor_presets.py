@@ -29,6 +29,7 @@ from vprobot.config import (
     with_sensor,
 )
 from vprobot.geometry import Pose
+from vprobot.paths import SENSORS_DIR
 from vprobot.render.replay import plan_config
 from vprobot.sensor import DepthSensor
 from vprobot.sensor_model import SensorModel
@@ -79,6 +80,15 @@ def test_preset_holds_its_datasheet_figures(name: str) -> None:
     np.testing.assert_allclose(half_tangents, sheet.half_tangents, rtol=3e-4)
     # The mount is the cell's: every preset keeps the default one.
     assert sensor.mount_position_m == SensorConfig().mount_position_m
+
+
+@pytest.mark.parametrize("name", sorted(DATASHEETS))
+def test_every_preset_gives_its_acquisition_time_and_says_where_it_comes_from(name: str) -> None:
+    lines = (SENSORS_DIR / f"{name}.yaml").read_text().splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("acquisition_time_s:"))
+    assert lines[at - 1].startswith("#")
+    assert any(label in "\n".join(lines[at - 4:at]) for label in ("ASSUMPTION", "ESTIMATE"))
+    assert sensor_preset(name).acquisition_time_s > 0
 
 
 def test_paper_preset_is_the_default_sensor() -> None:

@@ -129,6 +129,8 @@ class SensorConfig:
             `structured_light` (which needs `structured_light`).
         structured_light: The device's structured-light figures (baseline, incidence limits,
             noise, dropout); None where the sensor has none (the paper's).
+        acquisition_time_s: How long the robot stands still at a view while the sensor
+            acquires (s), a part of the cycle time (`vprobot.kinematics.trajectory`).
     """
 
     resolution: tuple[int, int] = (430, 300)
@@ -140,11 +142,15 @@ class SensorConfig:
     mount_quaternion_wxyz: Quat = (1.0, 0.0, 0.0, 0.0)
     sensing: str = "ideal"
     structured_light: StructuredLight | None = None
+    acquisition_time_s: float = 0.5
 
     def __post_init__(self) -> None:
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
         check_sensing(self.sensing, self.structured_light)
+        if not 0.0 <= self.acquisition_time_s < math.inf:
+            raise ConfigError(f"sensor.acquisition_time_s must be >= 0 s (finite), got "
+                              f"{self.acquisition_time_s!r}")
 
     @property
     def sensing_model(self) -> SensingModel:

@@ -283,9 +283,10 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
 
 def _sensor_settings(sensor: SensorConfig) -> tuple[Any, ...]:
     """The sensor's settings as the GT key has always held them: all but the sensing model, which
-    `_cache_key` adds where it is not the ideal one."""
+    `_cache_key` adds where it is not the ideal one, and the acquisition time, which does not
+    shape the GT."""
     return tuple(getattr(sensor, field.name) for field in dataclasses.fields(sensor)
-                 if field.name not in ("sensing", "structured_light"))
+                 if field.name not in ("sensing", "structured_light", "acquisition_time_s"))
 
 
 def _robot_digest(robot: str) -> str:

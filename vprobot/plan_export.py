@@ -99,6 +99,7 @@ def sensor_block(cell: Cell) -> dict[str, Any]:
         "sensing": sensor.sensing,
         "structured_light": (dataclasses.asdict(sensor.structured_light)
                              if sensor.structured_light is not None else None),
+        "acquisition_time_s": sensor.acquisition_time_s,
     }
 
 

@@ -128,6 +128,9 @@ def plan_config(config: Config, document: dict[str, Any], object_center: np.ndar
         if "sensing" in block:
             sensor["sensing"] = block["sensing"]
             sensor["structured_light"] = block.get("structured_light")
+        # ... and those written before the acquisition time was, the config's.
+        if "acquisition_time_s" in block:
+            sensor["acquisition_time_s"] = block["acquisition_time_s"]
     return replace(config, "sensor", **sensor)
 
 

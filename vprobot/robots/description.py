@@ -4,13 +4,16 @@ A robot folder (MuJoCo Menagerie layout) holds `<name>.xml` (the arm with vprobo
 its flange), `scene.xml` (the arm in the inspection cell), `meshes/`, `LICENSE`, `README.md` and
 `robot.yaml`, which says what vprobot needs to know about the arm and cannot read off the MJCF:
 which body is the base and which the flange, which joint pans the arm and which rolls the sensor,
-the home configuration, the joints' velocity limits and where the base stands in the cell.
+the home configuration, the joints' velocity, acceleration and jerk limits and where the base stands
+in the cell.
 Everything in vprobot reads the arm through this description; no code names a robot's links.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import textwrap
+from collections.abc import Mapping
 from pathlib import Path
 
 import mujoco
@@ -29,6 +32,29 @@ SENSOR_CAMERA = "sensor_camera"
 """vprobot's sensor mount, added on the flange by the converter: a body, the optical centre site
 (+z viewing direction) and a camera for the renderer's sensor panel."""
 
+LIMIT_KEYS = ("velocity_limits_rad_s", "acceleration_limits_rad_s2", "jerk_limits_rad_s3")
+"""The per-joint motion limits of `robot.yaml`, which time the trajectories
+(`vprobot.kinematics.trajectory`)."""
+
+ASSUMED_ACCELERATION_RAD_S2 = 5.0
+ASSUMED_JERK_RAD_S3 = 100.0
+ASSUMED_LIMIT_SOURCES = {
+    "acceleration_limits_rad_s2": (
+        "ASSUMPTION, not a maker's figure (Universal Robots publishes none; a URDF carries "
+        "none): 5.0 rad/s^2 per joint, what Universal Robots' ROS 2 driver gives MoveIt to time "
+        "trajectories (Universal_Robots_ROS2_Driver, ur_moveit_config/config/joint_limits.yaml: "
+        "'the robot does not inherently have any limits on joint accelerations (only on "
+        "torques)', values 'chosen conservatively'). Put the maker's limits here where "
+        "published."),
+    "jerk_limits_rad_s3": (
+        "ASSUMPTION, not a maker's figure (Universal Robots publishes none; a URDF carries "
+        "none): 100 rad/s^3 per joint, the jerk limit MoveIt's Ruckig smoothing applies to a "
+        "joint without one (moveit ruckig_traj_smoothing.cpp, DEFAULT_MAX_JERK). Put the "
+        "maker's limits here where published."),
+}
+"""The acceleration and jerk limits `vprobot robots import` writes (a URDF carries neither), and
+the UR robots' limits (Universal Robots publishes neither), with the comments that say so."""
+
 
 @dataclasses.dataclass(frozen=True)
 class RobotDescription:
@@ -42,7 +68,11 @@ class RobotDescription:
         pan_joint: The first joint of the chain, which turns the whole arm about the base.
         roll_joint: The joint that turns the sensor about (nearly) its optical axis.
         home: The configuration episodes start from (rad).
-        velocity_limits_rad_s: Joint velocity limits, for the travel cost `joint_time`.
+        velocity_limits_rad_s: Joint velocity limits (rad/s), for the travel cost `joint_time`
+            and the timed trajectories.
+        acceleration_limits_rad_s2: Joint acceleration limits (rad/s^2) of the timed
+            trajectories.
+        jerk_limits_rad_s3: Joint jerk limits (rad/s^3) of the timed trajectories.
         base_position_m: Default position of the base in the cell (world frame).
         base_yaw_deg: Default rotation of the base about the world z axis.
         base_tilt_deg: Default rotation of the base about its own y axis after the yaw (0
@@ -58,6 +88,8 @@ class RobotDescription:
     roll_joint: str
     home: tuple[float, ...]
     velocity_limits_rad_s: tuple[float, ...]
+    acceleration_limits_rad_s2: tuple[float, ...]
+    jerk_limits_rad_s3: tuple[float, ...]
     base_position_m: Vec3
     base_yaw_deg: float
     base_tilt_deg: float
@@ -90,8 +122,11 @@ class RobotDescription:
         required = [field.name for field in dataclasses.fields(cls) if field.name != "folder"]
         missing = [key for key in required if key not in data]
         if missing:
+            hint = (" (a folder written before vprobot timed trajectories: add the joints' "
+                    "limits, see docs/cell-and-robots.md#motion-limits)"
+                    if missing[0] in LIMIT_KEYS else "")
             raise ConfigError(f"{path}: missing {missing[0]!r}; a robot description needs "
-                              f"{', '.join(required)}")
+                              f"{', '.join(required)}{hint}")
         if "folder" in data:
             raise ConfigError(f"{path}: unknown key 'folder'; allowed keys: {', '.join(required)}")
         try:
@@ -102,27 +137,36 @@ class RobotDescription:
         if description.dof not in SUPPORTED_DOF:
             raise ConfigError(f"{path}: home has {description.dof} joints; vprobot supports "
                               f"arms with {' or '.join(map(str, SUPPORTED_DOF))} joints")
-        if len(description.velocity_limits_rad_s) != description.dof:
-            raise ConfigError(f"{path}: velocity_limits_rad_s has "
-                              f"{len(description.velocity_limits_rad_s)} values, home "
-                              f"{description.dof}")
-        if min(description.velocity_limits_rad_s) <= 0:
-            raise ConfigError(f"{path}: velocity_limits_rad_s must be > 0, got "
-                              f"{list(description.velocity_limits_rad_s)}")
+        for key in LIMIT_KEYS:
+            limits = getattr(description, key)
+            if len(limits) != description.dof:
+                raise ConfigError(f"{path}: {key} has {len(limits)} values, home "
+                                  f"{description.dof}")
+            if min(limits) <= 0:
+                raise ConfigError(f"{path}: {key} must be > 0, got {list(limits)}")
         for file in (description.model, SCENE_FILE):
             if not (folder / file).is_file():
                 raise ConfigError(f"robot folder {folder} has no {file}")
         return description
 
-    def to_yaml(self) -> str:
-        """The description as `robot.yaml` text."""
+    def to_yaml(self, sources: Mapping[str, str] | None = None) -> str:
+        """The description as `robot.yaml` text.
+
+        Args:
+            sources: Where values come from, by key: each is written as a comment above its key.
+        """
         data = dataclasses.asdict(self)
         del data["folder"]
-        for key in ("home", "velocity_limits_rad_s", "base_position_m"):
+        for key in ("home", *LIMIT_KEYS, "base_position_m"):
             data[key] = [round(float(value), 6) for value in data[key]]
-        header = (f"# vprobot robot description of {self.name} (see vprobot/robots/"
-                  f"description.py).\n")
-        return header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
+        lines = [f"# vprobot robot description of {self.name} (see vprobot/robots/"
+                 f"description.py)."]
+        for line in yaml.safe_dump(data, sort_keys=False, default_flow_style=None).splitlines():
+            key = line.partition(":")[0]
+            if sources and key in sources:
+                lines += [f"# {text}" for text in textwrap.wrap(sources[key], 97)]
+            lines.append(line)
+        return "\n".join(lines) + "\n"
 
     def chain_joints(self, model: mujoco.MjModel) -> list[int]:
         """Ids of the joints from the base to the flange, in chain order.

@@ -20,6 +20,9 @@ import trimesh
 
 from vprobot.config import CellConfig, Config
 from vprobot.robots.description import (
+    ASSUMED_ACCELERATION_RAD_S2,
+    ASSUMED_JERK_RAD_S3,
+    ASSUMED_LIMIT_SOURCES,
     DESCRIPTION_FILE,
     SCENE_FILE,
     SENSOR_BODY,
@@ -48,7 +51,8 @@ CONVERSION_STEPS = """\
 6. Body pairs whose convex hulls already touch at the zero or home configuration are excluded
    from self-collision, so that a self-collision means a real fold-over of the arm.
 7. A `home` keyframe, and `robot.yaml` with the base, flange, pan joint (the first), roll joint
-   (the last), home, the URDF's velocity limits and the base placement in the cell.
+   (the last), home, the URDF's velocity limits, acceleration and jerk limits (given, or
+   assumptions labelled so: a URDF has none) and the base placement in the cell.
 """
 
 ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
@@ -333,6 +337,9 @@ def convert_urdf(
     base_tilt_deg: float = 0.0,
     package_paths: Mapping[str, Path] | None = None,
     overwrite: bool = False,
+    acceleration_limits_rad_s2: Sequence[float] | None = None,
+    jerk_limits_rad_s3: Sequence[float] | None = None,
+    limit_sources: Mapping[str, str] | None = None,
 ) -> RobotDescription:
     """Convert a serial arm's URDF into the robot folder `out_dir` (see the module docstring).
 
@@ -351,6 +358,11 @@ def convert_urdf(
         base_tilt_deg: Default base rotation about its own y axis after the yaw.
         package_paths: Folders of ROS packages that `package://` mesh paths name.
         overwrite: Replace an existing `out_dir`.
+        acceleration_limits_rad_s2: Joint acceleration limits; a URDF has none, so by default
+            `ASSUMED_ACCELERATION_RAD_S2` for every joint, labelled an assumption.
+        jerk_limits_rad_s3: Joint jerk limits; by default `ASSUMED_JERK_RAD_S3`, likewise.
+        limit_sources: Where the limits come from, by `robot.yaml` key, written as comments
+            above them (the velocity limits' defaults to the URDF).
 
     Returns:
         The checked description of the new folder.
@@ -371,13 +383,23 @@ def convert_urdf(
         raise ValueError(f"home {np.round(home, 4).tolist()} must have {len(lower)} values "
                          f"within the joint limits {np.round(lower, 4).tolist()} .. "
                          f"{np.round(upper, 4).tolist()}")
+    dof = len(lower)
     description = RobotDescription(
         name=name, model=f"{name}.xml", base=chain.base, flange=flange,
         pan_joint=chain.joint_names[0], roll_joint=chain.joint_names[-1],
         home=tuple(float(value) for value in home),
         velocity_limits_rad_s=tuple(chain.velocity_limits()),
+        acceleration_limits_rad_s2=tuple(map(float, (
+            [ASSUMED_ACCELERATION_RAD_S2] * dof if acceleration_limits_rad_s2 is None
+            else acceleration_limits_rad_s2))),
+        jerk_limits_rad_s3=tuple(map(float, (
+            [ASSUMED_JERK_RAD_S3] * dof if jerk_limits_rad_s3 is None
+            else jerk_limits_rad_s3))),
         base_position_m=tuple(float(value) for value in base_position_m),
         base_yaw_deg=float(base_yaw_deg), base_tilt_deg=float(base_tilt_deg))
+
+    sources = {"velocity_limits_rad_s": f"The URDF's joint velocity limits ({provenance.source}).",
+               **ASSUMED_LIMIT_SOURCES, **(limit_sources or {})}
 
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     # A hidden sibling, so that the finished folder moves into place; made with mkdir (not
@@ -386,7 +408,7 @@ def convert_urdf(
     building.mkdir()
     try:
         try:
-            _build_folder(chain, description, provenance, building, package_paths)
+            _build_folder(chain, description, sources, provenance, building, package_paths)
             _check_folder(building, urdf)
         except ValueError as error:
             # Messages name the folder the user asked for, not the hidden one being built.
@@ -422,8 +444,9 @@ def _check_replaceable(out_dir: Path, overwrite: bool) -> None:
                          f"to replace it")
 
 
-def _build_folder(chain: UrdfChain, description: RobotDescription, provenance: Provenance,
-                  folder: Path, package_paths: Mapping[str, Path] | None) -> None:
+def _build_folder(chain: UrdfChain, description: RobotDescription, sources: Mapping[str, str],
+                  provenance: Provenance, folder: Path,
+                  package_paths: Mapping[str, Path] | None) -> None:
     (folder / "meshes").mkdir()
     # The prepared URDF names its meshes relative to the folder, so MuJoCo reads it from there.
     urdf = folder / f"{description.name}.urdf"
@@ -452,7 +475,7 @@ def _build_folder(chain: UrdfChain, description: RobotDescription, provenance: P
     (folder / description.model).write_text(spec.to_xml())
     (folder / SCENE_FILE).write_text(SCENE_TEMPLATE.format(name=description.name,
                                                            model=description.model))
-    (folder / "robot.yaml").write_text(description.to_yaml())
+    (folder / "robot.yaml").write_text(description.to_yaml(sources))
     (folder / "LICENSE").write_text(_license_text(provenance, chain.urdf))
     if provenance.upstream_readme is not None:
         shutil.copy(provenance.upstream_readme, folder / "UPSTREAM_README.md")
