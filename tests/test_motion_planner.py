@@ -12,7 +12,7 @@ from vprobot.config import CellConfig, Config, ConfigError, KinematicsConfig, re
 from vprobot.episode import Episode, MotorScene
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
-from vprobot.kinematics.motion_planner import MotionPlanner
+from vprobot.kinematics.motion_planner import SEARCHES, MotionPlanner, densify
 from vprobot.kinematics.path import joint_path
 from vprobot.kinematics.travel import joint_time
 from vprobot.paths import DEFAULT_MOTOR
@@ -96,6 +96,35 @@ def test_planning_out_of_time_has_no_path(arm: RobotArm) -> None:
 
 def test_line_planner_does_not_go_around(arm: RobotArm) -> None:
     assert planner(arm, path_planner="line").plan(Q_FROM, Q_TO) is None
+
+
+class GrazingPlanner(MotionPlanner):
+    """Finds the first `rejected` planned paths colliding in the dense check, as a path that
+    grazes an obstacle between OMPL's samples would; other checks stay real."""
+
+    def __init__(self, arm: RobotArm, rejected: int):
+        super().__init__(arm.collisions, arm.joints, arm.settings)
+        self.rejected = rejected
+        self.planned: list[np.ndarray] = []
+
+    def is_free(self, path: np.ndarray) -> bool:
+        straight = densify(path[[0, -1]], self.settings.path_max_joint_step_rad)
+        if len(path) > 2 and (path.shape != straight.shape or not np.array_equal(path, straight)):
+            self.planned.append(path)
+            if len(self.planned) <= self.rejected:
+                return False
+        return super().is_free(path)
+
+
+def test_a_path_failing_the_dense_check_is_searched_for_again(arm: RobotArm) -> None:
+    first = planner(arm).plan(Q_FROM, Q_TO)
+    grazing = GrazingPlanner(arm, rejected=1)
+    again = grazing.plan(Q_FROM, Q_TO)
+    assert first is not None and again is not None and len(grazing.planned) == 2
+    np.testing.assert_array_equal(grazing.planned[0], first.path)
+    assert not np.array_equal(again.waypoints, first.waypoints)
+    assert not collides_anywhere(CollisionChecker(arm.cell), again.waypoints)
+    assert GrazingPlanner(arm, rejected=SEARCHES).plan(Q_FROM, Q_TO) is None
 
 
 def test_reach_goes_around_the_fixture_and_reports_the_path() -> None:

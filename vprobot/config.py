@@ -242,7 +242,7 @@ class KinematicsConfig:
     damping: float = 1e-3
     path_max_joint_step_rad: float = 0.05
     path_planner: Literal["line", "rrt_connect"] = "rrt_connect"
-    path_planning_time_s: float = 0.25
+    path_planning_time_s: float = 0.5
     roll: Literal["free", "fixed"] = "free"
     seed: int = 0
 

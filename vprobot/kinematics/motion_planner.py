@@ -27,6 +27,11 @@ PlanMethod = Literal["line", "rrt_connect"]
 
 ou.setLogLevel(ou.LOG_NONE)  # OMPL logs every query (and each reseed) to the console
 
+SEARCHES = 3
+"""RRT-Connect searches at most per move. OMPL checks a motion at other samples than the dense
+check does, so a path it found may graze an obstacle between them; the next search checks
+twice as finely (and draws other numbers), within what is left of the time budget."""
+
 
 @dataclasses.dataclass(frozen=True)
 class MotionPlan:
@@ -60,7 +65,7 @@ def query_seed(q_from: np.ndarray, q_to: np.ndarray) -> int:
     """A positive 32-bit seed from the query alone: the same move gets the same path, in
     whatever order the moves of a run are planned."""
     digest = hashlib.sha256(np.concatenate([q_from, q_to]).astype("<f8").tobytes()).digest()
-    return int.from_bytes(digest[:4], "little") % (2**31 - 1) + 1
+    return int.from_bytes(digest[:4], "little") % (2**31 - SEARCHES) + 1
 
 
 class MotionPlanner:
@@ -87,9 +92,10 @@ class MotionPlanner:
         """A collision-free move from `q_from` to `q_to`, or None when none was found.
 
         The straight line first; when it collides and `path_planner` is `rrt_connect`,
-        RRT-Connect searches the joint-limit box for at most `path_planning_time_s`, OMPL's
-        simplifier shortens the result, and the simplified corners are checked again densely.
-        Ends in collision or outside the limits fail at once.
+        RRT-Connect searches the joint-limit box, OMPL's simplifier shortens the result, and the
+        simplified corners are checked again densely; a path that fails that check is searched
+        for again (`SEARCHES`), all within `path_planning_time_s`. Ends in collision or outside
+        the limits fail at once.
         """
         start = time.perf_counter()
         q_from = self.joints.check(q_from, "q_from")
@@ -101,20 +107,30 @@ class MotionPlanner:
             return MotionPlan(line, path, "line", time.perf_counter() - start)
         if self.settings.path_planner == "line" or not self.is_free(line):
             return None
-        waypoints = self._rrt_connect(q_from, q_to)
-        if waypoints is None:
-            return None
-        path = densify(waypoints, step)
-        if not self.is_free(path):
-            return None
-        return MotionPlan(waypoints, path, "rrt_connect", time.perf_counter() - start)
+        deadline = start + self.settings.path_planning_time_s
+        for search in range(SEARCHES):
+            remaining = deadline - time.perf_counter()
+            if remaining <= 0:
+                break
+            waypoints = self._rrt_connect(q_from, q_to, remaining, search)
+            if waypoints is None:
+                break
+            path = densify(waypoints, step)
+            if self.is_free(path):
+                return MotionPlan(waypoints, path, "rrt_connect", time.perf_counter() - start)
+        return None
 
-    def _rrt_connect(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray | None:
-        """OMPL's RRT-Connect between two free configurations, simplified; None on timeout."""
+    def _rrt_connect(self, q_from: np.ndarray, q_to: np.ndarray, time_s: float,
+                     search: int) -> np.ndarray | None:
+        """OMPL's RRT-Connect between two free configurations, simplified; None on timeout.
+
+        Search `search` (from 0) checks motions 2**search times finer than the dense check's
+        step and draws its own numbers.
+        """
         dof = self.joints.dof
         # Reseeded before any sampler exists: the samplers this query creates draw their seeds
         # from it, so the path depends on the query only.
-        ou.RNG.setSeed(query_seed(q_from, q_to))
+        ou.RNG.setSeed(query_seed(q_from, q_to) + search)
         space = ob.RealVectorStateSpace(dof)
         bounds = ob.RealVectorBounds(dof)
         for index in range(dof):
@@ -130,14 +146,13 @@ class MotionPlanner:
         # OMPL checks motions at a fraction of the space's extent (Euclidean): that fraction of
         # the extent is the dense check's joint step, so no joint skips more than it.
         information.setStateValidityCheckingResolution(
-            self.settings.path_max_joint_step_rad / space.getMaximumExtent())
+            self.settings.path_max_joint_step_rad / 2**search / space.getMaximumExtent())
         setup.setPlanner(og.RRTConnect(information))
         start, goal = space.allocState(), space.allocState()
         for index in range(dof):
             start[index], goal[index] = float(q_from[index]), float(q_to[index])
         setup.setStartAndGoalStates(start, goal)
-        if not setup.solve(self.settings.path_planning_time_s) or \
-                not setup.haveExactSolutionPath():
+        if not setup.solve(time_s) or not setup.haveExactSolutionPath():
             return None
         # Without a time limit the simplifier runs to its fixed point, deterministically.
         setup.simplifySolution()
