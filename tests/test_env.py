@@ -103,7 +103,7 @@ def test_unreachable_request_keeps_joints_and_coverage() -> None:
     _, reward, _, _, info = env.step(np.ones(3, dtype=np.float32))  # 1.7 m from the motor
     assert not info["reachable"]
     assert info["reason"] in ("out_of_reach", "did_not_converge", "joint_limits", "collision",
-                              "path_collision")
+                              "path_not_found")
     np.testing.assert_array_equal(info["joints"], before["joints"])
     assert info["coverage"] == before["coverage"] and info["delta_coverage"] == 0.0
     assert info["travel_joint_time"] == 0.0

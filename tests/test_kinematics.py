@@ -110,8 +110,8 @@ def test_target_inside_the_fixture_collides(arm: RobotArm) -> None:
     assert result.reason == "collision"
 
 
-def test_path_through_the_fixture_is_a_path_collision() -> None:
-    arm = make_arm(restarts=0)
+def test_path_through_the_fixture_is_not_found_by_the_line_planner() -> None:
+    arm = make_arm(restarts=0, path_planner="line")
     q_from = np.array([0.9, -0.5, 2.1, -3.1, -0.8, -2.6])
     q_to = q_from * [-1, 1, 1, 1, 1, 1]
     assert not arm.collisions.in_collision(q_from) and not arm.collisions.in_collision(q_to)
@@ -120,7 +120,7 @@ def test_path_through_the_fixture_is_a_path_collision() -> None:
     goal = arm.fk(q_to)
     result = arm.reach(SensorTarget.full_pose(goal.position, goal.quaternion), q_from)
     assert not result.reachable
-    assert result.reason == "path_collision"
+    assert result.reason == "path_not_found"
 
 
 def test_reported_paths_are_collision_free(arm: RobotArm) -> None:

@@ -182,7 +182,7 @@ def command_reach(args: argparse.Namespace) -> int:
               f"{result.position_error_m * 1e3:.3f} mm / {result.orientation_error_deg:.3f} deg")
     view = view_entry(pose=target.pose, joints=None, reachable=False, reason=result.reason)
     if result.reachable:
-        travel = arm.travel(q_from, result.q, cell.object_center)
+        travel = arm.travel(q_from, result.q, cell.object_center, result.motion)
         print(f"  joints [rad]: {np.round(result.q, 4).tolist()}")
         print(f"  travel from start: {travel.joint_time:.3f} s joint time, "
               f"{travel.joint_path:.3f} rad joint path, {travel.cartesian:.3f} m sensor path")

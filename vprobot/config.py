@@ -231,6 +231,11 @@ class KinematicsConfig:
         max_step_rad: Largest joint change of one IK iteration (a trust region).
         damping: Levenberg-Marquardt damping of the IK least squares.
         path_max_joint_step_rad: Joint-space paths are collision-checked at this resolution.
+        path_planner: `rrt_connect`: a move whose straight joint-space line collides goes around
+            on a path planned by OMPL's RRT-Connect; `line`: only the straight line (such a
+            move fails).
+        path_planning_time_s: RRT-Connect's time budget per move; a move without a path found
+            in it fails (`path_not_found`).
         roll: `free` leaves the rotation about the optical axis to the IK; `fixed` demands it.
         seed: Seed of the restart configurations (deterministic verdicts).
     """
@@ -242,6 +247,8 @@ class KinematicsConfig:
     max_step_rad: float = 0.5
     damping: float = 1e-3
     path_max_joint_step_rad: float = 0.05
+    path_planner: Literal["line", "rrt_connect"] = "rrt_connect"
+    path_planning_time_s: float = 0.5
     roll: Literal["free", "fixed"] = "free"
     seed: int = 0
 
@@ -252,6 +259,7 @@ class KinematicsConfig:
             "max_iterations": self.max_iterations,
             "max_step_rad": self.max_step_rad,
             "path_max_joint_step_rad": self.path_max_joint_step_rad,
+            "path_planning_time_s": self.path_planning_time_s,
         }
         for name, value in positive.items():
             if not value > 0:

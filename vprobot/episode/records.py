@@ -40,11 +40,11 @@ class ViewRecord:
         requested: The requested sensor pose in the world.
         reachable: Whether the carrier took the view (a free-flying sensor takes every view).
         reason: Why not (`out_of_reach`, `did_not_converge`, `joint_limits`, `collision`,
-            `path_collision`).
+            `path_not_found`).
         joints: Robot configuration after the step (unchanged when the robot stayed); None for
             a free-flying sensor.
-        path: Joint-space path (n, dof) the robot moved along; None when it stayed or without a
-            robot.
+        path: Joint-space path (n, dof) the robot moved along, sampled at the collision check's
+            resolution; None when it stayed or without a robot.
         sensor_pose: Sensor pose the acquisition was made from; None when nothing was acquired.
         points_world: Acquired points in the world (0 rows when nothing was acquired, or not
             yet).
@@ -52,8 +52,12 @@ class ViewRecord:
         blocked_pixels: Pixels of the frame whose view of the object the robot or the cell
             blocked (`Acquisition.blocked_pixels`; empty when nothing was acquired).
         coverage: Cumulative coverage after this view (0 until the episode scored it).
-        travel: Travel from the previous acquisition pose (zero when nothing moved). For the
-            episode's first acquisition it is the approach from the start, not a step.
+        travel: Travel from the previous acquisition pose (zero when nothing moved), measured
+            along `waypoints`. For the episode's first acquisition it is the approach from the
+            start, not a step.
+        waypoints: The corners of `path` (m, dof), m >= 2, from the previous configuration to
+            `joints`; consecutive corners are joined by straight joint-space segments, each
+            collision-free (two corners: the straight line was free). None when `path` is.
     """
 
     requested: Pose
@@ -68,6 +72,7 @@ class ViewRecord:
     pixels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     blocked_pixels: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(0, dtype=np.int64))
+    waypoints: np.ndarray | None = None
 
     @property
     def acquired(self) -> bool:

@@ -1,4 +1,4 @@
-"""The robot in the loop: IK, joint limits, collisions, joint-space paths, all travel costs."""
+"""The robot in the loop: IK, joint limits, collisions, collision-free moves, all travel costs."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.kinematics import UNSOLVED, ReachResult
 from vprobot.kinematics.collision import CollisionChecker
+from vprobot.kinematics.motion_planner import MotionPlan
 from vprobot.sensor import Acquisition
 
 UnreachablePolicy = Literal["skip", "nearest"]
@@ -25,8 +26,8 @@ class RobotCarrier(Carrier):
         scene: The motor scene.
         object_rotation: The object's rotation for this episode.
         unreachable: `skip`: an unreachable request leaves the robot where it is and acquires
-            nothing; `nearest`: if the IK's closest configuration is collision-free and joined
-            by a free path, move there and acquire.
+            nothing; `nearest`: if the IK's closest configuration is collision-free and a
+            collision-free move joins it, move there and acquire.
 
     Raises:
         ValueError: For an unknown unreachable policy.
@@ -45,9 +46,14 @@ class RobotCarrier(Carrier):
         self.collisions = CollisionChecker(scene.cell, object_rotation)
         self.unreachable = unreachable
 
+    def plan(self, q_from: np.ndarray, q_to: np.ndarray) -> MotionPlan | None:
+        """The collision-free move between two configurations in this episode's cell (the
+        straight line when free, else planned per `kinematics.path_planner`), or None."""
+        return self.arm.plan(q_from, q_to, self.collisions)
+
     def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
-        """Whether the straight joint-space path between two configurations is collision-free."""
-        return self.collisions.first_collision(self.arm.path(q_from, q_to)) is None
+        """Whether a collision-free move joins two configurations (`plan` finds one)."""
+        return self.plan(q_from, q_to) is not None
 
     def drive(self, q_from: np.ndarray, joints: np.ndarray,
               requested: Pose | None = None) -> ViewRecord:
@@ -55,32 +61,34 @@ class RobotCarrier(Carrier):
         `requested` is the pose asked for (by default the one the configuration reaches).
 
         Raises:
-            ValueError: If the configuration is outside the limits or the straight path to it
-                collides.
+            ValueError: If the configuration is outside the limits or no collision-free move to
+                it was found.
         """
         arm = self.arm
         joints = arm.joints.check(joints, "joints")
         if not arm.joints.within_limits(joints):
             raise ValueError(f"joints {np.round(joints, 4).tolist()} are outside the limits")
-        path = arm.path(q_from, joints)
-        if self.collisions.first_collision(path) is not None:
-            raise ValueError(f"the path to joints {np.round(joints, 4).tolist()} collides")
-        return self._executed(requested, q_from, joints, path, reachable=True, reason=None)
+        motion = self.plan(q_from, joints)
+        if motion is None:
+            raise ValueError(f"no collision-free path to joints {np.round(joints, 4).tolist()} "
+                             "was found")
+        return self._executed(requested, q_from, joints, motion, reachable=True, reason=None)
 
     def _executed(self, requested: Pose | None, q_from: np.ndarray, joints: np.ndarray,
-                  path: np.ndarray, reachable: bool, reason: str | None) -> ViewRecord:
+                  motion: MotionPlan, reachable: bool, reason: str | None) -> ViewRecord:
         pose = self.arm.fk(joints)
         return ViewRecord(requested=pose if requested is None else requested,
-                          reachable=reachable, reason=reason, joints=joints.copy(), path=path,
-                          sensor_pose=pose,
-                          travel=self.arm.travel(q_from, joints, self.center, path))
+                          reachable=reachable, reason=reason, joints=joints.copy(),
+                          path=motion.path, waypoints=motion.waypoints, sensor_pose=pose,
+                          travel=self.arm.travel(q_from, joints, self.center, motion))
 
-    def _feasible_nearest(self, result: ReachResult, q_from: np.ndarray) -> bool:
-        """Whether the configuration a failed IK ended in can be driven to and used."""
-        return (result.reason in UNSOLVED
-                and self.arm.joints.within_limits(result.q)
-                and not self.collisions.in_collision(result.q)
-                and self.path_is_free(q_from, result.q))
+    def _feasible_nearest(self, result: ReachResult, q_from: np.ndarray) -> MotionPlan | None:
+        """The move to the configuration a failed IK ended in, when it can be driven to and
+        used; else None."""
+        if (result.reason in UNSOLVED and self.arm.joints.within_limits(result.q)
+                and not self.collisions.in_collision(result.q)):
+            return self.plan(q_from, result.q)
+        return None
 
     def move(self, request: ViewRequest, joints: np.ndarray,
              pose: Pose | None = None) -> ViewRecord:
@@ -90,15 +98,15 @@ class RobotCarrier(Carrier):
             try:
                 return self.drive(joints, request.joints, requested)
             except ValueError:
-                # The straight joint-space path from here collides; the IK may find another
-                # configuration (its restarts) with a free path.
+                # No collision-free move from here was found; the IK may find another
+                # configuration (its restarts) that one joins.
                 pass
         result = self.arm.reach(request.target, joints, self.collisions)
-        if result.reachable:
-            return self._executed(requested, joints, result.q, result.path, True, None)
-        if self.unreachable == "nearest" and self._feasible_nearest(result, joints):
-            return self._executed(requested, joints, result.q, self.arm.path(joints, result.q),
-                                  False, result.reason)
+        if result.motion is not None:
+            return self._executed(requested, joints, result.q, result.motion, True, None)
+        nearest = self._feasible_nearest(result, joints) if self.unreachable == "nearest" else None
+        if nearest is not None:
+            return self._executed(requested, joints, result.q, nearest, False, result.reason)
         return ViewRecord(requested=requested, reachable=False, reason=result.reason,
                           joints=joints.copy(), path=None, sensor_pose=None)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 from typing import Literal
 
 import mujoco
@@ -20,6 +21,7 @@ from vprobot.kinematics.ik import (
     random_configuration,
     residuals,
 )
+from vprobot.kinematics.motion_planner import MotionPlan, MotionPlanner
 from vprobot.kinematics.path import joint_path
 from vprobot.kinematics.travel import (
     TravelCost,
@@ -32,7 +34,7 @@ from vprobot.robots.urdf_import import GEOM_GROUP_ROBOT
 from vprobot.scene import Cell
 
 FailureReason = Literal["out_of_reach", "did_not_converge", "joint_limits", "collision",
-                        "path_collision"]
+                        "path_not_found"]
 ROLL_TURNS = (np.pi / 2, -np.pi / 2, np.pi)
 MAX_ROLL_VARIANTS = 2
 """Converged but colliding attempts whose roll variants are tried (each adds ROLL_TURNS)."""
@@ -44,7 +46,7 @@ collision checks) give far more than the configured restarts; an object that blo
 gets fewer seeds instead of an endless search."""
 
 FAILURE_REASONS: tuple[FailureReason, ...] = (
-    "did_not_converge", "joint_limits", "collision", "path_collision"
+    "did_not_converge", "joint_limits", "collision", "path_not_found"
 )
 """The stages an IK attempt fails at, in order; a failure carries the furthest one reached."""
 OUT_OF_REACH: FailureReason = "out_of_reach"
@@ -59,17 +61,19 @@ class ReachResult:
 
     Attributes:
         reachable: IK converged within the joint limits to a collision-free configuration that a
-            collision-free joint-space path connects to the start.
+            collision-free joint-space path (the straight line, or a planned one) connects to
+            the start.
         q: The configuration reached; for a failure, the best attempt's final configuration
             (never to be executed).
         reason: None on success; `out_of_reach` for a target beyond the arm's reach (no
             attempt made); otherwise the furthest stage a failing attempt got to:
-            `did_not_converge`, `joint_limits`, `collision` (at the goal) or `path_collision`.
+            `did_not_converge`, `joint_limits`, `collision` (at the goal) or `path_not_found`
+            (no collision-free path found within the planning time).
         iterations: IK iterations over all attempts.
         attempts: IK attempts made (1 + restarts used; 0 out of reach).
         position_error_m: Residual position error of the reported `q`.
         orientation_error_deg: Residual orientation error of the reported `q`.
-        path: The collision-free joint-space path (n, dof) on success, else None.
+        motion: The collision-free move from the start on success, else None.
     """
 
     reachable: bool
@@ -79,7 +83,12 @@ class ReachResult:
     attempts: int
     position_error_m: float
     orientation_error_deg: float
-    path: np.ndarray | None = None
+    motion: MotionPlan | None = None
+
+    @property
+    def path(self) -> np.ndarray | None:
+        """The move's sampled joint-space path (n, dof) on success, else None."""
+        return None if self.motion is None else self.motion.path
 
 
 class RobotArm:
@@ -191,9 +200,23 @@ class RobotArm:
         return False
 
     def path(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
-        """The sampled joint-space path between two configurations."""
+        """The sampled straight joint-space line between two configurations."""
         return joint_path(self.joints.check(q_from, "q_from"), self.joints.check(q_to, "q_to"),
                           self.settings.path_max_joint_step_rad)
+
+    def plan(self, q_from: np.ndarray, q_to: np.ndarray,
+             collisions: CollisionChecker | None = None) -> MotionPlan | None:
+        """A collision-free move between two configurations (the straight line when free, else
+        planned per `settings.path_planner`), or None when none was found.
+
+        Args:
+            q_from: Start configuration.
+            q_to: Goal configuration.
+            collisions: The checker holding the episode's object placement; `self.collisions`
+                (object upright) when omitted.
+        """
+        collisions = collisions if collisions is not None else self.collisions
+        return MotionPlanner(collisions, self.joints, self.settings).plan(q_from, q_to)
 
     def reach(self, target: SensorTarget, q_from: np.ndarray,
               collisions: CollisionChecker | None = None,
@@ -237,9 +260,9 @@ class RobotArm:
             if not self.joints.within_limits(attempt.q) or collisions.in_collision(attempt.q):
                 failures.append((2, attempt))
             else:
-                path = self.path(q_from, attempt.q)
-                if collisions.first_collision(path) is None:
-                    return self._result(attempt, None, iterations, len(failures) + 1, path)
+                motion = self.plan(q_from, attempt.q, collisions)
+                if motion is not None:
+                    return self._result(attempt, None, iterations, len(failures) + 1, motion)
                 failures.append((3, attempt))
             if target.roll_free and rolled < MAX_ROLL_VARIANTS:
                 # The same view with the sensor turned about its axis often clears the collision:
@@ -252,7 +275,7 @@ class RobotArm:
 
     @staticmethod
     def _result(attempt: IKAttempt, reason: FailureReason | None, iterations: int,
-                attempts: int, path: np.ndarray | None) -> ReachResult:
+                attempts: int, motion: MotionPlan | None) -> ReachResult:
         return ReachResult(
             reachable=reason is None,
             q=attempt.q,
@@ -261,25 +284,33 @@ class RobotArm:
             attempts=attempts,
             position_error_m=attempt.position_error_m,
             orientation_error_deg=float(np.rad2deg(attempt.orientation_error_rad)),
-            path=path,
+            motion=motion,
         )
 
     def travel(self, q_from: np.ndarray, q_to: np.ndarray, center: np.ndarray,
-               path: np.ndarray | None = None) -> TravelCost:
-        """All travel costs of the joint-space move `q_from` -> `q_to`.
+               motion: MotionPlan | None = None) -> TravelCost:
+        """All travel costs of the joint-space move `q_from` -> `q_to`, measured along the
+        executed path: `motion`'s corners and samples, or the straight line when omitted.
+
+        The joint costs add up over the straight segments between the corners (the robot stops
+        at each corner); `paper` depends on the ends only.
 
         Args:
             q_from: Start configuration.
             q_to: End configuration.
             center: Object centre for the paper's spherical approximation.
-            path: The sampled path of the move (`path(q_from, q_to)`), when already known.
+            motion: The executed move from `q_from` to `q_to`, when it is not the straight line.
         """
-        if path is None:
-            path = self.path(q_from, q_to)
+        if motion is None:
+            corners, path = np.array([q_from, q_to], dtype=float), self.path(q_from, q_to)
+        else:
+            corners, path = motion.waypoints, motion.path
+        segments = list(itertools.pairwise(corners))
+        velocity = self.joints.velocity_limits
         positions = self.forward.sensor_positions(path)
         return TravelCost(
-            joint_time=joint_time(path[0], path[-1], self.joints.velocity_limits),
-            joint_path=joint_path_length(path[0], path[-1]),
+            joint_time=sum(joint_time(a, b, velocity) for a, b in segments),
+            joint_path=sum(joint_path_length(a, b) for a, b in segments),
             cartesian=polyline_length(positions),
             paper=paper_travel(positions[0], positions[-1], np.asarray(center, dtype=float)),
         )
