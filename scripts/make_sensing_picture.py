@@ -4,11 +4,9 @@ The bundled motor stands in the cell with the Zivid 2+ MR60 preset on the UR10; 
 reaches one look-at view at the working distance, and the sensor measures from there under
 `ideal` and under `structured_light` (docs/sensor.md#sensing). The panels are the camera image:
 the ideal frame's depth, the structured-light frame's depth, and which ideal points the
-structured-light model lost and why. The causes are told apart by measuring the same frame
-under three reductions of the preset's model, each losing a subset of the next one's points:
-the projector alone (limits at 90 deg, no noise, no dropout: its shadow, including surfaces it
-lights from behind), then the incidence limits (`limits_only`), then the dropout (the full
-model, drawn from the frame's own seeded generator). Nothing is random between runs.
+structured-light model lost and why, as `DepthSensor.losses_at` tells the causes apart (the
+projector's shadow, the incidence limits, the dropout; docs/sensor.md#sensing) and in the
+colours the renderer draws them in. Nothing is random between runs.
 
     python scripts/make_sensing_picture.py [--resolution 612 512] [--out docs/media/sensing.png]
 """
@@ -16,8 +14,6 @@ model, drawn from the frame's own seeded generator). Nothing is random between r
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import itertools
 from pathlib import Path
 
 import matplotlib
@@ -33,9 +29,10 @@ from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.render.markers import LOST_RGBA
 from vprobot.scene import Cell
-from vprobot.sensing import IDEAL, StructuredLight
-from vprobot.sensor import Acquisition, DepthSensor
+from vprobot.sensing import StructuredLight
+from vprobot.sensor import LOSS_CAUSES, Acquisition, DepthSensor, FrameLosses
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "media" / "sensing.png"
 PRESET = "zivid2plus_mr60"
@@ -49,7 +46,7 @@ AZIMUTHS_DEG = (120.0, 90.0, 150.0)
 """Azimuths tried in turn, the first one the robot reaches drawn: 120 deg looks at the motor
 from the side away from the robot, which hides none of it there."""
 CAUSES = ("projector shadow", "beyond an incidence limit", "dropout")
-CAUSE_COLOURS = ("#7b3294", "#e66101", "#1b9e77")
+"""The legend's words for `LOSS_CAUSES`, in its order."""
 KEPT_COLOUR = "#e4e4e4"
 
 
@@ -82,10 +79,9 @@ def _depth_image(acquisition: Acquisition, resolution: tuple[int, int]) -> np.nd
 
 
 def acquire_frames(resolution: tuple[int, int]
-                   ) -> tuple[dict[str, Acquisition], float, StructuredLight]:
-    """The picture's view measured under `ideal`, the projector alone, the incidence limits and
-    the full structured-light model, in that order (each keeps a subset of the one before's
-    pixels); the view's azimuth (degrees) and the preset's model."""
+                   ) -> tuple[FrameLosses, Acquisition, float, StructuredLight]:
+    """What the picture's view lost to the structured-light model and why, its frame under the
+    model, the view's azimuth (degrees) and the preset's model."""
     config = with_sensor(load_config(), PRESET)
     model = config.sensor.sensing_model
     if not isinstance(model, StructuredLight):
@@ -93,14 +89,9 @@ def acquire_frames(resolution: tuple[int, int]
     cell = Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
     rotation = rotation_about_z(OBJECT_YAW_RAD)
     pose, joints, azimuth = _reached_view(cell, rotation)
-    shadow_only = dataclasses.replace(model.limits_only(), max_incidence_deg=90.0,
-                                      projector_max_incidence_deg=90.0)
-    models = {"ideal": IDEAL, "shadow": shadow_only, "limits": model.limits_only(),
-              "structured_light": model}
-    frames = {name: DepthSensor(cell, resolution=resolution, sensing=sensing)
-              .acquire_at(pose, rotation, joints)
-              for name, sensing in models.items()}
-    return frames, azimuth, model
+    sensor = DepthSensor(cell, resolution=resolution, sensing=model)
+    return (sensor.losses_at(pose, rotation, joints), sensor.acquire_at(pose, rotation, joints),
+            azimuth, model)
 
 
 def main() -> None:
@@ -110,18 +101,12 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
     resolution = tuple(args.resolution)
-    frames, azimuth, model = acquire_frames(resolution)
-    ideal, measured = frames["ideal"], frames["structured_light"]
+    losses, measured, azimuth, model = acquire_frames(resolution)
+    ideal = losses.ideal
     width, height = resolution
-    lost = np.zeros(width * height)
-    kept = [set(frame.pixels.tolist()) for frame in frames.values()]
-    counts = []
-    for cause, (before, after) in enumerate(itertools.pairwise(kept), start=1):
-        gone = np.array(sorted(before - after), dtype=np.int64)
-        lost[gone] = cause
-        counts.append(len(gone))
-    lost[measured.pixels] = 0  # kept: drawn pale, for the motor's outline
-    lost[np.setdiff1d(np.arange(width * height), ideal.pixels)] = np.nan
+    lost = np.full(width * height, np.nan)
+    lost[ideal.pixels] = losses.cause + 1  # kept (0) drawn pale, for the motor's outline
+    counts = [losses.counts()[cause] for cause in LOSS_CAUSES]
 
     # The motor fills a part of the frame: the panels show the box around its ideal points.
     rows, columns = np.divmod(ideal.pixels, width)
@@ -139,12 +124,13 @@ def main() -> None:
         ax.set_title(title, fontsize=10)
     figure.colorbar(shown, ax=axes[:2], shrink=0.8, label="depth (m)")
     axes[2].imshow(lost.reshape(height, width)[crop],
-                   cmap=ListedColormap((KEPT_COLOUR, *CAUSE_COLOURS)), vmin=-0.5, vmax=3.5,
+                   cmap=ListedColormap((KEPT_COLOUR, *(LOST_RGBA[cause] for cause in LOSS_CAUSES))),
+                   vmin=-0.5, vmax=3.5,
                    interpolation="nearest")
     axes[2].set_title(f"lost: {len(ideal) - len(measured):,} points (grey: kept)", fontsize=10)
     labels = [f"{cause} ({count:,})" for cause, count in zip(CAUSES, counts, strict=True)]
-    axes[2].legend(handles=[plt.Rectangle((0, 0), 1, 1, color=colour)
-                            for colour in CAUSE_COLOURS], labels=labels,
+    axes[2].legend(handles=[plt.Rectangle((0, 0), 1, 1, color=LOST_RGBA[cause])
+                            for cause in LOSS_CAUSES], labels=labels,
                    loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
     for ax in axes:
         ax.set_xticks([])

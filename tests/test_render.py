@@ -10,18 +10,23 @@ import json
 import imageio.v2 as imageio
 import numpy as np
 import pytest
+from matplotlib.colors import rgb_to_hsv
 
-from vprobot.config import load_config
+from vprobot.config import load_config, with_sensor
 from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import plan_document, planned_views, write_json
 from vprobot.render import EpisodeRenderer, render_episode
+from vprobot.render.lost import LOST_RGB
+from vprobot.render.markers import LOST_RGBA
 from vprobot.render.output import VideoWriter
 from vprobot.render.overlay import OverlayStatus, draw_status, inset
 from vprobot.render.replay import episode_from_plan
-from vprobot.render.summary import render_summary
+from vprobot.render.summary import OVERVIEW_FRACTION, render_summary
 from vprobot.render.timeline import TimingSettings, along_path, episode_timeline
+from vprobot.sensing import IDEAL
+from vprobot.sensor import LOSS_CAUSES, DepthSensor
 
 WIDTH, HEIGHT = 96, 72
 FAST = {"fps": 8.0, "hold_seconds": 0.25, "max_seconds_per_move": 0.5}
@@ -177,3 +182,70 @@ def test_episode_from_plan_names_what_is_wrong(config, tmp_path):
         episode_from_plan(config, plan)
     with pytest.raises(ValueError, match="does not exist"):
         episode_from_plan(config, tmp_path / "missing.json")
+
+
+@pytest.fixture(scope="module")
+def structured_light(config):
+    """The motor under the Zivid preset (structured light, its default) at 96 x 80 rays, three
+    views from the side the robot reaches; and the same scene with its sensor measuring
+    ideally."""
+    config = with_sensor(config, "zivid2plus_mr60")
+    scene = MotorScene.load(config, DEFAULT_MOTOR, resolution=(96, 80))
+    episode = Episode(scene, np.eye(3))
+    center = episode.center
+    for azimuth in (70.0, 110.0, 150.0):
+        target = SensorTarget.look_at(
+            center + config.sensor.working_distance_m * _direction(azimuth, 35.0), center)
+        assert episode.request(ViewRequest(target)).reachable
+    ideal = dataclasses.replace(scene, sensor=DepthSensor(scene.cell, resolution=(96, 80),
+                                                          sensing=IDEAL))
+    return scene, ideal, episode.record()
+
+
+def _inset_count(frame: np.ndarray, cause: str) -> int:
+    """Pixels of the cause's colour in the frame's inset (its right third, lower half)."""
+    inset_part = frame[frame.shape[0] // 2:, 2 * frame.shape[1] // 3:]
+    return int(np.all(inset_part == LOST_RGB[cause], axis=-1).sum())
+
+
+def test_inset_paints_the_points_the_frame_lost_by_cause_the_ideal_sensor_none(structured_light):
+    scene, ideal, record = structured_light
+    timeline = episode_timeline(record, TimingSettings(**FAST))
+    start = next(state for state in timeline if state.phase == "start")
+    shown = next(state for state in timeline if state.phase == "acquire")
+    with EpisodeRenderer(scene, record, 320, 240) as renderer:
+        counts = renderer.losses[shown.view].counts()
+        acquired, start = renderer.frame(shown), renderer.frame(start)
+    with EpisodeRenderer(ideal, record, 320, 240) as renderer:
+        assert renderer.losses == []
+        ideal_acquired = renderer.frame(shown)
+    for cause in LOSS_CAUSES:
+        assert counts[cause] > 0
+        # The legend's swatch in every frame; the lost points while the view is shown.
+        assert 0 < _inset_count(start, cause) < _inset_count(acquired, cause)
+        assert _inset_count(ideal_acquired, cause) == 0
+    # Where the robot does not stand in the way the two frames differ only in the inset.
+    assert np.array_equal(acquired[:, : 2 * acquired.shape[1] // 3],
+                          ideal_acquired[:, : 2 * acquired.shape[1] // 3])
+
+
+def test_summary_draws_the_lost_points_in_their_colours_the_ideal_sensor_none(structured_light,
+                                                                               tmp_path):
+    """The close-ups (below the caption) hold the shadowed points' purple and the grazing
+    points' cyan, as MuJoCo shades them, only under structured light."""
+    scene, ideal, record = structured_light
+    width, height = 640, 360
+    found = {}
+    for name, shown in (("structured_light", scene), ("ideal", ideal)):
+        image = imageio.imread(render_summary(shown, record, tmp_path / f"{name}.png",
+                                              width=width, height=height))
+        close_ups = image[height // 4:, round(OVERVIEW_FRACTION * width):, :3] / 255.0
+        hsv = rgb_to_hsv(close_ups)
+        found[name] = {}
+        for cause in ("shadowed", "grazing"):
+            hue = rgb_to_hsv(LOST_RGBA[cause][:3])[0]
+            near = np.abs((hsv[..., 0] - hue + 0.5) % 1.0 - 0.5) < 0.05
+            found[name][cause] = int(np.sum(near & (hsv[..., 1] > 0.4) & (hsv[..., 2] > 0.3)))
+    assert found["structured_light"]["shadowed"] > 10
+    assert found["structured_light"]["grazing"] > 10
+    assert found["ideal"] == {"shadowed": 0, "grazing": 0}

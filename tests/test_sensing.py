@@ -8,6 +8,7 @@ intersections, similar triangles), not read back from the acquisition's code.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -30,8 +31,8 @@ from vprobot.coverage import CoverageTracker
 from vprobot.geometry import Pose
 from vprobot.ground_truth import _cache_key, inspectable_points
 from vprobot.occupancy import FREE, OCCUPIED, OccupancyGrid
-from vprobot.sensing import IDEAL, StructuredLight
-from vprobot.sensor import DepthSensor
+from vprobot.sensing import IDEAL, IdealSensing, StructuredLight
+from vprobot.sensor import LOSS_CAUSES, DepthSensor, FrameLosses
 from vprobot.sensor_model import SensorModel
 
 CAMERA = SensorModel(resolution=(400, 300), fov_deg=(40.0, 30.0), near_m=0.2, far_m=0.8,
@@ -105,24 +106,39 @@ def test_tilted_plane_loses_its_points_exactly_past_the_incidence_limit(ray: str
     np.testing.assert_array_equal(measured, expected)
 
 
+STEP_BASELINE, STEP_DEPTH, STEP_HEIGHT, STEP_EDGE = 0.10, 0.5, 0.05, 0.01
+"""The step edge's projector baseline b, floor depth D, block height h and edge x_e."""
+STEP_SHADOW = (STEP_BASELINE - STEP_EDGE) * STEP_HEIGHT / (STEP_DEPTH - STEP_HEIGHT)
+"""The width of the floor the block shadows (similar triangles)."""
+STEP_PITCH = (2 * math.tan(math.radians(CAMERA.fov_deg[0] / 2)) / CAMERA.resolution[0]
+              * STEP_DEPTH)
+"""One camera pixel on the floor."""
+
+
+def _step_edge() -> trimesh.Trimesh:
+    """A floor at depth D with a block of height h on it, the block's edge facing the camera at
+    x_e < b, in the sensor frame's x (moved into the world)."""
+    floor = trimesh.creation.box((0.8, 0.6, 0.01))
+    floor.apply_translation([0.0, 0.0, STEP_DEPTH + 0.005])
+    block = trimesh.creation.box((0.2, 0.3, STEP_HEIGHT + 0.005))
+    block.apply_translation([STEP_EDGE + 0.1, 0.0,
+                             STEP_DEPTH - STEP_HEIGHT + (STEP_HEIGHT + 0.005) / 2])
+    return _in_world(trimesh.util.concatenate([floor, block]))
+
+
 def test_step_edge_casts_the_shadow_the_baseline_predicts() -> None:
     """A block of height h on a floor at depth D, its edge at x_e < b: the projector at x = b
     lights the floor past the edge only beyond x_e - (b - x_e) h / (D - h) (similar triangles),
     a shadow the camera at x = 0 sees whole."""
-    baseline, depth, height, edge = 0.10, 0.5, 0.05, 0.01
-    floor = trimesh.creation.box((0.8, 0.6, 0.01))
-    floor.apply_translation([0.0, 0.0, depth + 0.005])
-    block = trimesh.creation.box((0.2, 0.3, height + 0.005))
-    block.apply_translation([edge + 0.1, 0.0, depth - height + (height + 0.005) / 2])
-    mesh = _in_world(trimesh.util.concatenate([floor, block]))
+    baseline, depth, edge = STEP_BASELINE, STEP_DEPTH, STEP_EDGE
+    mesh = _step_edge()
     ideal = _acquire(mesh, None)
     shadowed = _acquire(mesh, dataclasses.replace(PLAIN, baseline_m=baseline))
     local = (ideal.points_world - POSE.position) @ POSE.rotation
     # The floor's points along the block's middle, away from its ends.
     on_floor = (np.abs(local[:, 2] - depth) < 1e-6) & (np.abs(local[:, 1]) < 0.05)
     lost = on_floor & ~np.isin(ideal.pixels, shadowed.pixels)
-    predicted = (baseline - edge) * height / (depth - height)
-    pitch = 2 * math.tan(math.radians(CAMERA.fov_deg[0] / 2)) / CAMERA.resolution[0] * depth
+    predicted, pitch = STEP_SHADOW, STEP_PITCH
     assert predicted > 10 * pitch
     # Every lost floor point lies in the predicted band, and the band is lost whole, to within
     # the sampling: half a projector pixel (one camera pixel: the projector's depth map has half
@@ -138,8 +154,77 @@ def test_step_edge_casts_the_shadow_the_baseline_predicts() -> None:
               for row in rows]
     assert np.mean(widths) == pytest.approx(predicted, abs=slack)
     # Off the floor only the wall facing away from the projector is lost: the block's top is lit.
-    top = np.abs(local[:, 2] - (depth - height)) < 1e-6
+    top = np.abs(local[:, 2] - (depth - STEP_HEIGHT)) < 1e-6
     assert np.isin(ideal.pixels[top], shadowed.pixels).all()
+
+
+def _losses(mesh: trimesh.Trimesh, sensing: StructuredLight | IdealSensing) -> FrameLosses:
+    scene, data = make_scene(mesh)
+    return DepthSensor(scene, CAMERA, sensing=sensing).losses_from_pose(data, POSE)
+
+
+def test_lost_points_are_shadowed_in_the_step_edges_shadow_and_grazing_past_the_limit() -> None:
+    """The step edge under a camera incidence limit of 20 deg: the floor band the baseline
+    predicts, and the block's wall towards the camera (seen at about 89 deg, but lit by the
+    projector from behind: shadowed comes first), are shadowed; elsewhere a point of the floor
+    or the block's top (horizontal: its incidence is its ray's angle to the optical axis) is
+    grazing past 20 deg and measured within."""
+    limit = 20.0
+    mesh = _step_edge()
+    losses = _losses(mesh, dataclasses.replace(PLAIN, baseline_m=STEP_BASELINE,
+                                               max_incidence_deg=limit))
+    ideal = losses.ideal
+    np.testing.assert_array_equal(ideal.pixels, _acquire(mesh, None).pixels)
+    cause = np.array(["measured", *LOSS_CAUSES])[losses.cause + 1]
+    local = (ideal.points_world - POSE.position) @ POSE.rotation
+    floor = np.abs(local[:, 2] - STEP_DEPTH) < 1e-6
+    horizontal = floor | (np.abs(local[:, 2] - (STEP_DEPTH - STEP_HEIGHT)) < 1e-6)
+    # The rest is the wall x = x_e: the block's other walls face away from the camera.
+    assert np.all(np.abs(local[~horizontal, 0] - STEP_EDGE) < 1e-6)
+    assert np.all(cause[~horizontal] == "shadowed") and np.sum(~horizontal) > 100
+    slack = 2 * STEP_PITCH
+    band = (floor & (np.abs(local[:, 1]) < 0.1)
+            & (local[:, 0] > STEP_EDGE - STEP_SHADOW + slack) & (local[:, 0] < STEP_EDGE - slack))
+    assert np.all(cause[band] == "shadowed") and np.sum(band) > 1000
+    # Clear of the shadow: before its edge, beyond the block's ends (|y| <= 0.15, widened by
+    # D / (D - h) on the floor), or on the block's top.
+    clear = horizontal & ((local[:, 0] < STEP_EDGE - STEP_SHADOW - slack)
+                          | (np.abs(local[:, 1]) > 0.2) | ~floor)
+    incidence = np.degrees(np.arccos(local[:, 2] / np.linalg.norm(local, axis=1)))
+    beyond, within = incidence > limit + 1e-3, incidence < limit - 1e-3
+    assert np.all(cause[clear & beyond] == "grazing") and np.sum(clear & beyond) > 1000
+    assert np.all(cause[clear & within] == "measured") and np.sum(clear & within) > 1000
+    assert not np.any((cause == "grazing") & within)
+    assert losses.counts()["dropped out"] == 0
+
+
+def test_lost_points_are_what_each_reduction_of_the_model_drops_first() -> None:
+    """The projector alone, its limits and the whole model (dropout, noise) each keep a subset
+    of the one before's pixels; a lost point's cause is the step that dropped it, and the
+    measured points are the model's own frame."""
+    model = dataclasses.replace(PLAIN, baseline_m=STEP_BASELINE, max_incidence_deg=20.0,
+                                noise_sigma_m=0.001, dropout_grazing=0.5, dropout_exponent=1.0)
+    mesh = _step_edge()
+    losses = _losses(mesh, model)
+    kept = [losses.ideal.pixels] + [_acquire(mesh, stage).pixels for stage in
+                                    (model.shadow_only(), model.limits_only(), model)]
+    counts = losses.counts()
+    for index, (before, after) in enumerate(itertools.pairwise(kept)):
+        assert np.isin(after, before).all()
+        np.testing.assert_array_equal(losses.ideal.pixels[losses.cause == index],
+                                      np.setdiff1d(before, after))
+        assert counts[LOSS_CAUSES[index]] == len(before) - len(after) > 100
+    np.testing.assert_array_equal(losses.ideal.pixels[losses.cause == -1], kept[-1])
+    assert counts["measured"] == len(kept[-1])
+
+
+def test_nothing_is_lost_under_the_ideal_model() -> None:
+    mesh = _step_edge()
+    losses = _losses(mesh, IDEAL)
+    ideal = _acquire(mesh, None)
+    np.testing.assert_array_equal(losses.ideal.points_world, ideal.points_world)
+    assert losses.counts() == {"measured": len(ideal), "shadowed": 0, "grazing": 0,
+                               "dropped out": 0}
 
 
 @pytest.mark.parametrize("kind", ["primitive", "mesh"])

@@ -103,6 +103,12 @@ class StructuredLight:
         since dropout is drawn anew per frame, and noise moves a point without losing it."""
         return dataclasses.replace(self, noise_sigma_m=0.0, dropout_grazing=0.0)
 
+    def shadow_only(self) -> StructuredLight:
+        """The projector alone: its limits widened to 90 degrees, no noise, no dropout. It loses
+        what the projector leaves dark: its shadow, and surfaces it lights from behind."""
+        return dataclasses.replace(self.limits_only(), max_incidence_deg=90.0,
+                                   projector_max_incidence_deg=90.0)
+
     def noise_sigma(self, depth: np.ndarray, cos_incidence: np.ndarray) -> np.ndarray:
         """sigma(z, theta) = sigma_0 (z / z_0)^2 / cos(theta), per point (metres)."""
         return self.noise_sigma_m * (depth / self.noise_distance_m) ** 2 / cos_incidence

@@ -22,6 +22,7 @@ for the few rays whose segment to the object crosses their bounding boxes, on wo
 The sensing model (`vprobot.sensing`) then decides which hits become points: all of them,
 exactly (`ideal`), or under `structured_light` those within the incidence limits that a second
 visibility pass from the projector finds lit, with noise and dropout (docs/sensor.md#sensing).
+`DepthSensor.losses_at` tells which hits a frame lost and why (docs/sensor.md#lost-points).
 """
 
 from __future__ import annotations
@@ -92,6 +93,35 @@ class Acquisition:
 
     def __len__(self) -> int:
         return len(self.points_world)
+
+
+LOSS_CAUSES = ("shadowed", "grazing", "dropped out")
+"""Why a frame lost a point the ideal sensor measures there (`DepthSensor.losses_at`), in the
+order they are told apart: the projector leaves it dark (its shadow, or a surface it lights from
+behind), the camera or the projector ray meets it beyond an incidence limit, it drops out."""
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameLosses:
+    """The points of a frame the ideal sensor measures, and which of them the sensing model lost.
+
+    Attributes:
+        ideal: The frame under the ideal model: every hit, exactly where it lies.
+        cause: Per point of `ideal`, the index in `LOSS_CAUSES` of why it was lost; -1 where it
+            was measured.
+    """
+
+    ideal: Acquisition
+    cause: np.ndarray
+
+    def lost(self, cause: str) -> np.ndarray:
+        """The points of `ideal` lost to `cause` (one of `LOSS_CAUSES`), in the world (n, 3)."""
+        return self.ideal.points_world[self.cause == LOSS_CAUSES.index(cause)]
+
+    def counts(self) -> dict[str, int]:
+        """How many points were measured and how many lost to each cause."""
+        counts = np.bincount(self.cause + 1, minlength=len(LOSS_CAUSES) + 1)
+        return dict(zip(("measured", *LOSS_CAUSES), map(int, counts), strict=True))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -247,6 +277,17 @@ class DepthSensor:
         collision checks, a renderer) can change what the sensor sees. `rng` as in
         `acquire_from_pose`.
         """
+        return self.acquire_from_pose(self._state(object_rotation, joints), pose, rng)
+
+    def losses_at(self, pose: Pose, object_rotation: np.ndarray,
+                  joints: np.ndarray | None = None) -> FrameLosses:
+        """What the frame `acquire_at` takes with these arguments lost to the sensing model,
+        and why (`losses_from_pose`)."""
+        return self.losses_from_pose(self._state(object_rotation, joints), pose)
+
+    def _state(self, object_rotation: np.ndarray, joints: np.ndarray | None) -> mujoco.MjData:
+        """The sensor's own MjData with the object turned by `object_rotation` and the robot at
+        `joints` (`home` when omitted)."""
         cell, data = self._cell, self._own_data
         joints = cell.joints.home if joints is None else joints
         # Placing the object costs more than the kinematics: redo it only when the pose changes.
@@ -257,7 +298,7 @@ class DepthSensor:
         elif not np.array_equal(data.qpos, joints):
             data.qpos[:] = joints
             mujoco.mj_kinematics(self.model, data)
-        return self.acquire_from_pose(data, pose, rng)
+        return data
 
     @functools.cached_property
     def _own_data(self) -> mujoco.MjData:
@@ -284,6 +325,46 @@ class DepthSensor:
                 seeded from the sensor and object poses (`vprobot.sensing.frame_generator`), so
                 that the same frame always gets the same noise. The ideal model draws nothing.
         """
+        frame = self._camera_hits(data, pose)
+        if isinstance(self.sensing, StructuredLight) and len(frame):
+            rng = rng if rng is not None else self._frame_generator(frame)
+            pixels, points = self._structured_light(self.sensing, data, pose, frame.pixels,
+                                                    frame.points_world, rng)
+            frame = dataclasses.replace(frame, points_world=points, pixels=pixels,
+                                        points_object=points - frame.object_pose.position)
+        return frame
+
+    def losses_from_pose(self, data: mujoco.MjData, pose: Pose) -> FrameLosses:
+        """What the frame `acquire_from_pose(data, pose)` takes lost to the sensing model, and
+        why: the camera's hits (the ideal frame) measured under the model's reductions in turn,
+        the projector alone (`StructuredLight.shadow_only`), its limits (`limits_only`) and the
+        whole model, each keeping a subset of the one before's points; a point is lost to the
+        first that drops it (`LOSS_CAUSES`). Nothing is lost under the ideal model.
+        """
+        ideal = self._camera_hits(data, pose)
+        cause = np.full(len(ideal), -1)
+        model = self.sensing
+        if isinstance(model, StructuredLight) and len(ideal):
+            stages = (model.shadow_only(), model.limits_only(), model)
+            kept = [self._structured_light(stage, data, pose, ideal.pixels, ideal.points_world,
+                                           self._frame_generator(ideal))[0]
+                    for stage in stages]
+            # The last step first: each earlier one overwrites, so the first to drop a point
+            # names its cause.
+            for index, pixels in reversed(list(enumerate(kept))):
+                cause[~np.isin(ideal.pixels, pixels, assume_unique=True)] = index
+            cause[np.isin(ideal.pixels, kept[-1], assume_unique=True)] = -1
+        return FrameLosses(ideal, cause)
+
+    @staticmethod
+    def _frame_generator(frame: Acquisition) -> np.random.Generator:
+        """The noise and dropout draws of `frame`, when the caller gives none."""
+        return frame_generator(frame.sensor_pose.position, frame.sensor_pose.rotation,
+                               frame.object_pose.position, frame.object_pose.rotation)
+
+    def _camera_hits(self, data: mujoco.MjData, pose: Pose) -> Acquisition:
+        """The frame before the sensing model: every object hit within range that nothing in
+        the cell hides from the camera, exactly where its ray meets the surface."""
         body = self._object_body_id
         object_pose = Pose(data.xpos[body].copy(), data.xmat[body].reshape(3, 3).copy())
         pixels = self._first_hits(self._object_meshes, data, pose, self._object_depth,
@@ -303,25 +384,21 @@ class DepthSensor:
         # Pixels the camera sees the object in are not blocked, whether or not the projector
         # lights them: the cell does not see its own occluder there.
         blocked_pixels = np.setdiff1d(in_range_pixels, pixels, assume_unique=True)
-        if isinstance(self.sensing, StructuredLight) and len(pixels):
-            rng = rng if rng is not None else frame_generator(
-                pose.position, pose.rotation, object_pose.position, object_pose.rotation)
-            pixels, points = self._structured_light(data, pose, pixels, points, rng)
         return Acquisition(points_world=points, points_object=points - object_pose.position,
                            pixels=pixels, blocked_pixels=blocked_pixels,
                            sensor_pose=pose, object_pose=object_pose,
                            rays_cast=self.rays_per_frame)
 
-    def _structured_light(self, data: mujoco.MjData, pose: Pose, pixels: np.ndarray,
-                          points: np.ndarray, rng: np.random.Generator
+    def _structured_light(self, model: StructuredLight, data: mujoco.MjData, pose: Pose,
+                          pixels: np.ndarray, points: np.ndarray, rng: np.random.Generator
                           ) -> tuple[np.ndarray, np.ndarray]:
-        """Keep the camera's points within both incidence limits that the projector lights,
-        drop some by the dropout law and move the rest along their rays by the noise law.
+        """Keep the camera's points (the frame `_camera_hits` took last) within both incidence
+        limits of `model` that its projector lights, drop some by its dropout law and move the
+        rest along their rays by its noise law.
 
         The geometry is done in the sensor frame, where the rays are the grid's own and the
         projector sits at (baseline, 0, 0) with the camera's axes: no point is rotated.
         """
-        model = self.sensing
         min_camera, min_projector = model.min_cos_incidence
         normals = np.take(self._normals(data, pose), self._face[pixels], axis=0)
         rays = np.take(self.directions, pixels, axis=0)
@@ -343,7 +420,8 @@ class DepthSensor:
         facing = np.flatnonzero((cos_camera * cos_projector > 0.0)
                                 & (np.abs(cos_projector) >= min_projector))
         if len(facing):
-            facing = facing[self._lit(data, pose, np.take(light, facing, axis=0),
+            facing = facing[self._lit(data, pose, model.baseline_m,
+                                      np.take(light, facing, axis=0),
                                       light_distance[facing],
                                       np.take(points, seen[facing], axis=0),
                                       np.take(normals, facing, axis=0))]
@@ -361,7 +439,7 @@ class DepthSensor:
             mesh.normals @ (pose.rotation.T @ data.geom_xmat[mesh.geom_id].reshape(3, 3)).T
             for mesh in self._object_meshes])
 
-    def _lit(self, data: mujoco.MjData, pose: Pose, light: np.ndarray,
+    def _lit(self, data: mujoco.MjData, pose: Pose, baseline: float, light: np.ndarray,
              light_distance: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """The indices of the points the projector reaches unoccluded.
 
@@ -375,12 +453,13 @@ class DepthSensor:
         Args:
             data: The cell state.
             pose: The sensor (camera) frame in the world; the projector shares its axes.
+            baseline: The projector's distance from the camera along the sensor's +x axis.
             light: The points relative to the projector's centre, in the sensor frame.
             light_distance: Their distances from the projector's centre.
             points: The same points in the world.
             normals: Their surfaces' unit normals in the sensor frame.
         """
-        origin = pose.position + self.sensing.baseline_m * pose.rotation[:, 0]
+        origin = pose.position + baseline * pose.rotation[:, 0]
         projector = Pose(origin, pose.rotation)
         u, v = self._u, self._v
         step_u = _PROJECTOR_PITCH * (u[1] - u[0] if len(u) > 1 else 1.0)

@@ -103,6 +103,16 @@ def _draw_bar(draw: ImageDraw.ImageDraw, x: int, y: int, width: int, height: int
     return y + 2 * height
 
 
+def draw_swatch(draw: ImageDraw.ImageDraw, x: int, y: int, text: str,
+                rgb: tuple[int, int, int], size_px: int) -> int:
+    """A legend entry at (x, y): a square of colour `rgb`, then `text`; returns the x after it."""
+    draw.rectangle((x, y + 1, x + size_px - 2, y + size_px - 1), fill=rgb, outline=DIM_RGB)
+    x += size_px + max(2, size_px // 3)
+    draw.text((x, y), text, font=font(size_px), fill=TEXT_RGB, stroke_width=1,
+              stroke_fill=(0, 0, 0))
+    return x + int(font(size_px).getlength(text)) + size_px
+
+
 def inset(frame: np.ndarray, panel: np.ndarray, label: str) -> np.ndarray:
     """Return a copy of `frame` with `panel` in its bottom-right corner, framed and labelled.
 

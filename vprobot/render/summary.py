@@ -2,7 +2,9 @@
 
 Left, the views: the object with its ground-truth points, the view poses as small numbered
 frusta and the sensor's track between them. Right, two close-ups of the object from opposite
-sides, where covered (green) and uncovered (red) points can be told apart.
+sides, where covered (green) and uncovered (red) points can be told apart. Under a
+structured-light sensor the close-ups also show the points each frame lost, by cause
+(`vprobot.render.lost`), and the caption counts them.
 """
 
 from __future__ import annotations
@@ -17,21 +19,25 @@ from PIL import Image, ImageDraw
 from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.geometry import Pose
 from vprobot.render.camera import aim_at_sphere, project
+from vprobot.render.lost import LOST_RGB, frame_losses, lost_in_order
 from vprobot.render.markers import (
     COVERED_RGBA,
     FRUSTUM_SEGMENTS,
+    LOST_RGBA,
     UNCOVERED_RGBA,
     UNREACHABLE_RGBA,
     add_frustum,
     add_points,
     add_segment,
+    subsample,
     view_rgba,
 )
 from vprobot.render.offscreen import OffscreenView, check_size
 from vprobot.render.output import check_output_path, write_png
-from vprobot.render.overlay import BOX_RGBA, TEXT_RGB, font
+from vprobot.render.overlay import BOX_RGBA, TEXT_RGB, draw_swatch, font
 from vprobot.render.video import cell_of
 from vprobot.scene import Cell
+from vprobot.sensor import LOSS_CAUSES, FrameLosses
 from vprobot.sensor_model import SensorModel
 
 OVERVIEW_FRACTION = 0.6
@@ -45,6 +51,8 @@ CLOSE_UP_POINT_SIZE_M = 0.0025
 SMALL_FRUSTUM_M = 0.09
 """Depth of the frusta drawn at the view poses: enough to show the direction."""
 TRACK_RGBA = np.array([1.0, 1.0, 1.0, 0.5], dtype=np.float32)
+LOST_POINTS_PER_VIEW = 300
+"""Lost points drawn per view and cause (a random subset: drawing is per point)."""
 FRAME_MARGIN = 1.1
 MIN_PANEL_PX = 16
 
@@ -109,18 +117,32 @@ def _overview(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int
     return _label_views(image, record, labels)
 
 
-def _close_ups(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int,
-               height: int) -> np.ndarray:
-    """The object from two opposite sides, stacked."""
+def _lost_points(losses: list[FrameLosses | None]) -> list[tuple[str, np.ndarray]]:
+    """Each view's lost points per cause, subsampled, in drawing order."""
+    return [(cause, subsample(points, LOST_POINTS_PER_VIEW, seed=index))
+            for index, view_losses in enumerate(losses) if view_losses is not None
+            for cause, points in lost_in_order(view_losses)]
+
+
+def _close_ups(cell: Cell, data: mujoco.MjData, record: EpisodeRecord,
+               losses: list[FrameLosses | None], width: int, height: int) -> np.ndarray:
+    """The object from two opposite sides, stacked, with the points the frames lost."""
     radius = float(np.max(np.linalg.norm(cell.object_vertices, axis=1)))
+    lost = _lost_points(losses)
+
+    def draw(scene: mujoco.MjvScene) -> None:
+        _draw_gt(scene, record, CLOSE_UP_POINT_SIZE_M)
+        for cause, points in lost:
+            add_points(scene, points, LOST_RGBA[cause], CLOSE_UP_POINT_SIZE_M)
+
     images = []
-    with OffscreenView(cell.model, width, height // 2, fine=True,
-                       max_geom=len(record.gt_points_world)) as view:
+    geoms = len(record.gt_points_world) + sum(len(points) for _, points in lost)
+    with OffscreenView(cell.model, width, height // 2, fine=True, max_geom=geoms) as view:
         _object_only(view, cell)
         for azimuth, elevation in CLOSE_UP_DIRECTIONS_DEG:
             aim_at_sphere(view.camera, view.model, record.object_pose.position,
                           FRAME_MARGIN * radius, azimuth, elevation)
-            view.update(data, lambda scene: _draw_gt(scene, record, CLOSE_UP_POINT_SIZE_M))
+            view.update(data, draw)
             images.append(view.rgb())
     stacked = np.concatenate(images, axis=0)
     # An odd height leaves one row for the close-ups to fill.
@@ -139,8 +161,11 @@ def _label_views(image: np.ndarray, record: EpisodeRecord, labels: np.ndarray) -
     return np.asarray(canvas)
 
 
-def _caption(image: np.ndarray, record: EpisodeRecord) -> np.ndarray:
-    """The episode's totals across the top."""
+def _caption(image: np.ndarray, record: EpisodeRecord,
+             losses: list[FrameLosses | None]) -> np.ndarray:
+    """The episode's totals across the top; where frames lose points, a line more: how many
+    each cause lost (in its colour in the close-ups) and how many were measured, summed over
+    the frames."""
     covered = int(np.count_nonzero(record.covered))
     reached = sum(view.reachable for view in record.views)
     travel = record.travel_sum
@@ -150,22 +175,36 @@ def _caption(image: np.ndarray, record: EpisodeRecord) -> np.ndarray:
         f"{reached} of {len(record.views)} views reached (x: unreachable request); between "
         f"views {travel.joint_time:.2f} s joint time, {travel.cartesian:.2f} m sensor path",
     ]
+    frames = [view_losses.counts() for view_losses in losses if view_losses is not None]
     canvas = Image.fromarray(image).convert("RGBA")
     layer = Image.new("RGBA", canvas.size, (0, 0, 0, 0))
     draw = ImageDraw.Draw(layer)
     size = max(9, image.shape[0] // 40)
     margin = max(2, size // 2)
-    draw.rectangle((0, 0, canvas.size[0], 2 * margin + len(lines) * (size + margin)),
-                   fill=BOX_RGBA)
+    rows = len(lines) + bool(frames)
+    draw.rectangle((0, 0, canvas.size[0], 2 * margin + rows * (size + margin)), fill=BOX_RGBA)
     for row, line in enumerate(lines):
         draw.text((margin, margin + row * (size + margin)), line, font=font(size),
                   fill=TEXT_RGB)
+    if frames:
+        y = margin + len(lines) * (size + margin)
+        text = "points the frames lost (another view may measure them):"
+        draw.text((margin, y), text, font=font(size), fill=TEXT_RGB)
+        x = 2 * margin + int(font(size).getlength(text))
+        for cause in LOSS_CAUSES:
+            total = sum(counts[cause] for counts in frames)
+            x = draw_swatch(draw, x, y, f"{cause} {total:,}", LOST_RGB[cause], size)
+        measured = sum(counts["measured"] for counts in frames)
+        draw.text((x, y), f"measured {measured:,}", font=font(size), fill=TEXT_RGB)
     return np.asarray(Image.alpha_composite(canvas, layer).convert("RGB"))
 
 
 def render_summary(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str | Path,
                    width: int = 1280, height: int = 720) -> Path:
     """Write a PNG summing up an episode: coverage of the ground truth and the view poses.
+
+    Under a structured-light sensor it also shows the points each frame lost, by cause, and
+    their totals; each frame is measured again for that (`vprobot.render.lost.frame_losses`).
 
     Args:
         scene: The motor scene (or cell) the episode ran in.
@@ -188,8 +227,9 @@ def render_summary(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str
     cell = cell_of(scene)
     data = cell.make_data()
     cell.place_object(data, record.object_pose.rotation)
+    losses = frame_losses(scene, record)
     image = np.concatenate([
         _overview(cell, data, record, overview_width, height),
-        _close_ups(cell, data, record, width - overview_width, height),
+        _close_ups(cell, data, record, losses, width - overview_width, height),
     ], axis=1)
-    return write_png(out_png, _caption(image, record))
+    return write_png(out_png, _caption(image, record, losses))

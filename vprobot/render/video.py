@@ -13,6 +13,7 @@ from tqdm import tqdm
 from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord
 from vprobot.kinematics import TravelCost
 from vprobot.render.camera import aim_overview
+from vprobot.render.lost import frame_losses, lost_legend, paint_lost, point_size_px
 from vprobot.render.markers import (
     FRUSTUM_SEGMENTS,
     UNREACHABLE_RGBA,
@@ -66,7 +67,9 @@ class EpisodeRenderer:
         record: The episode.
         width: Frame width in pixels.
         height: Frame height in pixels.
-        sensor_panel: Inset the sensor's own view (`color` or `depth`), or None.
+        sensor_panel: Inset the sensor's own view (`color` or `depth`), or None. Under a
+            structured-light sensor, while a view the robot took is shown, the points its frame
+            lost are painted on it by cause (`vprobot.render.lost`), with a legend.
         points_per_view: Acquired points drawn per view (a random subset; drawing is per point).
 
     Raises:
@@ -94,6 +97,11 @@ class EpisodeRenderer:
         aim_overview(self.view.camera, self.cell)
         self.panel = (None if sensor_panel is None else
                       SensorPanel(self.cell, max(8, int(PANEL_FRACTION * width)), sensor_panel))
+        # The panel is the robot's sensor camera: it shows a view only where the robot took it.
+        self.losses = (frame_losses(scene, record)
+                       if self.panel is not None and record.carrier == "robot" else [])
+        if self.losses:
+            self.lost_size_px = point_size_px(self.panel.width, scene.sensor.resolution[0])
 
     def frame(self, state: FrameState) -> np.ndarray:
         """The frame (height, width, 3) uint8 showing `state`."""
@@ -102,8 +110,19 @@ class EpisodeRenderer:
         self.view.update(self.data, lambda scene: self._draw_markers(scene, state))
         frame = self.view.rgb()
         if self.panel is not None:
-            frame = inset(frame, self.panel.render(self.data), f"sensor ({self.panel.mode})")
+            frame = inset(frame, self._panel(state), f"sensor ({self.panel.mode})")
         return draw_status(frame, self.status(state))
+
+    def _panel(self, state: FrameState) -> np.ndarray:
+        """The sensor's view; with what the shown view's frame lost, and the legend, where
+        frames lose points."""
+        panel = self.panel.render(self.data)
+        if not self.losses:
+            return panel
+        shown = self.losses[state.view] if state.phase in ("acquire", "end") else None
+        if shown is not None:
+            panel = paint_lost(panel, self.panel.view.scene, shown, self.lost_size_px)
+        return lost_legend(panel, shown)
 
     def _draw_markers(self, scene: mujoco.MjvScene, state: FrameState) -> None:
         for index, view in enumerate(self.record.views[: state.shown]):
