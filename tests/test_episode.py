@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from vprobot.config import Config
-from vprobot.episode import Episode, EpisodeSpec, MotorScene, ViewRequest, seeded_episode
+from vprobot.episode import (
+    Episode,
+    EpisodeSpec,
+    MotorScene,
+    ViewRequest,
+    seeded_episode,
+    timed_episode,
+)
 from vprobot.geometry import rotation_about_x, rotation_about_z
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
@@ -94,3 +101,32 @@ def test_spec_round_trip_and_clear_errors() -> None:
         EpisodeSpec.from_dict({**spec.as_dict(), "pose": 1})
     with pytest.raises(ValueError, match="seed"):
         EpisodeSpec.from_dict({**spec.as_dict(), "seed": -1})
+
+
+def test_the_cycle_time_is_the_sum_of_the_steps_and_the_return_home(scene: MotorScene) -> None:
+    """The cycle (docs/motion.md#cycle-time) timed as a whole equals what the steps' `cycle_time`
+    costs add up to (each move timed alone plus its acquisition) plus the return, timed alone;
+    the return closes the loop at the start."""
+    episode = Episode(scene, np.eye(3))
+    for request in _requests(episode):
+        episode.request(request)
+    record = episode.record()
+    acquired = [view for view in record.views if view.acquired]
+    assert len(acquired) >= 2
+    np.testing.assert_array_equal(record.return_waypoints[0], acquired[-1].joints)
+    np.testing.assert_array_equal(record.return_waypoints[-1], record.start_joints)
+    timed = timed_episode(record, scene.cell)
+    acquisition = scene.cell.config.sensor.acquisition_time_s
+    back = scene.arm.move_time(record.return_waypoints)
+    assert timed.cycle.total_s == pytest.approx(
+        record.approach.cycle_time + record.travel_sum.cycle_time + back, rel=1e-12)
+    assert timed.cycle.acquisitions_s == pytest.approx(len(acquired) * acquisition)
+    assert timed.cycle.return_s == pytest.approx(back, rel=1e-12)
+    # A move that stands still costs its acquisition alone.
+    still = scene.arm.travel(record.start_joints, record.start_joints, episode.center)
+    assert still.cycle_time == acquisition
+    # No robot, no cycle.
+    free = Episode(scene, np.eye(3), carrier="free")
+    free.request(_requests(free)[0])
+    assert free.record().return_waypoints is None and timed_episode(free.record(),
+                                                                    scene.cell) is None

@@ -275,10 +275,10 @@ ActionName = Literal[
     "A_2S0R", "A_3S0R", "A_2S2R", "A_2S2R_lim", "A_3S2R", "A_3S2R_lim", "A_3C0R", "A_3C2R",
     "A_view",
 ]
-TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper"]
+TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper", "cycle_time"]
 Selection = Literal["coverage", "goal_then_views"]
 """How a run's evaluations choose its best model (`AgentConfig.select`)."""
-ROBOT_TRAVEL_COSTS = ("joint_time", "joint_path")
+ROBOT_TRAVEL_COSTS = ("joint_time", "joint_path", "cycle_time")
 """Travel costs that exist only with a robot (joint space)."""
 
 

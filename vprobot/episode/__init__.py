@@ -1,6 +1,7 @@
 """The inspection engine: motor scenes, sensor carriers, episodes, their specs and records."""
 
 from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
+from vprobot.episode.cycle import episode_moves, timed_episode
 from vprobot.episode.engine import Episode, make_carrier
 from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
@@ -33,10 +34,12 @@ __all__ = [
     "ViewRecord",
     "ViewRequest",
     "episode_list",
+    "episode_moves",
     "make_carrier",
     "random_object_rotation",
     "read_episode_list",
     "sample_episode",
     "seeded_episode",
+    "timed_episode",
     "write_episode_list",
 ]

@@ -66,6 +66,8 @@ class Episode:
         self.pose: Pose | None = None
         self.views: list[ViewRecord] = []
         self._first_covered_by = np.full(len(scene.ground_truth.points), -1)
+        # The way back to the start, planned once per configuration it leaves from.
+        self._return: tuple[np.ndarray, np.ndarray | None] | None = None
 
     @classmethod
     def from_spec(cls, scene: MotorScene, spec: EpisodeSpec, carrier: CarrierName = "robot",
@@ -195,4 +197,14 @@ class Episode:
             first_covered_by=self._first_covered_by.copy(),
             epsilon_m=self.tracker.epsilon,
             mesh_path=str(self.scene.mesh.path),
+            return_waypoints=self._return_waypoints(),
         )
+
+    def _return_waypoints(self) -> np.ndarray | None:
+        """The corners of the robot's move back to its start (`EpisodeRecord.return_waypoints`)."""
+        if not isinstance(self.carrier, RobotCarrier) or not any(v.acquired for v in self.views):
+            return None
+        if self._return is None or not np.array_equal(self._return[0], self.q):
+            motion = self.carrier.plan(self.q, self.start_joints)
+            self._return = (self.q.copy(), None if motion is None else motion.waypoints)
+        return self._return[1]

@@ -94,6 +94,9 @@ class EpisodeRecord:
         epsilon_m: Coverage matching distance: a GT point is covered by an acquired point
             within it.
         mesh_path: The mesh file, when the object came from one.
+        return_waypoints: The corners (m, dof) of the robot's collision-free move from its last
+            configuration back to `start_joints`, the cycle's return; None without a robot,
+            before the first acquisition, or when no path back was found.
     """
 
     carrier: str
@@ -104,6 +107,7 @@ class EpisodeRecord:
     first_covered_by: np.ndarray
     epsilon_m: float
     mesh_path: str | None = None
+    return_waypoints: np.ndarray | None = None
 
     @property
     def covered(self) -> np.ndarray:

@@ -23,6 +23,7 @@ from vprobot.kinematics.ik import (
 )
 from vprobot.kinematics.motion_planner import MotionPlan, MotionPlanner
 from vprobot.kinematics.path import joint_path
+from vprobot.kinematics.trajectory import MotionLimits, time_segment
 from vprobot.kinematics.travel import (
     TravelCost,
     joint_path_length,
@@ -108,6 +109,7 @@ class RobotArm:
         self.joints = cell.joints
         self.forward = ForwardKinematics(cell)
         self.collisions = CollisionChecker(cell)
+        self.limits = MotionLimits.of(cell.robot)
         self.ik = IKSolver(cell, self.settings)
         self.reach_radius_m = self._reach_radius()
         # The pan joint's body frame lies on the pan axis, whatever the other joints do.
@@ -287,19 +289,28 @@ class RobotArm:
             motion=motion,
         )
 
+    def move_time(self, waypoints: np.ndarray) -> float:
+        """Duration of a move along `waypoints` (m, dof) under the robot's velocity,
+        acceleration and jerk limits, stopping at each corner (the time law of docs/motion.md)."""
+        return sum(segment.duration_s for a, b in itertools.pairwise(waypoints)
+                   if (segment := time_segment(a, b, self.limits)) is not None)
+
     def travel(self, q_from: np.ndarray, q_to: np.ndarray, center: np.ndarray,
-               motion: MotionPlan | None = None) -> TravelCost:
+               motion: MotionPlan | None = None, acquires: bool = True) -> TravelCost:
         """All travel costs of the joint-space move `q_from` -> `q_to`, measured along the
         executed path: `motion`'s corners and samples, or the straight line when omitted.
 
         The joint costs add up over the straight segments between the corners (the robot stops
-        at each corner); `paper` depends on the ends only.
+        at each corner); `paper` depends on the ends only; `cycle_time` is the move's duration
+        under the time law plus, when it `acquires`, the sensor's acquisition time.
 
         Args:
             q_from: Start configuration.
             q_to: End configuration.
             center: Object centre for the paper's spherical approximation.
             motion: The executed move from `q_from` to `q_to`, when it is not the straight line.
+            acquires: Whether the move ends at a view, where the robot stands still while the
+                sensor acquires.
         """
         if motion is None:
             corners, path = np.array([q_from, q_to], dtype=float), self.path(q_from, q_to)
@@ -313,4 +324,6 @@ class RobotArm:
             joint_path=sum(joint_path_length(a, b) for a, b in segments),
             cartesian=polyline_length(positions),
             paper=paper_travel(positions[0], positions[-1], np.asarray(center, dtype=float)),
+            cycle_time=self.move_time(corners) + (self.cell.config.sensor.acquisition_time_s
+                                                  if acquires else 0.0),
         )

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-TRAVEL_COSTS = ("joint_time", "joint_path", "cartesian", "paper")
+TRAVEL_COSTS = ("joint_time", "joint_path", "cartesian", "paper", "cycle_time")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -19,12 +19,16 @@ class TravelCost:
         cartesian: Length of the path the sensor traces along the joint-space line (m).
         paper: The paper's approximation: great-circle arc about the object centre on the
             smaller sphere plus the radius difference (m).
+        cycle_time: What the move adds to the cell's cycle time (s): its duration under the
+            robot's velocity, acceleration and jerk limits (docs/motion.md), plus the
+            acquisition at its end when it ends at a view.
     """
 
     joint_time: float = 0.0
     joint_path: float = 0.0
     cartesian: float = 0.0
     paper: float = 0.0
+    cycle_time: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
         return dataclasses.asdict(self)
@@ -32,7 +36,8 @@ class TravelCost:
     def __add__(self, other: TravelCost) -> TravelCost:
         # Spelled out: summed every env step, where dataclasses.asdict costs more than the rest.
         return TravelCost(self.joint_time + other.joint_time, self.joint_path + other.joint_path,
-                          self.cartesian + other.cartesian, self.paper + other.paper)
+                          self.cartesian + other.cartesian, self.paper + other.paper,
+                          self.cycle_time + other.cycle_time)
 
 
 def joint_time(q_from: np.ndarray, q_to: np.ndarray, velocity_limits: np.ndarray) -> float:
