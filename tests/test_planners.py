@@ -148,7 +148,7 @@ def test_exported_plan_reproduces_sensor_poses_by_fk(bscp_plan: tuple, tmp_path:
         assert rotation_difference(pose[:3, :3], expected) <= 1e-3
         assert view["coverage"] >= previous
         previous = view["coverage"]
-        assert set(view["travel"]) == {"joint_time", "joint_path", "cartesian", "paper"}
+        assert set(view["travel"]) == {"joint_time", "joint_path", "cartesian", "paper", "cycle_time"}
     assert previous == pytest.approx(document["coverage"])
 
 
