@@ -304,3 +304,16 @@ def test_check_fails_on_a_plan_timed_beyond_the_robots_limits(
     out = capsys.readouterr().out
     assert re.search(r"velocity limit exceeded at t=[\d.]+ s \(sample \d+\): \w+_joint", out)
     assert "the plan states" in out
+
+
+def test_a_free_flying_plan_has_no_return_nor_cycle_and_no_program(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / "free.json"
+    assert main(["plan", "--planner", "uniform4", "--carrier", "free", "--no-timing", "--out",
+                 str(path)]) == 0
+    document = json.loads(path.read_text())
+    assert document["return"] is None and document["cycle_time"] is None
+    assert all("waypoints" not in view for view in document["views"])
+    capsys.readouterr()
+    assert main(["check", str(path)]) == 2
+    assert "free-flying sensor has no robot program" in capsys.readouterr().err
