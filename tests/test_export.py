@@ -251,6 +251,13 @@ def test_export_refuses_what_has_no_program_in_one_line(
     assert not (tmp_path / "x.script").exists()
 
 
+def test_export_never_writes_over_the_plan(plan: Path, capsys: pytest.CaptureFixture) -> None:
+    before = plan.read_text()
+    assert main(["export", str(plan), "--format", "trajectory", "--out", str(plan)]) == 2
+    assert "is the plan itself" in capsys.readouterr().err
+    assert plan.read_text() == before
+
+
 def test_check_holds_on_the_plan(plan: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(["check", str(plan)]) == 0
     out = capsys.readouterr().out
@@ -317,3 +324,19 @@ def test_a_free_flying_plan_has_no_return_nor_cycle_and_no_program(
     capsys.readouterr()
     assert main(["check", str(path)]) == 2
     assert "free-flying sensor has no robot program" in capsys.readouterr().err
+
+
+def test_check_holds_on_a_panda_plan_which_gets_no_urscript(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / "panda.json"
+    assert main(["plan", "--planner", "bscp", "--views", "2", "--robot", "panda", "--no-timing",
+                 "--out", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["check", str(path)]) == 0
+    assert "check holds" in capsys.readouterr().out
+    assert main(["export", str(path), "--format", "urscript", "--out",
+                 str(tmp_path / "panda.script")]) == 2
+    assert "the plan's robot is 'panda'" in capsys.readouterr().err
+    assert main(["export", str(path), "--format", "ros2", "--out",
+                 str(tmp_path / "panda.yaml")]) == 0
+    assert len(yaml.safe_load((tmp_path / "panda.yaml").read_text())["joint_names"]) == 7

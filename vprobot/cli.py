@@ -291,6 +291,8 @@ def command_export(args: argparse.Namespace) -> int:
     from vprobot.render.replay import read_plan
 
     check_output_file(args.out, "--out", (SUFFIXES[args.format],))
+    if Path(args.out).resolve() == Path(args.plan).resolve():
+        raise ValueError(f"--out {args.out} is the plan itself; give another file")
     text = export_plan(read_plan(args.plan), args.format, args.dt)
     print(f"wrote {write_text(Path(args.out), text)}")
     return 0
