@@ -237,6 +237,8 @@ def test_export_of_a_10_view_plan_is_timed(document: dict[str, Any]) -> None:
         (lambda d: d.pop("return"), "written before export existed"),
         (lambda d: d.update({"return": {"waypoints": None, "reason": "no_path_back"}}),
          "cycle is not closed (no_path_back)"),
+        (lambda d: d["views"][2]["joints"].__setitem__(0, 0.5),
+         "views[2].joints are not the last of its waypoints"),
     ],
 )
 def test_export_refuses_what_has_no_program_in_one_line(

@@ -94,7 +94,8 @@ def plan_motion(document: dict[str, Any]) -> PlanMotion:
     Raises:
         ValueError: For a free-flying plan (no robot program), a plan without the moves'
             corners (written before export existed), without an acquisition or without a way
-            back to the start, or with malformed fields.
+            back to the start, with a view's joints not where its move ends, or with malformed
+            fields.
     """
     if document.get("carrier", "robot") != "robot":
         raise ValueError(f"the plan's carrier is {document.get('carrier')!r}: a free-flying "
@@ -113,6 +114,8 @@ def plan_motion(document: dict[str, Any]) -> PlanMotion:
             continue
         where = f"views[{index}]"
         corners = _array(view["waypoints"], f"{where}.waypoints", (-1, len(names)))
+        if view.get("joints") is not None and not np.array_equal(view["joints"], corners[-1]):
+            raise ValueError(f"plan {where}.joints are not the last of its waypoints")
         moves.append(corners)
         stops.append(ViewStop(index, corners[-1],
                               _array(view.get("position"), f"{where}.position", (3,)),
@@ -123,7 +126,10 @@ def plan_motion(document: dict[str, Any]) -> PlanMotion:
         raise ValueError(f"the plan's cycle is not closed ({why or 'no view acquired'}): "
                          f"nothing to export or check")
     moves.append(_array(back["waypoints"], "return.waypoints", (-1, len(names))))
-    acquisition_time_s = float(document.get("sensor", {}).get("acquisition_time_s", 0.0))
+    sensor = document.get("sensor")
+    if not isinstance(sensor, dict) or "acquisition_time_s" not in sensor:
+        raise ValueError("plan has no sensor.acquisition_time_s")
+    acquisition_time_s = float(sensor["acquisition_time_s"])
     timed = time_plan(moves, limits, acquisition_time_s, names)
     return PlanMotion(str(robot.get("name")), limits, tuple(moves), tuple(stops),
                       acquisition_time_s, timed)
