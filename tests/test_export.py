@@ -26,7 +26,7 @@ VIEWS = 10
 
 @pytest.fixture(scope="module")
 def plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A 10-view nbv plan of the bundled motor with the UR10; two of its moves have a corner."""
+    """A 10-view nbv plan of the bundled motor with the UR10 (some moves go around obstacles)."""
     path = tmp_path_factory.mktemp("export") / "plan.json"
     assert main(["plan", "--planner", "nbv", "--stop", f"views:{VIEWS}", "--no-timing",
                  "--out", str(path)]) == 0
