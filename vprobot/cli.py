@@ -32,6 +32,7 @@ from vprobot.config import (
     with_sensing,
     with_sensor,
 )
+from vprobot.export import CHECK_DT_S, EXPORT_DT_S, SUFFIXES
 from vprobot.outputs import check_output_file, check_output_folder
 from vprobot.progress import showing_progress
 from vprobot.robots import available_robots, load_robot
@@ -281,6 +282,30 @@ def command_render(args: argparse.Namespace) -> int:
         print(summary)
     _render_outputs(args, scene, record, args.out)
     return 0
+
+
+def command_export(args: argparse.Namespace) -> int:
+    """Write a plan's motion as a trajectory, a CSV, a URScript program or a ROS 2 message."""
+    from vprobot.export.formats import export_plan
+    from vprobot.files import write_text
+    from vprobot.render.replay import read_plan
+
+    check_output_file(args.out, "--out", (SUFFIXES[args.format],))
+    if Path(args.out).resolve() == Path(args.plan).resolve():
+        raise ValueError(f"--out {args.out} is the plan itself; give another file")
+    text = export_plan(read_plan(args.plan), args.format, args.dt)
+    print(f"wrote {write_text(Path(args.out), text)}")
+    return 0
+
+
+def command_check(args: argparse.Namespace) -> int:
+    """Replay a plan's trajectory in its cell; exit 1 when a limit, a collision or a view fails."""
+    from vprobot.export.check import check_plan
+
+    with showing_progress():
+        result = check_plan(_config(args), args.plan, args.dt)
+    print(result.report())
+    return 0 if result.holds else 1
 
 
 def _check_render_outputs(args: argparse.Namespace, video: str | None, option: str) -> None:
@@ -681,6 +706,23 @@ def build_parser() -> argparse.ArgumentParser:
     add_planning(render)
     render.add_argument("--plan", help="plan JSON (docs/plan-format.md) to replay instead")
     render.add_argument("--out", required=True, help="video to write (.mp4 or .gif)")
+
+    export = add("export", command_export, "Write a plan's motion for a cell: a sampled "
+                 "trajectory (JSON, CSV), a URScript program or a ROS 2 JointTrajectory.",
+                 config=False)
+    export.add_argument("plan", help="plan JSON of `vprobot plan --out` (docs/plan-format.md)")
+    export.add_argument("--format", required=True, choices=list(SUFFIXES),
+                        help="trajectory (.json), csv (.csv), urscript (.script, UR robots) or "
+                        "ros2 (.yaml) (docs/motion.md#export)")
+    export.add_argument("--out", required=True, help="file to write, with the format's suffix")
+    export.add_argument("--dt", type=POSITIVE_FLOAT, default=EXPORT_DT_S,
+                        help=f"sampling step of the trajectory (s; default {EXPORT_DT_S})")
+    check = add("check", command_check, "Replay a plan's trajectory in its cell: collisions, "
+                "joint, velocity, acceleration and jerk limits, sensor poses; exit 1 when one "
+                "fails.")
+    check.add_argument("plan", help="plan JSON of `vprobot plan --out` (docs/plan-format.md)")
+    check.add_argument("--dt", type=POSITIVE_FLOAT, default=CHECK_DT_S,
+                       help=f"replay step (s; default {CHECK_DT_S})")
 
     evaluation = add("evaluate", command_evaluate,
                      "Compare planners on a fixed episode list (default: the test motors).")

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.episode import EpisodeRecord, MotorScene
+from vprobot.episode import EpisodeRecord, MotorScene, timed_episode
 from vprobot.files import write_text
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
@@ -69,8 +69,8 @@ def ground_truth_block(record: EpisodeRecord) -> dict[str, Any]:
 
 
 def robot_block(cell: Cell) -> dict[str, Any]:
-    """The robot: name (and folder, for a robot that is not bundled), base pose, joint names and
-    the sensor mount on the flange frame."""
+    """The robot: name (and folder, for a robot that is not bundled), base pose, joint names,
+    the motion limits the plan was timed under and the sensor mount on the flange frame."""
     base, mount = cell.robot_base, cell.sensor_mount
     # Like the mesh, a robot folder is recorded absolute, so the plan replays from anywhere.
     folder = {} if is_bundled(cell.robot) else {"folder": str(cell.robot.folder.resolve())}
@@ -80,6 +80,11 @@ def robot_block(cell: Cell) -> dict[str, Any]:
         "base_position": _floats(base.position),
         "base_quaternion": _floats(base.quaternion),
         "joint_names": list(cell.joints.names),
+        "limits": {
+            "velocity_rad_s": list(cell.robot.velocity_limits_rad_s),
+            "acceleration_rad_s2": list(cell.robot.acceleration_limits_rad_s2),
+            "jerk_rad_s3": list(cell.robot.jerk_limits_rad_s3),
+        },
         "sensor_mount": {
             "parent": cell.robot.flange,
             "position": _floats(mount.position),
@@ -131,8 +136,9 @@ def planned_views(record: EpisodeRecord) -> list[dict[str, Any]]:
     """The views of an episode as plan entries.
 
     A reached view carries the sensor pose it was acquired from and the joints that reach it; an
-    unreached one its requested pose and no joints. Without the robot (a free-flying sensor)
-    views carry their pose only and `reachable` is None.
+    unreached one its requested pose and no joints. With the robot each view also carries the
+    corners of the move that led to it (`waypoints`, null where the robot stayed). Without the
+    robot (a free-flying sensor) views carry their pose only and `reachable` is None.
     """
     robot = record.carrier == "robot"
     views = []
@@ -147,7 +153,30 @@ def planned_views(record: EpisodeRecord) -> list[dict[str, Any]]:
             coverage=view.coverage,
             travel=view.travel,
         ))
+        if robot:
+            views[-1]["waypoints"] = _corners(view.waypoints)
     return views
+
+
+def _corners(waypoints: np.ndarray | None) -> list[list[float]] | None:
+    return None if waypoints is None else [_floats(corner) for corner in waypoints]
+
+
+NO_RETURN = "no_path_back"
+"""`return.reason` when the path planner found no way back to the start."""
+NOTHING_ACQUIRED = "nothing_acquired"
+"""`return.reason` when the robot never left the start (no view was acquired)."""
+
+
+def return_block(record: EpisodeRecord) -> dict[str, Any] | None:
+    """The cycle's return to `start_joints` (docs/plan-format.md#top-level): its corners, or
+    null corners and why there are none; None without a robot."""
+    if record.carrier != "robot":
+        return None
+    reason = None
+    if record.return_waypoints is None:
+        reason = NO_RETURN if any(view.acquired for view in record.views) else NOTHING_ACQUIRED
+    return {"waypoints": _corners(record.return_waypoints), "reason": reason}
 
 
 def episode_document(scene: MotorScene, record: EpisodeRecord,
@@ -158,7 +187,9 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
 
     `views[i].travel` is the move from the previous view (for the first view: the approach from
     `start_joints`); `approach` repeats the approach and `travel` sums the moves between views
-    (k_cum, docs/states-actions-rewards.md#travel-costs), which exclude it.
+    (k_cum, docs/states-actions-rewards.md#travel-costs), which exclude it. With the robot,
+    `return` holds the way back to the start and `cycle_time` the cycle timed once
+    (docs/motion.md#cycle-time); null where the cycle cannot be closed.
 
     Args:
         scene: The motor scene the episode ran in.
@@ -173,6 +204,9 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
     document["start_joints"] = _floats(record.start_joints)
     document["approach"] = record.approach.as_dict()
     document["travel_sum"] = record.travel_sum.as_dict()
+    document["return"] = return_block(record)
+    timed = timed_episode(record, scene.cell)
+    document["cycle_time"] = None if timed is None else timed.cycle.as_dict()
     document["ground_truth"] = ground_truth_block(record)
     if estimates is not None:
         for view, (mean, std) in zip(document["views"], estimates, strict=True):

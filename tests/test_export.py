@@ -1,0 +1,344 @@
+"""`vprobot export` and `vprobot check`: every format read back by an independent parser and held
+to the plan (its corners, joints and poses) and to the robot's limits (its `robot.yaml`), and the
+replay check failing on tampered plans."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from vprobot.cli import main
+from vprobot.export import SUFFIXES
+from vprobot.export.formats import WRITERS, export_plan
+from vprobot.paths import ROBOTS_DIR
+
+VIEWS = 10
+
+
+@pytest.fixture(scope="module")
+def plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 10-view nbv plan of the bundled motor with the UR10 (some moves go around obstacles)."""
+    path = tmp_path_factory.mktemp("export") / "plan.json"
+    assert main(["plan", "--planner", "nbv", "--stop", f"views:{VIEWS}", "--no-timing",
+                 "--out", str(path)]) == 0
+    return path
+
+
+@pytest.fixture
+def document(plan: Path) -> dict[str, Any]:
+    return json.loads(plan.read_text())
+
+
+def robot_limits(name: str) -> dict[str, np.ndarray]:
+    """The robot's limits read straight from its robot.yaml (not the plan's copy)."""
+    description = yaml.safe_load((ROBOTS_DIR / name / "robot.yaml").read_text())
+    return {key: np.array(description[f"{key}_limits_{unit}"]) for key, unit in
+            (("velocity", "rad_s"), ("acceleration", "rad_s2"), ("jerk", "rad_s3"))}
+
+
+def moves_of(document: dict[str, Any]) -> list[tuple[list[np.ndarray], int | None]]:
+    """The plan's moves as (corners after the first, the view acquired at the end; None for the
+    return)."""
+    moves = [([np.array(q) for q in view["waypoints"][1:]], index)
+             for index, view in enumerate(document["views"]) if view["waypoints"] is not None]
+    return [*moves, ([np.array(q) for q in document["return"]["waypoints"][1:]], None)]
+
+
+def write(document: dict[str, Any], folder: Path, name: str = "plan.json") -> Path:
+    path = folder / name
+    path.write_text(json.dumps(document))
+    return path
+
+
+def test_the_plan_records_each_move_the_return_and_the_cycle_time(
+        document: dict[str, Any]) -> None:
+    moves = [view["waypoints"] for view in document["views"] if view["waypoints"] is not None]
+    assert len(moves) == VIEWS
+    at = document["start_joints"]
+    for move, view in zip([*moves, document["return"]["waypoints"]],
+                          [*document["views"], {"joints": document["start_joints"]}],
+                          strict=True):
+        assert move[0] == at and move[-1] == view["joints"] and len(move) >= 2
+        at = move[-1]
+    assert document["return"]["reason"] is None
+    cycle = document["cycle_time"]
+    assert cycle["total_s"] == pytest.approx(cycle["approach_s"] + cycle["moves_s"]
+                                             + cycle["acquisitions_s"] + cycle["return_s"])
+    assert cycle["acquisitions_s"] == pytest.approx(
+        VIEWS * document["sensor"]["acquisition_time_s"])
+
+
+URSCRIPT_LINE = re.compile(r"^\s*(?:movej\(\[([^\]]*)\], a=([^,]+), v=([^)]+)\)"
+                           r"|trigger_acquisition\((\d+)\)|sleep\(([^)]+)\))")
+
+
+def test_urscript_moves_through_the_plans_corners_and_acquires_in_view_order(
+        document: dict[str, Any]) -> None:
+    # A corner halfway along a move's line: the program must move in two segments there.
+    view = document["views"][1]
+    start, end = np.array(view["waypoints"][0]), np.array(view["waypoints"][-1])
+    view["waypoints"].insert(1, ((start + end) / 2).tolist())
+    document["cycle_time"] = None  # no longer the plan's
+    program = export_plan(document, "urscript")
+    assert "def inspection():" in program and program.rstrip().endswith("end")
+    parsed: list[tuple[str, Any]] = []
+    duration = 0.0
+    limits = robot_limits("ur10")
+    position = np.array(document["start_joints"])
+    for line in program.splitlines():
+        match = URSCRIPT_LINE.match(line)
+        if match is None:
+            continue
+        q, a, v, view_index, sleep = match.groups()
+        if q is not None:
+            target, a, v = np.array([float(x) for x in q.split(",")]), float(a), float(v)
+            step = np.abs(target - position)
+            share = step / step.max()
+            # a and v are the leading joint's; every joint moves at its share of them.
+            assert np.all(share * a <= limits["acceleration"] * (1 + 1e-12))
+            assert np.all(share * v <= limits["velocity"] * (1 + 1e-12))
+            duration += step.max() / v + v / a  # the trapezoid's duration
+            parsed.append(("move", target))
+            position = target
+        elif view_index is not None:
+            parsed.append(("acquire", int(view_index)))
+        else:
+            duration += float(sleep)
+    expected: list[tuple[str, Any]] = []
+    for corners, acquired in moves_of(document):
+        expected += [("move", corner) for corner in corners]
+        if acquired is not None:
+            expected.append(("acquire", acquired))
+    assert [kind for kind, _ in parsed] == [kind for kind, _ in expected]
+    for (kind, got), (_, wanted) in zip(parsed, expected, strict=True):
+        assert np.array_equal(got, wanted) if kind == "move" else got == wanted
+    # The midpoint adds no travel, only a stop: the program runs the plan's clock.
+    assert duration == pytest.approx(json.loads(export_plan(document, "trajectory"))
+                                     ["cycle_time"]["total_s"], rel=1e-9)
+
+
+def test_ros2_yaml_is_a_joint_trajectory_whose_times_increase(document: dict[str, Any]) -> None:
+    text = export_plan(document, "ros2")
+    message = yaml.safe_load(text)
+    assert set(message) == {"header", "joint_names", "points"}
+    assert message["joint_names"] == document["robot"]["joint_names"]
+    points = message["points"]
+    for point in points:
+        assert set(point) == {"positions", "velocities", "accelerations", "time_from_start"}
+        assert all(len(point[key]) == 6 for key in ("positions", "velocities", "accelerations"))
+        assert set(point["time_from_start"]) == {"sec", "nanosec"}
+        assert 0 <= point["time_from_start"]["nanosec"] < 1_000_000_000
+    times = np.array([p["time_from_start"]["sec"] + p["time_from_start"]["nanosec"] * 1e-9
+                      for p in points])
+    assert np.all(np.diff(times) > 0)
+    assert times[-1] == pytest.approx(document["cycle_time"]["total_s"], abs=1e-9)
+    assert points[0]["positions"] == points[-1]["positions"] == document["start_joints"]
+    # Each acquisition comment precedes the point where the robot stands at its view, and the
+    # robot stands there for the acquisition time.
+    acquired, following = [], 0
+    for line in text.splitlines():
+        following += line.startswith("  - positions:")
+        found = re.match(r"\s*# acquisition view (\d+)", line)
+        if found:
+            index = int(found.group(1))
+            assert str(document["views"][index]["position"]) in line
+            acquired.append(index)
+            start = times[following]  # the next point's
+            still = (times >= start) & (times <= start + document["sensor"]
+                                        ["acquisition_time_s"] + 1e-9)
+            assert still.sum() >= 2
+            assert np.allclose([p["positions"] for p, s in zip(points, still, strict=True) if s],
+                               document["views"][index]["joints"], atol=1e-12, rtol=0)
+    assert acquired == list(range(VIEWS))
+
+
+def divided(times: np.ndarray, values: np.ndarray, order: int) -> np.ndarray:
+    """order! f[t_i, ..., t_i+order], the textbook estimate of the order-th derivative."""
+    for k in range(1, order + 1):
+        values = (values[1:] - values[:-1]) / (times[k:] - times[:-k])[:, None]
+    return values * math.factorial(order)
+
+
+def test_csv_finite_differences_respect_the_robots_limits(document: dict[str, Any]) -> None:
+    lines = export_plan(document, "csv", dt=0.004).splitlines()
+    comments = [line for line in lines if line.startswith("#")]
+    rows = list(csv.reader(line for line in lines if not line.startswith("#")))
+    header, rows = rows[0], rows[1:]
+    names = document["robot"]["joint_names"]
+    assert header == ["time_s", *(f"q_{n}" for n in names), *(f"qd_{n}" for n in names), "view"]
+    table = np.array([[float(x) for x in row] for row in rows])
+    times, positions, view = table[:, 0], table[:, 1:7], table[:, -1].astype(int)
+    assert np.all(np.diff(times) > 0)
+    limits = robot_limits("ur10")
+    for order, key in enumerate(("velocity", "acceleration", "jerk"), 1):
+        estimate = np.abs(divided(times, positions, order))
+        assert np.all(estimate <= limits[key] * (1 + 1e-6)), key
+        assert estimate.max() > 0.5 * limits[key].min(), key  # it does move, near its limits
+    # The view column marks each acquisition at its view's joints, in view order.
+    assert [int(v) for v in dict.fromkeys(view[view >= 0])] == list(range(VIEWS))
+    for index in range(VIEWS):
+        assert np.allclose(positions[view == index], document["views"][index]["joints"],
+                           atol=1e-12, rtol=0)
+        assert f"# acquisition view {index}: sensor position " \
+               f"{document['views'][index]['position']}" in "\n".join(comments)
+
+
+def test_trajectory_json_holds_the_samples_and_the_sensor_pose_at_each_acquisition(
+        document: dict[str, Any]) -> None:
+    exported = json.loads(export_plan(document, "trajectory"))
+    assert exported["joint_names"] == document["robot"]["joint_names"]
+    assert exported["cycle_time"] == pytest.approx(document["cycle_time"])
+    times = np.array(exported["times"])
+    assert np.all(np.diff(times) > 0) and times[-1] == pytest.approx(
+        document["cycle_time"]["total_s"])
+    for key in ("positions", "velocities", "accelerations"):
+        assert np.array(exported[key]).shape == (len(times), 6)
+    for entry, view in zip(exported["acquisitions"], document["views"], strict=True):
+        assert entry["sensor_position"] == view["position"]
+        assert entry["sensor_quaternion"] == view["quaternion"]
+        assert entry["joints"] == view["joints"]
+        assert entry["end_s"] - entry["start_s"] == pytest.approx(
+            document["sensor"]["acquisition_time_s"])
+
+
+def test_every_format_is_written_by_the_command(plan: Path, tmp_path: Path,
+                                                capsys: pytest.CaptureFixture) -> None:
+    assert WRITERS.keys() == SUFFIXES.keys()
+    for name, suffix in SUFFIXES.items():
+        out = tmp_path / f"out{suffix}"
+        assert main(["export", str(plan), "--format", name, "--out", str(out)]) == 0
+        assert out.stat().st_size > 0
+    assert capsys.readouterr().out.count("wrote ") == len(SUFFIXES)
+
+
+def test_export_of_a_10_view_plan_is_timed(document: dict[str, Any]) -> None:
+    # Timing and export together, every format; the figure is reported, not asserted.
+    start = time.perf_counter()
+    texts = {name: export_plan(document, name) for name in SUFFIXES}
+    elapsed = time.perf_counter() - start
+    print(f"timing and export of a {VIEWS}-view plan, all {len(texts)} formats: {elapsed:.3f} s")
+    assert texts["urscript"].count("trigger_acquisition(") == VIEWS + 1  # the stub and each view
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d: d.update(carrier="free"), "free-flying sensor has no robot program"),
+        (lambda d: d["robot"].update(name="panda"), "the plan's robot is 'panda'"),
+        (lambda d: d.pop("return"), "written before export existed"),
+        (lambda d: d.update({"return": {"waypoints": None, "reason": "no_path_back"}}),
+         "cycle is not closed (no_path_back)"),
+        (lambda d: d["views"][2]["joints"].__setitem__(0, 0.5),
+         "views[2].joints are not the last of its waypoints"),
+    ],
+)
+def test_export_refuses_what_has_no_program_in_one_line(
+        change: Any, message: str, document: dict[str, Any], tmp_path: Path,
+        capsys: pytest.CaptureFixture) -> None:
+    change(document)
+    path = write(document, tmp_path)
+    assert main(["export", str(path), "--format", "urscript", "--out",
+                 str(tmp_path / "x.script")]) == 2
+    error = capsys.readouterr().err
+    assert message in error and len(error.strip().splitlines()) == 1
+    assert not (tmp_path / "x.script").exists()
+
+
+def test_export_never_writes_over_the_plan(plan: Path, capsys: pytest.CaptureFixture) -> None:
+    before = plan.read_text()
+    assert main(["export", str(plan), "--format", "trajectory", "--out", str(plan)]) == 2
+    assert "is the plan itself" in capsys.readouterr().err
+    assert plan.read_text() == before
+
+
+def test_check_holds_on_the_plan(plan: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(["check", str(plan)]) == 0
+    out = capsys.readouterr().out
+    assert "check holds" in out and "FAILED" not in out
+
+
+def colliding_corner(document: dict[str, Any], plan: Path) -> list[float]:
+    """A configuration near the first view's in which the sensor or the arm is in the object."""
+    from vprobot.config import load_config
+    from vprobot.export.check import _cell
+    from vprobot.kinematics.collision import CollisionChecker
+
+    cell, rotation = _cell(load_config(None), document, plan)
+    checker = CollisionChecker(cell, rotation)
+    rng = np.random.default_rng(0)
+    view = np.array(document["views"][0]["joints"])
+    for _ in range(5000):
+        q = view + rng.normal(0.0, 0.4, len(view))
+        if cell.joints.within_limits(q) and any(
+                "object" in pair for pair in checker.colliding_pairs(q)):
+            return q.tolist()
+    raise AssertionError("no configuration touching the object was found")
+
+
+def test_check_fails_on_a_corner_moved_into_the_object(
+        document: dict[str, Any], plan: Path, tmp_path: Path,
+        capsys: pytest.CaptureFixture) -> None:
+    document["views"][0]["waypoints"].insert(1, colliding_corner(document, plan))
+    assert main(["check", str(write(document, tmp_path))]) == 1
+    out = capsys.readouterr().out
+    assert re.search(r"collision at t=[\d.]+ s \(sample \d+\): .*object", out)
+    assert "collision on move 0 (the approach)" in out
+
+
+@pytest.mark.parametrize(("shift_m", "holds"), [(0.00005, True), (0.001, False)])
+def test_check_holds_views_to_a_tenth_of_a_millimetre(
+        shift_m: float, holds: bool, document: dict[str, Any], tmp_path: Path,
+        capsys: pytest.CaptureFixture) -> None:
+    document["views"][3]["position"][0] += shift_m
+    assert main(["check", str(write(document, tmp_path))]) == (0 if holds else 1)
+    out = capsys.readouterr().out
+    assert ("sensor pose at view 3" in out) != holds
+
+
+def test_check_fails_on_a_plan_timed_beyond_the_robots_limits(
+        document: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    # The plan claims twice the velocities: the replay holds it to robot.yaml's.
+    document["robot"]["limits"]["velocity_rad_s"] = [
+        2 * v for v in document["robot"]["limits"]["velocity_rad_s"]]
+    assert main(["check", str(write(document, tmp_path))]) == 1
+    out = capsys.readouterr().out
+    assert re.search(r"velocity limit exceeded at t=[\d.]+ s \(sample \d+\): \w+_joint", out)
+    assert "the plan states" in out
+
+
+def test_a_free_flying_plan_has_no_return_nor_cycle_and_no_program(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / "free.json"
+    assert main(["plan", "--planner", "uniform4", "--carrier", "free", "--no-timing", "--out",
+                 str(path)]) == 0
+    document = json.loads(path.read_text())
+    assert document["return"] is None and document["cycle_time"] is None
+    assert all("waypoints" not in view for view in document["views"])
+    capsys.readouterr()
+    assert main(["check", str(path)]) == 2
+    assert "free-flying sensor has no robot program" in capsys.readouterr().err
+
+
+def test_check_holds_on_a_panda_plan_which_gets_no_urscript(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / "panda.json"
+    assert main(["plan", "--planner", "bscp", "--views", "2", "--robot", "panda", "--no-timing",
+                 "--out", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["check", str(path)]) == 0
+    assert "check holds" in capsys.readouterr().out
+    assert main(["export", str(path), "--format", "urscript", "--out",
+                 str(tmp_path / "panda.script")]) == 2
+    assert "the plan's robot is 'panda'" in capsys.readouterr().err
+    assert main(["export", str(path), "--format", "ros2", "--out",
+                 str(tmp_path / "panda.yaml")]) == 0
+    assert len(yaml.safe_load((tmp_path / "panda.yaml").read_text())["joint_names"]) == 7
