@@ -10,9 +10,10 @@ import pytest
 from helpers import SERIAL_EVALUATION
 from PIL import Image
 
-from vprobot.agents.evaluation import SUMMARY_KEYS, policy_summary
+from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 from vprobot.config import Config
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
     EpisodeRecord,
@@ -20,6 +21,7 @@ from vprobot.episode import (
     ViewRecord,
     episode_list,
     read_episode_list,
+    timed_episode,
 )
 from vprobot.episode.specs import BUNDLED_SHAPE_EPISODES
 from vprobot.evaluation import (
@@ -189,6 +191,24 @@ def test_an_episode_row_has_the_cycle_time_and_the_summary_its_mean_over_the_tim
     assert row["cycle_time_s"] == pytest.approx(7.25)
     (none,) = summarize([untimed])
     assert none["cycle_time_s"] is None
+
+
+def test_a_policys_episode_rows_have_the_cycle_time_of_their_episode() -> None:
+    """`evaluate_policy` (a training's evaluations) rows a policy's episode as `evaluate` does,
+    the cycle time included."""
+    env = InspectEnv(motors="mesh", mesh=str(DEFAULT_MOTOR), resolution=(107, 75),
+                     action="A_2S0R")
+    rng = np.random.default_rng(0)
+
+    class RandomPolicy:
+        def predict(self, observation: object, deterministic: bool = True
+                    ) -> tuple[np.ndarray, None]:
+            return rng.uniform(-1.0, 1.0, 2).astype(np.float32), None
+
+    (row,) = evaluate_policy(RandomPolicy(), env, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
+    timed = timed_episode(env.episode_record(), env.episode.scene.cell)
+    assert row["cycle_time_s"] == pytest.approx(timed.cycle.total_s)
+    assert row["cycle_time_s"] > row["joint_time_s"]
 
 
 def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
