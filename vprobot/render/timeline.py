@@ -39,7 +39,7 @@ class TimingSettings:
         hold_seconds: How long each acquisition (or unreachable request) is shown (the clock
             jumps by the sensor's acquisition time).
         start_seconds: Still frames before the first move.
-        end_seconds: Still frames after the last view.
+        end_seconds: Still frames after the last view (once back home, with a cycle).
     """
 
     fps: float = 30.0
@@ -102,9 +102,10 @@ def along_path(path: np.ndarray, fractions: np.ndarray) -> np.ndarray:
                             for joint in range(path.shape[1])])
 
 
-def move_frames(joint_time_s: float, settings: TimingSettings) -> int:
-    """Frames of a move that takes `joint_time_s` on the robot (at least one)."""
-    seconds = min(joint_time_s * settings.time_scale, settings.max_seconds_per_move)
+def move_frames(robot_s: float, settings: TimingSettings) -> int:
+    """Frames of a move that takes `robot_s` on the robot (its duration on the cell's clock, or
+    its joint time without one); at least one."""
+    seconds = min(robot_s * settings.time_scale, settings.max_seconds_per_move)
     return max(1, math.ceil(seconds * settings.fps))
 
 
