@@ -17,7 +17,7 @@ import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
 from vprobot.env import ENV_ID, inspect_env
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.rewards import REWARDS
-from vprobot.episode import EpisodeSpec
+from vprobot.episode import EpisodeSpec, timed_episode
 from vprobot.paths import DEFAULT_MOTOR
 
 SMALL = {"motors": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}
@@ -195,6 +195,46 @@ def test_every_reward_matches_its_formula(reward: str) -> None:
                                                       travel_sum, floor))
     limit = 4 if reward in ("R13", "R14") else 10
     assert steps == limit or terminated
+
+
+def test_cycle_time_as_the_travel_cost_pays_coverage_per_second_of_the_cells_cycle() -> None:
+    """With `travel_cost: cycle_time`, R5 pays ΔCOV_t / k_t where k_t is the time from the end
+    of one acquisition to the end of the next on the clock of the episode's cycle timed whole
+    (`timed_episode`): the move's duration under the robot's limits plus its acquisition. The
+    last step's info has the cycle time: approach + steps + return home."""
+    env = make(reward="R5", travel_cost="cycle_time", action="A_2S0R")
+    _, start = env.reset(seed=5)
+    floor = env.config.env.travel_cost_floor
+    infos, rewards, done = [], [], False
+    for action in AROUND:
+        _, reward, terminated, truncated, info = env.step(action)
+        infos.append(info)
+        rewards.append(reward)
+        done = terminated or truncated
+        if done:
+            break
+    assert done and all("cycle_time" not in info for info in infos[:-1])
+    record = env.episode_record()
+    timed = timed_episode(record, env.episode.scene.cell)
+    ends = iter(stop.end_s for stop in timed.acquisitions)
+    previous = next(ends)  # the initial view's: the approach is no step
+    assert start["approach_cycle_time"] == pytest.approx(previous)
+    reached = 0
+    for info, reward in zip(infos, rewards, strict=True):
+        if info["reachable"]:
+            end = next(ends)
+            k, previous, reached = end - previous, end, reached + 1
+        else:
+            k = 0.0
+        assert info["travel_cycle_time"] == pytest.approx(k, abs=1e-12)
+        assert info["reward_terms"]["travel_cost"] == info["travel_cycle_time"]
+        assert reward == pytest.approx(info["delta_coverage"] / max(k, floor))
+    assert reached >= 3
+    last = infos[-1]
+    assert last["travel_sum_cycle_time"] == pytest.approx(previous - start["approach_cycle_time"])
+    back = env.episode.scene.arm.move_time(record.return_waypoints)
+    assert last["cycle_time"] == pytest.approx(timed.cycle.total_s)
+    assert last["cycle_time"] == pytest.approx(previous + back)
 
 
 def test_truncated_exactly_at_the_step_limit() -> None:

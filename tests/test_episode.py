@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -11,12 +13,15 @@ from vprobot.episode import (
     EpisodeSpec,
     MotorScene,
     ViewRequest,
+    describe_cycle,
+    episode_cycle,
     seeded_episode,
     timed_episode,
 )
 from vprobot.geometry import rotation_about_x, rotation_about_z
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.planners.runner import run, summary
 
 CONFIG = Config()
 DIRECTIONS = [(0.0, 1.0), (2.0, 1.1), (4.0, 0.8), (1.0, 1.9)]
@@ -130,3 +135,30 @@ def test_the_cycle_time_is_the_sum_of_the_steps_and_the_return_home(scene: Motor
     free.request(_requests(free)[0])
     assert free.record().return_waypoints is None and timed_episode(free.record(),
                                                                     scene.cell) is None
+
+
+def test_plans_summary_reports_the_cycle_time_and_its_parts(scene: MotorScene) -> None:
+    """`plan`'s summary gives the robot's cycle time (docs/motion.md#cycle-time) with its parts,
+    each as the cycle timed whole has it: the approach and the return are the moves from and to
+    the start alone, the acquisitions a stop per acquired view."""
+    spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
+    result = run(CONFIG, scene, "hrec", spec, "robot")
+    record, cycle = result.record, result.cycle
+    acquired = [view for view in record.views if view.acquired]
+    assert cycle.approach_s == pytest.approx(scene.arm.move_time(acquired[0].waypoints))
+    assert cycle.return_s == pytest.approx(scene.arm.move_time(record.return_waypoints))
+    assert cycle.acquisitions_s == pytest.approx(
+        len(acquired) * CONFIG.sensor.acquisition_time_s)
+    assert cycle.moves_s == pytest.approx(sum(scene.arm.move_time(view.waypoints)
+                                              for view in acquired[1:]))
+    line = (f"  cycle time {cycle.total_s:.2f} s: approach {cycle.approach_s:.2f} s, moves "
+            f"{cycle.moves_s:.2f} s, acquisitions {cycle.acquisitions_s:.2f} s, return "
+            f"{cycle.return_s:.2f} s")
+    assert line in summary(result, CONFIG).splitlines()
+    # Without a path home there is no cycle, and the summary says why; a free sensor has none.
+    stranded = dataclasses.replace(record, return_waypoints=None)
+    assert episode_cycle(stranded, scene.cell) is None
+    assert describe_cycle(stranded, None) == (
+        "cycle time: none (no path back to the start was found)")
+    free = run(CONFIG, scene, "hrec", spec, "free")
+    assert free.cycle is None and "cycle time" not in summary(free, CONFIG)

@@ -10,9 +10,10 @@ import pytest
 from helpers import SERIAL_EVALUATION
 from PIL import Image
 
-from vprobot.agents.evaluation import SUMMARY_KEYS, policy_summary
+from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 from vprobot.config import Config
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
     EpisodeRecord,
@@ -20,6 +21,7 @@ from vprobot.episode import (
     ViewRecord,
     episode_list,
     read_episode_list,
+    timed_episode,
 )
 from vprobot.episode.specs import BUNDLED_SHAPE_EPISODES
 from vprobot.evaluation import (
@@ -35,6 +37,7 @@ from vprobot.evaluation import (
     summarize,
 )
 from vprobot.geometry import Pose
+from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.planners.runner import EpisodeResult
 
@@ -70,15 +73,27 @@ def test_evaluate_writes_markdown_and_csv(serial_evaluation: Path) -> None:
         assert (row["views_to_goal"] != "") == (row["success"] == "True")
         if row["carrier"] == "free":
             assert row["joint_time_s"] == "" and row["reachable_pct"] == ""
+            assert row["cycle_time_s"] == ""
         else:
             assert float(row["joint_time_s"]) > 0.0
             assert 0.0 <= float(row["reachable_pct"]) <= 100.0
+            # The cycle holds the moves between views (their joint time, the velocity limits
+            # alone, is a lower bound of their duration), a stop to acquire at each view, and
+            # the approach and the return besides.
+            stops = int(row["acquisitions"]) * CONFIG.sensor.acquisition_time_s
+            assert float(row["cycle_time_s"]) > float(row["joint_time_s"]) + stops
     hrec_free = next(row for row in summary
                      if row["planner"] == "hrec" and row["carrier"] == "free")
     assert float(hrec_free["acquisitions"]) == 6 and hrec_free["joint_time_s"] == ""
+    assert hrec_free["cycle_time_s"] == ""
+    hrec_robot = next(row for row in summary
+                      if row["planner"] == "hrec" and row["carrier"] == "robot")
+    assert float(hrec_robot["cycle_time_s"]) == pytest.approx(np.mean(
+        [float(row["cycle_time_s"]) for row in episodes
+         if row["planner"] == "hrec" and row["carrier"] == "robot"]))
     markdown = (serial_evaluation / "evaluation.md").read_text()
     assert "| hrec | free | 3 |" in markdown and "B_SCP,5 | 98.17" in markdown
-    assert "| area % | views to goal |" in markdown
+    assert "| area % | views to goal | cycle s |" in markdown
     assert_png(serial_evaluation / PLOT_NAME)
     # The episode list is part of the output, and `--episodes` on it runs the same episodes.
     specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0, 1, 2])
@@ -122,9 +137,10 @@ def test_an_unknown_episode_list_names_the_bundled_ones(tmp_path: Path) -> None:
         evaluation_episodes(CONFIG, episodes="shapes-v2")
 
 
-def _result(coverages: list[float], reachable: list[bool] | None = None) -> EpisodeResult:
+def _result(coverages: list[float], reachable: list[bool] | None = None,
+            cycle: CycleTime | None = None) -> EpisodeResult:
     """A free-flying episode whose views reached `coverages` (unreachable ones acquire
-    nothing)."""
+    nothing), with the cycle time `cycle`."""
     pose = Pose(np.zeros(3), np.eye(3))
     views = [ViewRecord(requested=pose, reachable=ok, reason=None if ok else "collision",
                         joints=None, path=None, sensor_pose=pose if ok else None,
@@ -137,7 +153,7 @@ def _result(coverages: list[float], reachable: list[bool] | None = None) -> Epis
     spec = EpisodeSpec(motor="test/motor_000.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
                        initial_views=((1.42, 0.71),), seed=0)
     return EpisodeResult(planner="nbv", carrier="free", spec=spec, record=record, goal=0.9,
-                         plan_seconds=0.1, episode_seconds=0.2)
+                         plan_seconds=0.1, episode_seconds=0.2, cycle=cycle)
 
 
 def test_summarize_gives_the_coverage_curve_its_area_and_views_to_goal() -> None:
@@ -164,13 +180,50 @@ def test_summarize_gives_the_coverage_curve_its_area_and_views_to_goal() -> None
     assert none_reached["views_to_goal"] is None
 
 
+def test_an_episode_row_has_the_cycle_time_and_the_summary_its_mean_over_the_timed() -> None:
+    """`cycle_time_s` is the cycle's total (approach + moves + acquisitions + return); an episode
+    without a cycle (no robot, or no path home) has none and is left out of the mean."""
+    timed = [episode_row(0, _result([0.5], cycle=CycleTime(1.0, 2.5, 1.5, 0.75))),
+             episode_row(1, _result([0.5], cycle=CycleTime(2.0, 3.5, 2.0, 1.25)))]
+    untimed = episode_row(2, _result([0.5]))
+    assert [row["cycle_time_s"] for row in [*timed, untimed]] == [5.75, 8.75, None]
+    (row,) = summarize([*timed, untimed])
+    assert row["cycle_time_s"] == pytest.approx(7.25)
+    (none,) = summarize([untimed])
+    assert none["cycle_time_s"] is None
+
+
+def test_a_policys_episode_rows_have_the_cycle_time_of_their_episode() -> None:
+    """`evaluate_policy` (a training's evaluations) rows a policy's episode as `evaluate` does,
+    the cycle time included."""
+    env = InspectEnv(motors="mesh", mesh=str(DEFAULT_MOTOR), resolution=(107, 75),
+                     action="A_2S0R")
+    rng = np.random.default_rng(0)
+
+    class RandomPolicy:
+        def predict(self, observation: object, deterministic: bool = True
+                    ) -> tuple[np.ndarray, None]:
+            return rng.uniform(-1.0, 1.0, 2).astype(np.float32), None
+
+    (row,) = evaluate_policy(RandomPolicy(), env, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
+    timed = timed_episode(env.episode_record(), env.episode.scene.cell)
+    assert row["cycle_time_s"] == pytest.approx(timed.cycle.total_s)
+    assert row["cycle_time_s"] > row["joint_time_s"]
+
+
 def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture) -> None:
     from vprobot.cli import main
 
-    old = [column for column in EPISODE_COLUMNS
-           if column not in CURVE_COLUMNS and column != "views_to_goal"]
     rows = tmp_path / "evaluation_episodes.csv"
+    # A table of the version before the cycle time: refused, naming what it lacks.
+    rows.write_text(",".join(column for column in EPISODE_COLUMNS
+                             if column != "cycle_time_s") + "\n")
+    with pytest.raises(ValueError, match=r"not an episodes table of this vprobot version \(it "
+                                         r"lacks cycle_time_s\); use another --out"):
+        finished_rows(rows)
+    old = [column for column in EPISODE_COLUMNS
+           if column not in CURVE_COLUMNS and column not in ("views_to_goal", "cycle_time_s")]
     rows.write_text(",".join(old) + "\n")
     with pytest.raises(ValueError, match="not an episodes table of this vprobot version"):
         finished_rows(rows)
@@ -183,7 +236,8 @@ def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
 
 
 def test_summarize_averages_per_planner_and_carrier() -> None:
-    base = {"acquisitions": 4, "requested": 5, "views_to_goal": None, "joint_time_s": None,
+    base = {"acquisitions": 4, "requested": 5, "views_to_goal": None, "cycle_time_s": None,
+            "joint_time_s": None,
             "joint_path_rad": None, "cartesian_m": None, "paper_m": 1.0, "reachable_pct": None,
             "plan_s": 0.5, "plan_ms_per_view": 100.0, "episode_s": 1.0,
             **dict.fromkeys(CURVE_COLUMNS, 50.0)}
@@ -200,12 +254,13 @@ def test_a_policys_summary_is_the_one_summary_by_hand() -> None:
     # Two robot episodes of a policy, as `evaluate_policy` rows them; the values by hand.
     reached = {"episode": 0, "planner": "policy", "carrier": "robot", "motor": "m.stl",
                "seed": 0, "coverage_pct": 95.0, "acquisitions": 5, "requested": 6,
-               "success": True, "views_to_goal": 5, "joint_time_s": 2.0, "joint_path_rad": 3.0,
-               "cartesian_m": 1.0, "paper_m": 0.8, "reachable_pct": 500 / 6, "plan_s": 0.3,
-               "plan_ms_per_view": 50.0, "episode_s": 2.0,
+               "success": True, "views_to_goal": 5, "cycle_time_s": 12.0, "joint_time_s": 2.0,
+               "joint_path_rad": 3.0, "cartesian_m": 1.0, "paper_m": 0.8,
+               "reachable_pct": 500 / 6, "plan_s": 0.3, "plan_ms_per_view": 50.0,
+               "episode_s": 2.0,
                **dict(zip(CURVE_COLUMNS, [40, 60, 80, 90] + [95] * 6, strict=True))}
     missed = {**reached, "episode": 1, "coverage_pct": 75.0, "acquisitions": 3, "requested": 4,
-              "success": False, "views_to_goal": None, "joint_time_s": 1.0,
+              "success": False, "views_to_goal": None, "cycle_time_s": 8.0, "joint_time_s": 1.0,
               "joint_path_rad": 1.0, "cartesian_m": 0.5, "paper_m": 0.4, "reachable_pct": 75.0,
               "plan_s": 0.1, "plan_ms_per_view": 25.0, "episode_s": 1.0,
               **dict(zip(CURVE_COLUMNS, [30, 50, 70] + [75] * 7, strict=True))}
@@ -213,8 +268,9 @@ def test_a_policys_summary_is_the_one_summary_by_hand() -> None:
     assert tuple(summary) == SUMMARY_KEYS
     expected = {"episodes": 2, "coverage_pct": 85.0, "coverage_std_pct": 10.0,
                 "acquisitions": 4.0, "requested": 5.0, "success_pct": 50.0,
-                "views_to_goal": 5.0, "joint_time_s": 1.5, "joint_path_rad": 2.0,
-                "cartesian_m": 0.75, "paper_m": 0.6, "reachable_pct": (500 / 6 + 75) / 2,
+                "views_to_goal": 5.0, "cycle_time_s": 10.0, "joint_time_s": 1.5,
+                "joint_path_rad": 2.0, "cartesian_m": 0.75, "paper_m": 0.6,
+                "reachable_pct": (500 / 6 + 75) / 2,
                 "plan_s": 0.2, "plan_ms_per_view": 37.5, "episode_s": 1.5,
                 "cov_1_pct": 35.0, "cov_4_pct": 82.5, "cov_10_pct": 85.0,
                 # The mean of the ten mean curve points: (35 + 55 + 75 + 82.5 + 6 * 85) / 10.

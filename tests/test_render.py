@@ -13,7 +13,7 @@ import pytest
 from matplotlib.colors import rgb_to_hsv
 
 from vprobot.config import load_config, with_sensor
-from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
+from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest, timed_episode
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import plan_document, planned_views, write_json
@@ -24,7 +24,12 @@ from vprobot.render.output import VideoWriter
 from vprobot.render.overlay import OverlayStatus, draw_status, inset
 from vprobot.render.replay import episode_from_plan
 from vprobot.render.summary import OVERVIEW_FRACTION, render_summary
-from vprobot.render.timeline import TimingSettings, along_path, episode_timeline
+from vprobot.render.timeline import (
+    TimingSettings,
+    along_path,
+    episode_timeline,
+    move_frames,
+)
 from vprobot.sensing import IDEAL
 from vprobot.sensor import LOSS_CAUSES, DepthSensor
 
@@ -92,6 +97,72 @@ def test_the_arm_moves_along_the_path_between_views(record):
     capped = TimingSettings(fps=30.0, max_seconds_per_move=0.1)
     assert sum(state.phase == "move" and state.view == 1
                for state in episode_timeline(record, capped)) == 3
+
+
+def test_the_video_keeps_the_cells_clock(scene, record):
+    """With the robot's timed cycle each move takes its duration under the robot's limits (the
+    arm on the timed trajectory), the clock stands at the end of each acquisition while it is
+    shown and at the cycle time once the arm is back home; `time_scale` and the cap change the
+    frames, not the clock."""
+    timed = timed_episode(record, scene.cell)
+    settings = TimingSettings(fps=30.0, max_seconds_per_move=100.0)
+    states = episode_timeline(record, settings, timed)
+    clocks = [state.clock_s for state in states]
+    assert clocks == sorted(clocks) and clocks[0] == 0.0
+    acquired = [index for index, view in enumerate(record.views) if view.acquired]
+    ends = [0.0]
+    for stop, index in zip(timed.acquisitions, acquired, strict=True):
+        view = record.views[index]
+        moves = [state for state in states if state.phase == "move" and state.view == index]
+        # The move's duration by the robot's own timing of its corners.
+        duration = scene.arm.move_time(view.waypoints)
+        assert len(moves) == move_frames(duration, settings) == np.ceil(30.0 * duration)
+        assert moves[-1].clock_s == pytest.approx(ends[-1] + duration)
+        np.testing.assert_allclose(moves[-1].joints, view.joints, atol=1e-12)
+        (shown,) = [state for state in states if state.phase == "acquire" and state.view == index]
+        assert shown.clock_s == pytest.approx(
+            moves[-1].clock_s + scene.cell.config.sensor.acquisition_time_s)
+        ends.append(stop.end_s)
+    # The unreachable request: the robot stays, and so does the clock.
+    (missed,) = [state for state in states if state.phase == "unreachable"]
+    assert missed.clock_s == ends[-1]
+    back = [state for state in states if state.phase == "return"]
+    assert len(back) == move_frames(scene.arm.move_time(record.return_waypoints), settings)
+    home = states[-1]
+    assert home.phase == "home" and home.clock_s == pytest.approx(timed.cycle.total_s)
+    np.testing.assert_allclose(home.joints, record.start_joints, atol=1e-12)
+    half = episode_timeline(record, TimingSettings(fps=30.0, time_scale=0.5,
+                                                   max_seconds_per_move=100.0), timed)
+    capped = episode_timeline(record, TimingSettings(fps=30.0, max_seconds_per_move=0.1), timed)
+    for other in (half, capped):
+        assert other[-1].clock_s == home.clock_s
+    assert sum(state.phase == "move" for state in capped) == 3 * len(acquired)
+    assert sum(state.phase == "move" for state in half) == sum(
+        np.ceil(15.0 * scene.arm.move_time(record.views[index].waypoints)) for index in acquired)
+
+
+def test_the_overlay_shows_the_cells_clock_and_a_free_sensor_keeps_the_untimed_video(scene,
+                                                                                     record):
+    with EpisodeRenderer(scene, record, WIDTH, HEIGHT, sensor_panel=None) as renderer:
+        states = renderer.timeline(TimingSettings(**FAST))
+        assert [state.clock_s for state in states] == [
+            state.clock_s for state in episode_timeline(record, TimingSettings(**FAST),
+                                                        timed_episode(record, scene.cell))]
+        status = renderer.status(states[-1])
+    assert status.caption == "done" and status.cycle_s == status.clock_s == pytest.approx(
+        timed_episode(record, scene.cell).cycle.total_s)
+    frame = np.full((HEIGHT, WIDTH, 3), 90, dtype=np.uint8)
+    assert np.any(draw_status(frame, status) != draw_status(
+        frame, dataclasses.replace(status, clock_s=status.clock_s / 2)))
+    free = Episode(scene, np.eye(3), carrier="free")
+    center = free.center
+    free.request(ViewRequest(SensorTarget.look_at(center + 0.47 * _direction(0.0, 35.0),
+                                                  center)))
+    with EpisodeRenderer(scene, free.record(), WIDTH, HEIGHT, sensor_panel=None) as renderer:
+        assert renderer.timed is None
+        states = renderer.timeline(TimingSettings(**FAST))
+    assert [state.phase for state in states] == ["start", "acquire", "end"]
+    assert all(state.clock_s is None for state in states)
 
 
 def test_along_path_interpolates_by_arc_length():

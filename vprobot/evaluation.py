@@ -10,13 +10,14 @@ and carrier the table gives the mean coverage, the acquisitions (views actually 
 initial view included), the success rate (coverage goal reached), the mean travel between the
 views of an episode (`joint_time` s, `joint_path` rad, `cartesian` m, `paper` m; the approach
 from the start to the first view is not counted, docs/states-actions-rewards.md#travel-costs),
-the fraction of requested views the robot reached and the planning time per episode. Beside the
-final figures, the coverage after each of the first 10 requests (the initial view included; an
-unreached request counts, since it costs a request) gives a curve per planner
-(`coverage_vs_views.png`), its area (the mean coverage over those 10 requests) and the number of
-requests at which the goal was reached. An episode that ended earlier keeps its final coverage
-for the remaining requests: the planner stopped there, so that is what it delivers with that many
-requests.
+the fraction of requested views the robot reached, the cell's cycle time of the part (approach,
+moves, acquisitions and return home, docs/motion.md#cycle-time; robot only) and the planning time
+per episode. Beside the final figures, the coverage after each of the first 10 requests (the
+initial view included; an unreached request counts, since it costs a request) gives a curve per
+planner (`coverage_vs_views.png`), its area (the mean coverage over those 10 requests) and the
+number of requests at which the goal was reached. An episode that ended earlier keeps its final
+coverage for the remaining requests: the planner stopped there, so that is what it delivers with
+that many requests.
 """
 
 from __future__ import annotations
@@ -58,13 +59,14 @@ CURVE_VIEWS = 10
 """Requests (the initial view included) over which the coverage curve and its area run."""
 CURVE_COLUMNS = tuple(f"cov_{n}_pct" for n in range(1, CURVE_VIEWS + 1))
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
-           "requested", "success_pct", "area_pct", "views_to_goal", "joint_time_s",
+           "requested", "success_pct", "area_pct", "views_to_goal", "cycle_time_s",
+           "joint_time_s",
            "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct", "plan_s",
            "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
 EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
-                   "requested", "success", "views_to_goal", "joint_time_s", "joint_path_rad",
-                   "cartesian_m", "paper_m", "reachable_pct", "plan_s", "plan_ms_per_view",
-                   "episode_s", *CURVE_COLUMNS)
+                   "requested", "success", "views_to_goal", "cycle_time_s", "joint_time_s",
+                   "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct", "plan_s",
+                   "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
 PLOT_NAME = "coverage_vs_views.png"
 SETTINGS_NAME = "evaluation_settings.json"
 """The settings an evaluation folder's rows were run with (the config and the estimator)."""
@@ -115,6 +117,7 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "requested": result.requested,
         "success": result.success,
         "views_to_goal": views_to_goal(result),
+        "cycle_time_s": None if result.cycle is None else result.cycle.total_s,
         "joint_time_s": travel.joint_time if robot else None,
         "joint_path_rad": travel.joint_path if robot else None,
         "cartesian_m": travel.cartesian,
@@ -153,10 +156,10 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "requested": _mean(group, "requested"),
             "success_pct": 100.0 * statistics.fmean(row["success"] for row in group),
             "area_pct": statistics.fmean(curve),
-            **{key: _mean(group, key) for key in ("views_to_goal", "joint_time_s",
-                                                  "joint_path_rad", "cartesian_m", "paper_m",
-                                                  "reachable_pct", "plan_s", "plan_ms_per_view",
-                                                  "episode_s")},
+            **{key: _mean(group, key) for key in ("views_to_goal", "cycle_time_s",
+                                                  "joint_time_s", "joint_path_rad",
+                                                  "cartesian_m", "paper_m", "reachable_pct",
+                                                  "plan_s", "plan_ms_per_view", "episode_s")},
             **dict(zip(CURVE_COLUMNS, curve, strict=True)),
         })
     return table
@@ -175,8 +178,8 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     motors = sorted({Path(spec.motor).name for spec in specs})
     seeds = sorted({spec.seed for spec in specs})
     header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | success % "
-              "| area % | views to goal | joint_time s | joint_path rad | cartesian m | paper m "
-              "| reachable % | plan s | ms per view |")
+              "| area % | views to goal | cycle s | joint_time s | joint_path rad | cartesian m "
+              "| paper m | reachable % | plan s | ms per view |")
     lines = [
         "# Planner evaluation",
         "",
@@ -186,8 +189,11 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         f"{config.env.coverage_goal:.0%}; at most {config.env.max_acquisitions} requests after "
         f"the initial view for planners that stop at the goal. Carrier `robot`: every view must "
         f"be reached by the robot; `free`: free-flying sensor as in the paper. Means per "
-        f"episode; travel is summed over the moves between an episode's views (the approach "
-        f"to the first view is not counted); `plan s` is the time spent planning an episode, "
+        f"episode; `cycle s` is the cell's cycle time of the part (approach from home, moves, "
+        f"a stop of {config.sensor.acquisition_time_s:g} s to acquire at each view, return "
+        f"home; robot only, over the episodes whose robot found its way home); travel is "
+        f"summed over the moves between an episode's views (the approach to the first view is "
+        f"not counted); `plan s` is the time spent planning an episode, "
         f"`ms per view` that time per requested view (for an agent: its policy's compute). "
         f"`area %` is the mean coverage after requests 1 to {CURVE_VIEWS} (the initial view "
         f"is 1; an episode that ended earlier keeps its final coverage), `views to goal` the "
@@ -202,7 +208,8 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         cells = [row["planner"], row["carrier"], str(row["episodes"]), coverage,
                  _cell(row["acquisitions"], 2), _cell(row["requested"], 2),
                  _cell(row["success_pct"], 0), _cell(row["area_pct"], 2),
-                 _cell(row["views_to_goal"], 2), _cell(row["joint_time_s"], 2),
+                 _cell(row["views_to_goal"], 2), _cell(row["cycle_time_s"], 2),
+                 _cell(row["joint_time_s"], 2),
                  _cell(row["joint_path_rad"], 2), _cell(row["cartesian_m"], 2),
                  _cell(row["paper_m"], 2), _cell(row["reachable_pct"], 1),
                  _cell(row["plan_s"], 3), _cell(row["plan_ms_per_view"], 1)]
@@ -262,10 +269,15 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     lines = complete.decode(errors="replace").splitlines()
     if not lines:
         return []
-    if lines[0].split(",") != list(EPISODE_COLUMNS):
-        # An older version's table lacks the coverage curve, so its episodes cannot be reused.
-        raise ValueError(f"{path} is not an episodes table of this vprobot version (its columns "
-                         f"differ); use another --out")
+    header = lines[0].split(",")
+    if header != list(EPISODE_COLUMNS):
+        # An older version's table lacks columns (the coverage curve, the cycle time) that its
+        # episodes would need to be run again for.
+        missing = [column for column in EPISODE_COLUMNS if column not in header]
+        differ = (f"it lacks {', '.join(missing)}" if missing
+                  else "its columns differ")
+        raise ValueError(f"{path} is not an episodes table of this vprobot version ({differ}); "
+                         f"use another --out")
     rows: dict[tuple[int, str, str], dict[str, Any]] = {}
     kept, damaged, repeated = [lines[0]], [], []
     for number, line in enumerate(lines[1:], start=2):

@@ -15,7 +15,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 
 from vprobot.config import Config, replace
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.episode import EpisodeSpec
+from vprobot.episode import EpisodeSpec, episode_cycle
 from vprobot.evaluation import COLUMNS, episode_row, summarize
 from vprobot.planners.runner import EpisodeResult
 
@@ -46,10 +46,12 @@ def evaluate_policy(model: BaseAlgorithm, env: InspectEnv, specs: Sequence[Episo
             observation, _, terminated, truncated, _ = env.step(action)
             done = terminated or truncated
         assert env.episode is not None  # reset made it
+        record = env.episode.record()
         rows.append(episode_row(index, EpisodeResult(
-            planner=POLICY, carrier=env.config.env.carrier, spec=spec,
-            record=env.episode.record(), goal=env.config.env.coverage_goal,
-            plan_seconds=thinking, episode_seconds=time.perf_counter() - start)))
+            planner=POLICY, carrier=env.config.env.carrier, spec=spec, record=record,
+            goal=env.config.env.coverage_goal, plan_seconds=thinking,
+            episode_seconds=time.perf_counter() - start,
+            cycle=episode_cycle(record, env.episode.scene.cell))))
     return rows
 
 

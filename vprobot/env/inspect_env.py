@@ -33,6 +33,7 @@ from vprobot.episode import (
     EpisodeSpec,
     MotorScene,
     ViewRecord,
+    episode_cycle,
     sample_episode,
 )
 from vprobot.generated import generated_path, is_generated
@@ -133,7 +134,8 @@ class InspectEnv(gym.Env):
     distance that `nbv` requests (not with `stop_action`).
 
     ## Reward
-    R1-R8 dense (coverage gain, remaining coverage, travel cost k_t), R9-R14 sparse at the last
+    R1-R8 dense (coverage gain, remaining coverage, travel cost k_t: `env.travel_cost`, one of
+    joint_time, joint_path, cartesian, paper, cycle_time), R9-R14 sparse at the last
     step (final coverage, steps T, k_cum over the steps; the approach to the initial view is not
     a step); `unreachable_penalty` is added to an unreachable request. `info["reward_terms"]`
     holds the terms.
@@ -147,7 +149,9 @@ class InspectEnv(gym.Env):
     sensor_quaternion, acquisitions, reachable_share (of the views requested so far),
     points_acquired, motor, episode_seed, travel_<cost>,
     travel_sum_<cost> (k_cum), approach_<cost> for cost in joint_time, joint_path, cartesian,
-    paper, and reward_terms (after a step).
+    paper and cycle_time, and reward_terms (after a step); on the episode's last step also
+    cycle_time: the cell's cycle time of the part (approach, moves, acquisitions, return home;
+    None without a robot or a path home).
 
     Args:
         config: A `Config`, a YAML path, or None for `configs/default.yaml`.
@@ -332,6 +336,10 @@ class InspectEnv(gym.Env):
             info[f"approach_{name}"] = getattr(approach, name)
         if terms is not None:
             info["reward_terms"] = dataclasses.asdict(terms)
+        if self._done:
+            # At the end only: the cycle closes with the way home, a path to plan.
+            cycle = episode_cycle(episode.record(), episode.scene.cell)
+            info["cycle_time"] = None if cycle is None else cycle.total_s
         return info
 
     def episode_record(self) -> EpisodeRecord:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.episode.records import EpisodeRecord
-from vprobot.kinematics.trajectory import MotionLimits, TimedPlan, time_plan
+from vprobot.kinematics.trajectory import CycleTime, MotionLimits, TimedPlan, time_plan
 from vprobot.scene import Cell
 
 
@@ -32,3 +32,23 @@ def timed_episode(record: EpisodeRecord, cell: Cell) -> TimedPlan | None:
         return None
     return time_plan(moves, MotionLimits.of(cell.robot), cell.config.sensor.acquisition_time_s,
                      cell.joints.names)
+
+
+def episode_cycle(record: EpisodeRecord, cell: Cell) -> CycleTime | None:
+    """The cycle time of the episode's part and its parts; None where `episode_moves` is."""
+    timed = timed_episode(record, cell)
+    return None if timed is None else timed.cycle
+
+
+def describe_cycle(record: EpisodeRecord, cycle: CycleTime | None) -> str | None:
+    """The cycle time of a robot episode and its parts in words, or why it has none; None
+    without a robot."""
+    if record.carrier != "robot":
+        return None
+    if cycle is None:
+        why = ("no path back to the start was found" if any(view.acquired for view in record.views)
+               else "nothing was acquired")
+        return f"cycle time: none ({why})"
+    return (f"cycle time {cycle.total_s:.2f} s: approach {cycle.approach_s:.2f} s, moves "
+            f"{cycle.moves_s:.2f} s, acquisitions {cycle.acquisitions_s:.2f} s, return "
+            f"{cycle.return_s:.2f} s")

@@ -18,9 +18,12 @@ from vprobot.episode import (
     EpisodeRecord,
     EpisodeSpec,
     MotorScene,
+    describe_cycle,
+    episode_cycle,
     seeded_episode,
 )
 from vprobot.kinematics import TravelCost
+from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
 from vprobot.planners import agent, bscp, hrec, nbv, oracle, random_views, uniform
@@ -124,6 +127,9 @@ class EpisodeResult:
         goal: The coverage goal.
         plan_seconds: Time spent inside the planner (reset and next-view calls).
         episode_seconds: Wall time of the whole episode (planning and executing views).
+        cycle: The cell's cycle time of the part and its parts (docs/motion.md#cycle-time):
+            approach, moves, acquisitions, return; None without a robot, without an
+            acquisition, or when no path back to the start was found (`episode_cycle`).
         candidates: The candidate views of a model-based planner (bscp, oracle), else None.
         stop_reason: Why the episode ended (`goal reached`, `max views`, the stop rule's or the
             planner's own reason, e.g. `nbv@grid`'s).
@@ -142,6 +148,7 @@ class EpisodeResult:
     goal: float
     plan_seconds: float
     episode_seconds: float
+    cycle: CycleTime | None
     candidates: CandidateViews | None = None
     stop_reason: str | None = None
     stop_rule: str = "goal"
@@ -288,6 +295,7 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
                          carrier=carrier, spec=spec, record=played.record,
                          goal=config.env.coverage_goal, plan_seconds=played.plan_seconds,
                          episode_seconds=seconds,
+                         cycle=episode_cycle(played.record, scene.cell),
                          candidates=chosen.candidates, stop_reason=played.stop_reason,
                          stop_rule=stop, planner_stopped=played.planner_stopped,
                          estimates=estimated, estimate_notes=tuple(notes))
@@ -311,6 +319,7 @@ def summary(result: EpisodeResult, config: Config) -> str:
     ]
     approach = record.approach
     if robot:
+        lines.append(f"  {describe_cycle(record, result.cycle)}")
         lines.append(f"  approach from the start {approach.joint_time:.2f} s joint time")
         lines.append(f"  travel {travel.joint_time:.2f} s joint time, {travel.joint_path:.2f} rad "
                      f"joint path, {travel.cartesian:.2f} m sensor path, {travel.paper:.2f} m "

@@ -33,6 +33,8 @@ class OverlayStatus:
         joint_time_s: Joint time travelled so far (s).
         sensor_path_m: Length of the sensor's path so far (m).
         unreachable: (view number, reason) of the unreachable requests so far.
+        clock_s: The cell's clock, the elapsed cycle time (s); None without a cycle.
+        cycle_s: The episode's cycle time (s); None without a cycle.
     """
 
     step: int
@@ -42,6 +44,8 @@ class OverlayStatus:
     joint_time_s: float
     sensor_path_m: float
     unreachable: tuple[tuple[int, str], ...] = ()
+    clock_s: float | None = None
+    cycle_s: float | None = None
 
 
 @functools.lru_cache(maxsize=8)
@@ -55,9 +59,12 @@ def _status_lines(status: OverlayStatus) -> list[tuple[str, tuple[int, int, int]
         (f"view {status.step}/{status.steps}  {status.caption}" if status.step else
          f"{status.steps} views  {status.caption}", TEXT_RGB),
         (f"coverage {100.0 * status.coverage:5.1f} %", TEXT_RGB),
-        (f"travel {status.joint_time_s:5.2f} s joint, {status.sensor_path_m:5.2f} m sensor",
-         DIM_RGB),
     ]
+    if status.clock_s is not None and status.cycle_s is not None:
+        lines.append((f"cell clock {status.clock_s:6.2f} s of {status.cycle_s:.2f} s cycle",
+                      TEXT_RGB))
+    lines.append((f"travel {status.joint_time_s:5.2f} s joint, {status.sensor_path_m:5.2f} m "
+                  f"sensor", DIM_RGB))
     marks = [f"x view {step} unreachable ({reason.replace('_', ' ')})"
              for step, reason in status.unreachable]
     if len(marks) > MAX_MARKS:

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 from PIL import Image, ImageDraw
 
-from vprobot.episode import EpisodeRecord, MotorScene
+from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle, episode_cycle
 from vprobot.geometry import Pose
 from vprobot.render.camera import aim_at_sphere, project
 from vprobot.render.lost import LOST_RGB, frame_losses, lost_in_order
@@ -161,11 +161,11 @@ def _label_views(image: np.ndarray, record: EpisodeRecord, labels: np.ndarray) -
     return np.asarray(canvas)
 
 
-def _caption(image: np.ndarray, record: EpisodeRecord,
-             losses: list[FrameLosses | None]) -> np.ndarray:
-    """The episode's totals across the top; where frames lose points, a line more: how many
-    each cause lost (in its colour in the close-ups) and how many were measured, summed over
-    the frames."""
+def _caption(image: np.ndarray, record: EpisodeRecord, losses: list[FrameLosses | None],
+             cycle: str | None) -> np.ndarray:
+    """The episode's totals across the top, with the robot's `cycle` time (`describe_cycle`);
+    where frames lose points, a line more: how many each cause lost (in its colour in the
+    close-ups) and how many were measured, summed over the frames."""
     covered = int(np.count_nonzero(record.covered))
     reached = sum(view.reachable for view in record.views)
     travel = record.travel_sum
@@ -174,6 +174,7 @@ def _caption(image: np.ndarray, record: EpisodeRecord,
         "ground-truth points covered (green), the rest not (red)",
         f"{reached} of {len(record.views)} views reached (x: unreachable request); between "
         f"views {travel.joint_time:.2f} s joint time, {travel.cartesian:.2f} m sensor path",
+        *([] if cycle is None else [cycle]),
     ]
     frames = [view_losses.counts() for view_losses in losses if view_losses is not None]
     canvas = Image.fromarray(image).convert("RGBA")
@@ -201,7 +202,8 @@ def _caption(image: np.ndarray, record: EpisodeRecord,
 
 def render_summary(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str | Path,
                    width: int = 1280, height: int = 720) -> Path:
-    """Write a PNG summing up an episode: coverage of the ground truth and the view poses.
+    """Write a PNG summing up an episode: coverage of the ground truth and the view poses,
+    with the robot's cycle time and its parts (docs/motion.md#cycle-time).
 
     Under a structured-light sensor it also shows the points each frame lost, by cause, and
     their totals; each frame is measured again for that (`vprobot.render.lost.frame_losses`).
@@ -232,4 +234,5 @@ def render_summary(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str
         _overview(cell, data, record, overview_width, height),
         _close_ups(cell, data, record, losses, width - overview_width, height),
     ], axis=1)
-    return write_png(out_png, _caption(image, record, losses))
+    cycle = describe_cycle(record, episode_cycle(record, cell))
+    return write_png(out_png, _caption(image, record, losses, cycle))

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
-from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord
+from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord, timed_episode
 from vprobot.kinematics import TravelCost
 from vprobot.render.camera import aim_overview
 from vprobot.render.lost import frame_losses, lost_legend, paint_lost, point_size_px
@@ -86,6 +86,8 @@ class EpisodeRenderer:
             raise ValueError("the episode has no views to render")
         self.cell = cell_of(scene)
         self.record = record
+        # The robot's cycle, whose clock the video keeps (None: the untimed video).
+        self.timed = timed_episode(record, self.cell)
         self.sensor = SensorModel.from_config(self.cell.config.sensor)
         self.data = self.cell.make_data()
         self.cell.place_object(self.data, record.object_pose.rotation)
@@ -157,6 +159,8 @@ class EpisodeRenderer:
             sensor_path_m=travel.cartesian,
             unreachable=tuple((index + 1, view.reason or "unreachable")
                               for index, view in enumerate(done) if not view.reachable),
+            clock_s=state.clock_s,
+            cycle_s=None if self.timed is None else self.timed.duration_s,
         )
 
     def _caption(self, state: FrameState) -> str:
@@ -167,13 +171,20 @@ class EpisodeRenderer:
             return f"moving to view {number}"
         if state.phase == "unreachable":
             return "unreachable"
-        if state.phase == "end":
+        if state.phase == "return":
+            return "returning home"
+        if state.phase in ("end", "home"):
             return "done"
         return f"acquired (+{100.0 * _gain(self.record.views, state.view):.1f} %)"
 
+    def timeline(self, settings: TimingSettings) -> list[FrameState]:
+        """The episode's frame states (`episode_timeline`), on the cell's clock where the robot's
+        cycle is timed."""
+        return episode_timeline(self.record, settings, self.timed)
+
     def frames(self, settings: TimingSettings) -> Iterator[tuple[np.ndarray, int]]:
         """Each distinct frame of the episode with how many times it repeats."""
-        for state in episode_timeline(self.record, settings):
+        for state in self.timeline(settings):
             yield self.frame(state), state.repeat
 
     def close(self) -> None:
@@ -212,10 +223,14 @@ def render_episode(
 ) -> RenderedVideo:
     """Render an episode to an MP4 (H.264) or, for a `.gif` path, an animated GIF.
 
-    The arm moves along each view's joint-space path, timed by the move's joint time times
-    `time_scale` (capped at `max_seconds_per_move`); each acquisition is held for
+    The video keeps the cell's clock (`vprobot.render.timeline`): the arm follows the robot's
+    timed trajectory, each move lasting its duration under the robot's limits times
+    `time_scale` (capped at `max_seconds_per_move`), and returns home at the end; the overlay
+    shows the elapsed cycle time and the cycle time. Each acquisition is held for
     `hold_seconds` with its frustum and points, which stay (faded) afterwards. Unreachable
-    requests show as red frusta at the requested pose. The file is written atomically.
+    requests show as red frusta at the requested pose. Without a cycle (a free-flying sensor,
+    or no path home) the moves are timed by their joint time and there is no clock. The file
+    is written atomically.
 
     Args:
         scene: The motor scene (or cell) the episode ran in.
@@ -224,7 +239,7 @@ def render_episode(
         width: Frame width in pixels (even for MP4).
         height: Frame height in pixels (even for MP4).
         fps: Frames per second.
-        time_scale: Video seconds per second of robot joint time.
+        time_scale: Video seconds per second of the robot's time (the cell's clock).
         max_seconds_per_move: Cap on the video time of one move.
         hold_seconds: Time each acquisition is shown.
         sensor_panel: `color` or `depth` inset of the sensor's view, or None.
@@ -240,13 +255,14 @@ def render_episode(
                               hold_seconds=hold_seconds)
     width, height = check_size(width, height)
     writer = VideoWriter(out_path, fps, width, height)
-    total = sum(state.repeat for state in episode_timeline(record, settings))
     rendered = 0
     with EpisodeRenderer(scene, record, width, height, sensor_panel, points_per_view) as renderer, \
-            writer, tqdm(total=total, desc="frames", disable=not progress, leave=False) as bar:
-        for frame, repeat in renderer.frames(settings):
-            for _ in range(repeat):
-                writer.append(frame)
-            rendered += 1
-            bar.update(repeat)
+            writer:
+        total = sum(state.repeat for state in renderer.timeline(settings))
+        with tqdm(total=total, desc="frames", disable=not progress, leave=False) as bar:
+            for frame, repeat in renderer.frames(settings):
+                for _ in range(repeat):
+                    writer.append(frame)
+                rendered += 1
+                bar.update(repeat)
     return RenderedVideo(writer.path, writer.frames, writer.frames / fps, rendered)
