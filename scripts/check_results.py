@@ -30,8 +30,12 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
+import yaml
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare_evaluations import moved_cells
+
+from vprobot.evaluation import SETTINGS_NAME
 
 ROOT = Path(__file__).resolve().parents[1]
 EPISODE_KEY = ("episode", "carrier", "planner")
@@ -66,16 +70,42 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
         episode_list["episodes"] = [episode_list["episodes"][index] for index in episodes]
     out.mkdir(parents=True)
     (out / "list.json").write_text(json.dumps(episode_list))
+    (out / "config.yaml").write_text(yaml.safe_dump(recorded_config(folder)))
     env = dict(os.environ)
     if platform.machine().lower() in ("x86_64", "amd64"):
         env.setdefault("OPENBLAS_CORETYPE", "Haswell")
     # An empty cache: ground truth and generated objects are built by this code, as in a clone.
     env["VPROBOT_CACHE_DIR"] = str(out / "cache")
     env["PYTHONPATH"] = os.pathsep.join(filter(None, (str(ROOT), env.get("PYTHONPATH"))))
-    subprocess.run([sys.executable, "-m", "vprobot.cli", "evaluate", "--episodes",
-                    str(out / "list.json"), "--planners", *planners, "--carriers", *carriers,
+    subprocess.run([sys.executable, "-m", "vprobot.cli", "evaluate", "--config",
+                    str(out / "config.yaml"), "--episodes", str(out / "list.json"),
+                    "--planners", *planners, "--carriers", *carriers,
+                    *(["--estimator", estimator] if (estimator := recorded_estimator(folder))
+                      else []),
                     "--out", str(out / "tables")], check=True, cwd=ROOT, env=env,
                    stdout=subprocess.DEVNULL)
+
+
+def _settings(folder: Path) -> dict:
+    path = folder / SETTINGS_NAME
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def recorded_config(folder: Path) -> dict:
+    """The config a committed folder was evaluated with, as a config file's sections.
+
+    Its settings record (`evaluation_settings.json`) has it; folders without one were made with
+    the default config of their time. Records made before the robot planned its moves
+    (`kinematics.path_planner`, issue 32) moved along straight joint-space lines.
+    """
+    config = _settings(folder).get("config", {})
+    config.setdefault("kinematics", {}).setdefault("path_planner", "line")
+    return config
+
+
+def recorded_estimator(folder: Path) -> str | None:
+    """The estimator file a committed folder's settings record names, if any."""
+    return _settings(folder).get("estimator")
 
 
 def differences(folder: Path, out: Path, episodes: Sequence[int] | None = None) -> list[str]:

@@ -34,7 +34,7 @@ def load_check() -> ModuleType:
 def regenerated(tmp_path_factory: pytest.TempPathFactory) -> tuple[ModuleType, Path]:
     check = load_check()
     out = tmp_path_factory.mktemp("check") / "regenerated"
-    check.regenerate(MOTORS, out, EPISODES, PLANNERS, ["free"])
+    check.regenerate(MOTORS, out, EPISODES, PLANNERS, ["free", "robot"])
     return check, out
 
 
@@ -42,8 +42,11 @@ def test_committed_motor_rows_equal_their_regeneration(
         regenerated: tuple[ModuleType, Path]) -> None:
     check, out = regenerated
     rows = list(csv.DictReader((out / "tables" / "evaluation_episodes.csv").open()))
-    assert sorted(row["planner"] for row in rows) == sorted(PLANNERS)
+    assert sorted(row["planner"] for row in rows) == sorted(2 * PLANNERS)
+    # The robot rows too: the folder has no settings record, so it is regenerated with the
+    # moves of its time, straight joint-space lines (`check_results.recorded_config`).
     assert check.differences(MOTORS, out, EPISODES) == []
+    assert check.recorded_config(MOTORS) == {"kinematics": {"path_planner": "line"}}
 
 
 def test_check_names_a_committed_cell_that_differs(regenerated: tuple[ModuleType, Path],
