@@ -460,6 +460,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         results = run_large_mesh_benchmark(config, [
             item for option in ("config", "robot", "sensor") if getattr(args, option)
             for item in (f"--{option}", str(getattr(args, option)))])
+    elif args.suite == "motion":
+        from vprobot.benchmarks.motion import print_table, run_motion_benchmark
+
+        results, printer = run_motion_benchmark(config, samples=args.samples), print_table
     else:
         from vprobot.benchmarks.sensor import print_table, run_sensor_benchmark
 
@@ -800,10 +804,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot(benchmark)
     benchmark.add_argument("suite",
                            choices=["kinematics", "sensor", "env", "planners", "mesh",
-                                    "render", "train", "cluster", "objects"],
+                                    "render", "train", "cluster", "objects", "motion"],
                            help="what to measure (docs/benchmarks.md)")
     benchmark.add_argument("--samples", type=POSITIVE_INT, default=200,
-                           help="random targets (kinematics) or steps (env, train) per measure")
+                           help="random targets (kinematics), steps (env, train) or view-to-view "
+                                "moves (motion) per measure")
     benchmark.add_argument("--json", help="write the results as JSON here")
 
     add("sensors", command_sensors, "List the sensor presets (configs/sensors/).", config=False)
