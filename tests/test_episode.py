@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from vprobot.config import Config
+from vprobot.config import Config, replace
 from vprobot.episode import (
     Episode,
     EpisodeSpec,
@@ -18,6 +18,7 @@ from vprobot.episode import (
     seeded_episode,
     timed_episode,
 )
+from vprobot.episode.specs import FALLBACK_INITIAL_VIEWS
 from vprobot.geometry import rotation_about_x, rotation_about_z
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
@@ -36,7 +37,8 @@ def _requests(episode: Episode) -> list[ViewRequest]:
     center = episode.center
     spec = EpisodeSpec(motor="unused", object_quaternion=(1.0, 0.0, 0.0, 0.0),
                        initial_views=tuple(DIRECTIONS), seed=0)
-    return spec.initial_requests(center, CONFIG.sensor.working_distance_m)
+    # The spec's own views, without the fallbacks after them.
+    return spec.initial_requests(center, CONFIG.sensor.working_distance_m)[:len(DIRECTIONS)]
 
 
 def _trace(episode: Episode) -> list[tuple]:
@@ -162,3 +164,27 @@ def test_plans_summary_reports_the_cycle_time_and_its_parts(scene: MotorScene) -
         "cycle time: none (no path back to the start was found)")
     free = run(CONFIG, scene, "hrec", spec, "free")
     assert free.cycle is None and "cycle time" not in summary(free, CONFIG)
+
+
+def test_a_robot_that_misses_the_spec_initial_view_starts_from_the_nearest_it_reaches() -> None:
+    """The UR5 does not reach the paper's fixed initial view around the default motor; the
+    fallbacks after it are the band's directions nearest it, and the episode begins there."""
+    config = replace(CONFIG, "cell", robot="ur5")
+    scene = MotorScene.load(config, DEFAULT_MOTOR, resolution=(107, 75))
+    spec = seeded_episode(config.env, DEFAULT_MOTOR, 0)
+    episode = Episode.from_spec(scene, spec)
+    requests = spec.initial_requests(episode.center, config.sensor.working_distance_m)
+    first, *fallbacks = requests
+    assert len(fallbacks) == FALLBACK_INITIAL_VIEWS
+    with pytest.raises(ValueError, match="none of the 1 initial views is reachable"):
+        Episode.from_spec(scene, spec).begin([first])
+    view = episode.begin(requests)
+    # The views' look-at directions: the fallbacks by growing angle from the first.
+    def direction(request: ViewRequest) -> np.ndarray:
+        offset = request.target.pose.position - episode.center
+        return offset / np.linalg.norm(offset)
+    angles = [np.arccos(np.clip(direction(r) @ direction(first), -1, 1)) for r in fallbacks]
+    assert angles == sorted(angles) and angles[0] > 0
+    taken = next(r for r in fallbacks if np.allclose(r.target.pose.position,
+                                                     view.requested.position))
+    assert view.acquired and direction(taken) @ direction(first) > np.cos(np.radians(60))

@@ -58,6 +58,10 @@ def bundled_episode_list(name: str) -> Path:
 RANDOM_INITIAL_VIEWS = 50
 """Initial view directions a `random` initial view draws; the first one reached is taken."""
 RANDOM_INITIAL_MAX_POLAR_RAD = float(np.deg2rad(120.0))
+FALLBACK_INITIAL_VIEWS = 24
+"""Directions tried after an episode's own initial views, nearest the first of them first: a
+robot that reaches none of those (the UR5 misses the paper's fixed view) starts from the nearest
+view it reaches instead of failing the episode."""
 
 
 def random_object_rotation(env: EnvConfig, rng: np.random.Generator) -> np.ndarray:
@@ -126,10 +130,14 @@ class EpisodeSpec:
         return Path(self.motor)
 
     def initial_requests(self, center: np.ndarray, distance: float) -> list[ViewRequest]:
-        """The initial view candidates as look-at requests around `center`."""
-        return [ViewRequest(SensorTarget.look_at(center + spherical_position(phi, theta,
-                                                                             distance), center))
-                for phi, theta in self.initial_views]
+        """The initial view candidates as look-at requests around `center`: the spec's own
+        views, then the `FALLBACK_INITIAL_VIEWS` directions (of the `random` initial views'
+        band) nearest its first view, nearest first."""
+        own = np.array([spherical_position(phi, theta, 1.0) for phi, theta in self.initial_views])
+        band = sphere_directions(4 * RANDOM_INITIAL_VIEWS, RANDOM_INITIAL_MAX_POLAR_RAD)
+        nearest = np.argsort(-(band @ own[0]), kind="stable")[:FALLBACK_INITIAL_VIEWS]
+        return [ViewRequest(SensorTarget.look_at(center + distance * direction, center))
+                for direction in (*own, *band[nearest])]
 
     def as_dict(self) -> dict[str, Any]:
         return {"motor": self.motor, "scale": self.scale, "seed": self.seed,
