@@ -95,10 +95,10 @@ def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[Vi
 
     With the robot, views with known configurations are ordered by straight-line `joint_time`
     from the current configuration, a move without a collision-free path costing
-    `BLOCKED_PATH_S` more (executing it falls back to the IK); views without a configuration (the IK will be
-    asked when they are executed) follow in their given order. Without the robot, views are
-    ordered by the paper's travel approximation (arcs about the object's centre) from a free
-    start.
+    `BLOCKED_PATH_S` more (executing it falls back to the IK); views without a configuration
+    (the IK will be asked when they are executed) follow in their given order. Without the
+    robot, views are ordered by the paper's travel approximation (arcs about the object's
+    centre) from a free start.
     """
     if episode.uses_robot:
         known = [request for request in requests if request.joints is not None]
