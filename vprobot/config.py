@@ -230,7 +230,7 @@ class KinematicsConfig:
             move fails).
         path_planning_checks: RRT-Connect's budget per move in collision checks: a move
             without a path found within it fails (`path_not_found`). It ends a search at the
-            same point on every machine (about 0.4 s on the 2-core reference machine), so runs
+            same point on every machine (about 0.2 s on the 2-core reference machine), so runs
             repeat exactly.
         path_planning_time_s: A wall-clock cap per move on top, for a slower machine (a search
             it ends may end elsewhere on another machine).
