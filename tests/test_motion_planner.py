@@ -90,8 +90,10 @@ def test_goal_in_collision_has_no_path(arm: RobotArm) -> None:
     assert planner(arm).plan(Q_FROM, fixture_pass) is None
 
 
-def test_planning_out_of_time_has_no_path(arm: RobotArm) -> None:
-    assert planner(arm, path_planning_time_s=1e-9).plan(Q_FROM, Q_TO) is None
+@pytest.mark.parametrize("budget", [{"path_planning_checks": 10},
+                                    {"path_planning_time_s": 1e-9}])
+def test_planning_out_of_budget_has_no_path(arm: RobotArm, budget: dict[str, object]) -> None:
+    assert planner(arm, **budget).plan(Q_FROM, Q_TO) is None
 
 
 def test_line_planner_does_not_go_around(arm: RobotArm) -> None:
@@ -166,6 +168,7 @@ def test_driving_around_the_fixture_records_the_waypoints() -> None:
 
 
 @pytest.mark.parametrize("changes", [{"path_planning_time_s": 0.0},
+                                     {"path_planning_checks": 0},
                                      {"path_planner": "prm"}])
 def test_bad_planning_settings_are_refused(changes: dict[str, object]) -> None:
     with pytest.raises(ConfigError, match=next(iter(changes))):

@@ -234,8 +234,12 @@ class KinematicsConfig:
         path_planner: `rrt_connect`: a move whose straight joint-space line collides goes around
             on a path planned by OMPL's RRT-Connect; `line`: only the straight line (such a
             move fails).
-        path_planning_time_s: RRT-Connect's time budget per move; a move without a path found
-            in it fails (`path_not_found`).
+        path_planning_checks: RRT-Connect's budget per move in collision checks: a move
+            without a path found within it fails (`path_not_found`). It ends a search at the
+            same point on every machine (about 0.2 s on the 2-core reference machine), so runs
+            repeat exactly.
+        path_planning_time_s: A wall-clock cap per move on top, for a slower machine (a search
+            it ends may end elsewhere on another machine).
         roll: `free` leaves the rotation about the optical axis to the IK; `fixed` demands it.
         seed: Seed of the restart configurations (deterministic verdicts).
     """
@@ -248,7 +252,8 @@ class KinematicsConfig:
     damping: float = 1e-3
     path_max_joint_step_rad: float = 0.05
     path_planner: Literal["line", "rrt_connect"] = "rrt_connect"
-    path_planning_time_s: float = 0.5
+    path_planning_checks: int = 20000
+    path_planning_time_s: float = 1.0
     roll: Literal["free", "fixed"] = "free"
     seed: int = 0
 
@@ -259,6 +264,7 @@ class KinematicsConfig:
             "max_iterations": self.max_iterations,
             "max_step_rad": self.max_step_rad,
             "path_max_joint_step_rad": self.path_max_joint_step_rad,
+            "path_planning_checks": self.path_planning_checks,
             "path_planning_time_s": self.path_planning_time_s,
         }
         for name, value in positive.items():

@@ -30,7 +30,7 @@ ou.setLogLevel(ou.LOG_NONE)  # OMPL logs every query (and each reseed) to the co
 SEARCHES = 3
 """RRT-Connect searches at most per move. OMPL checks a motion at other samples than the dense
 check does, so a path it found may graze an obstacle between them; the next search checks
-twice as finely (and draws other numbers), within what is left of the time budget."""
+twice as finely (and draws other numbers), within what is left of the budget."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -59,6 +59,22 @@ def densify(waypoints: np.ndarray, max_joint_step_rad: float) -> np.ndarray:
     segments = [joint_path(a, b, max_joint_step_rad)[1:]
                 for a, b in itertools.pairwise(waypoints)]
     return np.vstack([waypoints[:1], *segments])
+
+
+@dataclasses.dataclass
+class SearchBudget:
+    """What is left of a move's budget for its searches.
+
+    Attributes:
+        checks: Collision checks left: they end a search at the same point on every machine.
+        deadline: `time.perf_counter()` past which a (slower) machine stops anyway.
+    """
+
+    checks: int
+    deadline: float
+
+    def spent(self) -> bool:
+        return self.checks <= 0 or time.perf_counter() > self.deadline
 
 
 def query_seed(q_from: np.ndarray, q_to: np.ndarray) -> int:
@@ -94,8 +110,8 @@ class MotionPlanner:
         The straight line first; when it collides and `path_planner` is `rrt_connect`,
         RRT-Connect searches the joint-limit box, OMPL's simplifier shortens the result, and the
         simplified corners are checked again densely; a path that fails that check is searched
-        for again (`SEARCHES`), all within `path_planning_time_s`. Ends in collision or outside
-        the limits fail at once.
+        for again (`SEARCHES`), all within `path_planning_checks` collision checks and
+        `path_planning_time_s`. Ends in collision or outside the limits fail at once.
         """
         start = time.perf_counter()
         q_from = self.joints.check(q_from, "q_from")
@@ -107,12 +123,12 @@ class MotionPlanner:
             return MotionPlan(line, path, "line", time.perf_counter() - start)
         if self.settings.path_planner == "line" or not self.is_free(line):
             return None
-        deadline = start + self.settings.path_planning_time_s
+        budget = SearchBudget(self.settings.path_planning_checks,
+                              start + self.settings.path_planning_time_s)
         for search in range(SEARCHES):
-            remaining = deadline - time.perf_counter()
-            if remaining <= 0:
+            if budget.spent():
                 break
-            waypoints = self._rrt_connect(q_from, q_to, remaining, search)
+            waypoints = self._rrt_connect(q_from, q_to, budget, search)
             if waypoints is None:
                 break
             path = densify(waypoints, step)
@@ -120,9 +136,10 @@ class MotionPlanner:
                 return MotionPlan(waypoints, path, "rrt_connect", time.perf_counter() - start)
         return None
 
-    def _rrt_connect(self, q_from: np.ndarray, q_to: np.ndarray, time_s: float,
+    def _rrt_connect(self, q_from: np.ndarray, q_to: np.ndarray, budget: SearchBudget,
                      search: int) -> np.ndarray | None:
-        """OMPL's RRT-Connect between two free configurations, simplified; None on timeout.
+        """OMPL's RRT-Connect between two free configurations, simplified; None when the
+        budget ran out first (its checks are counted off).
 
         Search `search` (from 0) checks motions 2**search times finer than the dense check's
         step and draws its own numbers.
@@ -139,9 +156,12 @@ class MotionPlanner:
         space.setBounds(bounds)
         setup = og.SimpleSetup(space)
         in_collision = self.collisions.in_collision
-        setup.setStateValidityChecker(
-            lambda state: not in_collision(np.fromiter((state[i] for i in range(dof)), float,
-                                                       dof)))
+
+        def valid(state: ob.State) -> bool:
+            budget.checks -= 1
+            return not in_collision(np.fromiter((state[i] for i in range(dof)), float, dof))
+
+        setup.setStateValidityChecker(valid)
         information = setup.getSpaceInformation()
         # OMPL checks motions at a fraction of the space's extent (Euclidean): that fraction of
         # the extent is the dense check's joint step, so no joint skips more than it.
@@ -152,7 +172,9 @@ class MotionPlanner:
         for index in range(dof):
             start[index], goal[index] = float(q_from[index]), float(q_to[index])
         setup.setStartAndGoalStates(start, goal)
-        if not setup.solve(time_s) or not setup.haveExactSolutionPath():
+        # Asked once per iteration: the checks so far decide, the same on every machine.
+        if (not setup.solve(ob.PlannerTerminationCondition(budget.spent))
+                or not setup.haveExactSolutionPath()):
             return None
         # Without a time limit the simplifier runs to its fixed point, deterministically.
         setup.simplifySolution()

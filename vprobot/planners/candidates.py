@@ -131,7 +131,7 @@ class CandidateViews:
         a simulated acquisition); None if none adds anything.
 
         With the robot, only candidates joined to the current configuration by a collision-free
-        straight joint-space path are offered (the others would fail when executed).
+        path (`RobotCarrier.path_is_free`) are offered (the others would fail when executed).
         """
         q = episode.q
 

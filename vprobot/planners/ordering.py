@@ -22,8 +22,8 @@ from vprobot.kinematics.travel import joint_time, paper_travel
 
 T = TypeVar("T")
 BLOCKED_PATH_S = 1000.0
-"""Extra cost of a move whose straight joint-space path collides: any order avoiding such moves
-is preferred."""
+"""Extra cost of a move without a collision-free path (`RobotCarrier.path_is_free`): any order
+avoiding such moves is preferred."""
 
 
 def path_cost(cost: np.ndarray, start: int | None, order: Sequence[int]) -> float:
@@ -93,12 +93,12 @@ def cost_matrix(items: Sequence[T], cost: Callable[[T, T], float]) -> np.ndarray
 def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[ViewRequest]:
     """Order a plan's views for short travel from the episode's current state.
 
-    With the robot, views with known configurations are ordered by `joint_time` from the current
-    configuration, a move whose straight joint-space path collides costing `BLOCKED_PATH_S`
-    more (executing it falls back to the IK); views without a configuration (the IK will be
-    asked when they are executed) follow in their given order. Without the robot, views are
-    ordered by the paper's travel approximation (arcs about the object's centre) from a free
-    start.
+    With the robot, views with known configurations are ordered by straight-line `joint_time`
+    from the current configuration, a move without a collision-free path costing
+    `BLOCKED_PATH_S` more (executing it falls back to the IK); views without a configuration
+    (the IK will be asked when they are executed) follow in their given order. Without the
+    robot, views are ordered by the paper's travel approximation (arcs about the object's
+    centre) from a free start.
     """
     if episode.uses_robot:
         known = [request for request in requests if request.joints is not None]
