@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -154,6 +155,17 @@ def _result(coverages: list[float], reachable: list[bool] | None = None,
                        initial_views=((1.42, 0.71),), seed=0)
     return EpisodeResult(planner="nbv", carrier="free", spec=spec, record=record, goal=0.9,
                          plan_seconds=0.1, episode_seconds=0.2, cycle=cycle)
+
+
+def test_a_robot_episode_without_a_request_has_no_reachable_share() -> None:
+    """A model-based planner with no usable candidate view requests nothing: its row has no
+    reachable share instead of failing the evaluation (the UR5 and the Panda on some parts)."""
+    result = dataclasses.replace(_result([]), carrier="robot")
+    row = episode_row(0, result)
+    assert row["reachable_pct"] is None and row["requested"] == 0
+    (summary,) = summarize([row, episode_row(1, dataclasses.replace(_result([0.5]),
+                                                                       carrier="robot"))])
+    assert summary["reachable_pct"] == pytest.approx(100.0)
 
 
 def test_summarize_gives_the_coverage_curve_its_area_and_views_to_goal() -> None:

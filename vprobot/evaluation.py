@@ -122,7 +122,8 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "joint_path_rad": travel.joint_path if robot else None,
         "cartesian_m": travel.cartesian,
         "paper_m": travel.paper,
-        "reachable_pct": 100.0 * result.reachability if robot else None,
+        "reachable_pct": (None if result.reachability is None
+                          else 100.0 * result.reachability),
         "plan_s": result.plan_seconds,
         "plan_ms_per_view": 1e3 * result.plan_seconds / max(result.requested, 1),
         "episode_s": result.episode_seconds,
