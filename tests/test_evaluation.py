@@ -13,7 +13,7 @@ from PIL import Image
 
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
-from vprobot.config import Config
+from vprobot.config import Config, load_config
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
@@ -23,6 +23,7 @@ from vprobot.episode import (
     episode_list,
     read_episode_list,
     timed_episode,
+    write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_SHAPE_EPISODES
 from vprobot.evaluation import (
@@ -543,3 +544,33 @@ def test_a_planner_or_carrier_given_twice_runs_once(tmp_path: Path) -> None:
     assert [(row["planner"], row["carrier"], row["episodes"]) for row in table] == [
         ("hrec", "free", 1)]
     assert len(read_csv(tmp_path / "evaluation_episodes.csv")) == 1
+
+
+def test_an_episode_without_a_reachable_initial_view_is_scored_and_plan_says_why(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from vprobot.cli import main
+
+    """The Panda reaches no view at the PhoXi M's working distance (0.788 m) around the motor:
+    `evaluate` scores the episode as covering nothing, with the reason, and goes on to the next
+    planner; `plan` of that one episode is a one-line error."""
+    config = tmp_path / "panda_phoxi.yaml"
+    config.write_text("cell:\n  robot: panda\nsensor:\n  preset: phoxi_m\n"
+                      "  resolution: [64, 48]\n")
+    episodes = tmp_path / "one.json"
+    write_episode_list(episodes, episode_list(load_config(config), [DEFAULT_MOTOR], [0]))
+    out = tmp_path / "out"
+    assert main(["evaluate", "--config", str(config), "--episodes", str(episodes),
+                 "--planners", "nbv", "random2", "--carriers", "robot", "--out", str(out)]) == 0
+    with (out / "evaluation_episodes.csv").open() as stream:
+        rows = {row["planner"]: row for row in csv.DictReader(stream)}
+    assert set(rows) == {"nbv", "random2"}
+    for row in rows.values():
+        assert float(row["coverage_pct"]) == 0.0 and row["requested"] == "0"
+        assert row["reachable_pct"] == ""
+    assert ("note: 2 episode(s) requested no view, covering nothing (the robot reached no "
+            "initial view, or no candidate view was usable): nbv (robot) on episode 0; random2 "
+            "(robot) on episode 0") in capsys.readouterr().out
+    assert main(["plan", "--config", str(config), "--planner", "nbv",
+                 "--out", str(tmp_path / "plan.json")]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert "none of the 25 initial views is reachable" in line

@@ -12,6 +12,7 @@ Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 import signal
@@ -328,7 +329,7 @@ def _render_outputs(args: argparse.Namespace, scene: Any, record: Any, video: st
 def command_evaluate(args: argparse.Namespace) -> int:
     """Compare planners on one episode list; write evaluation.md, .csv, episodes.json and the
     coverage curves plot."""
-    from vprobot.evaluation import PLOT_NAME, evaluate, evaluation_episodes
+    from vprobot.evaluation import EPISODES_NAME, PLOT_NAME, evaluate, evaluation_episodes
 
     check_output_folder(args.out, "--out")
     config = _config(args)
@@ -338,6 +339,12 @@ def command_evaluate(args: argparse.Namespace) -> int:
              estimator=args.estimator)
     print((Path(args.out) / "evaluation.md").read_text())
     print(f"coverage curves: {Path(args.out) / PLOT_NAME}")
+    with (Path(args.out) / EPISODES_NAME).open(newline="") as stream:
+        empty = [f"{row['planner']} ({row['carrier']}) on episode {row['episode']}"
+                 for row in csv.DictReader(stream) if row["requested"] == "0"]
+    if empty:
+        print(f"note: {len(empty)} episode(s) requested no view, covering nothing (the robot "
+              f"reached no initial view, or no candidate view was usable): {'; '.join(empty)}")
     return 0
 
 

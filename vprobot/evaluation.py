@@ -68,6 +68,8 @@ EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_p
                    "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct", "plan_s",
                    "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
 PLOT_NAME = "coverage_vs_views.png"
+EPISODES_NAME = "evaluation_episodes.csv"
+"""An evaluation folder's table of episode rows (`EPISODE_COLUMNS`)."""
 SETTINGS_NAME = "evaluation_settings.json"
 """The settings an evaluation folder's rows were run with (the config and the estimator)."""
 PAPER_TABLE_9 = (
@@ -548,7 +550,7 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     with showing_progress() if progress else contextlib.nullcontext():
         _check_inputs(config, specs, parsed, estimator)
     out = Path(out_dir)
-    rows_path = out / "evaluation_episodes.csv"
+    rows_path = out / EPISODES_NAME
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
               for label, *_ in parsed}
 

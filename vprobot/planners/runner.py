@@ -214,6 +214,9 @@ class Played:
 
 PLAN_RAN_OUT = "plan ran out"
 """Why an episode ended when the planner had no further view and gave no reason."""
+NO_INITIAL_VIEW = "no initial view"
+"""How the reason starts when an episode ended before it began: the robot reached none of the
+initial views (the rest of the reason says why)."""
 
 
 def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: Config,
@@ -226,9 +229,12 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
     requests after the initial view; fixed plans, and planners the rule leaves to stop
     themselves, run to their end.
 
+    An episode whose initial view the robot reaches from none of the candidates ends at once,
+    with nothing requested and the reason `NO_INITIAL_VIEW: ...` (an evaluation scores it as
+    an episode that covered nothing, instead of stopping).
+
     Raises:
-        ValueError: If none of the spec's initial views is reachable, or the rule does not
-            apply to the planner.
+        ValueError: If the rule does not apply to the planner.
     """
     if stop is None:
         stop = make_stop_rule("goal", config)
@@ -241,7 +247,11 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
     planner.reset(episode, rng)
     planning += time.perf_counter() - start
     if planner.initial_view:
-        episode.begin(spec.initial_requests(episode.center, config.sensor.working_distance_m))
+        try:
+            episode.begin(spec.initial_requests(episode.center,
+                                                config.sensor.working_distance_m))
+        except ValueError as error:
+            return Played(episode.record(), planning, f"{NO_INITIAL_VIEW}: {error}", False)
     first = len(episode.views)
     while True:
         if governed:
@@ -392,6 +402,8 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
     scene = MotorScene.load(config, mesh_path, scale, scale_option="--scale")
     spec = seeded_episode(config.env, mesh_path, seed, scale)
     result = run(config, scene, planner, spec, carrier, views, stop, estimator, estimates=True)
+    if result.stop_reason.startswith(NO_INITIAL_VIEW):
+        raise ValueError(result.stop_reason.removeprefix(f"{NO_INITIAL_VIEW}: "))
     document = episode_document(scene, result.record, metadata={
         "planner": result.planner, "seed": seed, "goal": result.goal,
         "stop_rule": result.stop_rule, "stop_reason": result.stop_reason,
