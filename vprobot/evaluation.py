@@ -320,7 +320,7 @@ def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
     """Every motor of the list, every planner (an agent's files) and stop rule (an
     estimator) loads, and every rule applies to its planner, before the first episode runs;
     with `keep`, the motors stay loaded for the episodes this process runs (`_scene`)."""
-    _checked.clear()  # an earlier evaluation's, whose scenes were cached
+    _checked.clear()  # left by an earlier evaluation whose scenes were already built
     for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
         mesh = load_mesh(*motor)
         if keep:

@@ -278,7 +278,7 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
         estimates: Also estimate the coverage after each view, model-free, as `estimate`
             does (`EpisodeResult.estimates`).
         shared: The work shared with the other planners of this spec and carrier
-            (`SharedWork`); none when omitted.
+            (`SharedWork`); the episode's own when omitted.
 
     Raises:
         ValueError: For an unknown planner, carrier or stop rule, a rule that does not apply
