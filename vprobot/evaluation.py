@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import functools
+import itertools
 import json
 import statistics
 import sys
@@ -43,13 +44,14 @@ from vprobot.episode import (
     CarrierName,
     EpisodeSpec,
     MotorScene,
+    SharedWork,
     episode_list,
     read_episode_list,
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
 from vprobot.files import append_line, csv_text, folder_lock, save_figure, write_text
-from vprobot.mesh_loading import load_mesh
+from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
 from vprobot.progress import showing_progress
@@ -317,11 +319,15 @@ def stop_label(planner: str, stop: str) -> str:
 
 def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
                   planners: Sequence[tuple[str, str, int | None, str]],
-                  estimator: str | Path | None) -> None:
+                  estimator: str | Path | None, keep: bool) -> None:
     """Every motor of the list, every planner (an agent's files) and stop rule (an
-    estimator) loads, and every rule applies to its planner, before the first episode runs."""
+    estimator) loads, and every rule applies to its planner, before the first episode runs;
+    with `keep`, the motors stay loaded for the episodes this process runs (`_scene`)."""
+    _checked.clear()  # left by an earlier evaluation whose scenes were already built
     for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
-        load_mesh(*motor)
+        mesh = load_mesh(*motor)
+        if keep:
+            _checked[motor] = mesh
     for label, name, views, stop in planners:
         if not make_stop_rule(stop, config, estimator).applies_to(
                 make_planner(name, config, views)):
@@ -460,20 +466,36 @@ Job = tuple[int, EpisodeSpec, CarrierName, str, str, int | None, str]
 rule)."""
 
 
+_checked: dict[tuple[Path, float], LoadedMesh] = {}
+"""The motors `_check_inputs` loaded in this process, until `_scene` builds on them."""
+
+
 @functools.lru_cache(maxsize=2)
 def _scene(config: Config, path: Path, scale: float) -> MotorScene:
     # Kept across calls: a Ray worker runs many episodes, mostly of the motors it has loaded.
-    return MotorScene.load(config, path, scale)
+    mesh = _checked.pop((path, scale), None)
+    return (MotorScene.load(config, path, scale) if mesh is None
+            else MotorScene.build(config, mesh))
+
+
+def _job_rows(config: Config, jobs: Sequence[Job],
+              estimator: str | Path | None) -> Iterator[dict[str, Any]]:
+    """Run episodes in this process (the latest motors stay loaded), one row per job as it
+    finishes, under the job's label. Consecutive jobs of one episode and carrier share their
+    work (`SharedWork`: the candidate views of the model-based planners)."""
+    for _, group in itertools.groupby(jobs, key=lambda job: (job[0], job[2])):
+        shared = SharedWork()
+        for index, spec, carrier, label, name, views, stop in group:
+            result = run(config, _scene(config, spec.motor_path, spec.scale), name, spec,
+                         carrier, views, stop, estimator, shared=shared)
+            yield {**episode_row(index, result), "planner": label}
 
 
 def run_jobs(config: Config, jobs: Sequence[Job],
              estimator: str | Path | None = None) -> list[dict[str, Any]]:
-    """Run episodes in this process (the latest motors stay loaded); one row per job, under
-    the job's label; `estimator` is the coverage estimator of `estimate` (None: bundled)."""
-    return [{**episode_row(index, run(config, _scene(config, spec.motor_path, spec.scale), name,
-                                      spec, carrier, views, stop, estimator)),
-             "planner": label}
-            for index, spec, carrier, label, name, views, stop in jobs]
+    """Run episodes in this process (`_job_rows`); one row per job, under the job's label;
+    `estimator` is the coverage estimator of `estimate` (None: bundled)."""
+    return list(_job_rows(config, jobs, estimator))
 
 
 def _rows(config: Config, jobs: Sequence[Job], workers: int, address: str | None,
@@ -481,8 +503,7 @@ def _rows(config: Config, jobs: Sequence[Job], workers: int, address: str | None
     """The jobs' rows as they finish: in order in this process, or per episode (all its
     carriers and planners, one motor load) as Ray tasks."""
     if workers == 1 and address is None:
-        for job in jobs:
-            yield from run_jobs(config, [job], estimator)
+        yield from _job_rows(config, jobs, estimator)
         return
     groups: dict[int, list[Job]] = {}
     for job in jobs:
@@ -548,7 +569,7 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         require_ray()
     # Loading an agent takes seconds: its note says so rather than a silent start.
     with showing_progress() if progress else contextlib.nullcontext():
-        _check_inputs(config, specs, parsed, estimator)
+        _check_inputs(config, specs, parsed, estimator, keep=workers == 1 and address is None)
     out = Path(out_dir)
     rows_path = out / EPISODES_NAME
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers

@@ -7,6 +7,7 @@ from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest
 from vprobot.episode.robot_carrier import RobotCarrier
+from vprobot.episode.shared import SharedWork
 from vprobot.episode.specs import (
     BUNDLED_TEST_EPISODES,
     EPISODE_LIST_VERSION,
@@ -31,6 +32,7 @@ __all__ = [
     "FreeCarrier",
     "MotorScene",
     "RobotCarrier",
+    "SharedWork",
     "ViewRecord",
     "ViewRequest",
     "describe_cycle",

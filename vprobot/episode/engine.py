@@ -18,6 +18,7 @@ from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest, split_travel
 from vprobot.episode.robot_carrier import RobotCarrier
+from vprobot.episode.shared import SharedWork
 from vprobot.episode.specs import EpisodeSpec
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
@@ -47,14 +48,20 @@ class Episode:
             sensor, every request executed).
         unreachable: With the robot, `skip` or `nearest` (see `RobotCarrier`).
         start_joints: Initial robot configuration; `home` when omitted.
+        shared: The work shared with the other episodes that start alike (`SharedWork`: the
+            planners of one spec and carrier in `evaluate`); its own when omitted.
+
+    Attributes:
+        shared: Results computed from the episode's start, for every planner that asks.
 
     Raises:
-        ValueError: For an unknown carrier or policy, or bad start joints.
+        ValueError: For an unknown carrier or policy, bad start joints, or `shared` serving
+            an episode that starts otherwise.
     """
 
     def __init__(self, scene: MotorScene, object_rotation: np.ndarray,
                  carrier: CarrierName = "robot", unreachable: str = "skip",
-                 start_joints: np.ndarray | None = None):
+                 start_joints: np.ndarray | None = None, shared: SharedWork | None = None):
         self.scene = scene
         self.carrier: Carrier = make_carrier(carrier, scene, object_rotation, unreachable)
         self.object_pose = self.carrier.object_pose
@@ -63,6 +70,8 @@ class Episode:
         self.start_joints = joints.home.copy() if start_joints is None else joints.check(
             start_joints, "start_joints")
         self.q = self.start_joints.copy()
+        self.shared = shared if shared is not None else SharedWork()
+        self.shared.bind(scene, self.object_pose.rotation, carrier, self.start_joints)
         self.pose: Pose | None = None
         self.views: list[ViewRecord] = []
         self._first_covered_by = np.full(len(scene.ground_truth.points), -1)
@@ -71,9 +80,10 @@ class Episode:
 
     @classmethod
     def from_spec(cls, scene: MotorScene, spec: EpisodeSpec, carrier: CarrierName = "robot",
-                  unreachable: str = "skip") -> Episode:
-        """The episode of a spec (its initial view is not taken yet: see `begin`)."""
-        return cls(scene, spec.rotation, carrier, unreachable)
+                  unreachable: str = "skip", shared: SharedWork | None = None) -> Episode:
+        """The episode of a spec (its initial view is not taken yet: see `begin`); `shared` as
+        in `Episode`."""
+        return cls(scene, spec.rotation, carrier, unreachable, shared=shared)
 
     @property
     def uses_robot(self) -> bool:

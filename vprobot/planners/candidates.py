@@ -16,6 +16,11 @@ when its configuration is within the limits and collision-free (the path to it i
 a view is executed); it then acquires from the FK pose of that configuration, roll included.
 Without the robot every candidate is usable at its look-at pose.
 
+The candidates, their screening and predicted visibility depend on the episode's start only:
+they are built once per episode and start configuration (`Episode.shared`) and every planner
+that asks gets its own copy (`CandidateViews.own_copy`), sharing the simulated acquisitions
+that confirm candidates too; which candidates a planner has confirmed stays its own.
+
 Visibility of the ground-truth points from every usable candidate is predicted by
 `VisibilityRenderer` (all candidates in a few numpy passes), within the sensing model's
 deterministic limits (projector shadow, incidence limits); planners confirm the candidates they
@@ -85,6 +90,8 @@ class CandidateViews:
             usable.
         reach_seconds: Time spent screening reachability.
         visibility_seconds: Time spent predicting visibility.
+        previews: The GT points each candidate simulated so far covers (`measured`), shared
+            by every copy (`own_copy`).
     """
 
     targets: tuple[SensorTarget, ...]
@@ -95,8 +102,8 @@ class CandidateViews:
     visibility: np.ndarray
     reach_seconds: float
     visibility_seconds: float
-    _measured: dict[int, np.ndarray] = dataclasses.field(default_factory=dict, init=False,
-                                                         repr=False)
+    previews: dict[int, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
+    _measured: set[int] = dataclasses.field(default_factory=set, init=False, repr=False)
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -113,17 +120,27 @@ class CandidateViews:
         return ViewRequest(self.targets[index],
                            None if np.isnan(joints).any() else joints.copy())
 
+    def own_copy(self) -> CandidateViews:
+        """The same candidates for another planner: the arrays and the simulated acquisitions
+        shared, none of them measured by this copy yet (`known_visibility`)."""
+        return dataclasses.replace(self)
+
     def measured(self, index: int, episode: Episode) -> np.ndarray:
-        """The GT points the candidate's acquisition covers, simulated by the episode (cached)."""
-        if index not in self._measured:
-            self._measured[index] = episode.preview(self.request(index))
-        return self._measured[index]
+        """The GT points the candidate's acquisition covers (read-only), simulated by the
+        episode once for every copy; this copy knows the candidate's visibility from now on."""
+        if index not in self.previews:
+            row = episode.preview(self.request(index))
+            row.flags.writeable = False
+            self.previews[index] = row
+        self._measured.add(index)
+        return self.previews[index]
 
     def known_visibility(self) -> np.ndarray:
-        """The predicted visibility with the rows of simulated candidates replaced (a copy)."""
+        """The predicted visibility with the rows of the candidates this copy measured
+        replaced (a copy)."""
         known = self.visibility.copy()
-        for index, row in self._measured.items():
-            known[index] = row
+        for index in self._measured:
+            known[index] = self.previews[index]
         return known
 
     def next_best(self, episode: Episode, taken: set[int]) -> int | None:
@@ -149,7 +166,10 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
                     resolution: tuple[int, int] = DEFAULT_RESOLUTION,
                     screened: tuple[np.ndarray, Sequence[str | None]] | None = None
                     ) -> CandidateViews:
-    """Build the candidates of an episode: targets, reachability (robot) and visibility.
+    """The candidates of an episode: targets, reachability (robot) and visibility.
+
+    Built once per episode and configuration the robot is in (`Episode.shared`); each call gets
+    its own copy (`CandidateViews.own_copy`). With `screened`, built anew from that screening.
 
     Args:
         episode: The episode (its object pose; its robot when it uses one).
@@ -163,6 +183,23 @@ def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,
     """
     if count < 1:
         raise ValueError(f"count must be >= 1, got {count}")
+    if screened is not None:
+        return _build_candidates(episode, count, resolution, screened)
+
+    def build() -> CandidateViews:
+        views = _build_candidates(episode, count, resolution, None)
+        for array in (views.usable, views.joints, views.visibility):
+            array.flags.writeable = False  # every planner of the episode reads them
+        return views
+
+    key = ("candidate views", count, tuple(resolution), episode.q.tobytes())
+    return episode.shared.get(key, build).own_copy()
+
+
+def _build_candidates(episode: Episode, count: int, resolution: tuple[int, int],
+                      screened: tuple[np.ndarray, Sequence[str | None]] | None
+                      ) -> CandidateViews:
+    """Build the candidates of an episode (see `candidate_views`)."""
     scene = episode.scene
     center = episode.center
     radius = scene.sensor.sensor.working_distance_m

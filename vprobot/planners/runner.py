@@ -18,6 +18,7 @@ from vprobot.episode import (
     EpisodeRecord,
     EpisodeSpec,
     MotorScene,
+    SharedWork,
     describe_cycle,
     episode_cycle,
     seeded_episode,
@@ -270,7 +271,8 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
 
 def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
         carrier: CarrierName = "robot", views: int | None = None, stop: str = "goal",
-        estimator: str | Path | None = None, estimates: bool = False) -> EpisodeResult:
+        estimator: str | Path | None = None, estimates: bool = False,
+        shared: SharedWork | None = None) -> EpisodeResult:
     """One episode of a planner on a loaded motor, as the spec fixes it.
 
     Args:
@@ -285,17 +287,19 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
             `estimates`.
         estimates: Also estimate the coverage after each view, model-free, as `estimate`
             does (`EpisodeResult.estimates`).
+        shared: The work shared with the other planners of this spec and carrier
+            (`SharedWork`); the episode's own when omitted.
 
     Raises:
         ValueError: For an unknown planner, carrier or stop rule, a rule that does not apply
-            to the planner, or an estimator that cannot be read.
+            to the planner, an estimator that cannot be read, or `shared` of another episode.
     """
     if carrier not in CARRIERS:
         raise ValueError(f"carrier must be one of {list(CARRIERS)}, got {carrier!r}")
     chosen = make_planner(planner, config, views)
     rule = make_stop_rule(stop, config, estimator)
     estimate = load_estimator(estimator) if estimates else None
-    episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable)
+    episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable, shared)
     start = time.perf_counter()
     played = run_episode(chosen, episode, spec, config, np.random.default_rng(spec.seed), rule)
     seconds = time.perf_counter() - start
