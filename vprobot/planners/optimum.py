@@ -127,7 +127,7 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
                 goal: float | None = None, time_limit_s: float = TIME_LIMIT_S,
                 incumbent: Sequence[int] = ()) -> Cover:
     """The fewest rows of `visibility` that reach the goal, or without a goal the most points
-    `count` rows add; never worse than `incumbent`.
+    `count` rows add; never worse than greedy (`greedy_cover`) or `incumbent`.
 
     Args:
         visibility: Which points each candidate sees (candidates, points).
@@ -135,7 +135,8 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         count: Most rows. With a goal that no `count` rows reach, the most points instead.
         goal: Fraction of all points to cover; None: the most points with `count` rows.
         time_limit_s: The solver's time limit (all solves together).
-        incumbent: A known solution (e.g. greedy's) that bounds the program.
+        incumbent: A known solution (e.g. one confirmed by acquisitions) that bounds the
+            program.
 
     Raises:
         ValueError: If the shapes disagree, count < 0, or the goal lies outside (0, 1].
@@ -166,7 +167,11 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         return Cover(picks, added, reached, views_bound, points_bound, proven,
                      time.perf_counter() - start)
 
-    incumbent = tuple(incumbent)
+    # Greedy's solution, or a better one given, bounds the program: HiGHS's own incumbents can
+    # trail greedy's for a long time.
+    greedy = tuple(greedy_cover(visibility, covered, count, goal)[0])
+    incumbent = greedy if _better(visibility, covered, count, goal, greedy, incumbent) else tuple(
+        incumbent)
     reduced = reduce_cover(visibility, covered)
     if needed is not None and reduced.weights.sum() >= needed:
         reaching = incumbent if points(incumbent) >= needed and len(incumbent) <= count else None
@@ -192,6 +197,8 @@ def fewest_views_bound(reduced: Reduced, needed: int) -> int:
     """A proven lower bound on the rows that add `needed` points, found without the solver:
     the fewest largest rows whose sizes add up to it, and every pair of rows checked when that
     says 2 (the optimum of the test motors is mostly 3 views, which this proves at once)."""
+    if needed <= 0:
+        return 0
     sizes = np.sort(reduced.matrix @ reduced.weights)[::-1]
     lowest = int(np.searchsorted(np.cumsum(sizes), needed - 0.5)) + 1
     if lowest == 2:
