@@ -6,6 +6,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -13,13 +14,13 @@ import pytest
 
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.episode import Episode, MotorScene, seeded_episode
+from vprobot.episode import Episode, MotorScene, ViewRequest, episode_cycle, seeded_episode
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import candidate_views
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.optimum import OptimumPlanner, reduce_cover, solve_cover
-from vprobot.planners.ordering import path_cost, shortest_cycle
+from vprobot.planners.ordering import cycle_order, path_cost, shortest_cycle
 from vprobot.planners.runner import make_planner, parse_planner, run_episode
 
 CONFIG = Config()
@@ -138,6 +139,28 @@ def test_the_cycle_order_is_the_shortest_of_every_order(nodes: int) -> None:
     assert sorted(order) == list(range(1, nodes))
     assert cycle(tuple(order)) == pytest.approx(
         min(cycle(order) for order in itertools.permutations(range(1, nodes))), abs=1e-12)
+
+
+def test_the_cycle_order_gives_the_shortest_executed_cycle() -> None:
+    scene = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
+    spec = seeded_episode(CONFIG.env, scene.mesh.path, 2, scene.mesh.scale)
+    candidates = candidate_views(Episode.from_spec(scene, spec, "robot"), CANDIDATES, RESOLUTION)
+    usable = np.flatnonzero(candidates.usable)
+    # Four views spread over the candidates, given in a zigzag (their best cycle is shorter).
+    spread = usable[np.linspace(0, len(usable) - 1, 4, dtype=int)]
+    requests = [candidates.request(i) for i in spread[[0, 2, 1, 3]]]
+
+    def executed_cycle(order: Sequence[ViewRequest]) -> float:
+        episode = Episode.from_spec(scene, spec, "robot")
+        for request in order:
+            episode.request(request)
+        cycle = episode_cycle(episode.record(), scene.cell)
+        assert cycle is not None
+        return cycle.total_s
+
+    exact = executed_cycle(cycle_order(Episode.from_spec(scene, spec, "robot"), requests))
+    assert exact == pytest.approx(min(map(executed_cycle, itertools.permutations(requests))),
+                                  abs=1e-9)
 
 
 @pytest.mark.parametrize("views", [None, 3])

@@ -48,8 +48,11 @@ from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 TIME_LIMIT_S = 60.0
 """The optimum's solver time per episode (all solves of the confirmation rounds together)."""
-SOLVE_ROUNDS = 8
-"""Solves per episode at most: each round confirms the views the last solve chose."""
+MIN_SOLVE_S = 1.0
+"""No solve starts with less time left: HiGHS proves nothing in less."""
+SOLVE_ROUNDS = 50
+"""Solves per episode at most: each round confirms the views the last solve chose (the test
+motors take 1 to 8, well under a second each, when greedy's bound settles the program)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -237,11 +240,11 @@ def _solve(reduced: Reduced, count: int, needed: int | None, time_limit_s: float
     if found.status == 2:  # infeasible: no `count` rows add `needed` (or `floor`) points
         return None, count + 1 if needed is not None else floor
     dual = found.fun if found.status == 0 else found.mip_dual_bound
-    if dual is None or not np.isfinite(dual):
-        # No bound in time: the trivial one.
-        return picks, 1 if needed is not None else round(weights.sum())
-    return picks, (math.ceil(dual - 1e-6) if needed is not None
-                   else math.floor(-dual + 1e-6))
+    proved = dual is not None and np.isfinite(dual)
+    if needed is not None:
+        # Without a bound in time, the one given holds.
+        return picks, max(math.ceil(dual - 1e-6) if proved else 0, floor)
+    return picks, math.floor(-dual + 1e-6) if proved else round(weights.sum())
 
 
 @register_planner
@@ -329,7 +332,8 @@ class OptimumPlanner(SetCoverPlanner):
                 confirm(index)
             if _better(known(), covered, count, goal, cover.picks, best):
                 best = list(cover.picks)
-            if not fresh or self.rounds >= SOLVE_ROUNDS or time.perf_counter() >= deadline:
+            if (not fresh or self.rounds >= SOLVE_ROUNDS
+                    or time.perf_counter() >= deadline - MIN_SOLVE_S):
                 break
         # A proof on rows that include none confirmed since holds for `best` (no worse than
         # the cover on those rows).

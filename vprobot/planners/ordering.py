@@ -162,8 +162,9 @@ def cycle_order(episode: Episode, requests: Sequence[ViewRequest]) -> list[ViewR
     back to its start.
 
     With the robot, a move costs its duration (`RobotArm.move_time`) along the collision-free
-    path the carrier plans (once per pair of views: a planned path serves both ways), a move
-    without a path `BLOCKED_PATH_S`; the acquisitions take the same time in every order. Up to
+    path the carrier plans for it (the one executing it drives: a planned path depends on its
+    ends and their order), a move without a path `BLOCKED_PATH_S`; the acquisitions take the
+    same time in every order. Up to
     `EXACT_ORDER_VIEWS` views with known configurations the order is exact (`shortest_cycle`),
     more fall back to `order_requests`, as does a plan without the robot (no cycle time) or
     with views of unknown configuration.
@@ -174,10 +175,9 @@ def cycle_order(episode: Episode, requests: Sequence[ViewRequest]) -> list[ViewR
     nodes = [episode.q, *(request.joints for request in requests), episode.start_joints]
     arm = episode.scene.arm
     cost = np.zeros((len(nodes), len(nodes)))
-    for a, b in itertools.combinations(range(len(nodes)), 2):
+    for a, b in itertools.permutations(range(len(nodes)), 2):
         motion = episode.carrier.plan(nodes[a], nodes[b])
-        cost[a, b] = cost[b, a] = (BLOCKED_PATH_S if motion is None
-                                   else arm.move_time(motion.waypoints))
+        cost[a, b] = BLOCKED_PATH_S if motion is None else arm.move_time(motion.waypoints)
     # The cycle runs from the current configuration through the views to the start: a closed
     # tour of node 0 whose last leg, to the start, is charged on the way back to node 0.
     cost[1:-1, 0] = cost[1:-1, -1]
