@@ -19,7 +19,7 @@ from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import candidate_views
 from vprobot.planners.greedy import greedy_cover
-from vprobot.planners.optimum import OptimumPlanner, reduce_cover, solve_cover
+from vprobot.planners.optimum import OptimumPlanner, fewest_views, reduce_cover, solve_cover
 from vprobot.planners.ordering import cycle_order, path_cost, shortest_cycle
 from vprobot.planners.runner import make_planner, parse_planner, run_episode
 
@@ -76,6 +76,24 @@ def test_the_most_coverage_with_n_views_matches_every_subset(seed: int) -> None:
         assert cover.proven and len(cover.picks) <= count
         assert covered_by(visibility, covered, cover.picks) == best
         assert cover.points_bound == best - covered.sum()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_up_to_three_views_are_found_by_counting_and_more_are_bounded(seed: int) -> None:
+    rng = np.random.default_rng(300 + seed)
+    for _ in range(40):
+        candidates = int(rng.integers(3, 13))
+        visibility, covered = random_instance(rng, candidates, int(rng.integers(20, 80)))
+        needed = int(rng.integers(1, (~covered).sum() + 1))
+        fewest = next((size for size in range(candidates + 1)
+                       for rows in itertools.combinations(range(candidates), size)
+                       if covered_by(visibility, covered, rows) - covered.sum() >= needed), None)
+        found, bound = fewest_views(reduce_cover(visibility, covered), needed)
+        if fewest is not None and fewest <= 3:
+            assert found is not None and len(found) == bound == fewest
+            assert covered_by(visibility, covered, tuple(found)) - covered.sum() >= needed
+        else:
+            assert found is None and bound <= (fewest or candidates + 1)
 
 
 def test_the_reduction_drops_dominated_views_and_merges_points() -> None:

@@ -48,6 +48,11 @@ from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 TIME_LIMIT_S = 60.0
 """The optimum's solver time per episode (all solves of the confirmation rounds together)."""
+TRIPLE_CHUNK = 20_000
+"""Triples counted exactly at once (memory: this many rows of bits, one per point)."""
+TRIPLE_LIMIT = 5_000_000
+"""Triples counted exactly per program at most (some seconds); the test motors leave under
+half a million open."""
 MIN_SOLVE_S = 1.0
 """No solve starts with less time left: HiGHS proves nothing in less."""
 SOLVE_ROUNDS = 50
@@ -179,7 +184,9 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
     if needed is not None and reduced.weights.sum() >= needed:
         reaching = incumbent if points(incumbent) >= needed and len(incumbent) <= count else None
         cap = len(reaching) if reaching is not None else count
-        lowest = fewest_views_bound(reduced, needed)
+        fewest, lowest = fewest_views(reduced, needed)
+        if fewest is not None and len(fewest) <= count:
+            return result(fewest, views_bound=lowest)
         if reaching is not None and len(reaching) <= lowest:
             return result(reaching, views_bound=lowest)
         picks, bound = _solve(reduced, cap, needed, time_limit_s, lowest)
@@ -196,20 +203,60 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
     return result(best, points_bound=bound)
 
 
-def fewest_views_bound(reduced: Reduced, needed: int) -> int:
-    """A proven lower bound on the rows that add `needed` points, found without the solver:
-    the fewest largest rows whose sizes add up to it, and every pair of rows checked when that
-    says 2 (the optimum of the test motors is mostly 3 views, which this proves at once)."""
+def fewest_views(reduced: Reduced, needed: int) -> tuple[list[int] | None, int]:
+    """The fewest rows that add `needed` points when 3 or fewer do (of those, the rows adding
+    the most), found without the solver, else a proven lower bound on them.
+
+    The largest rows bound the count from below; then every pair and every triple is tried
+    (the test motors mostly need 3 or 4 views, which HiGHS's relaxation is slow to find and to
+    prove). A triple's union is bounded by inclusion-exclusion from its pairs' overlaps (the
+    smallest standing in for the three-way overlap); only the triples that bound leaves open
+    are counted exactly, at most `TRIPLE_LIMIT` of them.
+
+    Returns:
+        The rows (original indices; None when more than 3 are needed or none was found among
+        the triples counted before the limit) and the proven fewest rows.
+    """
     if needed <= 0:
-        return 0
-    sizes = np.sort(reduced.matrix @ reduced.weights)[::-1]
-    lowest = int(np.searchsorted(np.cumsum(sizes), needed - 0.5)) + 1
+        return [], 0
+    seen = reduced.matrix.astype(np.float32)  # exact: the sums stay far below 2^24
+    weights = reduced.weights.astype(np.float32)
+    sizes = seen @ weights
+    if sizes.sum() < needed - 0.5:
+        return None, len(sizes) + 1
+    lowest = int(np.searchsorted(np.cumsum(np.sort(sizes)[::-1]), needed - 0.5)) + 1
+    if lowest == 1:
+        return reduced.rows[[int(np.argmax(sizes))]].tolist(), 1
+    if lowest > 3:
+        return None, lowest
+    shared = seen @ (seen * weights).T
     if lowest == 2:
-        seen = reduced.matrix.astype(np.float32)  # exact: the sums stay far below 2^24
-        sizes = seen @ reduced.weights.astype(np.float32)
-        unions = sizes[:, None] + sizes[None, :] - seen @ (seen * reduced.weights).T
-        lowest = 2 if unions.max() >= needed - 0.5 else 3
-    return lowest
+        unions = sizes[:, None] + sizes[None, :] - shared
+        if unions.max() >= needed - 0.5:
+            return reduced.rows[list(np.unravel_index(np.argmax(unions), unions.shape))].tolist(), 2
+    # The rows over the original points, as bits: a union's size is a count of bits.
+    bits = np.packbits(np.repeat(reduced.matrix, np.rint(reduced.weights).astype(int), axis=1),
+                       axis=1)
+    counted, found, most = 0, None, needed - 0.5
+    for i in range(len(sizes) - 2):
+        rest = slice(i + 1, None)
+        with_i = shared[i, rest]
+        bound = (sizes[i] + sizes[rest, None] + sizes[None, rest] - with_i[:, None]
+                 - with_i[None, :] - shared[rest, rest]
+                 + np.minimum(np.minimum(with_i[:, None], with_i[None, :]), shared[rest, rest]))
+        first, second = np.nonzero(np.triu(bound >= needed - 0.5, 1))
+        first, second = first + i + 1, second + i + 1
+        for start in range(0, len(first), TRIPLE_CHUNK):
+            chunk = slice(start, start + TRIPLE_CHUNK)
+            unions = np.bitwise_count(bits[i] | bits[first[chunk]] | bits[second[chunk]]).sum(
+                axis=1, dtype=np.int64)
+            best = int(np.argmax(unions))
+            if unions[best] >= most:
+                found, most = [i, first[chunk][best], second[chunk][best]], unions[best]
+            counted += len(unions)
+            if counted > TRIPLE_LIMIT:
+                return (None, 3) if found is None else (reduced.rows[found].tolist(), 3)
+    return (None, 4) if found is None else (reduced.rows[found].tolist(), 3)
 
 
 def _solve(reduced: Reduced, count: int, needed: int | None, time_limit_s: float,
