@@ -12,10 +12,12 @@ x_j taking candidate j and y_i covering GT point i (`needed`: the goal's points 
 integer x, y_i = 1 exactly where a taken candidate sees point i. Before solving, the instance is
 reduced (`reduce_cover`): points already covered or seen by no candidate are dropped, points seen
 by the same candidates merge into one weighted y, and a candidate whose points another one sees
-too (dominated) is dropped. Greedy's solution (B_SCP's picks) is the incumbent: the program is
-bounded by it (no more views, or no fewer points) and is only taken when it does better, so the
-optimum never needs more views than B_SCP. HiGHS stops at `time_limit_s`; the planner then keeps
-the best solution found and records the proven gap.
+too (dominated) is dropped. When 3 or fewer views reach the goal, they are found by counting
+pairs and triples (`fewest_views`), which also proves when 4 are needed. Greedy's solution
+(B_SCP's picks) is the incumbent: the program is bounded by it (no more views, or no fewer
+points) and is only taken when it does better, so the optimum never needs more views than B_SCP.
+HiGHS stops at `time_limit_s` (after its root relaxation, which it does not interrupt); the
+planner then keeps the best solution found and records the proven gap.
 
 The visibility is predicted, so the chosen views are confirmed by simulated acquisitions as B_SCP
 confirms its picks: the program is solved again on the rows measured so far until every view it
@@ -185,10 +187,10 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         reaching = incumbent if points(incumbent) >= needed and len(incumbent) <= count else None
         cap = len(reaching) if reaching is not None else count
         fewest, lowest = fewest_views(reduced, needed)
-        if fewest is not None and len(fewest) <= count:
-            return result(fewest, views_bound=lowest)
         if reaching is not None and len(reaching) <= lowest:
             return result(reaching, views_bound=lowest)
+        if fewest is not None and len(fewest) <= count:
+            return result(fewest, views_bound=lowest)
         picks, bound = _solve(reduced, cap, needed, time_limit_s, lowest)
         if picks is not None and (reaching is None or len(picks) < len(reaching)):
             return result(picks, views_bound=bound)
