@@ -182,7 +182,8 @@ def test_the_cycle_order_gives_the_shortest_executed_cycle() -> None:
 
 
 @pytest.mark.parametrize("views", [None, 3])
-def test_the_optimum_with_the_robot_confirms_its_views_and_beats_bscp(views: int | None) -> None:
+def test_the_optimum_with_the_robot_confirms_its_views_and_needs_no_more_than_bscp(
+        views: int | None) -> None:
     scene = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
     spec = seeded_episode(CONFIG.env, scene.mesh.path, 1, scene.mesh.scale)
     optimum = OptimumPlanner(views, candidate_count=CANDIDATES, resolution=RESOLUTION,
