@@ -104,7 +104,7 @@ def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.Captu
         (["plan", "--out", "/nonexistent/plan.json"], "folder /nonexistent does not exist"),
         (["plan", "--out", "plan.json", "--mesh", "missing.stl"], "mesh file not found"),
         (["plan", "--out", "plan.json", "--planner", "hrec", "--views", "3"],
-         "applies to bscp, agent only"),
+         "applies to bscp, optimum, agent only"),
         (["render", "--plan", "missing.json", "--out", "video.mp4"], "missing.json"),
     ],
 )
@@ -143,7 +143,7 @@ def test_option_errors_are_one_line_without_usage(argv: list[str], line: str,
         (["plan", "--planner", "agent7", "--out", "p.json"], "--planner agent --views 7",
          "--planner bscp"),
         (["render", "--planner", "dijkstra", "--out", "v.gif"],
-         "a fixed number of views (bscp, agent) goes in --views", "bscp<N>"),
+         "a fixed number of views (bscp, optimum, agent) goes in --views", "bscp<N>"),
     ],
 )
 def test_planner_hints_name_forms_that_plan_accepts(argv: list[str], wanted: str, unwanted: str,
@@ -157,7 +157,7 @@ def test_planner_hints_name_forms_that_plan_accepts(argv: list[str], wanted: str
 def test_evaluate_lists_the_planners_with_a_view_count(tmp_path: Path,
                                                        capsys: pytest.CaptureFixture) -> None:
     assert main(["evaluate", "--planners", "dijkstra", "--out", str(tmp_path / "out")]) == 2
-    assert "bscp<N> / agent<N>" in capsys.readouterr().err
+    assert "bscp<N> / optimum<N> / agent<N>" in capsys.readouterr().err
 
 
 def test_a_warning_is_one_line_in_the_commands_name(monkeypatch: pytest.MonkeyPatch,

@@ -221,9 +221,10 @@ def test_the_guard_catches_the_goal_rule_reading_the_coverage(bracket: MotorScen
         make_stop_rule("goal", CONFIG).check(Guarded("episode", views=views))  # type: ignore
 
 
-def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene) -> None:
+@pytest.mark.parametrize("name", ["hrec", "optimum"])
+def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene, name: str) -> None:
     with pytest.raises(AssertionError, match="the planner read"):
-        guarded_run(make_planner("hrec", CONFIG), bracket, "free")
+        guarded_run(make_planner(name, CONFIG), bracket, "free")
 
 
 def test_uniform_views_are_the_same_whatever_the_object_and_its_pose(
@@ -389,7 +390,7 @@ def test_bad_model_free_planner_names_are_clear_errors(spec: str, message: str) 
 
 def test_uniform_takes_its_count_from_the_name_not_from_views() -> None:
     assert parse_planner("uniform6", counted=False) == ("uniform6", None)
-    with pytest.raises(ValueError, match="applies to bscp, agent only"):
+    with pytest.raises(ValueError, match="applies to bscp, optimum, agent only"):
         make_planner("uniform4", CONFIG, views=5)
 
 

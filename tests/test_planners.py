@@ -300,7 +300,7 @@ def test_predicted_visibility_follows_the_structured_light_limits() -> None:
     ("call", "message"),
     [
         (lambda: make_planner("astar", CONFIG), "unknown planner 'astar'"),
-        (lambda: make_planner("hrec", CONFIG, views=4), "applies to bscp, agent only"),
+        (lambda: make_planner("hrec", CONFIG, views=4), "applies to bscp, optimum, agent only"),
         (lambda: parse_planner("bscp0"), "unknown planner 'bscp0'"),
         (lambda: SetCoverPlanner(views=0), "views must lie in 1..100"),
         (lambda: SetCoverPlanner(goal=1.5), "goal must lie in (0, 1]"),

@@ -27,14 +27,14 @@ from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
-from vprobot.planners import agent, bscp, hrec, nbv, oracle, random_views, uniform
+from vprobot.planners import agent, bscp, hrec, nbv, optimum, oracle, random_views, uniform
 from vprobot.planners.base import PLANNERS, Planner, check_views
 from vprobot.planners.candidates import CandidateViews
 from vprobot.stopping.estimator import load_estimator
 from vprobot.stopping.rules import StopRule, make_stop_rule
 from vprobot.stopping.rules.estimate import view_estimates
 
-BUNDLED_PLANNERS = (bscp, hrec, oracle, random_views, agent, nbv, uniform)
+BUNDLED_PLANNERS = (bscp, hrec, oracle, optimum, random_views, agent, nbv, uniform)
 """The bundled planner modules, which register their planners in `PLANNERS` when imported, in
 the order in which messages and listings name their planners."""
 
