@@ -128,7 +128,7 @@ def test_planners_are_listed_in_the_bundled_order_whichever_registered_first() -
     # caller (the stop rules import nbv); register nbv again last.
     PLANNERS.register("nbv", PLANNERS.unregister("nbv"))
     assert list(PLANNERS)[-1] == "nbv"
-    assert planner_names() == ["bscp", "hrec", "oracle", "random1", "random2",
+    assert planner_names() == ["bscp", "hrec", "oracle", "optimum", "random1", "random2",
                                "agent, agent:NAME, agent:PATH", "nbv", "uniform<k>"]
 
 
