@@ -109,17 +109,17 @@ def test_the_reduction_drops_dominated_views_and_merges_points() -> None:
     assert reduced.matrix.shape == (2, 3)
 
 
-@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("seed", range(3))
 def test_the_optimum_never_needs_more_views_than_greedy(seed: int) -> None:
     rng = np.random.default_rng(200 + seed)
     visibility, covered = random_instance(rng, 40, 300)
     for goal in (0.8, 0.95):
         picks, _ = greedy_cover(visibility, covered, 40, goal)
-        cover = solve_cover(visibility, covered, 40, goal, time_limit_s=2.0)
+        cover = solve_cover(visibility, covered, 40, goal, time_limit_s=1.0)
         assert cover.goal_reached and len(cover.picks) <= len(picks)
     for count in (2, 4):
         picks, _ = greedy_cover(visibility, covered, count)
-        cover = solve_cover(visibility, covered, count, time_limit_s=2.0)
+        cover = solve_cover(visibility, covered, count, time_limit_s=1.0)
         assert covered_by(visibility, covered, cover.picks) >= covered_by(visibility, covered,
                                                                           tuple(picks))
 

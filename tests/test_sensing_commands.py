@@ -53,7 +53,7 @@ def test_render_replays_a_plan_with_the_model_it_was_made_with(
     plan = tmp_path / "plan.json"
     _plan(zivid, plan)
     summary = tmp_path / "summary.png"
-    assert main(["render", "--plan", str(plan), "--out", str(tmp_path / "replay.gif"),
+    assert main(["render", "--plan", str(plan), "--out", str(tmp_path / "replay.mp4"),
                  "--summary", str(summary), "--width", "64", "--height", "48"]) == 0
     assert summary.stat().st_size > 0
     capsys.readouterr()
