@@ -243,6 +243,28 @@ def test_episode_from_plan_replays_the_views(config, scene, record, tmp_path):
     assert replayed_scene.cell.robot == scene.cell.robot
 
 
+def test_a_plans_views_are_replayed_along_its_stored_paths(config, scene, record, tmp_path):
+    """The replay follows each move's stored corners (a detour through a free corner is kept,
+    not planned away), and a stored path that runs into the cell is refused, naming the view."""
+    document = plan_document(scene.cell, planned_views(record),
+                             scene.object_block(record.object_pose), record.coverage)
+    second = document["views"][1]
+    start, end = np.array(second["waypoints"][0]), np.array(second["waypoints"][-1])
+    detour = (start + end) / 2.0
+    detour[1] += 0.05  # the shoulder lifted a little halfway
+    second["waypoints"] = [start.tolist(), detour.tolist(), end.tolist()]
+    plan = write_json(tmp_path / "plan.json", document)
+    _, replayed = episode_from_plan(config, plan, resolution=(86, 60))
+    np.testing.assert_array_equal(replayed.views[1].waypoints, [start, detour, end])
+    assert replayed.views[1].coverage == pytest.approx(record.views[1].coverage)
+    # Through the floor: the shoulder lifted the other way, far down.
+    detour[1] = 1.2
+    second["waypoints"] = [start.tolist(), detour.tolist(), end.tolist()]
+    plan = write_json(tmp_path / "through.json", document)
+    with pytest.raises(ValueError, match=r"plan views\[1\]: the path along the waypoints"):
+        episode_from_plan(config, plan, resolution=(86, 60))
+
+
 def test_episode_from_plan_names_what_is_wrong(config, tmp_path):
     plan = tmp_path / "plan.json"
     plan.write_text(json.dumps({"object": None, "views": []}))

@@ -139,16 +139,18 @@ class Episode:
         unreached pose (unless the robot's `nearest` policy moved it elsewhere)."""
         return self._execute(self.carrier.move(request, self.q, self.pose))
 
-    def replay(self, joints: np.ndarray, requested: Pose | None = None) -> ViewRecord:
-        """Drive the robot to a given configuration (e.g. from a plan) and acquire there.
+    def replay(self, joints: np.ndarray, requested: Pose | None = None,
+               waypoints: np.ndarray | None = None) -> ViewRecord:
+        """Drive the robot to a given configuration (e.g. from a plan) and acquire there, along
+        the given corners of the move when there are (a plan's), else on a planned move.
 
         Raises:
-            ValueError: Without a robot, or if the configuration or the straight path to it is
-                in collision or outside the joint limits.
+            ValueError: Without a robot, or if the configuration or the move to it is in
+                collision or outside the joint limits (`RobotCarrier.drive`).
         """
         if not isinstance(self.carrier, RobotCarrier):
             raise ValueError("joints can be replayed only with the robot carrier")
-        return self._execute(self.carrier.drive(self.q, joints, requested))
+        return self._execute(self.carrier.drive(self.q, joints, requested, waypoints))
 
     def skip(self, requested: Pose, reason: str) -> ViewRecord:
         """Record a request that was not executed (e.g. a plan's unreachable view)."""

@@ -13,6 +13,7 @@ from vprobot.geometry import Pose
 from vprobot.kinematics import UNSOLVED, ReachResult
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlan
+from vprobot.kinematics.trajectory import JOIN_TOLERANCE_RAD
 from vprobot.sensor import Acquisition
 
 UnreachablePolicy = Literal["skip", "nearest"]
@@ -55,20 +56,39 @@ class RobotCarrier(Carrier):
         """Whether a collision-free move joins two configurations (`plan` finds one)."""
         return self.plan(q_from, q_to) is not None
 
-    def drive(self, q_from: np.ndarray, joints: np.ndarray,
-              requested: Pose | None = None) -> ViewRecord:
+    def drive(self, q_from: np.ndarray, joints: np.ndarray, requested: Pose | None = None,
+              waypoints: np.ndarray | None = None) -> ViewRecord:
         """Drive to a given configuration (e.g. a screened candidate or a stored plan);
         `requested` is the pose asked for (by default the one the configuration reaches).
 
+        Args:
+            q_from: The current configuration.
+            joints: The configuration to drive to.
+            requested: The pose asked for.
+            waypoints: The corners of the move to take (a stored plan's), from `q_from` to
+                `joints`; planned here when omitted.
+
         Raises:
-            ValueError: If the configuration is outside the limits or no collision-free move to
-                it was found.
+            ValueError: If the configuration is outside the limits, no collision-free move to
+                it was found, or the given corners do not join `q_from` to `joints` or collide.
         """
         arm = self.arm
         joints = arm.joints.check(joints, "joints")
         if not arm.joints.within_limits(joints):
             raise ValueError(f"joints {np.round(joints, 4).tolist()} are outside the limits")
-        motion = self.plan(q_from, joints)
+        if waypoints is None:
+            motion = self.plan(q_from, joints)
+        else:
+            corners = np.asarray(waypoints, dtype=float)
+            if (corners.ndim != 2 or len(corners) < 2
+                    or not np.allclose(corners[0], q_from, atol=JOIN_TOLERANCE_RAD)
+                    or not np.allclose(corners[-1], joints, atol=JOIN_TOLERANCE_RAD)):
+                raise ValueError("the waypoints must run from the current configuration to "
+                                 f"joints {np.round(joints, 4).tolist()}")
+            motion = arm.follow(corners, self.collisions)
+            if motion is None:
+                raise ValueError(f"the path along the waypoints to joints "
+                                 f"{np.round(joints, 4).tolist()} collides or leaves the limits")
         if motion is None:
             raise ValueError(f"no collision-free path to joints {np.round(joints, 4).tolist()} "
                              "was found")

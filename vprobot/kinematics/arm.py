@@ -220,6 +220,13 @@ class RobotArm:
         collisions = collisions if collisions is not None else self.collisions
         return MotionPlanner(collisions, self.joints, self.settings).plan(q_from, q_to)
 
+    def follow(self, waypoints: np.ndarray,
+               collisions: CollisionChecker | None = None) -> MotionPlan | None:
+        """The move along given corners, checked as `plan` checks its own, or None where it
+        collides or leaves the limits (`MotionPlanner.follow`)."""
+        collisions = collisions if collisions is not None else self.collisions
+        return MotionPlanner(collisions, self.joints, self.settings).follow(waypoints)
+
     def reach(self, target: SensorTarget, q_from: np.ndarray,
               collisions: CollisionChecker | None = None,
               restarts: int | None = None) -> ReachResult:

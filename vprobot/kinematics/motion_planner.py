@@ -23,7 +23,7 @@ from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.path import joint_path
 from vprobot.scene import JointSpace
 
-PlanMethod = Literal["line", "rrt_connect"]
+PlanMethod = Literal["line", "rrt_connect", "given"]
 
 ou.setLogLevel(ou.LOG_NONE)  # OMPL logs every query (and each reseed) to the console
 
@@ -43,7 +43,8 @@ class MotionPlan:
             `[q_from, q_to]` for a free straight line.
         path: The corners joined and sampled at `path_max_joint_step_rad` (n, dof): the
             configurations the collision check passed.
-        method: `line` (the straight line was free) or `rrt_connect` (planned by OMPL).
+        method: `line` (the straight line was free), `rrt_connect` (planned by OMPL) or `given`
+            (corners handed in, e.g. a stored plan's, and checked: `MotionPlanner.follow`).
         planning_time_s: Wall time of the whole query (checks included).
     """
 
@@ -103,6 +104,24 @@ class MotionPlanner:
         """Whether every configuration of a sampled path is within the limits and free."""
         return (self.joints.within_limits(path)
                 and self.collisions.first_collision(path) is None)
+
+    def follow(self, waypoints: np.ndarray) -> MotionPlan | None:
+        """The move along given corners (m, dof), m >= 2, checked as densely as a planned one;
+        None when a configuration on it is outside the limits or in collision.
+
+        Raises:
+            ValueError: If `waypoints` is not an (m >= 2, dof) array of finite values.
+        """
+        start = time.perf_counter()
+        corners = np.asarray(waypoints, dtype=float)
+        if corners.ndim != 2 or len(corners) < 2 or corners.shape[1] != self.joints.dof:
+            raise ValueError(f"waypoints must be an (m >= 2, {self.joints.dof}) array, got shape "
+                             f"{corners.shape}")
+        corners = np.array([self.joints.check(q, "waypoint") for q in corners])
+        path = densify(corners, self.settings.path_max_joint_step_rad)
+        if not self.is_free(path):
+            return None
+        return MotionPlan(corners, path, "given", time.perf_counter() - start)
 
     def plan(self, q_from: np.ndarray, q_to: np.ndarray) -> MotionPlan | None:
         """A collision-free move from `q_from` to `q_to`, or None when none was found.

@@ -176,8 +176,11 @@ def episode_from_plan(config: Config, plan_path: str | Path,
             episode.request(ViewRequest(SensorTarget(pose, roll_free=False)))
         elif _field(view, "reachable", where) and view.get("joints") is not None:
             joints = _vector(view, "joints", scene.cell.joints.dof, where)
+            # The plan's own path when it has one (plans since issue 32), else planned anew.
+            stored = view.get("waypoints")
             try:
-                episode.replay(joints, requested=pose)
+                episode.replay(joints, requested=pose,
+                               waypoints=None if stored is None else np.asarray(stored, float))
             except ValueError as error:
                 raise ValueError(f"plan {where}: {error}") from error
         else:
