@@ -46,6 +46,7 @@ from vprobot.evaluation import (
 from vprobot.geometry import Pose
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
+from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.runner import EpisodeResult
 
 CONFIG = Config()
@@ -323,6 +324,42 @@ def test_a_policys_episode_rows_have_the_cycle_time_of_their_episode() -> None:
     timed = timed_episode(env.episode_record(), env.episode.scene.cell)
     assert row["cycle_time_s"] == pytest.approx(timed.cycle.total_s)
     assert row["cycle_time_s"] > row["joint_time_s"]
+
+
+def test_the_optimum_added_to_a_finished_evaluation_fills_the_comparison(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`bscp` alone, then resumed with `optimum`: bscp's row is kept, and the tables compare it
+    with the optimum's row from the episodes table. Both planners on 200 candidates at a coarse
+    grid (as tests/test_optimum.py), to run in seconds."""
+    from vprobot.cli import main
+
+    original = SetCoverPlanner.__init__
+
+    def small(self: SetCoverPlanner, *args: Any, **kwargs: Any) -> None:
+        # `OptimumPlanner` passes its candidate count and resolution on positionally.
+        small_grid = {"candidate_count": 200, "resolution": (107, 75)}
+        original(self, *args, **(kwargs if len(args) > 2 else {**small_grid, **kwargs}))
+
+    monkeypatch.setattr(SetCoverPlanner, "__init__", small)
+    command = ["evaluate", "--motors", str(DEFAULT_MOTOR), "--seeds", "0", "--carriers",
+               "robot", "--out", str(tmp_path), "--planners", "bscp"]
+    assert main(command) == 0
+    assert read_csv(tmp_path / "evaluation_vs_optimum.csv") == []
+    assert "`--planners ... optimum`" in (tmp_path / "evaluation.md").read_text()
+    first = read_csv(tmp_path / "evaluation_episodes.csv")
+    assert main([*command, "optimum"]) == 0
+    episodes = read_csv(tmp_path / "evaluation_episodes.csv")
+    assert episodes[0] == first[0] and [row["planner"] for row in episodes] == ["bscp", "optimum"]
+    bscp, optimum = episodes
+    versus = {row["planner"]: row for row in read_csv(tmp_path / "evaluation_vs_optimum.csv")}
+    assert int(versus["bscp"]["views_above_optimum"]) == (int(bscp["acquisitions"])
+                                                          - int(optimum["acquisitions"]))
+    ratio = float(bscp["cycle_time_s"]) / float(optimum["cycle_time_s"])
+    assert float(versus["bscp"]["cycle_ratio"]) == pytest.approx(ratio)
+    summary = {row["planner"]: row for row in read_csv(tmp_path / "evaluation.csv")}
+    assert float(summary["bscp"]["cycle_ratio"]) == pytest.approx(ratio)
+    assert float(summary["optimum"]["within_one_view_pct"]) == 100.0
+    assert "`--planners ... optimum`" not in (tmp_path / "evaluation.md").read_text()
 
 
 def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
