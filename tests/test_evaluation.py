@@ -47,6 +47,7 @@ from vprobot.geometry import Pose
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.planners.bscp import SetCoverPlanner
+from vprobot.planners.optimum import OptimumPlanner
 from vprobot.planners.runner import EpisodeResult
 
 CONFIG = Config()
@@ -333,14 +334,15 @@ def test_the_optimum_added_to_a_finished_evaluation_fills_the_comparison(
     grid (as tests/test_optimum.py), to run in seconds."""
     from vprobot.cli import main
 
-    original = SetCoverPlanner.__init__
+    for planner in (SetCoverPlanner, OptimumPlanner):
+        def small(self: SetCoverPlanner, *args: Any, original: Any = planner.__init__,
+                  **kwargs: Any) -> None:
+            # `OptimumPlanner` passes its (small) candidate count and resolution on to
+            # `SetCoverPlanner` positionally.
+            grid = {} if len(args) > 3 else {"candidate_count": 200, "resolution": (107, 75)}
+            original(self, *args, **{**grid, **kwargs})
 
-    def small(self: SetCoverPlanner, *args: Any, **kwargs: Any) -> None:
-        # `OptimumPlanner` passes its candidate count and resolution on positionally.
-        small_grid = {"candidate_count": 200, "resolution": (107, 75)}
-        original(self, *args, **(kwargs if len(args) > 2 else {**small_grid, **kwargs}))
-
-    monkeypatch.setattr(SetCoverPlanner, "__init__", small)
+        monkeypatch.setattr(planner, "__init__", small)
     command = ["evaluate", "--motors", str(DEFAULT_MOTOR), "--seeds", "0", "--carriers",
                "robot", "--out", str(tmp_path), "--planners", "bscp"]
     assert main(command) == 0
@@ -353,7 +355,7 @@ def test_the_optimum_added_to_a_finished_evaluation_fills_the_comparison(
     bscp, optimum = episodes
     versus = {row["planner"]: row for row in read_csv(tmp_path / "evaluation_vs_optimum.csv")}
     assert int(versus["bscp"]["views_above_optimum"]) == (int(bscp["acquisitions"])
-                                                          - int(optimum["acquisitions"]))
+                                                          - int(optimum["acquisitions"])) >= 0
     ratio = float(bscp["cycle_time_s"]) / float(optimum["cycle_time_s"])
     assert float(versus["bscp"]["cycle_ratio"]) == pytest.approx(ratio)
     summary = {row["planner"]: row for row in read_csv(tmp_path / "evaluation.csv")}
