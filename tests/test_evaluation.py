@@ -249,7 +249,7 @@ def test_the_markdown_shows_the_comparison_or_says_how_to_get_it() -> None:
     assert "| bscp | robot | 1 |" in compared and "| 90.00 | 90.00 | 2.00 | 0 | 1.200 |" in compared
 
 
-def test_the_plot_draws_the_optimum_as_the_floor(tmp_path: Path,
+def test_the_plot_draws_the_optimum_apart(tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     import vprobot.evaluation as evaluation
 
@@ -266,8 +266,8 @@ def test_the_plot_draws_the_optimum_as_the_floor(tmp_path: Path,
     assert_png(tmp_path / PLOT_NAME)
     (axis,) = figures[0].axes
     lines = {line.get_label(): line for line in axis.get_lines()}
-    assert set(lines) == {"bscp", "optimum (floor)", "goal 90%"}
-    floor = lines["optimum (floor)"]
+    assert set(lines) == {"bscp", "optimum (fewest views)", "goal 90%"}
+    floor = lines["optimum (fewest views)"]
     assert floor.get_color() == "black" and floor.get_linestyle() == ":"
     assert lines["bscp"].get_color() == "C0"  # the colour bscp has without the optimum
 

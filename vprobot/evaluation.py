@@ -446,7 +446,8 @@ def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: 
                          title: str) -> Path:
     """Plot the summary rows' mean coverage curves into a PNG (atomically): one panel per
     carrier, one line per planner, `OPTIMUM`'s black and dotted (the floor of the views to the
-    goal), the coverage goal dashed.
+    goal, not of each request's coverage: its views are ordered for the cycle time), the
+    coverage goal dashed.
 
     Raises:
         ValueError: For an empty table.
@@ -471,7 +472,7 @@ def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: 
             curve = [row[key] for key in CURVE_COLUMNS]
             if row["planner"] == OPTIMUM:
                 axis.plot(views, curve, marker="s", markersize=3, color="black", linestyle=":",
-                          linewidth=2.0, label=f"{OPTIMUM} (floor)")
+                          linewidth=2.0, label=f"{OPTIMUM} (fewest views)")
                 continue
             # A planner keeps its colour in every panel; the default cycle has ten colours,
             # so later planners are told apart by their line.
