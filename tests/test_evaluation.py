@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -30,17 +31,23 @@ from vprobot.evaluation import (
     COLUMNS,
     CURVE_COLUMNS,
     EPISODE_COLUMNS,
+    OPTIMUM_COLUMNS,
     PLOT_NAME,
     episode_row,
     evaluate,
     evaluation_episodes,
     finished_rows,
     held_out_motors,
+    markdown,
+    plot_coverage_curves,
     summarize,
+    versus_optimum,
 )
 from vprobot.geometry import Pose
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
+from vprobot.planners.bscp import SetCoverPlanner
+from vprobot.planners.optimum import OptimumPlanner
 from vprobot.planners.runner import EpisodeResult
 
 CONFIG = Config()
@@ -169,6 +176,102 @@ def test_a_robot_episode_without_a_request_has_no_reachable_share() -> None:
     assert summary["reachable_pct"] == pytest.approx(100.0)
 
 
+def test_an_episode_row_counts_the_requests_the_robot_did_not_reach() -> None:
+    # Requests 2 and 4 of 5 unreached: 2 failed, 3 acquired; a free sensor's row fails none.
+    robot = dataclasses.replace(_result([0.3, 0.3, 0.6, 0.6, 0.9],
+                                        [True, False, True, False, True]), carrier="robot")
+    row = episode_row(0, robot)
+    assert (row["requested"], row["acquisitions"], row["failed_requests"]) == (5, 3, 2)
+    assert row["reachable_pct"] == pytest.approx(60.0)
+    assert episode_row(1, _result([0.3, 0.6, 0.9]))["failed_requests"] == 0
+    (summary,) = summarize([row, episode_row(1, dataclasses.replace(_result([0.5]),
+                                                                       carrier="robot"))])
+    assert summary["failed_requests"] == pytest.approx(1.0)  # (2 + 0) / 2
+
+
+def _scored(episode: int, planner: str, carrier: str, acquisitions: int,
+            cycle: float | None) -> dict[str, Any]:
+    """An episode row as `finished_rows` reads it, with `acquisitions` and the cycle time."""
+    return {**episode_row(episode, dataclasses.replace(_result([0.9]), carrier=carrier)),
+            "planner": planner, "acquisitions": acquisitions, "cycle_time_s": cycle}
+
+
+def test_planners_are_compared_with_the_optimum_of_the_same_episode_and_carrier() -> None:
+    rows = [
+        # Robot: the optimum needs 3, 4 and 3 views, cycles 10, 12 and 9 s.
+        _scored(0, "bscp", "robot", 3, 11.0), _scored(0, "optimum", "robot", 3, 10.0),
+        _scored(1, "bscp", "robot", 6, 18.0), _scored(1, "optimum", "robot", 4, 12.0),
+        _scored(2, "optimum", "robot", 3, 9.0), _scored(2, "bscp", "robot", 4, None),
+        # The random planner stopped short of the goal with fewer views than the optimum.
+        _scored(0, "random2", "robot", 2, 8.0),
+        # Free: no optimum row of episode 1, so bscp's episode 1 is not compared.
+        _scored(0, "optimum", "free", 3, None), _scored(0, "bscp", "free", 4, None),
+        _scored(1, "bscp", "free", 9, None),
+    ]
+    versus = {(row["episode"], row["planner"], row["carrier"]):
+              (row["views_above_optimum"], row["cycle_ratio"]) for row in versus_optimum(rows)}
+    assert versus == pytest.approx({
+        (0, "bscp", "robot"): (0, 1.1), (0, "optimum", "robot"): (0, 1.0),
+        (1, "bscp", "robot"): (2, 1.5), (1, "optimum", "robot"): (0, 1.0),
+        (2, "optimum", "robot"): (0, 1.0), (2, "bscp", "robot"): (1, None),
+        (0, "random2", "robot"): (-1, 0.8),
+        (0, "optimum", "free"): (0, None), (0, "bscp", "free"): (1, None)})
+    table = {(row["planner"], row["carrier"]): row for row in summarize(rows)}
+    bscp = table["bscp", "robot"]
+    assert bscp["views_above_optimum"] == pytest.approx(1.0)  # (0 + 2 + 1) / 3
+    assert bscp["within_one_view_pct"] == pytest.approx(200 / 3)  # 0 and 1 within, 2 not
+    assert bscp["cycle_ratio"] == pytest.approx(1.3)  # (1.1 + 1.5) / 2: episode 2 untimed
+    optimum = table["optimum", "robot"]
+    assert (optimum["views_above_optimum"], optimum["within_one_view_pct"],
+            optimum["cycle_ratio"]) == pytest.approx((0.0, 100.0, 1.0))
+    assert table["random2", "robot"]["views_above_optimum"] == pytest.approx(-1.0)
+    free = table["bscp", "free"]
+    # Over the compared episode only; no cycle without the robot.
+    assert (free["views_above_optimum"], free["within_one_view_pct"],
+            free["cycle_ratio"]) == (pytest.approx(1.0), pytest.approx(100.0), None)
+    assert free["episodes"] == 2 and free["acquisitions"] == pytest.approx(6.5)
+
+
+def test_the_markdown_shows_the_comparison_or_says_how_to_get_it() -> None:
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
+    without = markdown(summarize([_scored(0, "bscp", "robot", 4, 12.0)]), specs, CONFIG)
+    assert ("| cov@5 % | cov@10 % | views above optimum | within +1 view % | cycle / optimum |"
+            in without)
+    assert "`--planners ... optimum`" in without
+    (row,) = summarize([_scored(0, "bscp", "robot", 4, 12.0)])
+    assert all(row[key] is None for key in OPTIMUM_COLUMNS)
+    assert row["cov_5_pct"] == row["cov_10_pct"] == pytest.approx(90.0)
+    # The row's last five cells: coverage after 5 and 10 requests, then the empty comparison.
+    assert "| 90.00 | 90.00 | - | - | - |" in without
+    compared = markdown(summarize([_scored(0, "bscp", "robot", 5, 12.0),
+                                   _scored(0, "optimum", "robot", 3, 10.0)]), specs, CONFIG)
+    assert "--planners ... optimum" not in compared
+    assert "| bscp | robot | 1 |" in compared and "| 90.00 | 90.00 | 2.00 | 0 | 1.200 |" in compared
+
+
+def test_the_plot_draws_the_optimum_apart(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    import vprobot.evaluation as evaluation
+
+    figures = []
+    saved = evaluation.save_figure
+
+    def keep(figure: Any, path: Path, title: str) -> Path:
+        figures.append(figure)
+        return saved(figure, path, title)
+
+    monkeypatch.setattr(evaluation, "save_figure", keep)
+    rows = [_scored(0, "bscp", "robot", 4, 12.0), _scored(0, "optimum", "robot", 3, 10.0)]
+    plot_coverage_curves(summarize(rows), CONFIG, tmp_path / PLOT_NAME, "title")
+    assert_png(tmp_path / PLOT_NAME)
+    (axis,) = figures[0].axes
+    lines = {line.get_label(): line for line in axis.get_lines()}
+    assert set(lines) == {"bscp", "optimum (fewest views)", "goal 90%"}
+    floor = lines["optimum (fewest views)"]
+    assert floor.get_color() == "black" and floor.get_linestyle() == ":"
+    assert lines["bscp"].get_color() == "C0"  # the colour bscp has without the optimum
+
+
 def test_summarize_gives_the_coverage_curve_its_area_and_views_to_goal() -> None:
     # Reaches the goal exactly at request 3 and stops: 90 % is carried over requests 4..10.
     stopped = episode_row(0, _result([0.5, 0.8, 0.9]))
@@ -224,6 +327,43 @@ def test_a_policys_episode_rows_have_the_cycle_time_of_their_episode() -> None:
     assert row["cycle_time_s"] > row["joint_time_s"]
 
 
+def test_the_optimum_added_to_a_finished_evaluation_fills_the_comparison(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`bscp` alone, then resumed with `optimum`: bscp's row is kept, and the tables compare it
+    with the optimum's row from the episodes table. Both planners on 200 candidates at a coarse
+    grid (as tests/test_optimum.py), to run in seconds."""
+    from vprobot.cli import main
+
+    for planner in (SetCoverPlanner, OptimumPlanner):
+        def small(self: SetCoverPlanner, *args: Any, original: Any = planner.__init__,
+                  **kwargs: Any) -> None:
+            # `OptimumPlanner` passes its (small) candidate count and resolution on to
+            # `SetCoverPlanner` positionally.
+            grid = {} if len(args) > 3 else {"candidate_count": 200, "resolution": (107, 75)}
+            original(self, *args, **{**grid, **kwargs})
+
+        monkeypatch.setattr(planner, "__init__", small)
+    command = ["evaluate", "--motors", str(DEFAULT_MOTOR), "--seeds", "0", "--carriers",
+               "robot", "--out", str(tmp_path), "--planners", "bscp"]
+    assert main(command) == 0
+    assert read_csv(tmp_path / "evaluation_vs_optimum.csv") == []
+    assert "`--planners ... optimum`" in (tmp_path / "evaluation.md").read_text()
+    first = read_csv(tmp_path / "evaluation_episodes.csv")
+    assert main([*command, "optimum"]) == 0
+    episodes = read_csv(tmp_path / "evaluation_episodes.csv")
+    assert episodes[0] == first[0] and [row["planner"] for row in episodes] == ["bscp", "optimum"]
+    bscp, optimum = episodes
+    versus = {row["planner"]: row for row in read_csv(tmp_path / "evaluation_vs_optimum.csv")}
+    assert int(versus["bscp"]["views_above_optimum"]) == (int(bscp["acquisitions"])
+                                                          - int(optimum["acquisitions"])) >= 0
+    ratio = float(bscp["cycle_time_s"]) / float(optimum["cycle_time_s"])
+    assert float(versus["bscp"]["cycle_ratio"]) == pytest.approx(ratio)
+    summary = {row["planner"]: row for row in read_csv(tmp_path / "evaluation.csv")}
+    assert float(summary["bscp"]["cycle_ratio"]) == pytest.approx(ratio)
+    assert float(summary["optimum"]["within_one_view_pct"]) == 100.0
+    assert "`--planners ... optimum`" not in (tmp_path / "evaluation.md").read_text()
+
+
 def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture) -> None:
     from vprobot.cli import main
@@ -234,6 +374,12 @@ def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
                              if column != "cycle_time_s") + "\n")
     with pytest.raises(ValueError, match=r"not an episodes table of this vprobot version \(it "
                                          r"lacks cycle_time_s\); use another --out"):
+        finished_rows(rows)
+    # A table of the version before the failed requests (a folder of the scoreboard before
+    # the optimum): refused the same way.
+    rows.write_text(",".join(column for column in EPISODE_COLUMNS
+                             if column != "failed_requests") + "\n")
+    with pytest.raises(ValueError, match=r"\(it lacks failed_requests\); use another --out"):
         finished_rows(rows)
     old = [column for column in EPISODE_COLUMNS
            if column not in CURVE_COLUMNS and column not in ("views_to_goal", "cycle_time_s")]
@@ -249,14 +395,15 @@ def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
 
 
 def test_summarize_averages_per_planner_and_carrier() -> None:
-    base = {"acquisitions": 4, "requested": 5, "views_to_goal": None, "cycle_time_s": None,
+    base = {"acquisitions": 4, "requested": 5, "failed_requests": 0, "views_to_goal": None,
+            "cycle_time_s": None,
             "joint_time_s": None,
             "joint_path_rad": None, "cartesian_m": None, "paper_m": 1.0, "reachable_pct": None,
             "plan_s": 0.5, "plan_ms_per_view": 100.0, "episode_s": 1.0,
             **dict.fromkeys(CURVE_COLUMNS, 50.0)}
-    rows = [{**base, "planner": "bscp", "carrier": "free", "coverage_pct": 90.0,
+    rows = [{**base, "episode": 0, "planner": "bscp", "carrier": "free", "coverage_pct": 90.0,
              "success": True},
-            {**base, "planner": "bscp", "carrier": "free", "coverage_pct": 80.0,
+            {**base, "episode": 1, "planner": "bscp", "carrier": "free", "coverage_pct": 80.0,
              "success": False}]
     (row,) = summarize(rows)
     assert row["coverage_pct"] == 85.0 and row["coverage_std_pct"] == 5.0
@@ -267,8 +414,8 @@ def test_a_policys_summary_is_the_one_summary_by_hand() -> None:
     # Two robot episodes of a policy, as `evaluate_policy` rows them; the values by hand.
     reached = {"episode": 0, "planner": "policy", "carrier": "robot", "motor": "m.stl",
                "seed": 0, "coverage_pct": 95.0, "acquisitions": 5, "requested": 6,
-               "success": True, "views_to_goal": 5, "cycle_time_s": 12.0, "joint_time_s": 2.0,
-               "joint_path_rad": 3.0, "cartesian_m": 1.0, "paper_m": 0.8,
+               "failed_requests": 1, "success": True, "views_to_goal": 5, "cycle_time_s": 12.0,
+               "joint_time_s": 2.0, "joint_path_rad": 3.0, "cartesian_m": 1.0, "paper_m": 0.8,
                "reachable_pct": 500 / 6, "plan_s": 0.3, "plan_ms_per_view": 50.0,
                "episode_s": 2.0,
                **dict(zip(CURVE_COLUMNS, [40, 60, 80, 90] + [95] * 6, strict=True))}
@@ -280,7 +427,8 @@ def test_a_policys_summary_is_the_one_summary_by_hand() -> None:
     summary = policy_summary([reached, missed])
     assert tuple(summary) == SUMMARY_KEYS
     expected = {"episodes": 2, "coverage_pct": 85.0, "coverage_std_pct": 10.0,
-                "acquisitions": 4.0, "requested": 5.0, "success_pct": 50.0,
+                "acquisitions": 4.0, "requested": 5.0, "failed_requests": 1.0,
+                "success_pct": 50.0,
                 "views_to_goal": 5.0, "cycle_time_s": 10.0, "joint_time_s": 1.5,
                 "joint_path_rad": 2.0, "cartesian_m": 0.75, "paper_m": 0.6,
                 "reachable_pct": (500 / 6 + 75) / 2,

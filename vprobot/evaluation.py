@@ -17,7 +17,10 @@ initial view included; an unreached request counts, since it costs a request) gi
 planner (`coverage_vs_views.png`), its area (the mean coverage over those 10 requests) and the
 number of requests at which the goal was reached. An episode that ended earlier keeps its final
 coverage for the remaining requests: the planner stopped there, so that is what it delivers with
-that many requests.
+that many requests. An evaluation that runs `optimum` (the fewest views that reach the goal)
+beside the other planners compares each with it, episode by episode: the views above the
+optimum, the share of episodes within one view of it and the ratio of the cycle times
+(`versus_optimum`).
 """
 
 from __future__ import annotations
@@ -60,15 +63,23 @@ from vprobot.stopping.rules import make_stop_rule
 CURVE_VIEWS = 10
 """Requests (the initial view included) over which the coverage curve and its area run."""
 CURVE_COLUMNS = tuple(f"cov_{n}_pct" for n in range(1, CURVE_VIEWS + 1))
+OPTIMUM = "optimum"
+"""The planner whose rows the others are compared with (`vprobot.planners.optimum`)."""
+OPTIMUM_COLUMNS = ("views_above_optimum", "within_one_view_pct", "cycle_ratio")
+"""The summary's comparison with `OPTIMUM` (`summarize`); empty without its rows."""
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
-           "requested", "success_pct", "area_pct", "views_to_goal", "cycle_time_s",
-           "joint_time_s",
-           "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct", "plan_s",
-           "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
+           "requested", "failed_requests", "success_pct", "area_pct", "views_to_goal",
+           "cycle_time_s", "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m",
+           "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS,
+           *OPTIMUM_COLUMNS)
 EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
-                   "requested", "success", "views_to_goal", "cycle_time_s", "joint_time_s",
-                   "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct", "plan_s",
-                   "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
+                   "requested", "failed_requests", "success", "views_to_goal", "cycle_time_s",
+                   "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct",
+                   "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
+VERSUS_COLUMNS = ("episode", "planner", "carrier", "views_above_optimum", "cycle_ratio")
+"""The per-episode comparison with `OPTIMUM` (`versus_optimum`)."""
+VERSUS_NAME = "evaluation_vs_optimum.csv"
+"""An evaluation folder's table of `VERSUS_COLUMNS`, derived from its episode rows."""
 PLOT_NAME = "coverage_vs_views.png"
 EPISODES_NAME = "evaluation_episodes.csv"
 """An evaluation folder's table of episode rows (`EPISODE_COLUMNS`)."""
@@ -119,6 +130,8 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "coverage_pct": 100.0 * result.coverage,
         "acquisitions": result.acquisitions,
         "requested": result.requested,
+        # A free-flying sensor takes every view: none fails.
+        "failed_requests": sum(not view.reachable for view in result.record.views),
         "success": result.success,
         "views_to_goal": views_to_goal(result),
         "cycle_time_s": None if result.cycle is None else result.cycle.total_s,
@@ -140,17 +153,47 @@ def _mean(rows: list[dict[str, Any]], key: str) -> float | None:
     return statistics.fmean(values) if values else None
 
 
+def versus_optimum(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Each episode row that has an `OPTIMUM` row of the same episode and carrier, compared
+    with it (`VERSUS_COLUMNS`, the optimum's own row included): the acquisitions above the
+    optimum's (below zero for a planner that stopped with fewer, short of the goal) and the
+    ratio of the cycle times (None where either has no cycle).
+
+    Joined when the tables are written, not when a row is: the optimum's row of an episode may
+    come after the others', or in a resumed run."""
+    optimum = {(row["episode"], row["carrier"]): row for row in rows if row["planner"] == OPTIMUM}
+    table = []
+    for row in rows:
+        best = optimum.get((row["episode"], row["carrier"]))
+        if best is None:
+            continue
+        cycle, floor = row["cycle_time_s"], best["cycle_time_s"]
+        table.append({"episode": row["episode"], "planner": row["planner"],
+                      "carrier": row["carrier"],
+                      "views_above_optimum": row["acquisitions"] - best["acquisitions"],
+                      "cycle_ratio": None if cycle is None or not floor else cycle / floor})
+    return table
+
+
 def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """One row per (planner, carrier), in the order they first appear (carrier by carrier,
     planners in the order given, as `evaluate` runs them): means over its episodes, but
-    `views_to_goal` over those that reached the goal only (None if none did)."""
+    `views_to_goal` over those that reached the goal only (None if none did), and the
+    comparison with the optimum (`OPTIMUM_COLUMNS`, from `versus_optimum`) over those that
+    have an optimum row (None if none has): the mean views above it, the share of episodes
+    within one view of it (%) and the mean ratio of the cycle times."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["planner"], row["carrier"]), []).append(row)
+    versus: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for row in versus_optimum(rows):
+        versus.setdefault((row["planner"], row["carrier"]), []).append(row)
     table = []
     for (planner, carrier), group in groups.items():
         coverage = [row["coverage_pct"] for row in group]
         curve = [statistics.fmean(row[key] for row in group) for key in CURVE_COLUMNS]
+        compared = versus.get((planner, carrier), [])
+        within = [row["views_above_optimum"] <= 1 for row in compared]
         table.append({
             "planner": planner,
             "carrier": carrier,
@@ -159,6 +202,7 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "coverage_std_pct": statistics.pstdev(coverage),
             "acquisitions": _mean(group, "acquisitions"),
             "requested": _mean(group, "requested"),
+            "failed_requests": _mean(group, "failed_requests"),
             "success_pct": 100.0 * statistics.fmean(row["success"] for row in group),
             "area_pct": statistics.fmean(curve),
             **{key: _mean(group, key) for key in ("views_to_goal", "cycle_time_s",
@@ -166,6 +210,9 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                                                   "cartesian_m", "paper_m", "reachable_pct",
                                                   "plan_s", "plan_ms_per_view", "episode_s")},
             **dict(zip(CURVE_COLUMNS, curve, strict=True)),
+            "views_above_optimum": _mean(compared, "views_above_optimum"),
+            "within_one_view_pct": 100.0 * statistics.fmean(within) if within else None,
+            "cycle_ratio": _mean(compared, "cycle_ratio"),
         })
     return table
 
@@ -182,9 +229,10 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     """The Markdown report: settings, the table, and the paper's Table 9 for reference."""
     motors = sorted({Path(spec.motor).name for spec in specs})
     seeds = sorted({spec.seed for spec in specs})
-    header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | success % "
-              "| area % | views to goal | cycle s | joint_time s | joint_path rad | cartesian m "
-              "| paper m | reachable % | plan s | ms per view |")
+    header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | failed "
+              "| success % | area % | views to goal | cycle s | joint_time s | joint_path rad "
+              "| cartesian m | paper m | reachable % | plan s | ms per view | cov@5 % | cov@10 % "
+              "| views above optimum | within +1 view % | cycle / optimum |")
     lines = [
         "# Planner evaluation",
         "",
@@ -203,8 +251,17 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         f"`area %` is the mean coverage after requests 1 to {CURVE_VIEWS} (the initial view "
         f"is 1; an episode that ended earlier keeps its final coverage), `views to goal` the "
         f"mean request at which the goal was reached, over the episodes that reached it; the "
-        f"curves are in `evaluation.csv` and `{PLOT_NAME}`.",
+        f"curves are in `evaluation.csv` and `{PLOT_NAME}`; `cov@5 %` and `cov@10 %` are "
+        f"the mean coverage after 5 and 10 requests. `failed` is the mean number of requests "
+        f"the robot did not reach. Against `{OPTIMUM}` (the fewest candidate views that reach "
+        f"the goal, on the same episode and carrier): the mean acquisitions above its own, the "
+        f"share of episodes within one view of it, and the mean ratio of the cycle times "
+        f"(per episode in `{VERSUS_NAME}`).",
         "",
+        *([] if any(row["views_above_optimum"] is not None for row in table) else [
+            f"No `{OPTIMUM}` rows here, so the comparison with it is empty: add it to the "
+            f"planners (`--planners ... {OPTIMUM}`; up to a minute per episode) to fill it.",
+            ""]),
         header,
         "|" + "---|" * (header.count("|") - 1),
     ]
@@ -212,12 +269,16 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         coverage = f"{row['coverage_pct']:.2f} ± {row['coverage_std_pct']:.2f}"
         cells = [row["planner"], row["carrier"], str(row["episodes"]), coverage,
                  _cell(row["acquisitions"], 2), _cell(row["requested"], 2),
-                 _cell(row["success_pct"], 0), _cell(row["area_pct"], 2),
+                 _cell(row["failed_requests"], 2), _cell(row["success_pct"], 0),
+                 _cell(row["area_pct"], 2),
                  _cell(row["views_to_goal"], 2), _cell(row["cycle_time_s"], 2),
                  _cell(row["joint_time_s"], 2),
                  _cell(row["joint_path_rad"], 2), _cell(row["cartesian_m"], 2),
                  _cell(row["paper_m"], 2), _cell(row["reachable_pct"], 1),
-                 _cell(row["plan_s"], 3), _cell(row["plan_ms_per_view"], 1)]
+                 _cell(row["plan_s"], 3), _cell(row["plan_ms_per_view"], 1),
+                 _cell(row["cov_5_pct"], 2), _cell(row["cov_10_pct"], 2),
+                 _cell(row["views_above_optimum"], 2), _cell(row["within_one_view_pct"], 0),
+                 _cell(row["cycle_ratio"], 3)]
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "Paper, Table 9 (free-flying sensor, 100 synthetic motors):", "",
               "| agent | coverage % | acquisitions | calculation time s |", "|---|---|---|---|"]
@@ -226,7 +287,8 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     return "\n".join(lines) + "\n"
 
 
-_INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested", "views_to_goal")
+_INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested", "failed_requests",
+                    "views_to_goal")
 _TEXT_COLUMNS = ("planner", "carrier", "motor")
 
 
@@ -383,7 +445,9 @@ def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None
 def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: Path,
                          title: str) -> Path:
     """Plot the summary rows' mean coverage curves into a PNG (atomically): one panel per
-    carrier, one line per planner, the coverage goal dashed.
+    carrier, one line per planner, `OPTIMUM`'s black and dotted (the floor of the views to the
+    goal, not of each request's coverage: its views are ordered for the cycle time), the
+    coverage goal dashed.
 
     Raises:
         ValueError: For an empty table.
@@ -394,7 +458,9 @@ def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: 
     import matplotlib.pyplot as plt
 
     carriers = list(dict.fromkeys(row["carrier"] for row in table))
-    planners = list(dict.fromkeys(row["planner"] for row in table))
+    # The optimum is drawn apart, so that a planner's colour does not depend on whether the
+    # optimum ran.
+    planners = list(dict.fromkeys(row["planner"] for row in table if row["planner"] != OPTIMUM))
     if not carriers:
         raise ValueError("no evaluated episodes to plot")
     names = {"robot": f"robot {config.cell.robot} in the loop", "free": "free-flying sensor"}
@@ -403,12 +469,16 @@ def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: 
                                 sharey=True, squeeze=False)
     for axis, carrier in zip(axes[0], carriers, strict=True):
         for row in (row for row in table if row["carrier"] == carrier):
+            curve = [row[key] for key in CURVE_COLUMNS]
+            if row["planner"] == OPTIMUM:
+                axis.plot(views, curve, marker="s", markersize=3, color="black", linestyle=":",
+                          linewidth=2.0, label=f"{OPTIMUM} (fewest views)")
+                continue
             # A planner keeps its colour in every panel; the default cycle has ten colours,
             # so later planners are told apart by their line.
             number = planners.index(row["planner"])
-            axis.plot(views, [row[key] for key in CURVE_COLUMNS], marker="o", markersize=3,
-                      color=f"C{number % 10}", linestyle="-" if number < 10 else "-.",
-                      label=row["planner"])
+            axis.plot(views, curve, marker="o", markersize=3, color=f"C{number % 10}",
+                      linestyle="-" if number < 10 else "-.", label=row["planner"])
         axis.axhline(100.0 * config.env.coverage_goal, color="black", linestyle="--",
                      linewidth=1.0, label=f"goal {config.env.coverage_goal:.0%}")
         axis.set_title(names.get(carrier, carrier))
@@ -435,6 +505,7 @@ def _write_tables(out: Path, rows: list[dict[str, Any]], specs: Sequence[Episode
         title += f" (partial: {len(rows)} of {total} episodes)"
     write_text(out / "evaluation.md", text)
     write_text(out / "evaluation.csv", csv_text(COLUMNS, table))
+    write_text(out / VERSUS_NAME, csv_text(VERSUS_COLUMNS, versus_optimum(rows)))
     if table:  # an interrupt before the first episode finished leaves nothing to plot
         plot_coverage_curves(table, config, out / PLOT_NAME, title)
     return table
@@ -530,12 +601,13 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
 
     Args:
         config: The configuration.
-        planners: Planner names (`random1`, `random2`, `hrec`, `bscp`, `oracle`), or `bscp<N>`
-            for B_SCP with N views.
+        planners: Planner names (`random1`, `random2`, `hrec`, `bscp`, `oracle`, `optimum`:
+            the others are then compared with it), or `bscp<N>` for B_SCP with N views.
         specs: The episodes (`evaluation_episodes`).
         out_dir: Folder for `evaluation.md`, `evaluation.csv` (one row per planner and
-            carrier), `evaluation_episodes.csv` (one row per episode) and `episodes.json` (the
-            episode list), `coverage_vs_views.png` (the mean coverage curves) and
+            carrier), `evaluation_episodes.csv` (one row per episode), `episodes.json` (the
+            episode list), `evaluation_vs_optimum.csv` (each episode row against `optimum`'s,
+            when it ran), `coverage_vs_views.png` (the mean coverage curves) and
             `evaluation_settings.json`; created if missing.
         progress: Show a progress bar.
         carriers: `robot` and/or `free`.
