@@ -188,8 +188,11 @@ def test_a_run_in_use_is_refused_and_a_killed_run_resumes_from_its_checkpoint(
     from vprobot.cli import main
 
     run = tmp_path / "run"
+    # The free-flying sensor: what is tested is the run's lock and resume, and its steps are
+    # the fastest.
     process = _train_in_background(run, ["--steps", "150", "--set", *TINY,
-                                         "agent.checkpoint_freq=50"])
+                                         "agent.checkpoint_freq=50", "env.carrier=free",
+                                         "env.travel_cost=cartesian"])
     try:
         assert _wait_while_running(process, lambda: "steps" in _checkpoint(run)), (
             "the run ended early")
