@@ -14,6 +14,25 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+import numpy.typing as npt
+
+
+def cover_input(visibility: npt.ArrayLike, covered: npt.ArrayLike,
+                count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Copies of a set-cover instance's visibility (candidates, points) and covered (points,)
+    as booleans, checked.
+
+    Raises:
+        ValueError: If the shapes disagree or count < 0.
+    """
+    rows = np.array(visibility, dtype=bool)
+    covered = np.array(covered, dtype=bool)
+    if rows.ndim != 2 or covered.shape != (rows.shape[1],):
+        raise ValueError(f"visibility (candidates, points) and covered (points,) disagree: "
+                         f"{rows.shape} and {covered.shape}")
+    if count < 0:
+        raise ValueError(f"count must be >= 0, got {count}")
+    return rows, covered
 
 
 def greedy_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
@@ -42,13 +61,7 @@ def greedy_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
     Raises:
         ValueError: If the shapes disagree or count < 0.
     """
-    rows = np.array(visibility, dtype=bool)
-    covered = np.array(covered, dtype=bool)
-    if rows.ndim != 2 or covered.shape != (rows.shape[1],):
-        raise ValueError(f"visibility (candidates, points) and covered (points,) disagree: "
-                         f"{rows.shape} and {covered.shape}")
-    if count < 0:
-        raise ValueError(f"count must be >= 0, got {count}")
+    rows, covered = cover_input(visibility, covered, count)
     needed = math.ceil(goal * len(covered) - 1e-9) if goal is not None else None
     confirmed = np.zeros(len(rows), dtype=bool) if confirm is not None else np.ones(len(rows),
                                                                                    dtype=bool)

@@ -44,7 +44,7 @@ from vprobot.planners.candidates import (
     CONFIRMATIONS_PER_PICK,
     candidate_views,
 )
-from vprobot.planners.greedy import greedy_cover
+from vprobot.planners.greedy import cover_input, greedy_cover
 from vprobot.planners.ordering import cycle_order
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
@@ -154,13 +154,7 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         ValueError: If the shapes disagree, count < 0, or the goal lies outside (0, 1].
     """
     start = time.perf_counter()
-    visibility = np.asarray(visibility, dtype=bool)
-    covered = np.asarray(covered, dtype=bool)
-    if visibility.ndim != 2 or covered.shape != (visibility.shape[1],):
-        raise ValueError(f"visibility (candidates, points) and covered (points,) disagree: "
-                         f"{visibility.shape} and {covered.shape}")
-    if count < 0:
-        raise ValueError(f"count must be >= 0, got {count}")
+    visibility, covered = cover_input(visibility, covered, count)
     if goal is not None and not 0.0 < goal <= 1.0:
         raise ValueError(f"goal must lie in (0, 1], got {goal}")
     needed = (max(math.ceil(goal * len(covered) - 1e-9) - int(covered.sum()), 0)
