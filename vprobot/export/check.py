@@ -19,9 +19,7 @@ from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
 from vprobot.kinematics.motion_planner import densify
 from vprobot.kinematics.trajectory import MotionLimits, Trajectory
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import MOTORS_DIR
-from vprobot.render.replay import _locate, plan_config, read_plan
+from vprobot.render.replay import plan_object, read_plan
 from vprobot.scene import Cell
 
 POSITION_TOLERANCE_M = 1e-4
@@ -119,13 +117,8 @@ def limit_failures(samples: Trajectory, limits: MotionLimits
 def _cell(config: Config, document: dict, plan_path: Path) -> tuple[Cell, np.ndarray]:
     """The plan's cell (robot, base, mount, the object where the plan put it) and the object's
     rotation, as `vprobot render --plan` rebuilds them."""
-    block = document["object"]
-    mesh_path = _locate(str(block.get("mesh")), plan_path, "object mesh", Path.is_file,
-                        MOTORS_DIR)
-    mesh = load_mesh(mesh_path, float(block.get("scale", 1.0)))
-    rotation = quat_to_matrix(np.asarray(block["quaternion"], dtype=float))
-    center = np.asarray(block["position"], dtype=float) + rotation @ mesh.offset
-    return Cell(plan_config(config, document, center, plan_path), mesh.mesh), rotation
+    cell_config, mesh, rotation = plan_object(config, document, plan_path)
+    return Cell(cell_config, mesh.mesh), rotation
 
 
 def _collision_failures(cell: Cell, rotation: np.ndarray, motion: PlanMotion,

@@ -20,7 +20,7 @@ from vprobot.config import Config, replace
 from vprobot.episode import CARRIERS, Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.geometry import Pose, quat_to_matrix, rotation_about_y, rotation_about_z
 from vprobot.kinematics import SensorTarget
-from vprobot.mesh_loading import load_mesh
+from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR
 
 BASE_ROTATION_TOLERANCE = 1e-6
@@ -134,6 +134,25 @@ def plan_config(config: Config, document: dict[str, Any], object_center: np.ndar
     return replace(config, "sensor", **sensor)
 
 
+def plan_object(config: Config, document: dict[str, Any], plan_path: Path
+                ) -> tuple[Config, LoadedMesh, np.ndarray]:
+    """The config of a plan's cell with its object where the plan put it, the object's mesh
+    (loaded once: a dense mesh costs seconds of simplification) and its rotation.
+
+    Raises:
+        ValueError: If the object block is incomplete or its mesh is missing.
+    """
+    block = document["object"]
+    mesh_path = _locate(str(_field(block, "mesh", "object")), plan_path, "object mesh",
+                        Path.is_file, MOTORS_DIR)
+    rotation = quat_to_matrix(_vector(block, "quaternion", 4, "object"))
+    mesh = load_mesh(mesh_path, float(block.get("scale", 1.0)))
+    # The block places the file's vertices; the cell places the centred mesh (see
+    # MotorScene.object_block), so the centre is the file origin moved by the centring offset.
+    center = _vector(block, "position", 3, "object") + rotation @ mesh.offset
+    return plan_config(config, document, center, plan_path), mesh, rotation
+
+
 def episode_from_plan(config: Config, plan_path: str | Path,
                       resolution: tuple[int, int] | None = None
                       ) -> tuple[MotorScene, EpisodeRecord]:
@@ -153,17 +172,8 @@ def episode_from_plan(config: Config, plan_path: str | Path,
     """
     plan_path = Path(plan_path)
     document = read_plan(plan_path)
-    block = document["object"]
-    mesh_path = _locate(str(_field(block, "mesh", "object")), plan_path, "object mesh",
-                        Path.is_file, MOTORS_DIR)
-    scale = float(block.get("scale", 1.0))
-    rotation = quat_to_matrix(_vector(block, "quaternion", 4, "object"))
-    # The block places the file's vertices; the cell places the centred mesh (see
-    # MotorScene.object_block), so the centre is the file origin moved by the centring offset.
-    # Loaded once: a dense mesh costs seconds of simplification.
-    mesh = load_mesh(mesh_path, scale)
-    center = _vector(block, "position", 3, "object") + rotation @ mesh.offset
-    scene = MotorScene.build(plan_config(config, document, center, plan_path), mesh, resolution)
+    cell_config, mesh, rotation = plan_object(config, document, plan_path)
+    scene = MotorScene.build(cell_config, mesh, resolution)
     carrier = document.get("carrier", "robot")
     if carrier not in CARRIERS:
         raise ValueError(f"plan carrier must be one of {list(CARRIERS)}, got {carrier!r}")
