@@ -44,6 +44,7 @@ from vprobot.evaluation import (
     versus_optimum,
 )
 from vprobot.geometry import Pose
+from vprobot.planners.base import Proof
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.planners.bscp import SetCoverPlanner
@@ -232,6 +233,31 @@ def test_planners_are_compared_with_the_optimum_of_the_same_episode_and_carrier(
     assert free["episodes"] == 2 and free["acquisitions"] == pytest.approx(6.5)
 
 
+def test_the_optimums_proof_is_a_column_that_survives_the_csv(tmp_path: Path) -> None:
+    # Three optimum episodes: proven, a one-view gap, a two-view gap; bscp has no proof.
+    proofs = [Proof(True, 3, 0), Proof(False, 3, 1), Proof(False, 2, 2)]
+    rows = [episode_row(index, dataclasses.replace(_result([0.9]), carrier="robot",
+                                                   planner="optimum", proof=proof))
+            for index, proof in enumerate(proofs)]
+    rows.append(episode_row(0, dataclasses.replace(_result([0.9]), carrier="robot")))
+    assert [(row["proven"], row["gap_views"]) for row in rows] == [
+        (True, 0), (False, 1), (False, 2), (None, None)]
+    path = tmp_path / "evaluation_episodes.csv"
+    with path.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, EPISODE_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+    assert finished_rows(path) == rows
+    table = {row["planner"]: row for row in summarize(rows)}
+    assert table["optimum"]["proven_pct"] == pytest.approx(100 / 3)
+    assert table["optimum"]["gap_views_max"] == 2
+    assert table["nbv"]["proven_pct"] is table["nbv"]["gap_views_max"] is None
+    text = markdown(summarize(rows), episode_list(CONFIG, [DEFAULT_MOTOR], [0]), CONFIG)
+    assert "| proven % | gap views, max |" in text
+    # The optimum's row ends with its comparison with itself (no cycle time) and the proof.
+    assert "| 0.00 | 100 | - | 33 | 2 |" in text
+
+
 def test_the_markdown_shows_the_comparison_or_says_how_to_get_it() -> None:
     specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
     without = markdown(summarize([_scored(0, "bscp", "robot", 4, 12.0)]), specs, CONFIG)
@@ -400,7 +426,7 @@ def test_summarize_averages_per_planner_and_carrier() -> None:
             "joint_time_s": None,
             "joint_path_rad": None, "cartesian_m": None, "paper_m": 1.0, "reachable_pct": None,
             "plan_s": 0.5, "plan_ms_per_view": 100.0, "episode_s": 1.0,
-            **dict.fromkeys(CURVE_COLUMNS, 50.0)}
+            **dict.fromkeys(CURVE_COLUMNS, 50.0), "proven": None, "gap_views": None}
     rows = [{**base, "episode": 0, "planner": "bscp", "carrier": "free", "coverage_pct": 90.0,
              "success": True},
             {**base, "episode": 1, "planner": "bscp", "carrier": "free", "coverage_pct": 80.0,
@@ -418,7 +444,8 @@ def test_a_policys_summary_is_the_one_summary_by_hand() -> None:
                "joint_time_s": 2.0, "joint_path_rad": 3.0, "cartesian_m": 1.0, "paper_m": 0.8,
                "reachable_pct": 500 / 6, "plan_s": 0.3, "plan_ms_per_view": 50.0,
                "episode_s": 2.0,
-               **dict(zip(CURVE_COLUMNS, [40, 60, 80, 90] + [95] * 6, strict=True))}
+               **dict(zip(CURVE_COLUMNS, [40, 60, 80, 90] + [95] * 6, strict=True)),
+               "proven": None, "gap_views": None}
     missed = {**reached, "episode": 1, "coverage_pct": 75.0, "acquisitions": 3, "requested": 4,
               "success": False, "views_to_goal": None, "cycle_time_s": 8.0, "joint_time_s": 1.0,
               "joint_path_rad": 1.0, "cartesian_m": 0.5, "paper_m": 0.4, "reachable_pct": 75.0,

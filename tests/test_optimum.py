@@ -205,8 +205,9 @@ def test_the_optimum_with_the_robot_confirms_its_views_and_needs_no_more_than_bs
         assert record.coverage >= CONFIG.env.coverage_goal
         assert len(record.views) <= len(records["bscp"].views)
         # Unproven in 5 s here: the gap is what the bound leaves.
-        assert optimum.gap_views == len(optimum.picks) - optimum.bound >= 0
-        assert optimum.proven == (optimum.gap_views == 0)
+        proof = optimum.proof
+        assert proof.gap_views == len(optimum.picks) - proof.bound >= 0
+        assert proof.proven == (proof.gap_views == 0)
     else:
         assert len(record.views) == views
         assert record.coverage >= records["bscp"].coverage - 1e-12

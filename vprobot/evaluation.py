@@ -67,15 +67,17 @@ OPTIMUM = "optimum"
 """The planner whose rows the others are compared with (`vprobot.planners.optimum`)."""
 OPTIMUM_COLUMNS = ("views_above_optimum", "within_one_view_pct", "cycle_ratio")
 """The summary's comparison with `OPTIMUM` (`summarize`); empty without its rows."""
+PROOF_COLUMNS = ("proven", "gap_views")
+"""An exact planner's proof per episode (`Proof`): empty for the other planners."""
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
            "requested", "failed_requests", "success_pct", "area_pct", "views_to_goal",
            "cycle_time_s", "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m",
            "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS,
-           *OPTIMUM_COLUMNS)
+           *OPTIMUM_COLUMNS, "proven_pct", "gap_views_max")
 EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
                    "requested", "failed_requests", "success", "views_to_goal", "cycle_time_s",
                    "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct",
-                   "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS)
+                   "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS, *PROOF_COLUMNS)
 VERSUS_COLUMNS = ("episode", "planner", "carrier", "views_above_optimum", "cycle_ratio")
 """The per-episode comparison with `OPTIMUM` (`versus_optimum`)."""
 VERSUS_NAME = "evaluation_vs_optimum.csv"
@@ -145,6 +147,8 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "plan_ms_per_view": 1e3 * result.plan_seconds / max(result.requested, 1),
         "episode_s": result.episode_seconds,
         **dict(zip(CURVE_COLUMNS, coverage_curve(result), strict=True)),
+        "proven": None if result.proof is None else result.proof.proven,
+        "gap_views": None if result.proof is None else result.proof.gap_views,
     }
 
 
@@ -181,7 +185,8 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     `views_to_goal` over those that reached the goal only (None if none did), and the
     comparison with the optimum (`OPTIMUM_COLUMNS`, from `versus_optimum`) over those that
     have an optimum row (None if none has): the mean views above it, the share of episodes
-    within one view of it (%) and the mean ratio of the cycle times."""
+    within one view of it (%) and the mean ratio of the cycle times; for an exact planner the
+    share of its plans proven optimal (%) and the largest gap in views (None for the others)."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["planner"], row["carrier"]), []).append(row)
@@ -194,6 +199,8 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         curve = [statistics.fmean(row[key] for row in group) for key in CURVE_COLUMNS]
         compared = versus.get((planner, carrier), [])
         within = [row["views_above_optimum"] <= 1 for row in compared]
+        proofs = [row for row in group if row["proven"] is not None]
+        gaps = [row["gap_views"] for row in proofs if row["gap_views"] is not None]
         table.append({
             "planner": planner,
             "carrier": carrier,
@@ -213,6 +220,9 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "views_above_optimum": _mean(compared, "views_above_optimum"),
             "within_one_view_pct": 100.0 * statistics.fmean(within) if within else None,
             "cycle_ratio": _mean(compared, "cycle_ratio"),
+            "proven_pct": (100.0 * statistics.fmean(row["proven"] for row in proofs)
+                           if proofs else None),
+            "gap_views_max": max(gaps) if gaps else None,
         })
     return table
 
@@ -232,7 +242,8 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | failed "
               "| success % | area % | views to goal | cycle s | joint_time s | joint_path rad "
               "| cartesian m | paper m | reachable % | plan s | ms per view | cov@5 % | cov@10 % "
-              "| views above optimum | within +1 view % | cycle / optimum |")
+              "| views above optimum | within +1 view % | cycle / optimum | proven % "
+              "| gap views, max |")
     lines = [
         "# Planner evaluation",
         "",
@@ -256,7 +267,10 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         f"the robot did not reach. Against `{OPTIMUM}` (the fewest candidate views that reach "
         f"the goal, on the same episode and carrier): the mean acquisitions above its own, the "
         f"share of episodes within one view of it, and the mean ratio of the cycle times "
-        f"(per episode in `{VERSUS_NAME}`).",
+        f"(per episode in `{VERSUS_NAME}`). `proven %` is the share of `{OPTIMUM}`'s plans "
+        f"its solver proved optimal (on the measured visibility of the views chosen) within "
+        f"its time limit, `gap views, max` the most views any of its plans lies above the "
+        f"proven fewest (0: proven).",
         "",
         *([] if any(row["views_above_optimum"] is not None for row in table) else [
             f"No `{OPTIMUM}` rows here, so the comparison with it is empty: add it to the "
@@ -278,7 +292,8 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
                  _cell(row["plan_s"], 3), _cell(row["plan_ms_per_view"], 1),
                  _cell(row["cov_5_pct"], 2), _cell(row["cov_10_pct"], 2),
                  _cell(row["views_above_optimum"], 2), _cell(row["within_one_view_pct"], 0),
-                 _cell(row["cycle_ratio"], 3)]
+                 _cell(row["cycle_ratio"], 3), _cell(row["proven_pct"], 0),
+                 _cell(row["gap_views_max"], 0)]
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "Paper, Table 9 (free-flying sensor, 100 synthetic motors):", "",
               "| agent | coverage % | acquisitions | calculation time s |", "|---|---|---|---|"]
@@ -288,7 +303,7 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
 
 
 _INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested", "failed_requests",
-                    "views_to_goal")
+                    "views_to_goal", "gap_views")
 _TEXT_COLUMNS = ("planner", "carrier", "motor")
 
 
@@ -302,7 +317,7 @@ def _typed(line: str) -> dict[str, Any] | None:
     for key, text in zip(EPISODE_COLUMNS, cells, strict=True):
         if key in _TEXT_COLUMNS:
             typed[key] = text
-        elif key == "success":
+        elif key == "success" or (key == "proven" and text):
             if text not in ("True", "False"):
                 return None
             typed[key] = text == "True"

@@ -12,6 +12,7 @@ runner builds planners by name from there (`vprobot.planners.runner.make_planner
 from __future__ import annotations
 
 import abc
+import dataclasses
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -29,6 +30,22 @@ MAX_VIEWS = 100
 """Most views a plan may be asked for (`--views`, `bscp<N>`, `agent<N>`, `uniform<k>`): ten
 times the view budget of an episode (`env.max_acquisitions`, 10), and at a policy step or a
 greedy pick per view still a run of minutes, where a count of millions ran for days."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Proof:
+    """What an exact planner proved of its last plan (`optimum`).
+
+    Attributes:
+        proven: Whether the plan is proven optimal on the measured rows of its views.
+        bound: The last solve's proven bound: the fewest views that reach the goal, or the most
+            GT points a fixed number of views adds (`optimum<N>`, or a goal out of reach).
+        gap_views: Views above the proven fewest (0 when proven; None without that bound).
+    """
+
+    proven: bool
+    bound: int | None
+    gap_views: int | None
 
 
 def check_views(views: int, what: str = "views") -> None:
@@ -55,6 +72,7 @@ class Planner(abc.ABC):
         candidates: The candidate views a model-based planner chose from in its last episode.
         stop_reason: Why the planner stopped itself in its last episode (None when it did not:
             the runner stopped it, or a fixed plan ran out).
+        proof: What an exact planner proved of its last episode's plan; None for the others.
     """
 
     name: ClassVar[str]
@@ -66,6 +84,7 @@ class Planner(abc.ABC):
     decides_stop: bool = False
     candidates: CandidateViews | None = None
     stop_reason: str | None = None
+    proof: Proof | None = None
 
     @classmethod
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:

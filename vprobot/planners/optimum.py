@@ -37,7 +37,7 @@ import numpy as np
 from scipy import optimize, sparse
 
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import register_planner
+from vprobot.planners.base import Proof, register_planner
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
@@ -309,10 +309,8 @@ class OptimumPlanner(SetCoverPlanner):
         picks: The plan's candidates (before ordering for cycle time).
         gains: GT points each pick adds after the ones before it (measured).
         greedy_picks: B_SCP's picks on the same candidates, the incumbent.
-        proven: Whether the plan is proven optimal on the measured rows of its views.
-        bound: The last solve's proven bound: the fewest views that reach the goal, or the most
-            GT points `views` views add (`optimum<N>`, or a goal no `max_views` views reach).
-        gap_views: Views above the proven fewest (0 when proven; None without that bound).
+        proof: Whether the plan is proven optimal on the measured rows of its views, the last
+            solve's bound and the views above it (`Proof`).
         solve_seconds: Time spent in the solver (all rounds).
         rounds: Solves run.
 
@@ -331,9 +329,6 @@ class OptimumPlanner(SetCoverPlanner):
             raise ValueError(f"time_limit_s must be > 0 s, got {time_limit_s}")
         self.time_limit_s = time_limit_s
         self.greedy_picks: list[int] = []
-        self.proven = False
-        self.bound: int | None = None
-        self.gap_views: int | None = None
         self.solve_seconds = 0.0
         self.rounds = 0
 
@@ -382,10 +377,11 @@ class OptimumPlanner(SetCoverPlanner):
                 break
         # A proof on rows that include none confirmed since holds for `best` (no worse than
         # the cover on those rows).
-        self.proven = cover.proven and not fresh
-        self.bound = cover.views_bound if cover.views_bound is not None else cover.points_bound
-        self.gap_views = (max(len(best) - cover.views_bound, 0)
-                          if goal is not None and cover.views_bound is not None else None)
+        self.proof = Proof(
+            proven=cover.proven and not fresh,
+            bound=cover.views_bound if cover.views_bound is not None else cover.points_bound,
+            gap_views=(max(len(best) - cover.views_bound, 0)
+                       if goal is not None and cover.views_bound is not None else None))
         return best
 
 

@@ -28,7 +28,7 @@ from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
 from vprobot.planners import agent, bscp, hrec, nbv, optimum, oracle, random_views, uniform
-from vprobot.planners.base import PLANNERS, Planner, check_views
+from vprobot.planners.base import PLANNERS, Planner, Proof, check_views
 from vprobot.planners.candidates import CandidateViews
 from vprobot.stopping.estimator import load_estimator
 from vprobot.stopping.rules import StopRule, make_stop_rule
@@ -140,6 +140,7 @@ class EpisodeResult:
         estimates: The model-free coverage estimate (mean, std) after each view, when asked for
             (NaN where it was refused).
         estimate_notes: Why the estimate was refused, widened or kept, each once.
+        proof: What an exact planner (`optimum`) proved of its plan; None for the others.
     """
 
     planner: str
@@ -156,6 +157,7 @@ class EpisodeResult:
     planner_stopped: bool = False
     estimates: np.ndarray | None = None
     estimate_notes: tuple[str, ...] = ()
+    proof: Proof | None = None
 
     @property
     def mesh(self) -> str:
@@ -312,7 +314,7 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
                          cycle=episode_cycle(played.record, scene.cell),
                          candidates=chosen.candidates, stop_reason=played.stop_reason,
                          stop_rule=stop, planner_stopped=played.planner_stopped,
-                         estimates=estimated, estimate_notes=tuple(notes))
+                         estimates=estimated, estimate_notes=tuple(notes), proof=chosen.proof)
 
 
 def summary(result: EpisodeResult, config: Config) -> str:
