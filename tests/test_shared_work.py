@@ -1,5 +1,6 @@
 """Work shared by the planners of one episode: the candidate views, their screening and
-visibility, the simulated confirmations and the loaded motor (docs/evaluation.md#shared-work)."""
+visibility, the simulated confirmations, the robot's moves and frames and the loaded motor
+(docs/evaluation.md#shared-work)."""
 
 from __future__ import annotations
 
@@ -18,10 +19,12 @@ from vprobot.episode import Episode, MotorScene, SharedWork, ViewRequest, episod
 from vprobot.evaluation import evaluate
 from vprobot.geometry import rotation_about_z
 from vprobot.kinematics import SensorTarget
+from vprobot.kinematics.arm import RobotArm
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners import candidates
 from vprobot.planners.candidates import CandidateViews, candidate_views
 from vprobot.planners.visibility import VisibilityRenderer
+from vprobot.sensor import DepthSensor
 
 CONFIG = Config()
 MODEL_BASED = ("bscp", "bscp4", "oracle")
@@ -46,6 +49,8 @@ def calls(monkeypatch: pytest.MonkeyPatch) -> Counter[str]:
     counting(VisibilityRenderer, "visible")
     counting(Episode, "preview")
     counting(mesh_loading, "_read_mesh")
+    counting(RobotArm, "plan")
+    counting(DepthSensor, "acquire_at")
     return counts
 
 
@@ -157,3 +162,28 @@ def test_a_copys_confirmations_are_its_own_and_simulated_once_for_all() -> None:
     assert other.measured(2, episode) is views.measured(2, episode)
     assert episode.previews == 1
     assert other.known_visibility()[2, 2]
+
+
+def test_a_move_is_planned_and_a_frame_taken_once_for_the_episodes_that_start_alike(
+        motor: MotorScene, calls: Counter[str]) -> None:
+    shared = SharedWork()
+    first, second = (Episode(motor, np.eye(3), shared=shared) for _ in range(2))
+    views = candidate_views(first, 30, (24, 18))
+    request = views.request(int(np.flatnonzero(views.usable)[0]))
+    calls.clear()
+    preview = first.preview(request)
+    assert (calls["plan"], calls["acquire_at"]) == (0, 1)
+    # Executing the previewed view takes no second frame; the move to it is planned once.
+    taken = first.request(request)
+    assert (calls["plan"], calls["acquire_at"]) == (1, 1)
+    again = second.request(request)
+    assert (calls["plan"], calls["acquire_at"]) == (1, 1)
+    np.testing.assert_array_equal(again.points_world, taken.points_world)
+    np.testing.assert_array_equal(again.path, taken.path)
+    assert int(preview.sum()) > 0 and second.coverage == first.coverage > 0
+    # The frames are read-only: a later user cannot change what another episode measured.
+    assert not taken.points_world.flags.writeable
+    # An episode of its own plans and measures again, and gets the same.
+    alone = Episode(motor, np.eye(3)).request(request)
+    assert (calls["plan"], calls["acquire_at"]) == (2, 2)
+    np.testing.assert_array_equal(alone.points_world, taken.points_world)

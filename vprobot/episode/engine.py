@@ -25,14 +25,14 @@ from vprobot.kinematics import TravelCost
 
 
 def make_carrier(name: CarrierName, scene: MotorScene, object_rotation: np.ndarray,
-                 unreachable: str = "skip") -> Carrier:
-    """The carrier by name.
+                 unreachable: str = "skip", shared: SharedWork | None = None) -> Carrier:
+    """The carrier by name; the robot keeps its planned moves in `shared` (`RobotCarrier`).
 
     Raises:
         ValueError: For an unknown name.
     """
     if name == "robot":
-        return RobotCarrier(scene, object_rotation, unreachable)
+        return RobotCarrier(scene, object_rotation, unreachable, shared)
     if name == "free":
         return FreeCarrier(scene, object_rotation)
     raise ValueError(f"unknown carrier {name!r}; allowed: {', '.join(CARRIERS)}")
@@ -63,14 +63,15 @@ class Episode:
                  carrier: CarrierName = "robot", unreachable: str = "skip",
                  start_joints: np.ndarray | None = None, shared: SharedWork | None = None):
         self.scene = scene
-        self.carrier: Carrier = make_carrier(carrier, scene, object_rotation, unreachable)
+        self.shared = shared if shared is not None else SharedWork()
+        self.carrier: Carrier = make_carrier(carrier, scene, object_rotation, unreachable,
+                                             self.shared)
         self.object_pose = self.carrier.object_pose
         self.tracker = CoverageTracker.from_ground_truth(scene.ground_truth)
         joints = scene.cell.joints
         self.start_joints = joints.home.copy() if start_joints is None else joints.check(
             start_joints, "start_joints")
         self.q = self.start_joints.copy()
-        self.shared = shared if shared is not None else SharedWork()
         self.shared.bind(scene, self.object_pose.rotation, carrier, self.start_joints)
         self.pose: Pose | None = None
         self.views: list[ViewRecord] = []

@@ -9,6 +9,7 @@ import numpy as np
 from vprobot.episode.carrier import Carrier, CarrierName
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import ViewRecord, ViewRequest
+from vprobot.episode.shared import SharedWork
 from vprobot.geometry import Pose
 from vprobot.kinematics import UNSOLVED, ReachResult
 from vprobot.kinematics.collision import CollisionChecker
@@ -29,6 +30,10 @@ class RobotCarrier(Carrier):
         unreachable: `skip`: an unreachable request leaves the robot where it is and acquires
             nothing; `nearest`: if the IK's closest configuration is collision-free and a
             collision-free move joins it, move there and acquire.
+        shared: Where the planned moves and the frames taken are kept, by their ends and by
+            the sensor pose and configuration: an episode's `SharedWork`, so that the planners
+            of one spec and carrier plan each move and take each frame once (both depend on
+            those arguments only); the carrier's own when omitted.
 
     Raises:
         ValueError: For an unknown unreachable policy.
@@ -38,7 +43,7 @@ class RobotCarrier(Carrier):
     uses_robot: ClassVar[bool] = True
 
     def __init__(self, scene: MotorScene, object_rotation: np.ndarray,
-                 unreachable: str = "skip"):
+                 unreachable: str = "skip", shared: SharedWork | None = None):
         if unreachable not in UNREACHABLE_POLICIES:
             raise ValueError(f"unreachable must be one of {list(UNREACHABLE_POLICIES)}, got "
                              f"{unreachable!r}")
@@ -46,11 +51,15 @@ class RobotCarrier(Carrier):
         self.arm = scene.arm
         self.collisions = CollisionChecker(scene.cell, object_rotation)
         self.unreachable = unreachable
+        self.shared = shared if shared is not None else SharedWork()
 
     def plan(self, q_from: np.ndarray, q_to: np.ndarray) -> MotionPlan | None:
         """The collision-free move between two configurations in this episode's cell (the
-        straight line when free, else planned per `kinematics.path_planner`), or None."""
-        return self.arm.plan(q_from, q_to, self.collisions)
+        straight line when free, else planned per `kinematics.path_planner`), or None; each
+        move is planned once (`shared`)."""
+        q_from, q_to = (np.asarray(q, dtype=float) for q in (q_from, q_to))
+        return self.shared.get(("move", q_from.tobytes(), q_to.tobytes()),
+                               lambda: self.arm.plan(q_from, q_to, self.collisions))
 
     def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
         """Whether a collision-free move joins two configurations (`plan` finds one)."""
@@ -121,7 +130,7 @@ class RobotCarrier(Carrier):
                 # No collision-free move from here was found; the IK may find another
                 # configuration (its restarts) that one joins.
                 pass
-        result = self.arm.reach(request.target, joints, self.collisions)
+        result = self.arm.reach(request.target, joints, self.collisions, plan=self.plan)
         if result.motion is not None:
             return self._executed(requested, joints, result.q, result.motion, True, None)
         nearest = self._feasible_nearest(result, joints) if self.unreachable == "nearest" else None
@@ -131,12 +140,26 @@ class RobotCarrier(Carrier):
                           joints=joints.copy(), path=None, sensor_pose=None)
 
     def acquire(self, move: ViewRecord) -> Acquisition:
-        return self.scene.sensor.acquire_at(move.sensor_pose, self.object_pose.rotation,
-                                            move.joints)
+        return self._frame(move.sensor_pose, move.joints)
 
     def preview(self, request: ViewRequest) -> Acquisition:
         """Acquire from the request's configuration (the arm occluding as it would)."""
         if request.joints is None:
             raise ValueError("a robot view can only be previewed from its joints")
-        return self.scene.sensor.acquire_at(self.arm.fk(request.joints),
-                                            self.object_pose.rotation, request.joints)
+        return self._frame(self.arm.fk(request.joints), request.joints)
+
+    def _frame(self, pose: Pose, joints: np.ndarray) -> Acquisition:
+        """The frame from `pose` with the arm at `joints`, taken once (`shared`): a preview and
+        the view executed there, by any planner of the episode, measure the same (the sensing
+        model's draws are seeded by the poses). Its arrays are read-only."""
+        joints = np.asarray(joints, dtype=float)
+
+        def take() -> Acquisition:
+            frame = self.scene.sensor.acquire_at(pose, self.object_pose.rotation, joints)
+            for array in (frame.points_world, frame.points_object, frame.pixels,
+                          frame.blocked_pixels):
+                array.flags.writeable = False
+            return frame
+
+        return self.shared.get(("frame", pose.position.tobytes(), pose.rotation.tobytes(),
+                                joints.tobytes()), take)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
+from collections.abc import Callable
 from typing import Literal
 
 import mujoco
@@ -229,7 +230,9 @@ class RobotArm:
 
     def reach(self, target: SensorTarget, q_from: np.ndarray,
               collisions: CollisionChecker | None = None,
-              restarts: int | None = None) -> ReachResult:
+              restarts: int | None = None,
+              plan: Callable[[np.ndarray, np.ndarray], MotionPlan | None] | None = None
+              ) -> ReachResult:
         """Find a feasible configuration for `target`, starting the IK from `q_from`.
 
         The first attempt is warm-started from `q_from`, so the nearest branch (shortest travel)
@@ -243,12 +246,15 @@ class RobotArm:
             collisions: The checker holding the episode's object placement; `self.collisions`
                 (object upright) when omitted.
             restarts: Restart seeds to try at most; `settings.restarts` when omitted.
+            plan: Plans the move to a solution, as `plan` does with `collisions` (its
+                default): an episode's keeps the moves it planned.
 
         Raises:
             ValueError: If `q_from` is not a finite configuration of the right size.
         """
         q_from = self.joints.check(q_from, "q_from")
         collisions = collisions if collisions is not None else self.collisions
+        move = plan if plan is not None else functools.partial(self.plan, collisions=collisions)
         restarts = self.settings.restarts if restarts is None else min(restarts,
                                                                        self.settings.restarts)
         distance = np.linalg.norm(target.pose.position - self.shoulder_position)
@@ -269,7 +275,7 @@ class RobotArm:
             if not self.joints.within_limits(attempt.q) or collisions.in_collision(attempt.q):
                 failures.append((2, attempt))
             else:
-                motion = self.plan(q_from, attempt.q, collisions)
+                motion = move(q_from, attempt.q)
                 if motion is not None:
                     return self._result(attempt, None, iterations, len(failures) + 1, motion)
                 failures.append((3, attempt))
