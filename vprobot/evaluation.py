@@ -69,11 +69,13 @@ OPTIMUM_COLUMNS = ("views_above_optimum", "within_one_view_pct", "cycle_ratio")
 """The summary's comparison with `OPTIMUM` (`summarize`); empty without its rows."""
 PROOF_COLUMNS = ("proven", "gap_views")
 """An exact planner's proof per episode (`Proof`): empty for the other planners."""
+PROOF_SUMMARY_COLUMNS = ("proven_pct", "gap_views_max")
+"""The summary of `PROOF_COLUMNS` over an exact planner's episodes (`summarize`)."""
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
            "requested", "failed_requests", "success_pct", "area_pct", "views_to_goal",
            "cycle_time_s", "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m",
            "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS,
-           *OPTIMUM_COLUMNS, "proven_pct", "gap_views_max")
+           *OPTIMUM_COLUMNS, *PROOF_SUMMARY_COLUMNS)
 EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
                    "requested", "failed_requests", "success", "views_to_goal", "cycle_time_s",
                    "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct",

@@ -16,13 +16,19 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from vprobot.config import Config, replace
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec, episode_cycle
-from vprobot.evaluation import COLUMNS, OPTIMUM_COLUMNS, episode_row, summarize
+from vprobot.evaluation import (
+    COLUMNS,
+    OPTIMUM_COLUMNS,
+    PROOF_SUMMARY_COLUMNS,
+    episode_row,
+    summarize,
+)
 from vprobot.planners.runner import EpisodeResult
 
-SUMMARY_KEYS = tuple(key for key in COLUMNS
-                     if key not in ("planner", "carrier", *OPTIMUM_COLUMNS))
+SUMMARY_KEYS = tuple(key for key in COLUMNS if key not in ("planner", "carrier", *OPTIMUM_COLUMNS,
+                                                           *PROOF_SUMMARY_COLUMNS))
 """The columns of a policy's summary: `vprobot evaluate`'s table without planner and carrier,
-and without the comparison with the optimum (a policy is scored alone)."""
+and without the comparison with the optimum and its proofs (a policy is scored alone)."""
 POLICY = "policy"
 """The planner column of a policy's episode rows."""
 
