@@ -1,0 +1,133 @@
+"""The README's result tables, from the committed evaluation folders of one cell.
+
+For each test list (motors `test-v1`, held-out families `families-test-v1`, shapes `shapes-v1`)
+it reads the cell's `vprobot evaluate` folder and, for agents trained with `vprobot train
+--seeds`, each seed's scoring of that list (`seed-<n>/test/LIST/`). An agent's episodes are
+compared with the folder's `optimum` rows of the same episodes (the episode lists must be the
+same, which is checked), then summarised per seed (`vprobot.evaluation.summarize`) and given as
+mean (min-max) over the seeds. Exit 2 with one line on stderr for a bad argument or an
+unreadable input.
+
+Usage:
+    python scripts/results_tables.py --folders results/real --carrier robot \
+        --out results/real/tables.md
+    python scripts/results_tables.py --folders results --carrier robot \
+        --agents "agent, generalist=results/generalist/planned" --out results/tables_paper.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+from pathlib import Path
+from typing import Any
+
+from vprobot.evaluation import EPISODES_NAME, OPTIMUM, finished_rows, summarize
+from vprobot.files import write_text
+from vprobot.outputs import check_output_file
+
+LISTS = (("motors", "test-v1", "motors"), ("families", "families-test-v1", "families-test"),
+         ("shapes", "shapes-v1", "shapes"))
+"""Each test list: its column label, its name and its folder under `--folders`."""
+COLUMNS = (("success_pct", "at goal %", "{:.0f}"), ("acquisitions", "views", "{:.2f}"),
+           ("failed_requests", "failed", "{:.2f}"), ("cycle_time_s", "cycle s", "{:.2f}"),
+           ("views_above_optimum", "above optimum", "{:+.2f}"))
+"""The figures shown per list: key in the summary, header, format."""
+FREE_COLUMNS = (COLUMNS[0], COLUMNS[1], COLUMNS[4])
+"""Without the robot nothing fails and there is no cycle."""
+
+
+def _episodes(folder: Path) -> list[dict[str, Any]]:
+    path = folder / EPISODES_NAME
+    if not path.is_file():
+        raise ValueError(f"{path} does not exist; run the folder's command first")
+    return finished_rows(path)
+
+
+def _episode_list(folder: Path) -> Any:
+    path = folder / "episodes.json"
+    if not path.is_file():
+        raise ValueError(f"{path} does not exist")
+    return json.loads(path.read_text())["episodes"]
+
+
+def _cell(values: list[float | None], form: str, seeds: bool) -> str:
+    present = [value for value in values if value is not None]
+    if not present:
+        return "-"
+    text = form.format(statistics.fmean(present))
+    if seeds:
+        text += f" ({form.format(min(present))}-{form.format(max(present))})".replace("+", "")
+    return text
+
+
+def table(folders: Path, carrier: str, agents: dict[str, Path]) -> str:
+    """The Markdown table of every planner of the cell's folders (and the agents) on the three
+    lists, for one carrier."""
+    columns = COLUMNS if carrier == "robot" else FREE_COLUMNS
+    cells: dict[str, dict[str, str]] = {}
+    for label, name, sub in LISTS:
+        folder = folders / sub
+        rows = [row for row in _episodes(folder) if row["carrier"] == carrier]
+        if not rows:
+            raise ValueError(f"{folder} has no {carrier} rows")
+        optimum = [row for row in rows if row["planner"] == OPTIMUM]
+        for summary in summarize(rows):
+            cells.setdefault(summary["planner"], {})[label] = " | ".join(
+                _cell([summary[key]], form, False) for key, _, form in columns)
+        for agent, root in agents.items():
+            per_seed = []
+            for seed_dir in sorted(root.glob("seed-*")):
+                scored = seed_dir / "test" / name
+                if _episode_list(scored) != _episode_list(folder):
+                    raise ValueError(f"{scored} was scored on other episodes than {folder}")
+                own = [{**row, "planner": agent} for row in _episodes(scored)
+                       if row["carrier"] == carrier]
+                per_seed.append(next(summary for summary in summarize(own + optimum)
+                                     if summary["planner"] == agent))
+            if not per_seed:
+                raise ValueError(f"{root} holds no seed-<n>/test/{name}")
+            cells.setdefault(f"{agent} ({len(per_seed)} seeds)", {})[label] = " | ".join(
+                _cell([summary[key] for summary in per_seed], form, True)
+                for key, _, form in columns)
+    header = "| planner | " + " | ".join(f"{label}: {title}" if index == 0 else title
+                                          for label, _, _ in LISTS
+                                          for index, (_, title, _) in enumerate(columns)) + " |"
+    lines = [header, "|" + "---|" * (header.count("|") - 1)]
+    empty = " | ".join("-" for _ in columns)
+    for planner, by_list in cells.items():
+        lines.append(f"| {planner} | " + " | ".join(by_list.get(label, empty)
+                                                   for label, _, _ in LISTS) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--folders", type=Path, required=True,
+                        help="the folder holding motors/, families-test/ and shapes/")
+    parser.add_argument("--carrier", choices=("robot", "free"), default="robot")
+    parser.add_argument("--agents", nargs="*", default=[], metavar="LABEL=DIR",
+                        help="agents trained with --seeds: DIR holds seed-<n>/test/LIST/")
+    parser.add_argument("--out", type=Path, required=True, help="the Markdown file to write")
+    args = parser.parse_args(argv)
+    try:
+        agents = {}
+        for item in args.agents:
+            label, separator, folder = item.partition("=")
+            if not separator or not label or not folder:
+                raise ValueError(f"--agents takes LABEL=DIR, got {item!r}")
+            agents[label] = Path(folder)
+        check_output_file(args.out, "--out", (".md",))
+        text = table(args.folders, args.carrier, agents)
+    except (ValueError, OSError) as error:
+        print(f"results_tables.py: error: {error}", file=sys.stderr)
+        return 2
+    write_text(args.out, text)
+    print(text, end="")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
