@@ -19,7 +19,13 @@ from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import candidate_views
 from vprobot.planners.greedy import greedy_cover
-from vprobot.planners.optimum import OptimumPlanner, fewest_views, reduce_cover, solve_cover
+from vprobot.planners.optimum import (
+    OptimumPlanner,
+    fewest_views,
+    reduce_cover,
+    solve_cover,
+    swap_down,
+)
 from vprobot.planners.ordering import cycle_order, path_cost, shortest_cycle
 from vprobot.planners.runner import make_planner, parse_planner, run_episode
 
@@ -122,6 +128,34 @@ def test_the_optimum_never_needs_more_views_than_greedy(seed: int) -> None:
         cover = solve_cover(visibility, covered, count, time_limit_s=1.0)
         assert covered_by(visibility, covered, cover.picks) >= covered_by(visibility, covered,
                                                                           tuple(picks))
+
+
+def test_swapping_two_views_for_one_undoes_greedys_classic_mistake() -> None:
+    # Greedy takes the middle row (6 points), then needs both halves' rest: 3 rows; the two
+    # halves alone cover all 10.
+    visibility = np.zeros((3, 10), dtype=bool)
+    visibility[0, :5] = visibility[1, 5:] = True
+    visibility[2, 2:8] = True
+    covered = np.zeros(10, dtype=bool)
+    picks, _ = greedy_cover(visibility, covered, 3, 1.0)
+    assert sorted(picks) == [0, 1, 2]
+    assert sorted(swap_down(visibility, covered, 10, picks)) == [0, 1]
+    # Short of the goal, the picks stay as they are.
+    assert swap_down(visibility, covered, 10, [2]) == [2]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_swapped_picks_still_reach_the_goal_with_no_more_rows(seed: int) -> None:
+    rng = np.random.default_rng(300 + seed)
+    for _ in range(20):
+        visibility, covered = random_instance(rng, int(rng.integers(3, 30)), 120)
+        needed = math.ceil(rng.uniform(0.5, 0.95) * len(covered)) - int(covered.sum())
+        picks, _ = greedy_cover(visibility, covered, len(visibility),
+                                (needed + covered.sum()) / len(covered))
+        swapped = swap_down(visibility, covered, needed, picks)
+        assert len(swapped) <= len(picks) and len(set(swapped)) == len(swapped)
+        if covered_by(visibility, covered, tuple(picks)) - covered.sum() >= needed:
+            assert covered_by(visibility, covered, tuple(swapped)) - covered.sum() >= needed
 
 
 def test_a_time_limit_keeps_the_incumbent_and_states_the_gap() -> None:

@@ -14,8 +14,9 @@ reduced (`reduce_cover`): points already covered or seen by no candidate are dro
 by the same candidates merge into one weighted y, and a candidate whose points another one sees
 too (dominated) is dropped. When 3 or fewer views reach the goal, they are found by counting
 pairs and triples (`fewest_views`), which also proves when 4 are needed. Greedy's solution
-(B_SCP's picks) is the incumbent: the program is bounded by it (no more views, or no fewer
-points) and is only taken when it does better, so the optimum never needs more views than B_SCP.
+(B_SCP's picks), made smaller where one candidate stands in for two of its views (`swap_down`),
+is the incumbent: the program is bounded by it (no more views, or no fewer points) and is only
+taken when it does better, so the optimum never needs more views than B_SCP.
 HiGHS stops at `time_limit_s` (after its root relaxation, which it does not interrupt); the
 planner then keeps the best solution found and records the proven gap.
 
@@ -29,6 +30,7 @@ executed plan falls short of the goal, the planner adds B_SCP's next view as B_S
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -178,6 +180,8 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
     greedy = tuple(greedy_cover(visibility, covered, count, goal)[0])
     incumbent = greedy if _better(visibility, covered, count, goal, greedy, incumbent) else tuple(
         incumbent)
+    if needed is not None:
+        incumbent = tuple(swap_down(visibility, covered, needed, incumbent))
     reduced = reduce_cover(visibility, covered)
     if needed is not None and reduced.weights.sum() >= needed:
         reaching = incumbent if points(incumbent) >= needed and len(incumbent) <= count else None
@@ -199,6 +203,38 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
     picks, bound = _solve(reduced, count, None, max(time_limit_s, 0.0), floor)
     best = picks if picks is not None and points(picks) > floor else fallback
     return result(best, points_bound=bound)
+
+
+def swap_down(visibility: np.ndarray, covered: np.ndarray, needed: int,
+              picks: Sequence[int]) -> list[int]:
+    """`picks` made smaller while one row can stand in for two of them: each time, the pair
+    whose points one other row adds, with the rest, to `needed` new points is replaced by it.
+    Picks that do not reach `needed` are returned as they are.
+
+    Greedy's last picks often add little each; one row may cover what two of them add. A
+    smaller incumbent bounds the program tighter, and is a solution where HiGHS's time runs out.
+    """
+    picks = list(picks)
+
+    def added(chosen: Sequence[int]) -> np.ndarray:
+        return covered | visibility[list(chosen)].any(axis=0) if chosen else covered.copy()
+
+    if int((added(picks) & ~covered).sum()) < needed:
+        return picks
+    target = needed + int(covered.sum())
+    improved = True
+    while improved and len(picks) >= 2:
+        improved = False
+        for first, second in itertools.combinations(range(len(picks)), 2):
+            rest = [pick for index, pick in enumerate(picks) if index not in (first, second)]
+            base = added(rest)
+            gains = visibility[:, ~base].sum(axis=1)
+            best = int(np.argmax(gains))
+            if int(base.sum()) + int(gains[best]) >= target:
+                # A best row that adds nothing is one the rest already holds: they suffice.
+                picks, improved = rest + [best] if gains[best] else rest, True
+                break
+    return picks
 
 
 def fewest_views(reduced: Reduced, needed: int) -> tuple[list[int] | None, int]:
