@@ -92,6 +92,18 @@ def test_split_v2_is_v1_with_thousands_of_procedural_instances_added() -> None:
         f"generated/procedural_{seed}.stl" for seed in range(10000, 10004)]
 
 
+def test_a_split_giving_seeds_to_a_family_it_does_not_train_on_is_refused(
+        tmp_path: Path) -> None:
+    from vprobot.splits import split_file
+
+    path = tmp_path / "v9.yaml"
+    path.write_text(split_file(2).read_text().replace("procedural: [0, 5000]",
+                                                      "pulley: [0, 5000]"))
+    with pytest.raises(ValueError, match=r"not a split file \(family_instances names "
+                                         r"\['pulley'\], not training families\)"):
+        Split.load(path)
+
+
 def test_env_split_picks_the_split_that_training_and_validation_draw_from() -> None:
     from vprobot.env.inspect_env import motor_files
 
