@@ -20,6 +20,7 @@ from vprobot.families.procedural import (
     Base,
     Layout,
     accepted_layout,
+    base_of,
     draw_feature,
 )
 from vprobot.paths import OBJECTS_DIR
@@ -69,6 +70,15 @@ def test_the_seed_fixes_the_part_and_every_seed_gives_another(
     assert np.array_equal(FAMILY.build(instance.parameters).vertices, drawn[17][1].vertices)
     assert FAMILY.instance(17).mesh.export(file_type="stl") == instance.mesh.export(
         file_type="stl")
+
+
+def test_the_base_body_has_the_drawn_bounding_sphere_radius() -> None:
+    for seed in range(30):
+        values = FAMILY.sample(family_rng(FAMILY.name, seed))
+        base = base_of(values)
+        radius = np.linalg.norm(base.mesh().vertices, axis=1).max()
+        assert radius == pytest.approx(values["size_m"], rel=1e-9)
+        assert base.size == pytest.approx(radius, rel=1e-9)
 
 
 def test_every_feature_kind_and_base_kind_appears_across_seeds(

@@ -210,7 +210,7 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
 PINNED_SHA256 = {
     "bracket": "aacec58c042cd363", "flange": "c9e9cae60cda6379", "housing": "ffa5cb5974f36a97",
     "lever": "dadd1e244fd4f1d9", "pipe_fitting": "0a38250d4bac1bf7",
-    "procedural": "69be6ddb6887a952", "pulley": "85d3eb1371153e3d",
+    "procedural": "2dd98189bc5e515b", "pulley": "85d3eb1371153e3d",
     "spur_gear": "80872660f6236cf2", "stepped_shaft": "92c102d6c4b503e0",
     "valve_body": "643fd0356dc084ed", "motor_2": "1e00ba74d244f0a2",
 }

@@ -29,8 +29,8 @@ RADIUS_RANGE_M = (0.06, 0.155)
 """Bounding-sphere radius of every instance: inside the 0.055-0.16 m that every family keeps to
 (docs/episodes-and-carriers.md#part-families; the default cell allows 0.189 m)."""
 MAX_DRAWS = 50
-"""Layouts drawn before a seed is given up on, a bug of a drawer (of seeds 0-4999, 1 in 9 takes
-a second draw, 1 in 100 a fifth, none more than 11)."""
+"""Layouts drawn before a seed is given up on, a bug of a drawer (of seeds 0-4999, 1 in 10 takes
+a second draw and none more than 9)."""
 _MIN_FACE_M = 0.01
 """Faces narrower than twice this (a plate's edges) take no features."""
 _SECTIONS = 40
@@ -97,8 +97,7 @@ class Base:
 
     Attributes:
         kind: One of `BASE_KINDS`.
-        extents: Bounding-box size (x, y, z).
-        size: Half the diagonal of the bounding box: the scale features are drawn at.
+        extents: Bounding-box size (x, y, z); a disc's axis is z.
     """
 
     kind: str
@@ -106,6 +105,9 @@ class Base:
 
     @property
     def size(self) -> float:
+        """Bounding-sphere radius (the `size_m` parameter): the scale features are drawn at."""
+        if self.kind == "disc":
+            return float(np.hypot(self.extents[0], self.extents[2])) / 2
         return float(np.linalg.norm(self.extents)) / 2
 
     def mesh(self) -> trimesh.Trimesh:
@@ -385,7 +387,7 @@ class Procedural(PartFamily):
                    "holes, pockets, slots, steps, overhangs, undercuts")
     parameters = (
         Parameter("base_kind", 0, 2, "0 plate, 1 block, 2 disc", integer=True),
-        Parameter("size_m", 0.07, 0.13, "half the diagonal of the base body"),
+        Parameter("size_m", 0.07, 0.13, "bounding-sphere radius of the base body"),
         Parameter("width_ratio", 0.4, 1.0, "base width / length (plate, block)"),
         Parameter("height_ratio", 0.0, 1.0, "base height within its kind's range"),
         Parameter("feature_count", 2, 8, "features drawn on the base", integer=True),
