@@ -1,4 +1,5 @@
-"""Split v1: what trains, selects and tests agents never overlaps; generated objects; lists."""
+"""Splits v1 and v2: what trains, selects and tests agents never overlaps; generated objects;
+lists; v2 is v1 with the procedural family added."""
 
 from __future__ import annotations
 
@@ -19,11 +20,12 @@ from vprobot.episode.specs import (
 from vprobot.families import FAMILIES
 from vprobot.generated import family_of, generated_path, motor_object
 from vprobot.paths import MOTORS_DIR
-from vprobot.splits import MOTORS, Split
+from vprobot.splits import MOTORS, Split, split_versions
 
 CONFIG = Config()
 SPLIT = Split.load()
 ALL_SOURCES = (MOTORS, *SPLIT.training_families)
+SPLITS = {version: Split.bundled(version) for version in split_versions()}
 
 
 @pytest.fixture
@@ -40,10 +42,12 @@ def episode_key(spec: EpisodeSpec) -> tuple:
     return spec.motor, spec.object_quaternion
 
 
-def test_no_test_object_family_or_episode_reaches_training_or_validation() -> None:
-    training = names(SPLIT.training_objects(ALL_SOURCES))
-    validation = read_episode_list(bundled_episode_list(SPLIT.validation_list))
-    tests = [spec for name in SPLIT.test_lists
+@pytest.mark.parametrize("version", sorted(SPLITS))
+def test_no_test_object_family_or_episode_reaches_training_or_validation(version: int) -> None:
+    split = SPLITS[version]
+    training = names(split.training_objects((MOTORS, *split.training_families)))
+    validation = read_episode_list(bundled_episode_list(split.validation_list))
+    tests = [spec for name in split.test_lists
              for spec in read_episode_list(bundled_episode_list(name))]
     test_objects = {spec.motor for spec in tests}
     assert not test_objects & training
@@ -51,21 +55,72 @@ def test_no_test_object_family_or_episode_reaches_training_or_validation() -> No
     assert not {episode_key(spec) for spec in tests} & {episode_key(s) for s in validation}
     # Families: the test families are never trained on or validated on, and the test lists'
     # generated objects all belong to test families.
-    assert not set(SPLIT.test_families) & set(SPLIT.training_families)
+    assert not set(split.test_families) & set(split.training_families)
     trained_families = {family_of(name) for name in training} - {None}
-    assert trained_families == set(SPLIT.training_families)
-    assert {family_of(spec.motor) for spec in validation} <= {*SPLIT.training_families, "motor"}
-    assert {family_of(spec.motor) for spec in tests} - {None} <= set(SPLIT.test_families)
+    assert trained_families == set(split.training_families)
+    assert {family_of(spec.motor) for spec in validation} <= {*split.training_families, "motor"}
+    assert {family_of(spec.motor) for spec in tests} - {None} <= set(split.test_families)
     # Validation objects are not training objects either (held-out instances, new motors).
     assert not {spec.motor for spec in validation} & training
     # The non-motor shapes are kinds of parts held out of training (a bracket, a pipe tee).
-    assert {"bracket", "pipe_fitting"} <= set(SPLIT.test_families)
-    assert set(SPLIT.test_families) | set(SPLIT.training_families) <= set(FAMILIES)
+    assert {"bracket", "pipe_fitting"} <= set(split.test_families)
+    assert set(split.test_families) | set(split.training_families) <= set(FAMILIES)
 
 
-def test_split_lists_are_what_the_sampler_draws() -> None:
-    for name, specs in split_lists(CONFIG, SPLIT).items():
+@pytest.mark.parametrize("version", sorted(SPLITS))
+def test_split_lists_are_what_the_sampler_draws(version: int) -> None:
+    for name, specs in split_lists(CONFIG, SPLITS[version]).items():
         assert read_episode_list(bundled_episode_list(name)) == specs
+
+
+def test_split_v2_is_v1_with_thousands_of_procedural_instances_added() -> None:
+    v1, v2 = SPLITS[1], SPLITS[2]
+    assert SPLIT == v1 and v2.version == 2
+    assert v2.training_families == (*v1.training_families, "procedural")
+    assert all(v2.instances_of(family) == v1.instances_of(family) == range(200)
+               for family in v1.training_families)
+    assert v2.instances_of("procedural") == range(5000)
+    for field in ("test_families", "test_instances", "test_poses", "test_lists",
+                  "validation_motor_seed", "validation_motor_count", "validation_instances",
+                  "validation_poses"):
+        assert getattr(v2, field) == getattr(v1, field)
+    # A run on v1's sources validates on the same episodes under either split.
+    first = read_episode_list(bundled_episode_list(v1.validation_list))
+    second = read_episode_list(bundled_episode_list(v2.validation_list))
+    assert [spec for spec in second if family_of(spec.motor) != "procedural"] == first
+    assert sorted(spec.motor for spec in second if family_of(spec.motor) == "procedural") == [
+        f"generated/procedural_{seed}.stl" for seed in range(10000, 10004)]
+
+
+def test_a_split_giving_seeds_to_a_family_it_does_not_train_on_is_refused(
+        tmp_path: Path) -> None:
+    from vprobot.splits import split_file
+
+    path = tmp_path / "v9.yaml"
+    path.write_text(split_file(2).read_text().replace("procedural: [0, 5000]",
+                                                      "pulley: [0, 5000]"))
+    with pytest.raises(ValueError, match=r"not a split file \(family_instances names "
+                                         r"\['pulley'\], not training families\)"):
+        Split.load(path)
+
+
+def test_env_split_picks_the_split_that_training_and_validation_draw_from() -> None:
+    from vprobot.env.inspect_env import motor_files
+
+    config = replace(CONFIG, "env", objects=("motors", "procedural"), split=2)
+    objects = motor_files(config)
+    assert len(objects) == 2 * 5000
+    assert {family_of(str(item)) for item in objects} == {None, "procedural"}
+    assert "generated/procedural_4999.stl" in objects
+    episodes = validation_episodes(config)
+    assert [family_of(spec.motor) for spec in episodes] == ["motor"] * 5 + ["procedural"] * 4
+    with pytest.raises(ConfigError, match="unknown source 'procedural'; training sources: "
+                                          "motors, flange, housing"):
+        replace(CONFIG, "env", objects=("procedural",))
+    with pytest.raises(ConfigError, match="'pulley' is a test family of split v2"):
+        replace(CONFIG, "env", objects=("pulley",), split=2)
+    with pytest.raises(ConfigError, match=r"^env.split: no split version 3; bundled: 1, 2$"):
+        replace(CONFIG, "env", split=3)
 
 
 def test_validation_episodes_are_those_of_the_trained_sources() -> None:
@@ -154,7 +209,8 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
 
 PINNED_SHA256 = {
     "bracket": "aacec58c042cd363", "flange": "c9e9cae60cda6379", "housing": "ffa5cb5974f36a97",
-    "lever": "dadd1e244fd4f1d9", "pipe_fitting": "0a38250d4bac1bf7", "pulley": "85d3eb1371153e3d",
+    "lever": "dadd1e244fd4f1d9", "pipe_fitting": "0a38250d4bac1bf7",
+    "procedural": "2dd98189bc5e515b", "pulley": "85d3eb1371153e3d",
     "spur_gear": "80872660f6236cf2", "stepped_shaft": "92c102d6c4b503e0",
     "valve_body": "643fd0356dc084ed", "motor_2": "1e00ba74d244f0a2",
 }

@@ -24,7 +24,7 @@ from vprobot.robots import load_robot
 from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
 from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
 from vprobot.sensing import IDEAL, SensingModel, StructuredLight, check_sensing
-from vprobot.splits import Split
+from vprobot.splits import Split, split_file
 
 
 @dataclasses.dataclass(frozen=True)
@@ -330,6 +330,8 @@ class EnvConfig:
         objects: What training draws from when motors is `train`: `motors` (the bundled
             training motors) and/or training families of the split (`vprobot.splits`), e.g.
             `[motors, flange, housing]`; every source is drawn equally often.
+        split: Version of that split (`configs/splits/v<N>.yaml`), which also sets the
+            validation list: 1 (the committed tables) or 2 (adds the `procedural` family).
         mesh: Mesh file used when motors is `mesh`.
         mesh_scale: Scale applied to that mesh file (e.g. 0.001 for millimetres).
         resolution: Sensor resolution used in the environment; None keeps the sensor's.
@@ -363,6 +365,7 @@ class EnvConfig:
     object_tilt_range_deg: float = 25.0
     motors: Literal["train", "test", "mesh"] = "train"
     objects: tuple[str, ...] = ("motors",)
+    split: int = 1
     mesh: str | None = None
     mesh_scale: float = 1.0
     resolution: tuple[int, int] | None = None
@@ -373,12 +376,16 @@ class EnvConfig:
         check_registered(self.reward, REWARDS, "env.reward")
         if self.motors == "mesh" and self.mesh is None:
             raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
+        try:
+            split_file(self.split)
+        except ValueError as error:
+            raise ConfigError(f"env.split: {error}") from None
         if self.objects != ("motors",):
             if self.motors != "train":
                 raise ConfigError(f"env.objects {list(self.objects)} applies to training "
                                   f"(env.motors: train), not to env.motors {self.motors!r}")
             try:
-                Split.load().check_sources(self.objects)
+                Split.bundled(self.split).check_sources(self.objects)
             except ValueError as error:
                 raise ConfigError(str(error)) from None
         if self.motors != "mesh" and self.mesh is not None:

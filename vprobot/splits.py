@@ -1,17 +1,19 @@
 """The protocol's split: which objects train agents, which select them, which test them.
 
-Written down in `configs/splits/v1.yaml` (versioned): the training objects are the bundled
-training motors and instances 0-199 of five part families; the validation list (model selection
-only: best model, early stop, hyperparameters) holds new motors and held-out instances of the
-same families; the test lists (reported numbers only) are the bundled test motors, instances of
-four families never trained on, and the non-motor shapes. `tests/test_splits.py` checks that no
-test object, family or episode reaches training or validation.
+Written down in `configs/splits/v<N>.yaml` (versioned; `env.split` picks one, 1 by default).
+In v1 the training objects are the bundled training motors and instances 0-199 of five part
+families; the validation list (model selection only: best model, early stop, hyperparameters)
+holds new motors and held-out instances of the same families; the test lists (reported numbers
+only) are the bundled test motors, instances of four families never trained on, and the
+non-motor shapes. v2 is v1 with the `procedural` family added to training (instances 0-4999)
+and validation (4 held-out instances); its test side is v1's. `tests/test_splits.py` checks for
+every version that no test object, family or episode reaches training or validation.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +22,7 @@ from vprobot.paths import MOTORS_DIR, SPLITS_DIR
 from vprobot.schema import read_yaml
 
 SPLIT_FILE = SPLITS_DIR / "v1.yaml"
+"""The default split (`env.split` 1): the committed tables were made with it."""
 MOTORS = "motors"
 """The source name of the bundled training motors in `env.objects`."""
 
@@ -29,9 +32,32 @@ def _seeds(bounds: Sequence[int]) -> range:
     return range(int(low), int(high))
 
 
+def split_versions() -> list[int]:
+    """The versions of the bundled splits, ascending."""
+    return sorted(int(path.stem[1:]) for path in SPLITS_DIR.glob("v*.yaml")
+                  if path.stem[1:].isdigit())
+
+
+def split_file(version: int) -> Path:
+    """The file of bundled split `version`.
+
+    Raises:
+        ValueError: For a version not bundled; the message lists the bundled ones.
+    """
+    path = SPLITS_DIR / f"v{version}.yaml"
+    if not path.is_file():
+        raise ValueError(f"no split version {version}; bundled: "
+                         f"{', '.join(map(str, split_versions()))}")
+    return path
+
+
 @dataclasses.dataclass(frozen=True)
 class Split:
-    """A versioned split (see the module docstring and `configs/splits/v1.yaml`)."""
+    """A versioned split (see the module docstring and `configs/splits/v1.yaml`).
+
+    `training_instances` are the training seeds of every training family but those that
+    `family_instances` gives seeds of their own (`instances_of`).
+    """
 
     version: int
     training_families: tuple[str, ...]
@@ -45,6 +71,16 @@ class Split:
     test_instances: range
     test_poses: tuple[int, ...]
     test_lists: tuple[str, ...]
+    family_instances: Mapping[str, range] = dataclasses.field(default_factory=dict)
+
+    @classmethod
+    def bundled(cls, version: int = 1) -> Split:
+        """Bundled split `version` (`split_file`).
+
+        Raises:
+            ValueError: For a version not bundled.
+        """
+        return cls.load(split_file(version))
 
     @classmethod
     def load(cls, path: str | Path = SPLIT_FILE) -> Split:
@@ -56,6 +92,11 @@ class Split:
         try:
             data: dict[str, Any] = read_yaml(path)
             training, validation, test = data["training"], data["validation"], data["test"]
+            own = {str(name): _seeds(bounds)
+                   for name, bounds in training.get("family_instances", {}).items()}
+            strangers = sorted(set(own) - set(training["families"]))
+            if strangers:
+                raise ValueError(f"family_instances names {strangers}, not training families")
             return cls(
                 version=int(data["version"]),
                 training_families=tuple(training["families"]),
@@ -69,8 +110,9 @@ class Split:
                 test_instances=_seeds(test["instances"]),
                 test_poses=tuple(int(s) for s in test["poses"]),
                 test_lists=tuple(test["lists"]),
+                family_instances=own,
             )
-        except (KeyError, TypeError, ValueError) as error:
+        except (AttributeError, KeyError, TypeError, ValueError) as error:
             raise ValueError(f"{path}: not a split file ({error})") from None
 
     def check_sources(self, sources: Sequence[str], key: str = "env.objects") -> None:
@@ -91,13 +133,17 @@ class Split:
                 raise ValueError(f"{key}: unknown source {source!r}; training sources: "
                                  f"{', '.join(allowed)}")
 
+    def instances_of(self, family: str) -> range:
+        """The training seeds of a training family."""
+        return self.family_instances.get(family, self.training_instances)
+
     def training_objects(self, sources: Sequence[str]) -> list[str | Path]:
         """The objects training draws from (bundled motor files, generated names), each source
         repeated to the size of the largest, so that a uniform draw picks every source equally
         often (20 motors beside 200 instances of a family would otherwise be 1 draw in 11)."""
         self.check_sources(sources)
         groups = [sorted((MOTORS_DIR / "train").glob("*.stl")) if source == MOTORS else
-                  [family_object(source, seed) for seed in self.training_instances]
+                  [family_object(source, seed) for seed in self.instances_of(source)]
                   for source in sources]
         size = max(len(group) for group in groups)
         return [group[index % len(group)] for group in groups for index in range(size)]

@@ -236,7 +236,8 @@ def write_table(study: Study, out: Path, table: list[dict[str, Any]]) -> None:
              f"({', '.join(map(str, study.seeds))}), {steps} steps each. The paper: 75 000 "
              f"steps, 3 runs per configuration. Mean (min-max) over seeds. Converged: the last "
              f"{CONVERGED_EPISODES} training episodes. Evaluation: the final model, "
-             f"deterministic, on the validation episodes of its training sources (split v1).", "",
+             f"deterministic, on the validation episodes of its training sources (the split of "
+             f"`env.split`, v1 unless set).", "",
              "| configuration | seeds | train coverage % | train acquisitions | eval coverage % "
              "| eval acquisitions | eval success % | reachable % | joint time s | ms per view "
              "| wall min |",

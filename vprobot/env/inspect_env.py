@@ -68,7 +68,7 @@ def motor_files(config: Config) -> list[str | Path]:
             raise FileNotFoundError(f"env.mesh not found: {path}")
         return [path]
     if env.motors == "train":
-        return Split.load().training_objects(env.objects)
+        return Split.bundled(env.split).training_objects(env.objects)
     files = sorted((MOTORS_DIR / env.motors).glob("*.stl"))
     if not files:
         raise FileNotFoundError(f"no motors (*.stl) in {MOTORS_DIR / env.motors}")

@@ -283,8 +283,8 @@ def read_episode_list(path: str | Path) -> list[EpisodeSpec]:
 
 
 def split_lists(config: Config, split: Split) -> dict[str, list[EpisodeSpec]]:
-    """The episode lists the split defines, drawn by the shared sampler: `validation-v1` and
-    `families-test-v1`."""
+    """The episode lists the split defines, drawn by the shared sampler: its validation list
+    (`validation-v1`, `validation-v2`) and `families-test-v1`."""
     return {
         split.validation_list: episode_list(config, split.validation_objects(),
                                             split.validation_poses),
@@ -295,7 +295,7 @@ def split_lists(config: Config, split: Split) -> dict[str, list[EpisodeSpec]]:
 def validation_episodes(config: Config, split: Split | None = None) -> list[EpisodeSpec]:
     """The validation episodes of what a config trains on: those of its sources (new motors
     for `motors`, held-out instances for a family)."""
-    split = split if split is not None else Split.load()
+    split = split if split is not None else Split.bundled(config.env.split)
     sources = set(config.env.objects)
     wanted = {"motor" if source == MOTORS else source for source in sources}
     return [spec for spec in read_episode_list(bundled_episode_list(split.validation_list))

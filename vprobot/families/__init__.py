@@ -12,6 +12,7 @@ from vprobot.families import (  # noqa: F401
     housing,
     lever,
     pipe_fitting,
+    procedural,
     pulley,
     spur_gear,
     stepped_shaft,
