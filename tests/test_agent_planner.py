@@ -155,12 +155,21 @@ def test_a_run_whose_config_is_empty_or_no_mapping_names_the_file(
 
 
 def test_an_agent_planner_says_it_is_loading_before_the_slow_load(
-        capsys: pytest.CaptureFixture) -> None:
+        capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.agents import trained
     from vprobot.progress import showing_progress
 
+    said_before: list[str] = []
+
+    def recording_load(source: str) -> trained.TrainedAgent:
+        said_before.append(capsys.readouterr().err)
+        return load_agent(source)
+
+    monkeypatch.setattr(trained, "load_agent", recording_load)
     with showing_progress():
         AgentPlanner("cpu")
-    assert capsys.readouterr().err == "loading agent cpu ...\n"
+    assert said_before == ["loading agent cpu ...\n"]
+    assert capsys.readouterr().err == ""
 
 
 def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(

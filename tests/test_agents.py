@@ -21,8 +21,10 @@ import torch
 import trimesh
 import yaml
 from helpers import TINY_TRAINING, SmokeRuns
+from PIL import Image
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
+from vprobot.agents import curves as curves_module
 from vprobot.agents.callbacks import (
     ResumableCheckpoint,
     SharedEpisodeEvaluation,
@@ -48,6 +50,7 @@ from vprobot.agents.training import (
     train,
 )
 from vprobot.config import ConfigError, replace
+from vprobot.files import save_figure
 from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
@@ -312,10 +315,55 @@ def test_profiles_and_their_memory() -> None:
     assert replace(cpu, "env", carrier="free").env.carrier == "free"
 
 
-def test_curves_of_two_runs(tmp_path: Path, smoke_runs: SmokeRuns) -> None:
-    runs = [smoke_runs(*configuration)[2] for configuration in SMOKE_RUNS[::2]]
-    out = plot_curves(runs, tmp_path / "curves.png", window=3)
-    assert out.stat().st_size > 10_000
+def write_monitor(run: Path, columns: dict[str, list[float]]) -> Path:
+    """A run folder whose monitor.csv (SB3's: a JSON header line, then the CSV) holds
+    `columns`."""
+    run.mkdir()
+    rows = zip(*columns.values(), strict=True)
+    (run / "monitor.csv").write_text(
+        '#{"t_start": 0.0, "env_id": "InspectEnv"}\n' + ",".join(columns) + "\n"
+        + "".join(",".join(map(str, row)) + "\n" for row in rows))
+    return run
+
+
+def test_curves_of_two_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each panel plots the mean of the two runs' trailing means over the shorter run, with a
+    band from their minimum to their maximum: the values worked out by hand below."""
+    longer = write_monitor(tmp_path / "a", {
+        "r": [1, 3, 5, 7], "l": [2, 4, 6, 8], "t": [1, 2, 3, 4],
+        "coverage": [0.5, 0.7, 0.9, 1.0], "acquisitions": [2, 4, 6, 8],
+        "travel_sum_joint_time": [10, 20, 30, 40], "travel_sum_paper": [99, 99, 99, 99]})
+    shorter = write_monitor(tmp_path / "b", {
+        "r": [-1, 1, 3], "l": [4, 4, 4], "t": [1, 2, 3],
+        "coverage": [0.3, 0.5, 0.7], "acquisitions": [4, 4, 4],
+        "travel_sum_joint_time": [20, 20, 20], "travel_sum_paper": [99, 99, 99]})
+    plotted: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    def recording_save(figure: Any, path: Path, title: str) -> Path:
+        for axis in figure.axes:
+            band = axis.collections[0].get_paths()[0].vertices
+            plotted[axis.get_title()] = (np.asarray(axis.lines[0].get_xydata()), band)
+        return save_figure(figure, path, title)
+
+    monkeypatch.setattr(curves_module, "save_figure", recording_save)
+    out = plot_curves([longer, shorter], tmp_path / "curves.png", window=2)
+    # Trailing means over 2 episodes of the first three: (mean, minimum, maximum) per panel.
+    expected = {
+        "coverage at episode end": ([40, 50, 70], [30, 40, 60], [50, 60, 80]),
+        "acquisitions per episode": ([3, 3.5, 4.5], [2, 3, 4], [4, 4, 5]),
+        "episode reward": ([0, 1, 3], [-1, 0, 2], [1, 2, 4]),
+        "travel between views per episode": ([15, 17.5, 22.5], [10, 15, 20], [20, 20, 25]),
+    }
+    assert set(plotted) == set(expected)
+    for title, (mean, low, high) in expected.items():
+        line, band = plotted[title]
+        np.testing.assert_allclose(line, np.column_stack([[1, 2, 3], mean]), err_msg=title)
+        for episode in (1, 2, 3):
+            heights = band[np.isclose(band[:, 0], episode), 1]
+            np.testing.assert_allclose([heights.min(), heights.max()],
+                                       [low[episode - 1], high[episode - 1]], err_msg=title)
+    with Image.open(out) as image:
+        assert image.format == "PNG" and image.size == (1210, 770)
     with pytest.raises(ValueError, match=r"no monitor\.csv"):
         plot_curves([tmp_path], tmp_path / "x.png")
 

@@ -1,7 +1,8 @@
-"""The candidate-view agent (DQN, `vprobot.agents.candidate_q`) on a toy env of the same spaces:
-the Q-network's permutation equivariance, masking (greedy and exploration, brute force),
-config and space checks, the buffer's memory against SB3's allocation, save and load, a small
-training that learns the toy's best candidate, and two env processes."""
+"""The candidate-view agent (DQN, `vprobot.agents.candidate_q`), mostly on a toy env of the
+same kind of spaces: the Q-network's permutation equivariance, masking (greedy and exploration,
+brute force), config and space checks, a small training that learns the toy's best candidate,
+and two env processes; on the inspect env's own spaces (`A_view`, `s_grid`), the buffer's
+memory against SB3's allocation, and save and load."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ import yaml
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from vprobot.agents.candidate_q import MASKED_Q, CandidateDQN, CandidateQNetwork
+from vprobot.agents.trained import load_agent
 from vprobot.agents.training import (
     buffer_memory,
     build_model,
@@ -27,6 +29,7 @@ from vprobot.agents.training import (
     train,
 )
 from vprobot.config import Config, ConfigError, replace
+from vprobot.env.inspect_env import InspectEnv
 from vprobot.paths import CONFIGS_DIR
 
 COUNT, FEATURES = 8, 3
@@ -45,13 +48,13 @@ def candidate_space(robot: bool) -> gym.spaces.Dict:
     return gym.spaces.Dict(spaces)
 
 
-def random_observations(rng: np.random.Generator, count: int,
-                        robot: bool = False) -> dict[str, np.ndarray]:
-    """`count` observations: uniform rows, masks of random density with one candidate or more
-    allowed."""
-    masks = rng.random((count, COUNT)) < rng.uniform(0.1, 0.9, (count, 1))
-    masks[np.arange(count), rng.integers(0, COUNT, count)] = True
-    observations = {"candidates": rng.uniform(-1, 1, (count, COUNT, FEATURES)).astype(np.float32),
+def random_observations(rng: np.random.Generator, count: int, robot: bool = False,
+                        rows: tuple[int, int] = (COUNT, FEATURES)) -> dict[str, np.ndarray]:
+    """`count` observations of `rows` (candidates, features): uniform rows, masks of random
+    density with one candidate or more allowed."""
+    masks = rng.random((count, rows[0])) < rng.uniform(0.1, 0.9, (count, 1))
+    masks[np.arange(count), rng.integers(0, rows[0], count)] = True
+    observations = {"candidates": rng.uniform(-1, 1, (count, *rows)).astype(np.float32),
                     "mask": masks.astype(np.float32)}
     if robot:
         observations["robot"] = rng.uniform(-1, 1, (count, 2)).astype(np.float32)
@@ -102,6 +105,16 @@ def one_torch_thread() -> Iterator[None]:
 
 def dqn_config(**changes: Any) -> Config:
     return replace(Config(), "agent", **{**DQN_AGENT, **changes})
+
+
+def candidate_config(robot: bool, **changes: Any) -> Config:
+    """`dqn_config` with the inspect env's candidate views (`A_view`, `s_grid`)."""
+    return replace(dqn_config(**changes), "env", action="A_view", state="s_grid",
+                   robot_state=robot)
+
+
+REAL_ROWS = (128, 19)
+"""The inspect env's candidate rows: the 128 band candidates, 19 features each."""
 
 
 @pytest.fixture(scope="module")
@@ -208,41 +221,40 @@ def test_algorithms_refuse_envs_they_cannot_act_in(tmp_path: Path) -> None:
     assert not (tmp_path / "run").exists()
 
 
-def test_buffer_memory_is_what_the_dqn_replay_buffer_allocates(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    # Until the candidate env is merged, the config's observations are the toy's.
-    monkeypatch.setattr("vprobot.agents.training.observation_space",
-                        lambda config: candidate_space(robot=True))
-    config = dqn_config(buffer_size=64)
-    buffer = build_model(config, DummyVecEnv([lambda: ToyCandidateEnv(robot=True)]), seed=0,
+def test_buffer_memory_is_what_the_dqn_replay_buffer_allocates() -> None:
+    config = candidate_config(robot=True, buffer_size=64)
+    buffer = build_model(config, DummyVecEnv([lambda: InspectEnv(config)]), seed=0,
                          device="cpu").replay_buffer
     allocated = sum(array.nbytes for name in ("observations", "next_observations")
                     for array in getattr(buffer, name).values())
     allocated += sum(getattr(buffer, name).nbytes
                      for name in ("actions", "rewards", "dones", "timeouts"))
     assert check_memory(config)["total_bytes"] == allocated
-    # Candidates, mask and robot twice (float32), an int64 action, reward and two flags.
+    # Candidates, mask and the UR10's robot state (15) twice (float32), an int64 action, reward
+    # and two flags.
     assert buffer_memory(config)["bytes_per_transition"] == (
-        2 * (COUNT * FEATURES + COUNT + 2) * 4 + 8 + 12)
+        2 * (REAL_ROWS[0] * REAL_ROWS[1] + REAL_ROWS[0] + 15) * 4 + 8 + 12)
     with pytest.raises(ConfigError, match="the dqn buffer would need"):
-        check_memory(dqn_config(buffer_size=10**8))
+        check_memory(candidate_config(robot=True, buffer_size=10**8))
 
 
-def test_a_saved_dqn_run_loads_with_identical_greedy_actions(
-        trained: CandidateDQN, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from vprobot.agents import trained as trained_module
-
+def test_a_saved_dqn_run_loads_with_identical_greedy_actions(tmp_path: Path) -> None:
+    config = candidate_config(robot=False)
+    model = build_model(config, DummyVecEnv([lambda: InspectEnv(config)]), seed=0,
+                        device="cpu")
+    # Weights no fresh model of this seed has: a load that built one would act otherwise.
+    torch.manual_seed(1)
+    with torch.no_grad():
+        for parameter in model.q_net.parameters():
+            parameter.add_(torch.randn_like(parameter))
     run = tmp_path / "run"
     run.mkdir()
-    trained.save(run / "best_model.zip")
-    (run / "config.yaml").write_text(yaml.safe_dump(config_document(dqn_config())))
-    # Until the candidate env is merged, the run config's observations are the toy's.
-    monkeypatch.setattr(trained_module, "observation_space",
-                        lambda config: candidate_space(robot=False))
-    loaded = trained_module.load_agent(run)
+    model.save(run / "best_model.zip")
+    (run / "config.yaml").write_text(yaml.safe_dump(config_document(config)))
+    loaded = load_agent(run)
     assert isinstance(loaded.model, CandidateDQN)
-    observations = random_observations(np.random.default_rng(7), 500)
-    expected, _ = trained.predict(observations, deterministic=True)
+    observations = random_observations(np.random.default_rng(7), 500, rows=REAL_ROWS)
+    expected, _ = model.predict(observations, deterministic=True)
     actions, _ = loaded.model.predict(observations, deterministic=True)
     assert np.array_equal(actions, expected)
     assert len(set(expected)) > 1

@@ -9,9 +9,12 @@ from typing import Any
 
 import numpy as np
 import pytest
+import trimesh
 from helpers import SERIAL_EVALUATION
 from PIL import Image
+from scipy.spatial.transform import Rotation
 
+from vprobot import evaluation as evaluation_module
 from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 from vprobot.config import Config, load_config
@@ -49,7 +52,7 @@ from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.planners.base import Proof
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.optimum import OptimumPlanner
-from vprobot.planners.runner import EpisodeResult
+from vprobot.planners.runner import EpisodeResult, run
 
 CONFIG = Config()
 
@@ -111,11 +114,36 @@ def test_evaluate_writes_markdown_and_csv(serial_evaluation: Path) -> None:
     assert evaluation_episodes(CONFIG, episodes=serial_evaluation / "episodes.json") == specs
 
 
-def test_every_planner_sees_the_same_object_pose(tmp_path: Path) -> None:
-    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [3])
-    evaluate(CONFIG, ["random1", "hrec"], specs, tmp_path, progress=False, carriers=["free"])
-    rows = read_csv(tmp_path / "evaluation_episodes.csv")
-    assert {(row["motor"], row["seed"]) for row in rows} == {("motor_000.stl", "3")}
+def test_every_planner_sees_the_same_object_pose(tmp_path: Path,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """The pose each planner's episode used, and the frames it acquired, are the spec's: its
+    quaternion about the cell's object centre (scipy's rotation and trimesh's distances as the
+    references)."""
+    (spec,) = episode_list(CONFIG, [DEFAULT_MOTOR], [3])
+    results: list[EpisodeResult] = []
+
+    def recording_run(*args: Any, **kwargs: Any) -> EpisodeResult:
+        results.append(run(*args, **kwargs))
+        return results[-1]
+
+    monkeypatch.setattr(evaluation_module, "run", recording_run)
+    evaluate(CONFIG, ["random1", "hrec"], [spec], tmp_path, progress=False, carriers=["free"])
+    assert sorted(result.planner for result in results) == ["hrec", "random1"]
+    rotation = Rotation.from_quat(spec.object_quaternion, scalar_first=True).as_matrix()
+    center = np.asarray(CONFIG.cell.object_center_m)
+    # The mesh file centred on its bounds (the loader's convention), placed by the spec.
+    mesh = trimesh.load_mesh(spec.motor_path)
+    mesh.apply_translation(-mesh.bounds.mean(axis=0))
+    for result in results:
+        pose = result.record.object_pose
+        np.testing.assert_allclose(pose.rotation, rotation, atol=1e-9)
+        np.testing.assert_allclose(pose.position, center, atol=1e-9)
+        points = np.concatenate([view.points_world for view in result.record.views])
+        assert len(points) > 1000, result.planner
+        sample = points[np.random.default_rng(0).choice(len(points), 500, replace=False)]
+        # Back into the mesh's frame by the spec's pose: every point lies on the surface.
+        _, distances, _ = trimesh.proximity.closest_point(mesh, (sample - center) @ rotation)
+        assert distances.max() < 1e-3, (result.planner, distances.max())
 
 
 def test_bundled_episode_list_is_what_the_sampler_draws() -> None:

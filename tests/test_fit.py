@@ -120,10 +120,21 @@ def test_restart_seeds_are_bounded_when_the_object_blocks_the_cell(
 
 
 def test_restart_seeds_of_a_fitting_object_are_unchanged() -> None:
+    """The bound on the draws leaves a fitting object's seeds as they were: home, then the
+    first collision-free draws of the configured generator (uniform within the limits, each
+    joint at most half a turn out)."""
     arm = RobotArm(Cell(CONFIG, load_mesh(MOTOR).mesh))
-    assert len(arm.restart_seeds) == CONFIG.kinematics.restarts
-    np.testing.assert_array_equal(arm.restart_seeds[0], arm.joints.home)
-    assert not any(arm.collisions.in_collision(q) for q in arm.restart_seeds)
+    rng = np.random.default_rng(CONFIG.kinematics.seed)
+    low, high = np.maximum(arm.joints.lower, -math.pi), np.minimum(arm.joints.upper, math.pi)
+    expected = [arm.joints.home]
+    for _ in range(arm_module.MAX_SEED_DRAWS):
+        if len(expected) == CONFIG.kinematics.restarts:
+            break
+        q = rng.uniform(low, high)
+        if not arm.collisions.in_collision(q):
+            expected.append(q)
+    assert len(expected) == CONFIG.kinematics.restarts
+    np.testing.assert_array_equal(np.array(arm.restart_seeds), np.array(expected))
 
 
 def test_cell_clearances_bind_for_unusual_placements(tmp_path: Path) -> None:

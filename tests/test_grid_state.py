@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from scipy import ndimage
 
 from vprobot.agents.trained import TrainedAgent
 from vprobot.config import Config, ConfigError, replace
@@ -17,7 +18,7 @@ from vprobot.env.grid_state import FEATURES, GridState
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import Episode
 from vprobot.geometry import Pose
-from vprobot.occupancy import GAINS, OccupancyGrid
+from vprobot.occupancy import GAINS, UNKNOWN_PASS, OccupancyGrid
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.candidates import band_directions, offered
@@ -37,6 +38,46 @@ def unit(vectors: np.ndarray) -> np.ndarray:
 
 def requested_directions(episode: Episode) -> np.ndarray:
     return unit(np.array([view.requested.position - episode.center for view in episode.views]))
+
+
+def brute_force_gains(grid: OccupancyGrid, poses: list[Pose]) -> tuple[np.ndarray, float]:
+    """The gains (count, `GAINS`) of sensor poses, written out from their definition in
+    `vprobot.occupancy` without its code, and the largest gain of a candidate (every sample
+    of every ray unknown).
+
+    16 x 12 rays through the pixel centres of the field of view; samples half a voxel apart
+    from the near to the far bound; a sample's visibility is the product of the passes of the
+    samples before it (free 1, unknown the root of `UNKNOWN_PASS` as two samples share a voxel,
+    occupied 0; outside the grid 1); a gain sums the visibility of its unknown samples: all
+    of them, those next to a free voxel (frontier), those next to an occupied one (rear side).
+    """
+    sensor = CONFIG.sensor
+    half_x, half_y = (math.tan(math.radians(angle) / 2.0) for angle in sensor.fov_deg)
+    u = half_x * ((np.arange(16) + 0.5) / 8.0 - 1.0)
+    v = half_y * ((np.arange(12) + 0.5) / 6.0 - 1.0)
+    rays = unit(np.array([(x, y, 1.0) for y in v for x in u]))
+    step = grid.voxel_m / 2.0
+    distances = sensor.near_m + step * np.arange(round((sensor.far_m - sensor.near_m) / step) + 1)
+    unknown_pass = UNKNOWN_PASS ** 0.5
+    unknown = grid.state == 0
+    cross = ndimage.generate_binary_structure(3, 1)  # the six face neighbours and the voxel
+    counted = np.stack([unknown, unknown & ndimage.binary_dilation(grid.state == 1, cross),
+                        unknown & ndimage.binary_dilation(grid.state == 2, cross)], axis=-1)
+    shape = np.array(grid.state.shape)
+    gains = np.zeros((len(poses), len(GAINS)))
+    for candidate, pose in enumerate(poses):
+        world_rays = rays @ pose.rotation.T
+        visible = np.ones(len(rays))
+        for distance in distances:
+            voxel = np.floor((pose.position + distance * world_rays - grid.origin)
+                             / grid.voxel_m).astype(int)
+            inside = ((voxel >= 0) & (voxel < shape)).all(axis=1)
+            x, y, z = np.where(inside[:, None], voxel, 0).T
+            state = np.where(inside, grid.state[x, y, z], 1)
+            gains[candidate] += (visible[:, None] * (counted[x, y, z] & inside[:, None])).sum(0)
+            visible = visible * np.select([state == 1, state == 0], [1.0, unknown_pass], 0.0)
+    bound = len(rays) * sum(unknown_pass ** k for k in range(len(distances)))
+    return gains, bound
 
 
 @pytest.fixture(scope="module")
@@ -102,10 +143,20 @@ def test_the_features_are_the_brute_force_values_and_the_gains_of_an_independent
                            view.blocked_pixels)
     builder = env.observer.grid_state
     np.testing.assert_array_equal(builder.episode_grid.grid.state, grid.state)
-    gains = builder.band.gains
+    # The candidates look at the centre from the working distance along their directions.
+    poses = [target.pose for target in builder.band.targets]
+    distance = CONFIG.sensor.working_distance_m
+    np.testing.assert_allclose([pose.position for pose in poses],
+                               episode.center + distance * directions, atol=1e-9)
+    np.testing.assert_allclose([pose.view_axis for pose in poses], -directions, atol=1e-9)
+    gains, bound = brute_force_gains(grid, poses)
     for index, gain in enumerate(GAINS):
-        expected = gains.score(grid, gain) / (gains.rays * gains.ray_bound)
-        np.testing.assert_allclose(rows[:, index], expected, rtol=1e-4, atol=1e-6)
+        np.testing.assert_allclose(rows[:, index], np.minimum(gains[:, index] / bound, 1.0),
+                                   rtol=1e-4, atol=1e-6, err_msg=gain)
+        best = gains[observations[-1]["mask"] == 1, index].max()
+        np.testing.assert_allclose(rows[:, len(GAINS) + index],
+                                   np.minimum(gains[:, index] / best, 1.0), rtol=1e-4, atol=1e-6,
+                                   err_msg=gain)
     counts = grid.counts()
     np.testing.assert_allclose(rows[0, COLUMN["requests_used"]:], [
         2 / 10, *(counts[kind] / grid.state.size for kind in ("occupied", "free", "unknown"))],

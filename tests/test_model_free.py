@@ -4,6 +4,7 @@ gains."""
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 from typing import Any
@@ -229,14 +230,18 @@ def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene, n
 
 def test_uniform_views_are_the_same_whatever_the_object_and_its_pose(
         bracket: MotorScene) -> None:
-    seen = []
-    for seed in (0, 1):
-        episode = guarded_run(make_planner("uniform5", CONFIG), bracket, "free", seed)
+    motor = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
+    seen, rotations = [], []
+    for scene, seed in ((bracket, 0), (bracket, 1), (motor, 2)):
+        episode = guarded_run(make_planner("uniform5", CONFIG), scene, "free", seed)
         seen.append(sorted(tuple(np.round(view.requested.position, 9))
                            for view in episode.views))
+        rotations.append(episode.object_pose.rotation)
         offsets = [view.requested.position - episode.center for view in episode.views]
         assert np.allclose(np.linalg.norm(offsets, axis=1), CONFIG.sensor.working_distance_m)
-    assert len(seen[0]) == 5 and seen[0] == seen[1]
+    # Three poses, two objects: one set of views.
+    assert not any(np.allclose(a, b) for a, b in itertools.combinations(rotations, 2))
+    assert len(seen[0]) == 5 and seen[0] == seen[1] == seen[2]
 
 
 @pytest.mark.parametrize("sensor", ["phoxi_m", "zivid2plus_mr60"])

@@ -5,16 +5,19 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
 from helpers import TINY_TRAINING
 
+from vprobot import render
 from vprobot.cli import main
 from vprobot.config import load_config
-from vprobot.episode import episode_list, write_episode_list
+from vprobot.episode import EpisodeRecord, MotorScene, episode_list, write_episode_list
 from vprobot.evaluation import SETTINGS_NAME
 from vprobot.paths import CONFIGS_DIR, DEFAULT_MOTOR
+from vprobot.render import episode_from_plan
 
 RESOLUTION = (107, 75)
 
@@ -49,13 +52,26 @@ def test_plan_takes_the_presets_model_and_sensing_replaces_it(zivid: Path,
 
 
 def test_render_replays_a_plan_with_the_model_it_was_made_with(
-        zivid: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+        zivid: Path, tmp_path: Path, capsys: pytest.CaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
     plan = tmp_path / "plan.json"
-    _plan(zivid, plan)
+    document = _plan(zivid, plan)
+    replayed: list[EpisodeRecord] = []
+
+    def recording_replay(*args: Any, **kwargs: Any) -> tuple[MotorScene, EpisodeRecord]:
+        scene, record = episode_from_plan(*args, **kwargs)
+        replayed.append(record)
+        return scene, record
+
+    monkeypatch.setattr(render, "episode_from_plan", recording_replay)
     summary = tmp_path / "summary.png"
     assert main(["render", "--plan", str(plan), "--out", str(tmp_path / "replay.mp4"),
                  "--summary", str(summary), "--width", "64", "--height", "48"]) == 0
     assert summary.stat().st_size > 0
+    # Measured as the plan was (structured light): the plan's coverage, view by view.
+    (record,) = replayed
+    assert [view.coverage for view in record.views] == [
+        view["coverage"] for view in document["views"]]
     capsys.readouterr()
     # The plan fixes its sensing model as it fixes the sensor.
     assert main(["render", "--plan", str(plan), "--sensing", "ideal",

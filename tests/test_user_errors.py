@@ -6,13 +6,17 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+from vprobot import kinematics
+from vprobot.benchmarks import env as env_benchmark
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, load_config, replace
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.planners import runner
 
 REACH = ["reach", "--position", "0.45", "-0.47", "0.75", "--look-at", "0.45", "0", "0.75"]
 UNWRITABLE = "/sys" if not os.access("/sys", os.W_OK) or os.geteuid() == 0 else None
@@ -51,9 +55,22 @@ def test_unknown_robot_in_a_config_names_file_and_key(tmp_path: Path,
                    "ur10")
 
 
+def refuse_work(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make the work of `plan`, `render`, `reach` and `benchmark env` fail the test if it
+    starts: their errors must be found before it."""
+
+    def started(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("the work started before the error was found")
+
+    monkeypatch.setattr(runner, "plan_motor", started)
+    monkeypatch.setattr(kinematics, "RobotArm", started)
+    monkeypatch.setattr(env_benchmark, "run_env_benchmark", started)
+
+
 @pytest.mark.skipif(UNWRITABLE is None, reason="no unwritable folder on this machine")
-def test_unwritable_output_folder_is_found_before_planning(capsys: pytest.CaptureFixture
-                                                           ) -> None:
+def test_unwritable_output_folder_is_found_before_planning(
+        capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    refuse_work(monkeypatch)
     target = f"{UNWRITABLE}/plan.json"
     line = one_line_error(["plan", "--out", target], capsys, "--out", target, "cannot write")
     assert ".plan.json." not in line  # the user's path, not a hidden temporary file
@@ -77,6 +94,7 @@ def test_outputs_are_checked_before_the_work(argv: list[str], needles: tuple[str
                                              tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                              capsys: pytest.CaptureFixture) -> None:
     monkeypatch.chdir(tmp_path)
+    refuse_work(monkeypatch)
     one_line_error(argv, capsys, *needles)
     assert not list(tmp_path.iterdir())
 
