@@ -63,11 +63,14 @@ def _cell(values: list[float | None], form: str, seeds: bool) -> str:
     return text
 
 
-def table(folders: Path, carrier: str, agents: dict[str, Path]) -> str:
-    """The Markdown table of every planner of the cell's folders (and the agents) on the three
+def table(folders: Path, carrier: str, agents: dict[str, Path],
+          planners: list[str] | None = None, after: str = "nbv@grid") -> str:
+    """The Markdown table of the planners of the cell's folders (`planners`, in that order;
+    None: all, in the folders' order) and the agents, placed after `after`'s row, on the three
     lists, for one carrier."""
     columns = COLUMNS if carrier == "robot" else FREE_COLUMNS
     cells: dict[str, dict[str, str]] = {}
+    agent_rows: dict[str, None] = {}
     for label, name, sub in LISTS:
         folder = folders / sub
         rows = [row for row in _episodes(folder) if row["carrier"] == carrier]
@@ -89,15 +92,27 @@ def table(folders: Path, carrier: str, agents: dict[str, Path]) -> str:
                                      if summary["planner"] == agent))
             if not per_seed:
                 raise ValueError(f"{root} holds no seed-<n>/test/{name}")
+            agent_rows.setdefault(f"{agent} ({len(per_seed)} seeds)", None)
             cells.setdefault(f"{agent} ({len(per_seed)} seeds)", {})[label] = " | ".join(
                 _cell([summary[key] for summary in per_seed], form, True)
                 for key, _, form in columns)
+    folder_rows = [name for name in cells if name in set(planners or cells)
+                   and name not in agent_rows]
+    if planners is not None:
+        unknown = sorted(set(planners) - set(folder_rows))
+        if unknown:
+            raise ValueError(f"no rows of planner(s) {', '.join(unknown)} in {folders}")
+        folder_rows = list(planners)
+    order = list(folder_rows)
+    where = order.index(after) + 1 if after in order else len(order)
+    order[where:where] = agent_rows
     header = "| planner | " + " | ".join(f"{label}: {title}" if index == 0 else title
                                           for label, _, _ in LISTS
                                           for index, (_, title, _) in enumerate(columns)) + " |"
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
     empty = " | ".join("-" for _ in columns)
-    for planner, by_list in cells.items():
+    for planner in order:
+        by_list = cells[planner]
         lines.append(f"| {planner} | " + " | ".join(by_list.get(label, empty)
                                                    for label, _, _ in LISTS) + " |")
     return "\n".join(lines) + "\n"
@@ -110,6 +125,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--carrier", choices=("robot", "free"), default="robot")
     parser.add_argument("--agents", nargs="*", default=[], metavar="LABEL=DIR",
                         help="agents trained with --seeds: DIR holds seed-<n>/test/LIST/")
+    parser.add_argument("--planners", nargs="+", metavar="PLANNER",
+                        help="the folders' planners shown, in this order (default: all)")
+    parser.add_argument("--agents-after", default="nbv@grid", metavar="PLANNER",
+                        help="the row after which the agents' rows go (default: nbv@grid)")
     parser.add_argument("--out", type=Path, required=True, help="the Markdown file to write")
     args = parser.parse_args(argv)
     try:
@@ -120,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
                 raise ValueError(f"--agents takes LABEL=DIR, got {item!r}")
             agents[label] = Path(folder)
         check_output_file(args.out, "--out", (".md",))
-        text = table(args.folders, args.carrier, agents)
+        text = table(args.folders, args.carrier, agents, args.planners, args.agents_after)
     except (ValueError, OSError) as error:
         print(f"results_tables.py: error: {error}", file=sys.stderr)
         return 2

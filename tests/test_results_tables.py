@@ -65,6 +65,14 @@ def test_agents_are_averaged_over_seeds_against_the_optimum_of_the_same_episodes
     # The agent: goal 100 and 50 %, views 5 and 4, above the optimum 1.5 and 0.5 per seed.
     assert ("| learned (2 seeds) | 75 (50-100) | 4.50 (4.00-5.00) | 1.00 (1.00-1.00) "
             "| 21.00 (21.00-21.00) | +1.00 (0.50-1.50) |") in text
+    # Chosen rows in the order given, the agent after the one named.
+    chosen = _tables("--folders", "cell", "--agents", "learned=agent", "--planners", "optimum",
+                     "bscp", "--agents-after", "optimum", "--out", "c.md", cwd=tmp_path)
+    assert chosen.returncode == 0, chosen.stderr
+    names = [line.split(" | ")[0][2:] for line in (tmp_path / "c.md").read_text().splitlines()[2:]]
+    assert names == ["optimum", "learned (2 seeds)", "bscp"]
+    unknown = _tables("--folders", "cell", "--planners", "nbv", "--out", "u.md", cwd=tmp_path)
+    assert unknown.returncode == 2 and "no rows of planner(s) nbv" in unknown.stderr
 
 
 def test_an_agent_scored_on_other_episodes_is_refused_in_one_line(tmp_path: Path) -> None:
