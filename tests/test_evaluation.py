@@ -44,9 +44,9 @@ from vprobot.evaluation import (
     versus_optimum,
 )
 from vprobot.geometry import Pose
-from vprobot.planners.base import Proof
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
+from vprobot.planners.base import Proof
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.optimum import OptimumPlanner
 from vprobot.planners.runner import EpisodeResult

@@ -210,7 +210,7 @@ class InspectEnv(gym.Env):
     def __setstate__(self, state: dict[str, Any]) -> None:
         type(self).__init__(self, state["config"], state["render_mode"])
 
-    def scene(self, path: Path, scale: float = 1.0) -> MotorScene:
+    def scene(self, path: str | Path, scale: float = 1.0) -> MotorScene:
         """The (cached) scene of one motor file; the `SCENES_KEPT` latest stay loaded."""
         key = (Path(path), scale)
         if key in self._scenes:
@@ -312,12 +312,12 @@ class InspectEnv(gym.Env):
         return self._observation(), reward, True, False, self._info(None, 0.0, terms)
 
     def _observation(self) -> Any:
-        return self.observer.observe(self._current(), self.np_random)
+        return self.observer.observe(self.current_episode(), self.np_random)
 
     def _info(self, view: ViewRecord | None, delta: float,
               terms: RewardTerms | None) -> dict[str, Any]:
         """The step's info; `view` is None for a stop decision (no view was requested)."""
-        episode, spec = self._current(), self.spec_of_episode
+        episode, spec = self.current_episode(), self.spec_of_episode
         assert spec is not None  # reset sets it with the episode
         sensor = episode.sensor_pose()
         approach, travel_sum = episode.approach, episode.travel_sum
@@ -350,7 +350,7 @@ class InspectEnv(gym.Env):
             info["cycle_time"] = None if cycle is None else cycle.total_s
         return info
 
-    def _current(self) -> Episode:
+    def current_episode(self) -> Episode:
         """The episode in progress.
 
         Raises:
@@ -362,7 +362,7 @@ class InspectEnv(gym.Env):
 
     def episode_record(self) -> EpisodeRecord:
         """The episode so far (for rendering and plan export)."""
-        return self._current().record()
+        return self.current_episode().record()
 
     def render(self) -> np.ndarray | None:
         """An RGB frame of the cell (`render_mode="rgb_array"`), else None."""
