@@ -118,6 +118,7 @@ class CandidatePolicy(DQNPolicy):
     """DQN's policy (Q-network, target network, optimiser) with `CandidateQNetwork`s: they read
     the Dict observation themselves, with no features extractor."""
 
+    # SB3 annotates its own QNetwork; DQN only calls the network and its parameters.
     def make_q_net(self) -> CandidateQNetwork:  # type: ignore[override]
         return CandidateQNetwork(self.observation_space, self.action_space,
                                  self.net_arch).to(self.device)
