@@ -178,6 +178,13 @@ def test_no_masked_candidate_is_ever_chosen_greedily_or_in_exploration() -> None
     assert drawn == set(np.flatnonzero(single["mask"]))
 
 
+def test_exploration_refuses_an_observation_that_is_not_a_candidate_dict() -> None:
+    model = build_model(dqn_config(), DummyVecEnv([ToyCandidateEnv]), seed=0, device="cpu")
+    masks = random_observations(np.random.default_rng(5), 4)["mask"]
+    with pytest.raises(TypeError, match="a candidate-view observation is a dict"):
+        model.random_actions(masks)
+
+
 def test_a_state_with_no_allowed_candidate_keeps_finite_q_values() -> None:
     network = CandidateQNetwork(candidate_space(robot=False), gym.spaces.Discrete(COUNT), [8, 8])
     observations = random_observations(np.random.default_rng(0), 2)

@@ -6,6 +6,7 @@ is what CI runs), touring every command."""
 from __future__ import annotations
 
 import re
+import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -87,6 +88,15 @@ def test_readme_is_short_and_opens_with_the_two_set_up_commands() -> None:
 def test_ci_runs_the_readmes_test_command() -> None:
     command = README_COMMANDS[1].split("#")[0].strip()
     assert command in (ROOT / ".ci" / "run").read_text().splitlines()
+
+
+def test_ci_checks_the_lint_and_the_types_of_the_package() -> None:
+    lines = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert any(line.startswith("ruff check") and "vprobot tests scripts" in line
+               for line in lines)
+    assert any(line.startswith("mypy") for line in lines)
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["mypy"]
+    assert config["packages"] == ["vprobot"] and "ignore_missing_imports" not in config
 
 
 def test_every_docs_page_is_in_the_index() -> None:

@@ -67,6 +67,13 @@ def test_interleaved_episodes_do_not_share_state(scene: MotorScene) -> None:
     assert [_trace(episode) for episode in together] == alone
 
 
+def test_only_a_robot_episode_has_a_robot(scene: MotorScene) -> None:
+    robot = Episode(scene, np.eye(3))
+    assert robot.robot is robot.carrier and robot.robot.collisions is not None
+    with pytest.raises(RuntimeError, match="the free carrier has no robot"):
+        _ = Episode(scene, np.eye(3), carrier="free").robot
+
+
 def test_free_carrier_acquires_exactly_at_every_request(scene: MotorScene) -> None:
     episode = Episode(scene, np.eye(3), carrier="free")
     below = SensorTarget.look_at(episode.center + [0.0, 0.0, -0.47], episode.center)

@@ -87,13 +87,12 @@ def planner_view(episode: Episode) -> Guarded:
     robot's state and kinematics, the fixture's centre; no mesh, ground truth or coverage."""
     views = [Guarded("view", **{name: getattr(view, name) for name in VIEW_FIELDS})
              for view in episode.views]
-    carrier = episode.carrier
-    allowed_carrier = ({"collisions": carrier.collisions, "path_is_free": carrier.path_is_free}
-                       if episode.uses_robot else {})
+    robot = ({"collisions": episode.robot.collisions, "path_is_free": episode.robot.path_is_free}
+             if episode.uses_robot else {})
     return Guarded("episode", views=views, q=episode.q.copy(), center=episode.center.copy(),
                    uses_robot=episode.uses_robot,
                    scene=Guarded("scene", arm=episode.scene.arm),
-                   carrier=Guarded("carrier", **allowed_carrier))
+                   robot=Guarded("robot", **robot))
 
 
 def guarded_run(planner: Planner, scene: MotorScene, carrier: str, seed: int = 0,

@@ -89,6 +89,16 @@ def test_import_errors_name_the_problem(tmp_path: Path, capsys: pytest.CaptureFi
                              str(tmp_path / "y"))
 
 
+def test_a_joint_without_a_child_link_is_a_user_error(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture) -> None:
+    urdf = tmp_path / "broken.urdf"
+    urdf.write_text('<robot name="r"><link name="a"/><link name="b"/>'
+                    '<joint name="j" type="revolute"><parent link="a"/></joint></robot>')
+    assert main(["robots", "import", str(urdf), "--flange", "b", "--name", "r", "--out",
+                 str(tmp_path / "r")]) == 2
+    assert f"joint 'j' of {urdf} names no child link" in capsys.readouterr().err
+
+
 @pytest.fixture
 def ur5_folder(tmp_path: Path) -> Path:
     folder = tmp_path / "arm"

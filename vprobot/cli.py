@@ -366,7 +366,7 @@ def command_train(args: argparse.Namespace) -> int:
     check_output_folder(args.out, "--out")
     config = (None if args.resume
               else _sensor_option(profile_config(args.profile, args.set, args.steps), args))
-    if args.seeds is not None:
+    if args.seeds is not None and config is not None:  # (--resume takes no --seeds)
         from vprobot.agents.seeds import train_seeds
 
         command = ["vprobot", "train", args.profile, *(["--set", *args.set] if args.set else []),

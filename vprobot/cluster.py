@@ -14,7 +14,7 @@ import socket
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Generator, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -117,7 +117,8 @@ def _result(ray: Any, reference: Any) -> Any:
 
 
 def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
-                 workers: int, address: str | None = None) -> Iterator[tuple[int, Any]]:
+                 workers: int, address: str | None = None,
+                 ) -> Generator[tuple[int, Any], None, None]:
     """Run `function(*item)` for every item as a Ray task (one CPU each), yielding
     (item index, result) as tasks finish; on an interrupt (or when closed early) the pending
     tasks are cancelled and their workers ended.

@@ -155,7 +155,10 @@ class SensorConfig:
     @property
     def sensing_model(self) -> SensingModel:
         """The sensing model in use: `IDEAL` or the sensor's `StructuredLight` figures."""
-        return self.structured_light if self.sensing == "structured_light" else IDEAL
+        if self.sensing != "structured_light":
+            return IDEAL
+        assert self.structured_light is not None  # check_sensing requires it
+        return self.structured_light
 
 
 SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")

@@ -33,7 +33,7 @@ import json
 import statistics
 import sys
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Generator, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -587,7 +587,7 @@ def run_jobs(config: Config, jobs: Sequence[Job],
 
 
 def _rows(config: Config, jobs: Sequence[Job], workers: int, address: str | None,
-          estimator: str | Path | None) -> Iterator[dict[str, Any]]:
+          estimator: str | Path | None) -> Generator[dict[str, Any], None, None]:
     """The jobs' rows as they finish: in order in this process, or per episode (all its
     carriers and planners, one motor load) as Ray tasks."""
     if workers == 1 and address is None:

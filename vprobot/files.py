@@ -53,7 +53,7 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
         The files removed.
     """
     pattern = _temporary_pattern(path)
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(path.parent))
     except OSError:

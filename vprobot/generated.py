@@ -107,6 +107,9 @@ def _build(name: str) -> bytes:
     Raises:
         ValueError: If the name is not a generated object's, or names an unknown family.
     """
+    # Imported here: the generators need trimesh; the split and the config read names here.
+    from trimesh.exchange.stl import export_stl
+
     if (motor := _MOTOR.match(name)) is not None:
         # Imported here: the generators need trimesh; the split and the config read names here.
         from vprobot.motors import build_motor, motor_rng, sample_parameters
@@ -121,7 +124,7 @@ def _build(name: str) -> bytes:
     else:
         raise ValueError(f"{name!r} is not a generated object: expected "
                          f"generated/<family>_<SSSS>.stl or generated/motor_<seed>_<iii>.stl")
-    return mesh.export(file_type="stl")
+    return export_stl(mesh)
 
 
 def _store(path: Path, data: bytes) -> Path:

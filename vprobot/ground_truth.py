@@ -155,7 +155,7 @@ def build_ground_truth(mesh: trimesh.Trimesh, config: Config) -> GroundTruth:
     chosen = representatives[_farthest_point_order(representatives, N_GT)]
     chosen.setflags(write=False)
     distances, _ = cKDTree(chosen).query(chosen, k=2)
-    return GroundTruth(points=chosen, spacing_m=float(distances[:, 1].mean()),
+    return GroundTruth(points=chosen, spacing_m=float(np.asarray(distances)[:, 1].mean()),
                        voxel_size_m=voxel_size, mesh_hash=mesh_hash(mesh), views=views)
 
 
@@ -268,7 +268,7 @@ def _farthest_point_order(points: np.ndarray, count: int) -> np.ndarray:
 
 def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     """`<mesh hash>-<settings hash>`: the mesh, plus everything that shapes its GT."""
-    settings = (_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
+    settings: tuple[Any, ...] = (_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
                 ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
                 _sensor_settings(config.sensor), _robot_digest(config.cell.robot))
     sensing = gt_sensing(config.sensor)
@@ -277,8 +277,8 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
         # always had, and their caches stay valid. Noise and dropout do not shape the GT.
         settings += (sensing.name, sensing.baseline_m, sensing.max_incidence_deg,
                      sensing.projector_max_incidence_deg)
-    settings = repr(settings)
-    return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(settings.encode()).hexdigest()[:16]}"
+    text = repr(settings)
+    return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(text.encode()).hexdigest()[:16]}"
 
 
 def _sensor_settings(sensor: SensorConfig) -> tuple[Any, ...]:

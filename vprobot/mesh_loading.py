@@ -158,9 +158,10 @@ def _repair(mesh: trimesh.Trimesh) -> list[str]:
         trimesh.repair.fill_holes(mesh)
         record("filled holes, faces added", len(mesh.faces) - before)
     if len(mesh.faces):
-        before = mesh.faces.copy()
+        faces_before = mesh.faces.copy()
         trimesh.repair.fix_normals(mesh, multibody=True)
-        record("fixed winding / normals of faces", int((mesh.faces != before).any(axis=1).sum()))
+        record("fixed winding / normals of faces",
+               int((mesh.faces != faces_before).any(axis=1).sum()))
         if not mesh.is_watertight:
             open_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
             repairs.append(

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from collections.abc import Callable
 
 
 @functools.cache
-def _malloc_trim() -> ctypes._CFuncPtr | None:
+def _malloc_trim() -> Callable[[int], int] | None:
     """glibc's `malloc_trim`, or None where the C library has none (macOS, musl, Windows)."""
     # The process's own symbols hold the C library's: no library search (which may start
     # ldconfig) on the first eviction.

@@ -101,7 +101,7 @@ class OccupancyGrid:
 
     @property
     def shape(self) -> tuple[int, int, int]:
-        return self.state.shape  # type: ignore[return-value]
+        return self.state.shape
 
     def flat_index(self, points: np.ndarray) -> np.ndarray:
         """Flat voxel index of each point (..., 3); -1 outside the grid."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import overload
 
 
 def _check_writable_folder(folder: Path, option: str, path: Path) -> None:
@@ -18,6 +19,15 @@ def _check_writable_folder(folder: Path, option: str, path: Path) -> None:
     except OSError as error:
         raise ValueError(f"{option} {path}: cannot write into folder {folder} "
                          f"({error.strerror or error})") from None
+
+
+@overload
+def check_output_file(path: str | Path, option: str, suffixes: Sequence[str]) -> Path: ...
+
+
+@overload
+def check_output_file(path: str | Path | None, option: str,
+                      suffixes: Sequence[str]) -> Path | None: ...
 
 
 def check_output_file(path: str | Path | None, option: str,

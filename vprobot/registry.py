@@ -6,10 +6,20 @@ messages read the names from the registry (docs/extending.md).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
-from typing import Any, Generic, TypeVar, overload
+from typing import Any, Generic, Protocol, TypeVar, overload
 
 T = TypeVar("T")
 V = TypeVar("V")
+
+
+class _Named(Protocol):
+    """What `Registry.register_named` registers: anything with a name (a class's `name`)."""
+
+    @property
+    def name(self) -> str: ...
+
+
+N = TypeVar("N", bound=_Named)
 
 
 class UnknownNameError(KeyError, ValueError):
@@ -62,13 +72,13 @@ class Registry(Mapping[str, T], Generic[T]):
         self._entries[name] = value
         return value
 
-    def register_named(self, cls: V) -> V:
+    def register_named(self, cls: N) -> N:
         """Class decorator: registers `cls` under its `name` attribute and returns it.
 
         Raises:
             ValueError: If a class of that name is already registered.
         """
-        return self.register(cls.name, cls)  # type: ignore[attr-defined]
+        return self.register(cls.name)(cls)
 
     def unregister(self, name: str) -> T:
         """Remove and return the entry `name` (a test's toy entry, for instance).

@@ -87,7 +87,7 @@ def _as_written(value: Any, key: str) -> Any:
 def _convert(value: Any, annotation: Any, key: str) -> Any:
     """Validate `value` against a type annotation and convert it (lists become tuples)."""
     origin = typing.get_origin(annotation)
-    if dataclasses.is_dataclass(annotation):
+    if isinstance(annotation, type) and dataclasses.is_dataclass(annotation):
         if not isinstance(value, Mapping):
             raise ConfigError(f"{key} must be a mapping, got {value!r}")
         return from_mapping(annotation, value, key)

@@ -231,23 +231,21 @@ class DepthSensor:
         """
         model = self.model
         groups = np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)
-        if seen_groups is None:
-            seen_groups = range(mujoco.mjNGROUP)
-        seen_groups = {int(group) for group in seen_groups}
-        if not seen_groups <= set(range(mujoco.mjNGROUP)):
-            raise ValueError(f"groups must lie in 0..{mujoco.mjNGROUP - 1}, got "
-                             f"{sorted(seen_groups)}")
+        seen = {int(group) for group in (range(mujoco.mjNGROUP) if seen_groups is None
+                                         else seen_groups)}
+        if not seen <= set(range(mujoco.mjNGROUP)):
+            raise ValueError(f"groups must lie in 0..{mujoco.mjNGROUP - 1}, got {sorted(seen)}")
         considered = [g for g in range(model.ngeom)
                       if model.geom_bodyid[g] != self._sensor_body_id and _ray_visible(model, g)
-                      and groups[g] in seen_groups]
+                      and groups[g] in seen]
         is_mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
         primitive_groups = {int(groups[g]) for g in considered if not is_mesh[g]}
         for geom in object_geom_ids:
             if not is_mesh[geom]:
                 raise ValueError(f"object geom {geom} must be a mesh, got geom type "
                                  f"{mujoco.mjtGeom(model.geom_type[geom]).name}")
-            if groups[geom] not in seen_groups:
-                raise ValueError(f"groups {sorted(seen_groups)} leave out the object's geom "
+            if groups[geom] not in seen:
+                raise ValueError(f"groups {sorted(seen)} leave out the object's geom "
                                  f"group {groups[geom]}")
             if groups[geom] in primitive_groups:
                 raise ValueError(f"object geom {geom} is in geom group {groups[geom]}, which "
@@ -400,6 +398,7 @@ class DepthSensor:
         projector sits at (baseline, 0, 0) with the camera's axes: no point is rotated.
         """
         min_camera, min_projector = model.min_cos_incidence
+        assert self._face is not None  # kept under a structured-light sensing model
         normals = np.take(self._normals(data, pose), self._face[pixels], axis=0)
         rays = np.take(self.directions, pixels, axis=0)
         cos_camera = np.einsum("ij,ij->i", rays, normals)
@@ -530,7 +529,7 @@ class DepthSensor:
                     mesh.in_frame(data, pose), mesh.faces, u, v, max_distance, faces is not None)
                 pixels = (row + row_offset) * self.resolution[0] + column + column_offset
                 np.minimum.at(depth, pixels, z_depth)
-                if faces is not None:
+                if faces is not None and face is not None:
                     # A later mesh that comes nearer overwrites the pixel again.
                     nearest = z_depth == depth[pixels]
                     faces[pixels[nearest]] = face[nearest] + face_offset
@@ -607,7 +606,7 @@ class DepthSensor:
                                self._geomid[start:stop], self._distance[start:stop], None,
                                stop - start, cutoff)
 
-        if workers == 1:
+        if workers == 1 or self._pool is None:
             cast(0)
         else:
             list(self._pool.map(cast, range(workers)))

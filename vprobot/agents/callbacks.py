@@ -182,7 +182,7 @@ class ResumableCheckpoint(BaseCallback):
             "log_lines": {log.name: count_lines(log) for log in self.logs},
             "buffer": None,
         }
-        if isinstance(self.model, OffPolicyAlgorithm):
+        if isinstance(self.model, OffPolicyAlgorithm) and self.model.replay_buffer is not None:
             buffer_path = self.folder / f"replay_buffer_{steps}.npz"
             with atomic_output(buffer_path) as temporary:
                 save_buffer(self.model.replay_buffer, temporary)
@@ -221,9 +221,11 @@ def save_buffer(buffer: ReplayBuffer, path: Path) -> None:
     profile, where this writes what those 100 transitions take.
     """
     filled = buffer.buffer_size if buffer.full else buffer.pos
+    # Any: numpy's stub takes a ** mapping for one that may hold its `allow_pickle` flag.
+    arrays: dict[str, Any] = {name: array[:filled]
+                              for name, array in _buffer_arrays(buffer).items()}
     with path.open("wb") as stream:
-        np.savez(stream, pos=buffer.pos, full=buffer.full,
-                 **{name: array[:filled] for name, array in _buffer_arrays(buffer).items()})
+        np.savez(stream, pos=buffer.pos, full=buffer.full, **arrays)
 
 
 def load_buffer(buffer: ReplayBuffer, path: Path) -> None:

@@ -23,6 +23,7 @@ from stable_baselines3 import DQN
 from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.preprocessing import preprocess_obs
 from stable_baselines3.common.torch_layers import create_mlp
+from stable_baselines3.common.type_aliases import PyTorchObs
 from stable_baselines3.dqn.policies import DQNPolicy
 from torch import nn
 
@@ -36,25 +37,29 @@ MASKED_Q = -1e9
 so that a target computed from it stays finite."""
 
 
-def check_candidate_spaces(observation_space: gym.Space, action_space: gym.Space) -> None:
+def check_candidate_spaces(observation_space: gym.Space, action_space: gym.Space) -> int:
     """Raise ConfigError unless the spaces are those of a candidate-view env.
+
+    Returns:
+        The width of a candidate's row as `CandidateQNetwork` reads it: its features, its mask
+        entry and the robot state when there is one.
 
     Raises:
         ConfigError: Naming the settings that give such an env.
     """
     spaces = observation_space.spaces if isinstance(observation_space, gym.spaces.Dict) else {}
-    fits = (isinstance(action_space, gym.spaces.Discrete)
-            and {CANDIDATES_KEY, MASK_KEY} <= set(spaces) <= {CANDIDATES_KEY, MASK_KEY, ROBOT_KEY})
-    if fits:
-        shape = spaces[CANDIDATES_KEY].shape
-        fits = (len(shape) == 2 and spaces[MASK_KEY].shape == shape[:1]
-                and action_space.n == shape[0]
-                and (ROBOT_KEY not in spaces or len(spaces[ROBOT_KEY].shape) == 1))
-    if not fits:
-        raise ConfigError(f"agent.algorithm dqn needs an env that chooses among candidate views "
-                          f"(env.action: A_view, env.state: s_grid: a Discrete(K) action and a "
-                          f"Dict of 'candidates' (K, F) and 'mask' (K,)), got action space "
-                          f"{action_space} and observation space {observation_space}")
+    if (isinstance(action_space, gym.spaces.Discrete)
+            and {CANDIDATES_KEY, MASK_KEY} <= set(spaces) <= {CANDIDATES_KEY, MASK_KEY, ROBOT_KEY}):
+        # A space without a shape (a Dict) has none of the shapes asked for.
+        shape = spaces[CANDIDATES_KEY].shape or ()
+        robot = (spaces[ROBOT_KEY].shape or ()) if ROBOT_KEY in spaces else (0,)
+        if (len(shape) == 2 and spaces[MASK_KEY].shape == shape[:1]
+                and action_space.n == shape[0] and len(robot) == 1):
+            return shape[1] + 1 + robot[0]
+    raise ConfigError(f"agent.algorithm dqn needs an env that chooses among candidate views "
+                      f"(env.action: A_view, env.state: s_grid: a Discrete(K) action and a "
+                      f"Dict of 'candidates' (K, F) and 'mask' (K,)), got action space "
+                      f"{action_space} and observation space {observation_space}")
 
 
 def allowed_rows(mask: torch.Tensor) -> torch.Tensor:
@@ -81,19 +86,18 @@ class CandidateQNetwork(BasePolicy):
         ConfigError: For spaces that are not those of a candidate-view env.
     """
 
-    def __init__(self, observation_space: gym.spaces.Dict, action_space: gym.spaces.Discrete,
+    def __init__(self, observation_space: gym.Space, action_space: gym.Space,
                  net_arch: list[int]):
-        check_candidate_spaces(observation_space, action_space)
+        width = check_candidate_spaces(observation_space, action_space)
         super().__init__(observation_space, action_space)
         self.net_arch = list(net_arch)
-        robot = observation_space.spaces.get(ROBOT_KEY)
-        width = observation_space[CANDIDATES_KEY].shape[1] + 1 + (
-            0 if robot is None else robot.shape[0])
         self.embedding = nn.Sequential(nn.Linear(width, self.net_arch[0]), nn.ReLU())
         self.head = nn.Sequential(*create_mlp(width + 2 * self.net_arch[0], 1, self.net_arch))
 
-    def forward(self, obs: dict[str, torch.Tensor]) -> torch.Tensor:
-        obs = preprocess_obs(obs, self.observation_space)
+    def forward(self, observation: PyTorchObs) -> torch.Tensor:
+        obs = preprocess_obs(observation, self.observation_space)
+        # The Dict space (check_candidate_spaces) preprocesses to a dict.
+        assert isinstance(obs, dict)
         candidates, mask = obs[CANDIDATES_KEY], obs[MASK_KEY]
         count = candidates.shape[1]
         parts = [candidates, mask.unsqueeze(2)]
@@ -105,7 +109,7 @@ class CandidateQNetwork(BasePolicy):
         values = self.head(torch.cat([rows, context.unsqueeze(1).expand(-1, count, -1)], dim=2))
         return values.squeeze(2).masked_fill(~allowed_rows(mask), MASKED_Q)
 
-    def _predict(self, observation: dict[str, torch.Tensor],
+    def _predict(self, observation: PyTorchObs,
                  deterministic: bool = True) -> torch.Tensor:
         return self(observation).argmax(dim=1).reshape(-1)
 
@@ -114,6 +118,7 @@ class CandidatePolicy(DQNPolicy):
     """DQN's policy (Q-network, target network, optimiser) with `CandidateQNetwork`s: they read
     the Dict observation themselves, with no features extractor."""
 
+    # SB3 annotates its own QNetwork; DQN only calls the network and its parameters.
     def make_q_net(self) -> CandidateQNetwork:  # type: ignore[override]
         return CandidateQNetwork(self.observation_space, self.action_space,
                                  self.net_arch).to(self.device)
@@ -125,9 +130,16 @@ class CandidateDQN(DQN):
     Give it `CandidatePolicy` (its greedy action is always an allowed candidate).
     """
 
-    def random_actions(self, observation: dict[str, np.ndarray]) -> np.ndarray:
+    def random_actions(self, observation: np.ndarray | dict[str, np.ndarray] | None,
+                       ) -> np.ndarray:
         """Uniform draws among each observation's allowed candidates (among all of them where
-        none is allowed), from the action space's seeded generator; batched like the input."""
+        none is allowed), from the action space's seeded generator; batched like the input.
+
+        Raises:
+            TypeError: For an observation that is not a candidate-view env's dict.
+        """
+        if not isinstance(observation, dict):
+            raise TypeError(f"a candidate-view observation is a dict, got {observation!r}")
         masks = np.asarray(observation[MASK_KEY]) > 0.5
         batch = masks.reshape(-1, masks.shape[-1])
         batch = batch | ~batch.any(axis=1, keepdims=True)

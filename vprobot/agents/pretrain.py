@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from stable_baselines3.common.utils import obs_as_tensor
 from tqdm import tqdm
 
 from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, allowed_rows
@@ -57,21 +56,21 @@ def collect(config: Config, episodes: int, seed: int, progress: bool = False) ->
     """
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
-    env = EpisodeStream(InspectEnv(config), seed, PRETRAIN_RANK)
-    inspect = env.unwrapped
+    inspect = InspectEnv(config)
+    env = EpisodeStream(inspect, seed, PRETRAIN_RANK)
     rng = np.random.default_rng([seed, PRETRAIN_RANK])
     teacher = CandidateTeacher()
     observations: list[dict[str, np.ndarray]] = []
     values: list[np.ndarray] = []
     for _ in tqdm(range(episodes), desc="teacher episodes", disable=not progress):
         observation, _ = env.reset()
+        episode = inspect.current_episode()
         # The `s_grid` state screened the candidates' reachability: the teacher reads it.
         grid_state = inspect.observer.grid_state
-        teacher.reset(inspect.episode,
-                      grid_state.screening(inspect.episode) if grid_state is not None else None)
+        teacher.reset(episode, grid_state.screening(episode) if grid_state is not None else None)
         done = False
         while not done:
-            value = teacher.values(inspect.episode)
+            value = teacher.values(episode)
             observations.append(observation)
             values.append(value)
             allowed = np.flatnonzero(observation[MASK_KEY] > 0.5)
@@ -98,8 +97,8 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int) -> l
         total = 0.0
         for start in range(0, len(order), model.batch_size):
             batch = order[start:start + model.batch_size]
-            obs = obs_as_tensor({key: value[batch]
-                                 for key, value in states.observations.items()}, model.device)
+            obs = {key: torch.as_tensor(value[batch], device=model.device)
+                   for key, value in states.observations.items()}
             target = torch.as_tensor(states.values[batch], device=model.device)
             allowed = allowed_rows(obs[MASK_KEY]).float()
             error = (q_net(obs) - target) * allowed

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
 
 from vprobot.episode import sample_episode
+
+if TYPE_CHECKING:
+    from vprobot.env.inspect_env import InspectEnv
 
 SEED_BOUND = 2**31
 
@@ -23,8 +26,9 @@ class EpisodeStream(gym.Wrapper):
         start: Index of the first episode to draw (the count reached when resuming).
     """
 
-    def __init__(self, env: gym.Env, seed: int, rank: int = 0, start: int = 0):
+    def __init__(self, env: InspectEnv, seed: int, rank: int = 0, start: int = 0):
         super().__init__(env)
+        self.inspect = env
         self.seed_ = seed
         self.rank = rank
         self.episodes_started = start
@@ -33,11 +37,10 @@ class EpisodeStream(gym.Wrapper):
               options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         options = dict(options or {})
         if "episode" not in options:
-            inspect = self.env.unwrapped
             rng = np.random.default_rng([self.seed_, self.rank, self.episodes_started])
-            env = inspect.config.env
+            env = self.inspect.config.env
             options["episode"] = sample_episode(
-                env, inspect.motor_files, rng, seed=int(rng.integers(SEED_BOUND)),
+                env, self.inspect.motor_files, rng, seed=int(rng.integers(SEED_BOUND)),
                 scale=env.mesh_scale if env.motors == "mesh" else 1.0)
         self.episodes_started += 1
         return self.env.reset(seed=seed, options=options)

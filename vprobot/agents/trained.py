@@ -111,8 +111,8 @@ def load_agent(source: str | Path | None = None) -> TrainedAgent:
 def _shapes(space: gym.Space) -> Any:
     """The observation shape: a tuple, or a dict of them for a Dict space."""
     if isinstance(space, gym.spaces.Dict):
-        return {key: tuple(item.shape) for key, item in space.spaces.items()}
-    return tuple(space.shape)
+        return {key: item.shape for key, item in space.spaces.items()}
+    return space.shape
 
 
 @functools.lru_cache(maxsize=4)

@@ -180,9 +180,10 @@ def monitor_file(rank: int) -> str:
 def make_vec_env(config: Config, seed: int, starts: Sequence[int],
                  monitor_dir: Path | None) -> VecEnv:
     """The run's envs: one in-process, several in subprocesses (one monitor file each)."""
-    factories = [env_factory(config, seed, rank, start,
-                             None if monitor_dir is None else monitor_dir / monitor_file(rank))
-                 for rank, start in enumerate(starts)]
+    factories: list[Callable[[], gym.Env]] = [
+        env_factory(config, seed, rank, start,
+                    None if monitor_dir is None else monitor_dir / monitor_file(rank))
+        for rank, start in enumerate(starts)]
     return DummyVecEnv(factories) if len(factories) == 1 else SubprocVecEnv(factories)
 
 
@@ -207,7 +208,7 @@ def check_spaces(agent: AgentConfig, observation_space: gym.Space,
                           f"candidates")
 
 
-def build_model(config: Config, env: VecEnv, seed: int, device: str) -> BaseAlgorithm:
+def build_model(config: Config, env: gym.Env | VecEnv, seed: int, device: str) -> BaseAlgorithm:
     """A fresh model: SAC or PPO with the profile's encoder (its features extractor) and
     regression MLP, or DQN with the encoder's policy (`candidates`: `vprobot.agents.candidate_q`).
 
@@ -381,15 +382,18 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
         model = ALGORITHMS[agent.algorithm].load(
             run_dir / "checkpoints" / checkpoint["model"], env=env, device=device)
         buffer = checkpoint["buffer"]
-        if buffer is not None and buffer.endswith(".pkl"):
-            # A checkpoint written before buffers were saved as their filled part.
-            model.load_replay_buffer(run_dir / "checkpoints" / buffer)
-        elif buffer is not None:
-            load_buffer(model.replay_buffer, run_dir / "checkpoints" / buffer)
+        # Only an off-policy model's checkpoint names a buffer, which loading it set up.
+        if buffer is not None and isinstance(model, OffPolicyAlgorithm):
+            if buffer.endswith(".pkl"):
+                # A checkpoint written before buffers were saved as their filled part.
+                model.load_replay_buffer(run_dir / "checkpoints" / buffer)
+            elif model.replay_buffer is not None:
+                load_buffer(model.replay_buffer, run_dir / "checkpoints" / buffer)
     else:
         model = build_model(config, env, seed, device)
     pretrained = checkpoint is None and agent.pretrain_episodes > 0
     if pretrained:
+        assert isinstance(model, CandidateDQN)  # AgentConfig pretrains dqn only
         pretrain(model, config, seed, run_dir, progress)
     sessions = sorted((run_dir / "logs").glob("session_*")) if (run_dir / "logs").is_dir() else []
     model.set_logger(configure(str(run_dir / "logs" / f"session_{len(sessions)}"),

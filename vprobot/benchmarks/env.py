@@ -66,7 +66,7 @@ def run_env_benchmark(config: Config, steps: int = 300, progress: bool = True) -
     rng = np.random.default_rng(1)
     start = time.perf_counter()
     for _ in tqdm(range(steps // 2), desc="2 processes", disable=not progress, leave=False):
-        vec.step(rng.uniform(-1.0, 1.0, (2, *vec.action_space.shape)).astype(np.float32))
+        vec.step(rng.uniform(-1.0, 1.0, (2, *(vec.action_space.shape or ()))).astype(np.float32))
     results["steps_per_s_2proc_train"] = 2 * (steps // 2) / (time.perf_counter() - start)
     vec.close()
     results["reset_ms_median"] = float(np.median(resets))

@@ -24,7 +24,7 @@ def _random_reachable_targets(arm: RobotArm, count: int, seed: int) -> list[Sens
     """Sensor poses of random collision-free configurations (reachable by construction)."""
     rng = np.random.default_rng(seed)
     roll_free = arm.settings.roll == "free"
-    targets = []
+    targets: list[SensorTarget] = []
     while len(targets) < count:
         q = rng.uniform(np.maximum(arm.joints.lower, -np.pi), np.minimum(arm.joints.upper, np.pi))
         if not arm.collisions.in_collision(q):

@@ -39,6 +39,7 @@ FIXED_VIEWS = 4
 def subdivided_motor(iterations: int) -> trimesh.Trimesh:
     """The default motor, duplicate vertices merged, Loop-subdivided `iterations` times."""
     mesh = trimesh.load(DEFAULT_MOTOR, process=False)
+    assert isinstance(mesh, trimesh.Trimesh)  # an STL loads as one mesh
     mesh.merge_vertices()
     mesh.update_faces(mesh.nondegenerate_faces())
     mesh.remove_unreferenced_vertices()

@@ -13,7 +13,7 @@ from __future__ import annotations
 import itertools
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -75,7 +75,7 @@ METHODS = ("line", "rrt_connect", "path_not_found")
 """How a move ended: the straight line, a path OMPL found, or none found."""
 
 
-def time_moves(planner: MotionPlanner, moves: Sequence[Move],
+def time_moves(planner: MotionPlanner, moves: Iterable[Move],
                times: dict[str, list[float]] | None = None) -> dict[str, list[float]]:
     """Plan every move; the planning times (ms) by how each ended (`METHODS`), added to
     `times` when given."""
@@ -109,7 +109,8 @@ def time_export(document: dict[str, Any], repeats: int = EXPORT_REPEATS) -> dict
         `s_median` / `s_max` (all formats together, over `repeats` runs) and `format_s` (format
         -> median seconds of that format alone).
     """
-    totals, per_format = [], {name: [] for name in SUFFIXES}
+    totals: list[float] = []
+    per_format: dict[str, list[float]] = {name: [] for name in SUFFIXES}
     for _ in range(repeats):
         begin = time.perf_counter()
         for name in SUFFIXES:
@@ -186,7 +187,8 @@ def run_motion_benchmark(config: Config, robots: Sequence[str] | None = None,
     except ValueError as error:  # e.g. the UR5 reaches no fixed initial view
         export = {"error": str(error)}
 
-    rows, plan_times = [], {method: [] for method in METHODS}
+    rows: list[dict[str, Any]] = []
+    plan_times: dict[str, list[float]] = {method: [] for method in METHODS}
     runs = [(robot, planner, motor) for robot in robots for planner in planners for motor in paths]
     with tempfile.TemporaryDirectory() as folder:
         for robot, planner, motor in tqdm(runs, desc="replay", disable=not progress):

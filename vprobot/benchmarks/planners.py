@@ -83,6 +83,11 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
     def coverage_pct(key: str) -> float:
         return 100.0 * statistics.fmean(result.coverage for result in results[key])
 
+    def reachable_share(key: str) -> float:
+        # The runs are the robot's, which have a share once they requested a view.
+        return statistics.fmean(share for result in results[key]
+                                if (share := result.reachability) is not None)
+
     def ms_per_chosen_view(key: str) -> float:
         # Next-best-view planners choose every view but the initial one.
         return 1e3 * statistics.median(result.plan_seconds / max(result.requested - 1, 1)
@@ -107,13 +112,11 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         "bscp5_free_coverage_pct": coverage_pct("bscp5_free"),
         "hrec_free_coverage_pct": coverage_pct("hrec_free"),
         "hrec_robot_coverage_pct": coverage_pct("hrec_robot"),
-        "hrec_robot_reachable_pct": 100.0 * statistics.fmean(
-            result.reachability for result in results["hrec_robot"]),
+        "hrec_robot_reachable_pct": 100.0 * reachable_share("hrec_robot"),
         "agent_robot_coverage_pct": coverage_pct("agent_robot"),
         "agent_robot_acquisitions": statistics.fmean(
             result.acquisitions for result in results["agent_robot"]),
-        "agent_reachable_share": statistics.fmean(
-            result.reachability for result in results["agent_robot"]),
+        "agent_reachable_share": reachable_share("agent_robot"),
         # The agent chooses every view but the initial one.
         "agent_ms_per_view": ms_per_chosen_view("agent_robot"),
         "uniform4_free_coverage_pct": coverage_pct("uniform4_free"),

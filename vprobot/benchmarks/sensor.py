@@ -36,7 +36,9 @@ def _structured_light(config: Config) -> tuple[StructuredLight, str]:
     """The structured-light figures to time, and where they come from."""
     if config.sensor.structured_light is not None:
         return config.sensor.structured_light, "the config's sensor"
-    return sensor_preset(STRUCTURED_LIGHT_PRESET).structured_light, STRUCTURED_LIGHT_PRESET
+    figures = sensor_preset(STRUCTURED_LIGHT_PRESET).structured_light
+    assert figures is not None  # the preset is a structured-light sensor's
+    return figures, STRUCTURED_LIGHT_PRESET
 
 
 def _random_reachable_views(arm: RobotArm, count: int, seed: int,

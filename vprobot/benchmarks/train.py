@@ -11,6 +11,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from tqdm import tqdm
 
 from vprobot.agents.training import buffer_memory, build_model, make_vec_env, profile_config
@@ -45,6 +46,8 @@ def update_ms(config: Config, steps: int) -> float:
                      learning_starts=agent.batch_size + 8)
     model = build_model(config, SpacesOnly(config), seed=0, device="cpu")
     model.learn(agent.batch_size + 4)
+    # The CPU and the paper profile train SAC, which takes gradient steps of a batch size.
+    assert isinstance(model, OffPolicyAlgorithm)
     times = []
     for _ in range(steps):
         start = time.perf_counter()

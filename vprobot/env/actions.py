@@ -94,7 +94,7 @@ class ActionMapping:
                              f"got {array.tolist()!r}")
         return int(array.reshape(-1)[0])
 
-    def check(self, action: np.ndarray) -> np.ndarray:
+    def check(self, action: np.ndarray | int) -> np.ndarray:
         """Validate an action: shape (size,), finite, every component in [-1, 1].
 
         Raises:
@@ -128,7 +128,8 @@ class ActionMapping:
         direction = point / distance if distance > 1e-9 else np.array([0.0, 0.0, 1.0])
         return direction * np.clip(distance, low, high)
 
-    def target(self, action: np.ndarray, center: np.ndarray, roll_free: bool) -> SensorTarget:
+    def target(self, action: np.ndarray | int, center: np.ndarray, roll_free: bool,
+               ) -> SensorTarget:
         """The requested sensor pose of an action in the world, around the object `center`.
 
         A look-at view with a free roll leaves the rotation about the optical axis to the IK.
@@ -142,7 +143,7 @@ class ActionMapping:
             return SensorTarget.look_at(pose.position, center)
         return SensorTarget(pose, roll_free=roll_free)
 
-    def stops(self, action: np.ndarray) -> bool:
+    def stops(self, action: np.ndarray | int) -> bool:
         """Whether the action decides to stop (only with `stop_action`).
 
         Raises:
@@ -150,7 +151,7 @@ class ActionMapping:
         """
         return bool(self.config.stop_action and self.check(action)[-1] > 0.0)
 
-    def view(self, action: np.ndarray) -> SensorTarget:
+    def view(self, action: np.ndarray | int) -> SensorTarget:
         """The requested view of a (validated) action, in the object-centred frame: a look-at
         view (its roll left free) looks at the origin, the object's centre."""
         if self.discrete:

@@ -101,7 +101,7 @@ class GridState:
         if self._screening is None:
             if episode.uses_robot:
                 self._screening = screen_reachability(
-                    episode.scene.arm, episode.carrier.collisions, episode.q,
+                    episode.scene.arm, episode.robot.collisions, episode.q,
                     self.band.directions, self.band.targets)
             else:
                 self._screening = np.zeros((len(self.band), 0)), (None,) * len(self.band)

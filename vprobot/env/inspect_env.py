@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -44,6 +44,10 @@ from vprobot.native_memory import release_freed_memory
 from vprobot.paths import MOTORS_DIR
 from vprobot.splits import Split
 
+if TYPE_CHECKING:
+    from vprobot.render.offscreen import OffscreenView
+    from vprobot.scene import Cell
+
 SCENES_KEPT = 16
 """Scenes an env keeps loaded, the most recently used (each holds a compiled cell, about 14 MB):
 on the family mix nearly every episode draws a new instance, so a larger cache mostly held
@@ -63,13 +67,14 @@ def motor_files(config: Config) -> list[str | Path]:
     """
     env = config.env
     if env.motors == "mesh":
+        assert env.mesh is not None  # EnvConfig requires it for motors "mesh"
         path = Path(env.mesh)
         if not path.is_file():
             raise FileNotFoundError(f"env.mesh not found: {path}")
         return [path]
     if env.motors == "train":
         return Split.bundled(env.split).training_objects(env.objects)
-    files = sorted((MOTORS_DIR / env.motors).glob("*.stl"))
+    files: list[str | Path] = sorted((MOTORS_DIR / env.motors).glob("*.stl"))
     if not files:
         raise FileNotFoundError(f"no motors (*.stl) in {MOTORS_DIR / env.motors}")
     return files
@@ -88,7 +93,7 @@ def build_training_objects(config: Config, progress: bool = True) -> int:
     scale = env.mesh_scale if env.motors == "mesh" else 1.0  # as the env's episodes draw them
     names = list(dict.fromkeys(motor_files(config)))
     for name in tqdm(names, desc="objects", unit="object", disable=not progress):
-        path = generated_path(name) if is_generated(str(name)) else name
+        path = generated_path(str(name)) if is_generated(str(name)) else name
         ground_truth(load_mesh(path, scale).mesh, config)
     return len(names)
 
@@ -164,7 +169,9 @@ class InspectEnv(gym.Env):
         ValueError: On an unsupported render mode.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
+    # gymnasium annotates `metadata` as an instance variable; it is read from the class.
+    metadata: ClassVar[dict[str, Any]] = {  # type: ignore[misc]
+        "render_modes": ["rgb_array"], "render_fps": 4}
 
     def __init__(self, config: Config | str | Path | None = None,
                  render_mode: str | None = None, **env_overrides: Any):
@@ -188,9 +195,9 @@ class InspectEnv(gym.Env):
         self.observer = Observer(config, config.env.resolution)
         self.step_limit = step_limit(config.env)
         self._scenes: dict[tuple[Path, float], MotorScene] = {}
-        self._renderer = None
-        self._renderer_cell = None
-        self._renderer_data = None
+        self._renderer: OffscreenView | None = None
+        self._renderer_cell: Cell | None = None
+        self._renderer_data: Any = None  # the renderer's mujoco.MjData
         self.episode: Episode | None = None
         self.spec_of_episode: EpisodeSpec | None = None
         self._done = True
@@ -201,9 +208,9 @@ class InspectEnv(gym.Env):
         return {"config": self.config, "render_mode": self.render_mode}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(state["config"], state["render_mode"])
+        type(self).__init__(self, state["config"], state["render_mode"])
 
-    def scene(self, path: Path, scale: float = 1.0) -> MotorScene:
+    def scene(self, path: str | Path, scale: float = 1.0) -> MotorScene:
         """The (cached) scene of one motor file; the `SCENES_KEPT` latest stay loaded."""
         key = (Path(path), scale)
         if key in self._scenes:
@@ -267,7 +274,7 @@ class InspectEnv(gym.Env):
             raise RuntimeError("the episode is over: call reset() before step()")
         episode, env = self.episode, self.config.env
         if self.actions.stops(action):
-            return self._stop()
+            return self._stop(episode)
         request = self.observer.request(self.actions, action, episode.center,
                                         self.config.kinematics.roll == "free")
         coverage_before = episode.coverage
@@ -295,9 +302,9 @@ class InspectEnv(gym.Env):
         return (self._observation(), float(terms.reward), terminated, truncated,
                 self._info(view, episode.coverage - coverage_before, terms))
 
-    def _stop(self) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def _stop(self, episode: Episode) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The agent stops: +stop_reward at or above the coverage goal, -stop_reward below."""
-        env, episode = self.config.env, self.episode
+        env = self.config.env
         self.steps += 1
         self._done = True
         reward = env.stop_reward if episode.coverage >= env.coverage_goal else -env.stop_reward
@@ -305,12 +312,13 @@ class InspectEnv(gym.Env):
         return self._observation(), reward, True, False, self._info(None, 0.0, terms)
 
     def _observation(self) -> Any:
-        return self.observer.observe(self.episode, self.np_random)
+        return self.observer.observe(self.current_episode(), self.np_random)
 
     def _info(self, view: ViewRecord | None, delta: float,
               terms: RewardTerms | None) -> dict[str, Any]:
         """The step's info; `view` is None for a stop decision (no view was requested)."""
-        episode = self.episode
+        episode, spec = self.current_episode(), self.spec_of_episode
+        assert spec is not None  # reset sets it with the episode
         sensor = episode.sensor_pose()
         approach, travel_sum = episode.approach, episode.travel_sum
         info: dict[str, Any] = {
@@ -327,11 +335,11 @@ class InspectEnv(gym.Env):
             "reachable_share": sum(v.reachable for v in episode.views) / len(episode.views),
             "points_acquired": 0 if view is None else len(view.points_world),
             "motor": str(episode.scene.mesh.path),
-            "episode_seed": self.spec_of_episode.seed,
+            "episode_seed": spec.seed,
         }
-        step = view is not None and terms is not None
+        travel = view.travel if view is not None and terms is not None else None
         for name in TRAVEL_COSTS:
-            info[f"travel_{name}"] = getattr(view.travel, name) if step else 0.0
+            info[f"travel_{name}"] = 0.0 if travel is None else getattr(travel, name)
             info[f"travel_sum_{name}"] = getattr(travel_sum, name)
             info[f"approach_{name}"] = getattr(approach, name)
         if terms is not None:
@@ -342,11 +350,19 @@ class InspectEnv(gym.Env):
             info["cycle_time"] = None if cycle is None else cycle.total_s
         return info
 
-    def episode_record(self) -> EpisodeRecord:
-        """The episode so far (for rendering and plan export)."""
+    def current_episode(self) -> Episode:
+        """The episode in progress.
+
+        Raises:
+            RuntimeError: Before the first `reset`.
+        """
         if self.episode is None:
             raise RuntimeError("no episode yet: call reset() first")
-        return self.episode.record()
+        return self.episode
+
+    def episode_record(self) -> EpisodeRecord:
+        """The episode so far (for rendering and plan export)."""
+        return self.current_episode().record()
 
     def render(self) -> np.ndarray | None:
         """An RGB frame of the cell (`render_mode="rgb_array"`), else None."""

@@ -18,10 +18,11 @@ def episode_moves(record: EpisodeRecord) -> list[np.ndarray] | None:
     before the first acquisition, or when the cycle cannot be closed (no path back was found).
     """
     moves = [view.waypoints for view in record.views if view.acquired]
+    known = [move for move in moves if move is not None]
     if (record.carrier != "robot" or not moves or record.return_waypoints is None
-            or any(move is None for move in moves)):
+            or len(known) < len(moves)):
         return None
-    return [*moves, record.return_waypoints]
+    return [*known, record.return_waypoints]
 
 
 def timed_episode(record: EpisodeRecord, cell: Cell) -> TimedPlan | None:

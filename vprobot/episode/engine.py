@@ -91,6 +91,17 @@ class Episode:
         return self.carrier.uses_robot
 
     @property
+    def robot(self) -> RobotCarrier:
+        """The carrier of an episode that `uses_robot`, as the robot's (collisions, paths).
+
+        Raises:
+            RuntimeError: If the episode's views are not reached by the robot.
+        """
+        if not isinstance(self.carrier, RobotCarrier):
+            raise RuntimeError(f"the {self.carrier.name} carrier has no robot")
+        return self.carrier
+
+    @property
     def center(self) -> np.ndarray:
         """The object's centre in the world."""
         return self.object_pose.position

@@ -31,6 +31,8 @@ class FreeCarrier(Carrier):
                           sensor_pose=target, travel=travel)
 
     def acquire(self, move: ViewRecord) -> Acquisition:
+        if move.sensor_pose is None:
+            raise ValueError("an unreached view has no frame to acquire")
         return self.scene.free_sensor.acquire_at(move.sensor_pose, self.object_pose.rotation)
 
     def preview(self, request: ViewRequest) -> Acquisition:

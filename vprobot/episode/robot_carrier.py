@@ -140,6 +140,8 @@ class RobotCarrier(Carrier):
                           joints=joints.copy(), path=None, sensor_pose=None)
 
     def acquire(self, move: ViewRecord) -> Acquisition:
+        if move.sensor_pose is None or move.joints is None:
+            raise ValueError("an unreached view has no frame to acquire")
         return self._frame(move.sensor_pose, move.joints)
 
     def preview(self, request: ViewRequest) -> Acquisition:

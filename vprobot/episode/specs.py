@@ -35,6 +35,7 @@ from vprobot.geometry import (
 )
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import ASSETS_DIR, BUNDLED_EPISODE_LISTS, EPISODES_DIR, MOTORS_DIR
+from vprobot.schema import Quat
 from vprobot.splits import MOTORS, Split
 from vprobot.viewsphere import sphere_directions
 
@@ -177,9 +178,15 @@ class EpisodeSpec:
         if isinstance(scale, bool) or not isinstance(scale, int | float) or not scale > 0:
             raise ValueError(f"episode spec scale must be a positive number, got {scale!r}")
         return cls(motor=str(block["motor"]),
-                   object_quaternion=tuple(float(x) for x in quaternion),
+                   object_quaternion=_quaternion(quaternion),
                    initial_views=tuple((float(phi), float(theta)) for phi, theta in views),
                    seed=seed, scale=float(scale))
+
+
+def _quaternion(values: np.ndarray) -> Quat:
+    """Four numbers (w, x, y, z) as a spec holds them."""
+    w, x, y, z = (float(value) for value in values)
+    return w, x, y, z
 
 
 def _numbers(value: Any) -> np.ndarray:
@@ -214,6 +221,7 @@ def sample_episode(env: EnvConfig, motors: Sequence[str | Path], rng: np.random.
     if not 0 <= index < len(motors):
         raise ValueError(f"motor index must lie in 0..{len(motors) - 1}, got {index}")
     quaternion = matrix_to_quat(random_object_rotation(env, rng))
+    views: tuple[tuple[float, float], ...]
     if env.initial_view == "fixed":
         views = ((env.initial_phi_rad, env.initial_theta_rad),)
     else:
@@ -222,7 +230,7 @@ def sample_episode(env: EnvConfig, motors: Sequence[str | Path], rng: np.random.
         views = tuple((float(np.arctan2(y, x) % (2.0 * np.pi)),
                        float(np.arccos(np.clip(z, -1.0, 1.0)))) for x, y, z in chosen)
     return EpisodeSpec(motor=motor_name(motors[index]),
-                       object_quaternion=tuple(float(x) for x in quaternion),
+                       object_quaternion=_quaternion(quaternion),
                        initial_views=views, seed=seed, scale=scale)
 
 

@@ -84,7 +84,7 @@ class PartFamily(abc.ABC):
     def sample(self, rng: np.random.Generator) -> dict[str, float]:
         """Draw every parameter uniformly within its range, in declaration order."""
         return {
-            p.name: int(rng.integers(p.low, p.high + 1)) if p.integer
+            p.name: int(rng.integers(int(p.low), int(p.high) + 1)) if p.integer
             else float(rng.uniform(p.low, p.high))
             for p in self.parameters
         }

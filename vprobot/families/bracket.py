@@ -41,7 +41,7 @@ class Bracket(PartFamily):
             solids.append(box((t, width, height), (x, 0, height / 2)))
             cuts += [rod(hole, (x - t, y, 0.6 * height), (x + t, y, 0.6 * height), 24) for y in ys]
             inner = x - side * t / 2
-            for y in (-1, 1)[: values["gusset_count"]]:
+            for y in (-1, 1)[: int(values["gusset_count"])]:
                 y0 = y * (width / 2 - t)
                 corner = [(inner + side * o, t - o), (inner - side * gusset_size, t - o),
                           (inner + side * o, t + gusset_size)]

@@ -28,7 +28,7 @@ class Flange(PartFamily):
         r, t = values["outer_radius_m"], values["thickness_m"]
         hub = values["hub_radius_ratio"] * r
         bore = values["bore_ratio"] * hub
-        count, face = values["bolt_count"], values["raised_face_m"]
+        count, face = int(values["bolt_count"]), values["raised_face_m"]
         pitch = (hub + r) / 2
         hole = min(values["bolt_hole_radius_m"], 0.35 * (r - hub), 0.3 * np.pi * pitch / count)
         face_r = pitch - hole - 0.003

@@ -44,7 +44,7 @@ class PipeFitting(PartFamily):
     )
 
     def build(self, values: Values) -> trimesh.Trimesh:
-        kind = _KINDS[values["kind"]]
+        kind = _KINDS[int(values["kind"])]
         pipe, arm = values["pipe_radius_m"], values["arm_length_m"]
         wall = values["wall_ratio"] * pipe
         o = OVERLAP_M

@@ -169,8 +169,9 @@ def base_of(values: Values) -> Base:
 def _place(rng: np.random.Generator, face: Face, footprint: tuple[float, float],
            ) -> tuple[float, float]:
     """A position on the face that keeps a footprint of these half extents on it."""
-    return tuple(float(rng.uniform(-1, 1)) * max(h - f, 0.0)
-                 for h, f in zip(face.half, footprint, strict=True))
+    s, t = (float(rng.uniform(-1, 1)) * max(h - f, 0.0)
+            for h, f in zip(face.half, footprint, strict=True))
+    return s, t
 
 
 def _clip(value: float, low: float, high: float) -> float:
@@ -220,7 +221,7 @@ def _rib(rng: np.random.Generator, face: Face, size: float) -> Feature:
     for a, w in corners:
         for b in (-thickness / 2, thickness / 2):
             local = (s + a, t + b) if along == 0 else (s + b, t + a)
-            points.append(face.point(*local, w))
+            points.append(face.point(local[0], local[1], w))
     return Feature("rib", (hull(np.array(points)),))
 
 
@@ -281,7 +282,8 @@ def _step(rng: np.random.Generator, face: Face, size: float) -> Feature:
     extents[along] = 2 * (reach[along] + OVERLAP_M)
     extents[across] = width + OVERLAP_M
     centre[across] = side * (reach[across] - width / 2 + OVERLAP_M / 2)
-    return Feature("step", cuts=(face.box(tuple(extents), tuple(centre)),))
+    return Feature("step", cuts=(face.box((extents[0], extents[1], extents[2]),
+                                          (centre[0], centre[1], centre[2])),))
 
 
 def _overhang(rng: np.random.Generator, face: Face, size: float) -> Feature:
@@ -314,7 +316,8 @@ def _undercut(rng: np.random.Generator, face: Face, size: float) -> Feature:
         centre = [0.0, 0.0, (top + bottom) / 2]
         extents[along] = 2 * (face.reach[along] + OVERLAP_M)
         extents[across], centre[across] = width, offset
-        cuts.append(face.box(tuple(extents), tuple(centre)))
+        cuts.append(face.box((extents[0], extents[1], extents[2]),
+                             (centre[0], centre[1], centre[2])))
     return Feature("undercut", cuts=tuple(cuts))
 
 

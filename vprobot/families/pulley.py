@@ -26,7 +26,7 @@ class Pulley(PartFamily):
 
     def build(self, values: Values) -> trimesh.Trimesh:
         r, depth = values["outer_radius_m"], values["groove_depth_m"]
-        count, pitch = values["groove_count"], values["groove_pitch_m"]
+        count, pitch = int(values["groove_count"]), values["groove_pitch_m"]
         edge = 0.004
         width = count * pitch + 2 * edge
         profile = [(-width / 2, 0.0), (-width / 2, r)]
@@ -37,7 +37,7 @@ class Pulley(PartFamily):
         profile += [(width / 2, r), (width / 2, 0.0)]
         hub = values["hub_radius_ratio"] * r
         rim = r - depth - 0.006
-        holes = values["lightening_hole_count"] if rim - hub > 0.015 else 0
+        holes = int(values["lightening_hole_count"]) if rim - hub > 0.015 else 0
         wheel = carve([revolve_x(profile, 96)], web_cuts(hub, rim, width, 0.4, holes))
         x1 = width / 2 + values["hub_offset_m"]
         bore = keyed_bore_x(values["bore_ratio"] * hub, -width / 2 - OVERLAP_M, x1 + OVERLAP_M)

@@ -11,11 +11,12 @@ from collections.abc import Sequence
 
 import numpy as np
 import trimesh
+from numpy.typing import ArrayLike
 
 OVERLAP_M = 0.002
 """Parts reach this far into their neighbour so unions never meet on coplanar faces."""
 
-Point = Sequence[float]
+Point = Sequence[float] | np.ndarray
 
 
 def revolve_x(
@@ -83,7 +84,8 @@ def box(extents: Point, centre: Point = (0, 0, 0)) -> trimesh.Trimesh:
 
 def rod(radius: float, start: Point, end: Point, sections: int) -> trimesh.Trimesh:
     """Cylinder of `radius` from point `start` to point `end` (any direction)."""
-    return trimesh.creation.cylinder(radius=radius, sections=sections, segment=[start, end])
+    return trimesh.creation.cylinder(radius=radius, sections=sections,
+                                     segment=np.array([start, end], dtype=float))
 
 
 def carve(
@@ -136,6 +138,6 @@ def keyed_bore_x(radius: float, x0: float, x1: float) -> list[trimesh.Trimesh]:
     return [cylinder_x(radius, x0, x1, 48), keyway]
 
 
-def hull(points: np.ndarray) -> trimesh.Trimesh:
+def hull(points: ArrayLike) -> trimesh.Trimesh:
     """Convex hull of 3D points, as a closed mesh (ribs, gussets, lever arms)."""
     return trimesh.convex.convex_hull(np.asarray(points, dtype=float))

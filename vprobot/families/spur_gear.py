@@ -33,7 +33,7 @@ class SpurGear(PartFamily):
     )
 
     def build(self, values: Values) -> trimesh.Trimesh:
-        pitch, teeth = values["pitch_radius_m"], values["tooth_count"]
+        pitch, teeth = values["pitch_radius_m"], int(values["tooth_count"])
         module = 2 * pitch / teeth
         root = pitch - 1.25 * module
         width = values["face_width_m"]
@@ -41,7 +41,7 @@ class SpurGear(PartFamily):
         hub_half = max(values["hub_length_m"], width) / 2
         rim = root - max(2 * module, 0.006)
         blank = prism_x(toothed_outline(teeth, root, pitch + module), (0, 0), -width / 2, width / 2)
-        holes = values["lightening_hole_count"] if rim - hub > 0.015 else 0
+        holes = int(values["lightening_hole_count"]) if rim - hub > 0.015 else 0
         wheel = carve([blank], web_cuts(hub, rim, width, values["web_ratio"], holes))
         o = OVERLAP_M
         bore = keyed_bore_x(values["bore_ratio"] * hub, -hub_half - o, hub_half + o)

@@ -30,7 +30,7 @@ class SteppedShaft(PartFamily):
         small = values["end_radius_ratio"] * big
         collar = values["collar_ratio"] * length
         centre = values["collar_position_ratio"] * length
-        steps = values["step_count"] - 1
+        steps = int(values["step_count"]) - 1
         left = steps // 2
         # Steps on each side of the collar share its side's length; radii fall towards the ends.
         edges = [*np.linspace(0, centre - collar / 2, left + 1),

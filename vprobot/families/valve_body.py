@@ -53,7 +53,7 @@ class ValveBody(PartFamily):
         for side in (-1, 1):
             x0, x1 = sorted((side * (half - t), side * half))
             solids.append(cylinder_x(flange, x0, x1, 64))
-            cuts += _bolt_circle(values["bolt_count"], (port + flange) / 2, hole,
+            cuts += _bolt_circle(int(values["bolt_count"]), (port + flange) / 2, hole,
                                  np.array([side * (half - t - o), 0, 0]),
                                  np.array([side * (half + o), 0, 0]), 0)
         cuts += _bolt_circle(4, (neck + bonnet) / 2, 0.3 * (bonnet - neck),

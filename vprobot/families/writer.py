@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import trimesh
 from tqdm import tqdm
 
 from vprobot.families.base import FAMILIES
@@ -43,7 +44,7 @@ def generate_instances(name: str, count: int, seed: int, out_dir: Path,
         instance = part.instance(s)
         stem = out_dir / instance_stem(name, s)
         with atomic_output(stem.with_suffix(".stl")) as temporary:
-            temporary.write_bytes(instance.mesh.export(file_type="stl"))
+            temporary.write_bytes(trimesh.exchange.stl.export_stl(instance.mesh))
         meta = {"family": name, "seed": s, "parameters": instance.parameters}
         write_text(stem.with_suffix(".json"), json.dumps(meta, indent=2) + "\n")
         paths.append(stem.with_suffix(".stl"))

@@ -46,7 +46,9 @@ def view_sphere_survey(arm: RobotArm, targets: Sequence[SensorTarget],
     """Reach every target from home; fraction reachable, the count of each failure reason
     (`RobotArm.reach`'s, most frequent first) and verdict times."""
     reasons: dict[str, int] = {}
-    reachable, reachable_ms, unreachable_ms = [], [], []
+    reachable: list[bool] = []
+    reachable_ms: list[float] = []
+    unreachable_ms: list[float] = []
     for target in tqdm(targets, desc=f"view sphere {label}", disable=not progress, leave=False):
         start = time.perf_counter()
         result = arm.reach(target, arm.joints.home)

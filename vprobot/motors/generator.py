@@ -260,7 +260,7 @@ def generate_motors(count: int, seed: int, out_dir: Path, progress: bool = True)
         mesh = build_motor(params)
         stem = out_dir / motor_stem(seed, index)
         meta = {"seed": seed, "index": index, "parameters": asdict(params)}
-        _write_atomic(stem.with_suffix(".stl"), mesh.export(file_type="stl"))
+        _write_atomic(stem.with_suffix(".stl"), trimesh.exchange.stl.export_stl(mesh))
         _write_atomic(stem.with_suffix(".json"), (json.dumps(meta, indent=2) + "\n").encode())
         paths.append(stem.with_suffix(".stl"))
     return paths

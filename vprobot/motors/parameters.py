@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -226,8 +227,10 @@ def sample_parameters(rng: np.random.Generator) -> MotorParameters:
     Returns:
         Parameters that satisfy every range and relation.
     """
-    values: dict[str, float] = {}
+    # Keyword arguments of MotorParameters: ints for the integer rules, floats otherwise.
+    values: dict[str, Any] = {}
     for name, rule in _RULES.items():
         lo, hi = rule.bounds(values)
-        values[name] = int(rng.integers(lo, hi + 1)) if rule.integer else float(rng.uniform(lo, hi))
+        values[name] = (int(rng.integers(int(lo), int(hi) + 1)) if rule.integer
+                        else float(rng.uniform(lo, hi)))
     return MotorParameters(**values)

@@ -154,7 +154,7 @@ class CandidateViews:
 
         def allowed(index: int) -> bool:
             return index not in taken and (not episode.uses_robot or
-                                           episode.carrier.path_is_free(q, self.joints[index]))
+                                           episode.robot.path_is_free(q, self.joints[index]))
 
         picks, _ = greedy_cover(self.known_visibility(), episode.covered, 1,
                                 confirm=lambda index: self.measured(index, episode),
@@ -209,7 +209,7 @@ def _build_candidates(episode: Episode, count: int, resolution: tuple[int, int],
     start = time.perf_counter()
     if episode.uses_robot:
         if screened is None:
-            joints, reasons = screen_reachability(scene.arm, episode.carrier.collisions,
+            joints, reasons = screen_reachability(scene.arm, episode.robot.collisions,
                                                   episode.q, directions, targets)
         else:
             joints, reasons = screened[0], tuple(screened[1])
@@ -235,8 +235,9 @@ def _build_candidates(episode: Episode, count: int, resolution: tuple[int, int],
     indices = np.flatnonzero(usable)
     visibility = np.zeros((count, len(ground_truth.points)), dtype=bool)
     if len(indices):
-        visibility[indices] = renderer.visible([to_mesh.compose(poses[i]) for i in indices],
-                                               ground_truth.points)
+        # The usable candidates are those with a pose.
+        visibility[indices] = renderer.visible(
+            [to_mesh.compose(pose) for pose in poses if pose is not None], ground_truth.points)
     return CandidateViews(targets=targets, usable=usable, poses=poses, joints=joints,
                           reasons=reasons, visibility=visibility, reach_seconds=reach_seconds,
                           visibility_seconds=time.perf_counter() - start)

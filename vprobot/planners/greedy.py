@@ -83,7 +83,7 @@ def greedy_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         if allowed is not None and not allowed(best):
             excluded[best] = True
             continue
-        if not confirmed[best]:
+        if not confirmed[best] and confirm is not None:
             rows[best] = confirm(best)
             confirmed[best] = True
             spent += 1

@@ -22,6 +22,8 @@ the fixture) keeps it above 60 % of its first value after ten views that saw eve
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
 from vprobot.config import Config
@@ -88,7 +90,9 @@ class VolumetricPlanner(Planner):
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
         """`nbv`, `nbv:GAIN` (which gain ranks the views), `nbv@RULE` (the stop rule it stops
         itself by), or both."""
-        return cls(config, params.get("gain", DEFAULT_GAIN), params.get("stop", "goal"))
+        # __init__ rejects a name that is not a gain.
+        gain = cast(Gain, params.get("gain", DEFAULT_GAIN))
+        return cls(config, gain, params.get("stop", "goal"))
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
         self._begin()
@@ -131,7 +135,7 @@ class VolumetricPlanner(Planner):
         if not episode.uses_robot:
             return ViewRequest(target)
         arm = episode.scene.arm
-        result = arm.reach(target, episode.q, episode.carrier.collisions)
+        result = arm.reach(target, episode.q, episode.robot.collisions)
         if not result.reachable:
             return None
         if arm_hides_view(arm, result.q, episode.center):

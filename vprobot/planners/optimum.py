@@ -321,11 +321,11 @@ def _solve(reduced: Reduced, count: int, needed: int | None, time_limit_s: float
     if found.status == 2:  # infeasible: no `count` rows add `needed` (or `floor`) points
         return None, count + 1 if needed is not None else floor
     dual = found.fun if found.status == 0 else found.mip_dual_bound
-    proved = dual is not None and np.isfinite(dual)
+    proved = dual if dual is not None and np.isfinite(dual) else None
     if needed is not None:
         # Without a bound in time, the one given holds.
-        return picks, max(math.ceil(dual - 1e-6) if proved else 0, floor)
-    return picks, math.floor(-dual + 1e-6) if proved else round(weights.sum())
+        return picks, max(math.ceil(proved - 1e-6) if proved is not None else 0, floor)
+    return picks, math.floor(-proved + 1e-6) if proved is not None else round(weights.sum())
 
 
 @register_planner

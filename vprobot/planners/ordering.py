@@ -140,15 +140,20 @@ def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[Vi
     centre) from a free start.
     """
     if episode.uses_robot:
-        known = [request for request in requests if request.joints is not None]
+        known: list[ViewRequest] = []
+        nodes = [episode.q]
+        for request in requests:
+            if request.joints is not None:
+                known.append(request)
+                nodes.append(request.joints)
         unknown = [request for request in requests if request.joints is None]
         velocity = episode.scene.arm.joints.velocity_limits
 
         def move(a: np.ndarray, b: np.ndarray) -> float:
-            blocked = 0.0 if episode.carrier.path_is_free(a, b) else BLOCKED_PATH_S
+            blocked = 0.0 if episode.robot.path_is_free(a, b) else BLOCKED_PATH_S
             return joint_time(a, b, velocity) + blocked
 
-        costs = cost_matrix([episode.q] + [request.joints for request in known], move)
+        costs = cost_matrix(nodes, move)
         order = order_views(costs, 0, range(1, len(known) + 1))
         return [known[index - 1] for index in order] + unknown
     center = episode.center
@@ -169,14 +174,15 @@ def cycle_order(episode: Episode, requests: Sequence[ViewRequest]) -> list[ViewR
     more fall back to `order_requests`, as does a plan without the robot (no cycle time) or
     with views of unknown configuration.
     """
+    joints = [request.joints for request in requests if request.joints is not None]
     if (not episode.uses_robot or len(requests) > EXACT_ORDER_VIEWS
-            or any(request.joints is None for request in requests)):
+            or len(joints) < len(requests)):
         return order_requests(episode, requests)
-    nodes = [episode.q, *(request.joints for request in requests), episode.start_joints]
+    nodes = [episode.q, *joints, episode.start_joints]
     arm = episode.scene.arm
     cost = np.zeros((len(nodes), len(nodes)))
     for a, b in itertools.permutations(range(len(nodes)), 2):
-        motion = episode.carrier.plan(nodes[a], nodes[b])
+        motion = episode.robot.plan(nodes[a], nodes[b])
         cost[a, b] = BLOCKED_PATH_S if motion is None else arm.move_time(motion.waypoints)
     # The cycle runs from the current configuration through the views to the start: a closed
     # tour of node 0 whose last leg, to the start, is charged on the way back to node 0.
@@ -186,7 +192,7 @@ def cycle_order(episode: Episode, requests: Sequence[ViewRequest]) -> list[ViewR
 
 
 def fixed_plan(episode: Episode, targets: Sequence[SensorTarget],
-               seeds: Sequence[np.ndarray] | None = None) -> list[ViewRequest]:
+               seeds: Sequence[np.ndarray] | np.ndarray | None = None) -> list[ViewRequest]:
     """The requests of fixed targets in a short travel order (`order_requests`).
 
     With the robot, each target is first reached, the IK starting from its seed configuration
@@ -196,7 +202,7 @@ def fixed_plan(episode: Episode, targets: Sequence[SensorTarget],
     """
     if not episode.uses_robot:
         return order_requests(episode, [ViewRequest(target) for target in targets])
-    arm, collisions = episode.scene.arm, episode.carrier.collisions
+    arm, collisions = episode.scene.arm, episode.robot.collisions
     requests = []
     for index, target in enumerate(targets):
         start = seeds[index] if seeds is not None else episode.q

@@ -408,7 +408,7 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
     scene = MotorScene.load(config, mesh_path, scale, scale_option="--scale")
     spec = seeded_episode(config.env, mesh_path, seed, scale)
     result = run(config, scene, planner, spec, carrier, views, stop, estimator, estimates=True)
-    if result.stop_reason.startswith(NO_INITIAL_VIEW):
+    if result.stop_reason is not None and result.stop_reason.startswith(NO_INITIAL_VIEW):
         raise ValueError(result.stop_reason.removeprefix(f"{NO_INITIAL_VIEW}: "))
     document = episode_document(scene, result.record, metadata={
         "planner": result.planner, "seed": seed, "goal": result.goal,

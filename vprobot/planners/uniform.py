@@ -91,7 +91,7 @@ def episode_band(config: Config, episode: Episode) -> tuple[np.ndarray, np.ndarr
     """Unit directions (n, 3) of the band's candidates the robot reaches around the episode's
     part at its pose, screened from its current configuration, and a configuration (n, dof)
     for each."""
-    return _reachable_band(episode.scene.arm, episode.carrier.collisions, episode.q,
+    return _reachable_band(episode.scene.arm, episode.robot.collisions, episode.q,
                            episode.center, config.sensor.working_distance_m)
 
 

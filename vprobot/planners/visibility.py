@@ -148,13 +148,13 @@ class VisibilityRenderer:
                 result[start:start + len(batch)] = self._points_visible(depth, positions,
                                                                         rotations, points)
                 bar.update(len(batch))
-        if self._projector is not None:
-            result &= self._within_limits(poses, points)
+        if isinstance(self.sensing, StructuredLight) and self._projector is not None:
+            result &= self._within_limits(poses, points, self.sensing, self._projector)
         return result
 
-    def _within_limits(self, poses: list[Pose], points: np.ndarray) -> np.ndarray:
-        """Which points (n, 3) each pose's projector lights within both incidence limits."""
-        sensing = self.sensing
+    def _within_limits(self, poses: list[Pose], points: np.ndarray, sensing: StructuredLight,
+                       projector: VisibilityRenderer) -> np.ndarray:
+        """Which points (n, 3) each pose's `projector` lights within both incidence limits."""
         min_camera, min_projector = sensing.min_cos_incidence
         _, _, triangle = self._mesh.nearest.on_surface(points)
         normals = self.normals[triangle]
@@ -169,7 +169,7 @@ class VisibilityRenderer:
         cos_camera, cos_projector = cos_incidence(positions), cos_incidence(lights)
         within = ((np.abs(cos_camera) >= min_camera) & (np.abs(cos_projector) >= min_projector)
                   & (cos_camera * cos_projector > 0.0))
-        return within & self._projector.visible(
+        return within & projector.visible(
             [Pose(light, pose.rotation) for light, pose in zip(lights, poses, strict=True)],
             points)
 
@@ -244,7 +244,8 @@ class VisibilityRenderer:
             pose, face = np.indices((len(positions), len(self.faces)))
             return pose.ravel(), face.ravel()
         # The sensor lies on the outer side of the triangle's plane.
-        return np.nonzero(positions @ self.normals.T > self._plane_offsets[None])
+        pose, face = np.nonzero(positions @ self.normals.T > self._plane_offsets[None])
+        return pose, face
 
     def _points_visible(self, depth: np.ndarray, positions: np.ndarray, rotations: np.ndarray,
                         points: np.ndarray) -> np.ndarray:

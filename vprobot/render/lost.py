@@ -20,8 +20,13 @@ from vprobot.scene import Cell
 from vprobot.sensing import StructuredLight
 from vprobot.sensor import LOSS_CAUSES, FrameLosses
 
-LOST_RGB = {cause: tuple(round(255 * float(channel)) for channel in rgba[:3])
-            for cause, rgba in LOST_RGBA.items()}
+
+def _rgb8(rgba: np.ndarray) -> tuple[int, int, int]:
+    red, green, blue = (round(255 * float(channel)) for channel in rgba[:3])
+    return red, green, blue
+
+
+LOST_RGB = {cause: _rgb8(rgba) for cause, rgba in LOST_RGBA.items()}
 """`LOST_RGBA` as 8-bit RGB, for painting images."""
 
 
@@ -41,8 +46,8 @@ def frame_losses(scene: MotorScene | Cell, record: EpisodeRecord) -> list[FrameL
     if not isinstance(sensor.sensing, StructuredLight):
         return []
     rotation = record.object_pose.rotation
-    return [sensor.losses_at(view.sensor_pose, rotation, view.joints) if view.acquired else None
-            for view in record.views]
+    return [sensor.losses_at(view.sensor_pose, rotation, view.joints)
+            if view.sensor_pose is not None else None for view in record.views]
 
 
 def lost_in_order(losses: FrameLosses) -> list[tuple[str, np.ndarray]]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
+from types import TracebackType
 from typing import Any
 
 import imageio.v2 as imageio
@@ -78,7 +79,8 @@ class VideoWriter:
         self._writer.append_data(frame)
         self.frames += 1
 
-    def __exit__(self, exc_type: object, exc: BaseException | None, traceback: object) -> None:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 traceback: TracebackType | None) -> None:
         try:
             self._writer.close()
         except BaseException as error:

@@ -136,12 +136,13 @@ def episode_timeline(record: EpisodeRecord, settings: TimingSettings,
             keeps; None for the untimed video (a free-flying sensor, no path home).
     """
     states: list[FrameState] = []
-    clock = None if timed is None else 0.0
+    clock = 0.0  # the timed cycle's; the untimed video shows none
 
     def hold(joints: np.ndarray, view: int, shown: int, phase: Phase, seconds: float) -> None:
         count = settings.frames(seconds)
         if count > 0:
-            states.append(FrameState(joints, view, shown, 1.0, phase, count, clock))
+            states.append(FrameState(joints, view, shown, 1.0, phase, count,
+                                     None if timed is None else clock))
 
     start = np.asarray(record.start_joints, dtype=float)
     joints = start

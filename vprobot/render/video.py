@@ -28,6 +28,7 @@ from vprobot.render.overlay import OverlayStatus, draw_status, inset
 from vprobot.render.panel import PanelMode, SensorPanel
 from vprobot.render.timeline import FrameState, TimingSettings, episode_timeline
 from vprobot.scene import Cell
+from vprobot.sensor import FrameLosses
 from vprobot.sensor_model import SensorModel
 
 POINT_SIZE_M = 0.004
@@ -100,10 +101,11 @@ class EpisodeRenderer:
         self.panel = (None if sensor_panel is None else
                       SensorPanel(self.cell, max(8, int(PANEL_FRACTION * width)), sensor_panel))
         # The panel is the robot's sensor camera: it shows a view only where the robot took it.
-        self.losses = (frame_losses(scene, record)
-                       if self.panel is not None and record.carrier == "robot" else [])
-        if self.losses:
-            self.lost_size_px = point_size_px(self.panel.width, scene.sensor.resolution[0])
+        self.losses: list[FrameLosses | None] = []
+        if self.panel is not None and record.carrier == "robot" and isinstance(scene, MotorScene):
+            self.losses = frame_losses(scene, record)
+            if self.losses:
+                self.lost_size_px = point_size_px(self.panel.width, scene.sensor.resolution[0])
 
     def frame(self, state: FrameState) -> np.ndarray:
         """The frame (height, width, 3) uint8 showing `state`."""
@@ -112,18 +114,18 @@ class EpisodeRenderer:
         self.view.update(self.data, lambda scene: self._draw_markers(scene, state))
         frame = self.view.rgb()
         if self.panel is not None:
-            frame = inset(frame, self._panel(state), f"sensor ({self.panel.mode})")
+            frame = inset(frame, self._panel(self.panel, state), f"sensor ({self.panel.mode})")
         return draw_status(frame, self.status(state))
 
-    def _panel(self, state: FrameState) -> np.ndarray:
+    def _panel(self, sensor_panel: SensorPanel, state: FrameState) -> np.ndarray:
         """The sensor's view; with what the shown view's frame lost, and the legend, where
         frames lose points."""
-        panel = self.panel.render(self.data)
+        panel = sensor_panel.render(self.data)
         if not self.losses:
             return panel
         shown = self.losses[state.view] if state.phase in ("acquire", "end") else None
         if shown is not None:
-            panel = paint_lost(panel, self.panel.view.scene, shown, self.lost_size_px)
+            panel = paint_lost(panel, sensor_panel.view.scene, shown, self.lost_size_px)
         return lost_legend(panel, shown)
 
     def _draw_markers(self, scene: mujoco.MjvScene, state: FrameState) -> None:

@@ -176,7 +176,7 @@ class RobotDescription:
                 the base, or a joint of the chain is not a hinge.
         """
         base, flange = (self._body_id(model, key) for key in ("base", "flange"))
-        chain = []
+        chain: list[int] = []
         body = flange
         while body != base:
             if body == 0:

@@ -13,6 +13,7 @@ import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -32,6 +33,7 @@ from vprobot.robots.description import (
     RobotDescription,
 )
 from vprobot.scene import Cell
+from vprobot.schema import Vec3
 
 CONVERSION_STEPS = """\
 1. The chain from the URDF's root to the flange link is found. The base is the parent link of
@@ -91,6 +93,19 @@ class Provenance:
     upstream_readme: Path | None = None
 
 
+def _end_link(joint: ET.Element, end: str, urdf: Path) -> str:
+    """The link at one `end` ("parent" or "child") of a URDF joint.
+
+    Raises:
+        ValueError: If the joint names no such link.
+    """
+    element = joint.find(end)
+    link = None if element is None else element.get("link")
+    if link is None:
+        raise ValueError(f"joint {joint.get('name')!r} of {urdf} names no {end} link")
+    return link
+
+
 class UrdfChain:
     """The serial chain of a URDF from its root to the flange link.
 
@@ -116,14 +131,14 @@ class UrdfChain:
         links = [link.get("name") for link in root.findall("link")]
         if flange not in links:
             raise ValueError(f"flange link {flange!r} is not in {urdf}; its links: "
-                             f"{', '.join(links)}")
-        parent_joint = {joint.find("child").get("link"): joint for joint in root.findall("joint")}
-        chain = []
+                             f"{', '.join(map(str, links))}")
+        parent_joint = {_end_link(joint, "child", urdf): joint for joint in root.findall("joint")}
+        chain: list[ET.Element] = []
         link = flange
         while link in parent_joint:
             joint = parent_joint[link]
             chain.insert(0, joint)
-            link = joint.find("parent").get("link")
+            link = _end_link(joint, "parent", urdf)
         movable = [joint for joint in chain if joint.get("type") != "fixed"]
         for joint in movable:
             if joint.get("type") not in REVOLUTE_TYPES:
@@ -136,13 +151,14 @@ class UrdfChain:
         first = chain.index(movable[0])
         self.flange = flange
         self.joints = chain[first:]
-        self.base = movable[0].find("parent").get("link")
-        self.links = [self.base, *(joint.find("child").get("link") for joint in self.joints)]
+        self.base = _end_link(movable[0], "parent", urdf)
+        self.links = [self.base, *(_end_link(joint, "child", urdf) for joint in self.joints)]
         self.revolute = movable
 
     @property
     def joint_names(self) -> list[str]:
-        return [joint.get("name") for joint in self.revolute]
+        # URDF requires joint names; MuJoCo's importer rejects a file without them.
+        return [joint.get("name", "") for joint in self.revolute]
 
     def limits(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper limits of the revolute joints (continuous ones: +-2 pi)."""
@@ -226,7 +242,7 @@ def _copy_mesh(source: Path, meshes: Path, stem: str) -> str:
 
 
 def _prepare_urdf(chain: UrdfChain, meshes: Path,
-                  package_paths: Mapping[str, Path] | None) -> ET.ElementTree:
+                  package_paths: Mapping[str, Path] | None) -> ET.ElementTree[ET.Element]:
     """The chain's URDF for MuJoCo's importer, with its meshes copied into `meshes`."""
     root = chain.tree.getroot()
     kept_links, kept_joints = set(chain.links), {id(joint) for joint in chain.joints}
@@ -378,16 +394,16 @@ def convert_urdf(
     chain = UrdfChain(urdf, flange)
     provenance = provenance or Provenance(title=name, source=str(urdf))
     lower, upper = chain.limits()
-    home = default_home(chain) if home is None else np.asarray(home, dtype=float)
-    if home.shape != lower.shape or np.any(home < lower) or np.any(home > upper):
-        raise ValueError(f"home {np.round(home, 4).tolist()} must have {len(lower)} values "
+    home_q = default_home(chain) if home is None else np.asarray(home, dtype=float)
+    if home_q.shape != lower.shape or np.any(home_q < lower) or np.any(home_q > upper):
+        raise ValueError(f"home {np.round(home_q, 4).tolist()} must have {len(lower)} values "
                          f"within the joint limits {np.round(lower, 4).tolist()} .. "
                          f"{np.round(upper, 4).tolist()}")
     dof = len(lower)
     description = RobotDescription(
         name=name, model=f"{name}.xml", base=chain.base, flange=flange,
         pan_joint=chain.joint_names[0], roll_joint=chain.joint_names[-1],
-        home=tuple(float(value) for value in home),
+        home=tuple(float(value) for value in home_q),
         velocity_limits_rad_s=tuple(chain.velocity_limits()),
         acceleration_limits_rad_s2=tuple(map(float, (
             [ASSUMED_ACCELERATION_RAD_S2] * dof if acceleration_limits_rad_s2 is None
@@ -395,7 +411,8 @@ def convert_urdf(
         jerk_limits_rad_s3=tuple(map(float, (
             [ASSUMED_JERK_RAD_S3] * dof if jerk_limits_rad_s3 is None
             else jerk_limits_rad_s3))),
-        base_position_m=tuple(float(value) for value in base_position_m),
+        # Three values: reading the folder back (`_check_folder`) checks it.
+        base_position_m=cast(Vec3, tuple(float(value) for value in base_position_m)),
         base_yaw_deg=float(base_yaw_deg), base_tilt_deg=float(base_tilt_deg))
 
     sources = {"velocity_limits_rad_s": f"The URDF's joint velocity limits ({provenance.source}).",

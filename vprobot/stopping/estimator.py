@@ -301,6 +301,7 @@ class CoverageEstimator:
                 arrays[f"w_{m}_{k}"], arrays[f"b_{m}_{k}"] = weight, bias
         with atomic_output(path) as temporary:
             with temporary.open("wb") as stream:
+                # numpy's stub reads a ** mapping as one that may set its `allow_pickle` flag.
                 np.savez(stream, **arrays)  # type: ignore[arg-type]
         return path
 

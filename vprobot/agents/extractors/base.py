@@ -61,6 +61,8 @@ def split_space(space: gym.Space) -> tuple[gym.spaces.Box, gym.spaces.Box | None
     if isinstance(space, gym.spaces.Box) and len(space.shape) == 2:
         return space, None
     if isinstance(space, gym.spaces.Dict) and set(space.spaces) == {"points", "robot"}:
-        return space["points"], space["robot"]
+        points, robot = space["points"], space["robot"]
+        if isinstance(points, gym.spaces.Box) and isinstance(robot, gym.spaces.Box):
+            return points, robot
     raise ValueError(f"point-cloud extractors take a Box (N, C) or a Dict of 'points' and "
                      f"'robot', got {space}")
