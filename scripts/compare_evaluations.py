@@ -1,6 +1,7 @@
 """Compare two `vprobot evaluate` tables cell by cell (behaviour-unchanged checks).
 
-Every row of NEW (planner, carrier) must be in OLD; the metric columns they share are compared
+Every row of NEW (episode, planner and carrier in an episodes table; planner and carrier in a
+summary) must be in OLD; the metric columns they share are compared
 (timing columns, which vary from run to run, are left out). Prints the cells that moved and
 exits 1 if any did.
 
@@ -64,7 +65,11 @@ def main() -> int:
     for path in (args.old, args.new):
         with open(path, newline="") as stream:
             tables.append(list(csv.DictReader(stream)))
-    lines, compared = moved_cells(*tables, ("planner", "carrier"))
+    # An episodes table has a row per episode, planner and carrier; a summary per planner and
+    # carrier.
+    key = (("episode", "planner", "carrier") if tables[1] and "episode" in tables[1][0]
+           else ("planner", "carrier"))
+    lines, compared = moved_cells(*tables, key)
     for line in lines:
         print(line)
     print(f"{len(tables[1])} rows, {compared} cells compared, {len(lines)} moved")

@@ -86,3 +86,23 @@ def test_an_agent_scored_on_other_episodes_is_refused_in_one_line(tmp_path: Path
     assert len(result.stderr.strip().splitlines()) == 1 and not (tmp_path / "t.md").exists()
     missing = _tables("--folders", "nowhere", "--out", "t.md", cwd=tmp_path)
     assert missing.returncode == 2 and "does not exist" in missing.stderr
+
+
+def test_comparing_episode_tables_matches_every_episode_not_one_per_planner(
+        tmp_path: Path) -> None:
+    """`scripts/compare_evaluations.py` on two episodes tables that differ in the first of two
+    episodes of a planner: the moved cell is found (rows keyed by episode too)."""
+    old = [_row(0, "bscp", 3, True, 10.0), _row(1, "bscp", 4, True, 12.0)]
+    new = [_row(0, "bscp", 5, True, 10.0), _row(1, "bscp", 4, True, 12.0)]
+    for name, rows in (("old", old), ("new", new)):
+        _folder(tmp_path / name, rows, [0, 1])
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "compare_evaluations.py"),
+         str(tmp_path / "old" / EPISODES_NAME), str(tmp_path / "new" / EPISODES_NAME)],
+        capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 1
+    # acquisitions and requested (acquisitions + 1 in `_row`) of episode 0 moved; 26 columns
+    # compared per row (the 32 less the key and the timing columns).
+    assert result.stdout.splitlines() == ["('0', 'bscp', 'robot') acquisitions: 3 -> 5",
+                                          "('0', 'bscp', 'robot') requested: 4 -> 6",
+                                          "2 rows, 52 cells compared, 2 moved"]
