@@ -43,10 +43,10 @@ def test_committed_motor_rows_equal_their_regeneration(
     check, out = regenerated
     rows = list(csv.DictReader((out / "tables" / "evaluation_episodes.csv").open()))
     assert sorted(row["planner"] for row in rows) == sorted(2 * PLANNERS)
-    # The robot rows too: the folder has no settings record, so it is regenerated with the
-    # moves of its time, straight joint-space lines (`check_results.recorded_config`).
+    # The robot rows too: the folder's settings record gives the config it was made with,
+    # planned moves included (`check_results.recorded_config`).
     assert check.differences(MOTORS, out, EPISODES) == []
-    assert check.recorded_config(MOTORS) == {"kinematics": {"path_planner": "line"}}
+    assert check.recorded_config(MOTORS)["kinematics"]["path_planner"] == "rrt_connect"
 
 
 def test_check_names_a_committed_cell_that_differs(regenerated: tuple[ModuleType, Path],
