@@ -121,6 +121,25 @@ def test_the_best_validation_row_is_the_runs_selection_rule(
     assert best_validation(tmp_path / "run", select)["step"] == step  # type: ignore[arg-type]
 
 
+def test_selection_in_the_cells_terms_ranks_by_goal_then_requests_then_cycle(
+        tmp_path: Path) -> None:
+    """goal_then_cycle: of the rows at the highest goal rate the fewest requests (failed ones
+    included, though it acquired fewer), then the shorter cycle; a row without a cycle last."""
+    rows = [  # step, success, acquisitions, requested, cycle s
+        (0, 0.9, 4.0, 4.0, 8.0), (2500, 1.0, 4.5, 5.5, 9.0), (5000, 1.0, 5.0, 5.0, 11.0),
+        (7500, 1.0, 5.0, 5.0, 10.0), (10000, 1.0, 5.0, 5.0, None)]
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "result.json").write_text("{}\n")
+    (run / "evaluations.csv").write_text(csv_text(EVALUATION_COLUMNS, [
+        {"step": step, "coverage_pct": 92.0, "acquisitions": acquisitions,
+         "requested": requested, "success_pct": 100 * success, "cycle_time_s": cycle}
+        for step, success, acquisitions, requested, cycle in rows]))
+    # goal_then_views would take step 2500 (4.5 acquisitions), which failed a request.
+    assert best_validation(run, "goal_then_views")["step"] == 2500
+    assert best_validation(run, "goal_then_cycle")["step"] == 7500
+
+
 @pytest.mark.parametrize(("select", "kept"), [
     ("coverage", [0, 2500, 2500, 10000, 10000, 10000]),
     ("goal_then_views", [0, 2500, 7500, 7500, 12500, 12500]),

@@ -285,7 +285,7 @@ ActionName = Literal[
     "A_view",
 ]
 TravelCostName = Literal["joint_time", "joint_path", "cartesian", "paper", "cycle_time"]
-Selection = Literal["coverage", "goal_then_views"]
+Selection = Literal["coverage", "goal_then_views", "goal_then_cycle"]
 """How a run's evaluations choose its best model (`AgentConfig.select`)."""
 ROBOT_TRAVEL_COSTS = ("joint_time", "joint_path", "cycle_time")
 """Travel costs that exist only with a robot (joint space)."""
@@ -473,7 +473,9 @@ class AgentConfig:
         select: Which evaluation's model is the best: `coverage` (the highest mean coverage,
             fewer acquisitions breaking ties) or `goal_then_views` (the most episodes at the
             coverage goal, then the fewest acquisitions, then the highest coverage: once every
-            episode reaches the goal, coverage first favours more views).
+            episode reaches the goal, coverage first favours more views) or `goal_then_cycle`
+            (the cell's terms: the most episodes at the goal, then the fewest requests, failed
+            ones included, then the shortest cycle time, then the highest coverage).
         test_lists: Bundled episode lists a finished run's best model is scored on, once
             (`vprobot.agents.training.score_test_lists`; None: none); never during training.
         checkpoint_freq: Env steps between checkpoints (with the replay buffer).

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -46,10 +47,17 @@ def read_result(run_dir: Path) -> dict[str, Any]:
 
 def evaluation_score(row: Mapping[str, Any], select: Selection) -> tuple[float, ...]:
     """How evaluations rank under `agent.select` (the higher the better): coverage, then the
-    fewer acquisitions; or the goal rate, then the fewer acquisitions, then coverage."""
+    fewer acquisitions; or the goal rate, then the fewer acquisitions, then coverage; or the goal
+    rate, then the fewer requests (a failed request costs the cell time too), then the shorter
+    cycle (none, e.g. no robot or a row written before cycles were timed, ranks last), then
+    coverage."""
     coverage, acquisitions = float(row["coverage_pct"]), float(row["acquisitions"])
     if select == "goal_then_views":
         return float(row["success_pct"]), -acquisitions, coverage
+    if select == "goal_then_cycle":
+        cycle = row.get("cycle_time_s")
+        return (float(row["success_pct"]), -float(row["requested"]),
+                -float(cycle) if cycle not in (None, "") else -math.inf, coverage)
     return coverage, -acquisitions
 
 
