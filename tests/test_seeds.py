@@ -8,6 +8,7 @@ import json
 import re
 import shutil
 import types
+import typing
 from pathlib import Path
 
 import pytest
@@ -21,7 +22,7 @@ from vprobot.agents.runs import best_evaluation, best_validation
 from vprobot.agents.seeds import seeds_table, write_summary
 from vprobot.agents.training import profile_config
 from vprobot.cli import main
-from vprobot.config import Config, ConfigError, replace
+from vprobot.config import Config, ConfigError, Selection, replace
 from vprobot.evaluation import COLUMNS
 from vprobot.files import csv_text
 from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
@@ -174,8 +175,11 @@ def test_agent_select_is_coverage_by_default_and_goal_then_views_for_the_candida
     assert profile_config(CONFIGS_DIR / "agents" / "cpu.yaml").agent.select == "coverage"
     candidates = profile_config(CONFIGS_DIR / "agents" / "cpu-candidates.yaml")
     assert candidates.agent.select == "goal_then_views"
+    # The message lists every rule the config accepts, whatever they are.
+    allowed = list(typing.get_args(Selection))
+    assert {"coverage", "goal_then_views", "goal_then_cycle"} <= set(allowed)
     with pytest.raises(ConfigError, match=re.escape(
-            "agent.select must be one of ['coverage', 'goal_then_views'], got 'views'")):
+            f"agent.select must be one of {allowed}, got 'views'")):
         replace(Config(), "agent", select="views")
 
 
