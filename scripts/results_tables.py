@@ -18,12 +18,12 @@ Usage:
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 from pathlib import Path
 from typing import Any
 
+from vprobot.episode import read_episode_list
 from vprobot.evaluation import EPISODES_NAME, OPTIMUM, finished_rows, summarize
 from vprobot.files import write_text
 from vprobot.outputs import check_output_file
@@ -44,13 +44,6 @@ def _episodes(folder: Path) -> list[dict[str, Any]]:
     if not path.is_file():
         raise ValueError(f"{path} does not exist; run the folder's command first")
     return finished_rows(path)
-
-
-def _episode_list(folder: Path) -> Any:
-    path = folder / "episodes.json"
-    if not path.is_file():
-        raise ValueError(f"{path} does not exist")
-    return json.loads(path.read_text())["episodes"]
 
 
 def _cell(values: list[float | None], form: str, seeds: bool) -> str:
@@ -84,7 +77,8 @@ def table(folders: Path, carrier: str, agents: dict[str, Path],
             per_seed = []
             for seed_dir in sorted(root.glob("seed-*")):
                 scored = seed_dir / "test" / name
-                if _episode_list(scored) != _episode_list(folder):
+                if (read_episode_list(scored / "episodes.json")
+                        != read_episode_list(folder / "episodes.json")):
                     raise ValueError(f"{scored} was scored on other episodes than {folder}")
                 own = [{**row, "planner": agent} for row in _episodes(scored)
                        if row["carrier"] == carrier]

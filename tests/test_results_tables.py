@@ -4,12 +4,12 @@ compared with the optimum of the same episodes, and one line (exit 2) for a bad 
 from __future__ import annotations
 
 import csv
-import json
 import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
+from vprobot.episode import EpisodeSpec, write_episode_list
 from vprobot.evaluation import CURVE_COLUMNS, EPISODE_COLUMNS, EPISODES_NAME
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,12 +30,16 @@ def _row(episode: int, planner: str, acquisitions: int, success: bool,
 
 
 def _folder(folder: Path, rows: list[dict[str, Any]], episodes: list[int]) -> None:
+    """An evaluation folder of `rows` whose episode list holds one spec per number in
+    `episodes` (the number its seed)."""
     folder.mkdir(parents=True)
     with (folder / EPISODES_NAME).open("w", newline="") as stream:
         writer = csv.DictWriter(stream, EPISODE_COLUMNS)
         writer.writeheader()
         writer.writerows(rows)
-    (folder / "episodes.json").write_text(json.dumps({"version": 1, "episodes": episodes}))
+    write_episode_list(folder / "episodes.json", [
+        EpisodeSpec(motor="m.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
+                    initial_views=((1.42, 0.71),), seed=seed) for seed in episodes])
 
 
 def _tables(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
