@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -188,12 +189,20 @@ def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(
 def test_an_agent_asked_to_plan_with_another_sensor_says_which_it_was_trained_with() -> None:
     """The agent's observations are built from its training sensor's frames (430 x 300 rays for
     the bundled ones); another sensor's frames used to index past that grid (an IndexError deep
-    in the occupancy grid). Now the planner is refused, naming both sensors."""
-    from vprobot.config import with_sensor
+    in the occupancy grid). Now the planner is refused, naming both sensors; so is the same
+    sensor under another sensing model, which changes what each view measures."""
+    from vprobot.config import replace, sensor_preset, with_sensor
     from vprobot.planners.runner import make_planner
 
     with pytest.raises(ValueError, match=r"agent cpu was trained with the sensor 430 x 300 rays, "
-                                         r"27 x 25 deg, 0.3-0.5 m and plans only with it; this "
-                                         r"run's sensor is 2448 x 2048 rays"):
+                                         r"27 x 25 deg, 0.3-0.5 m, ideal sensing and plans only "
+                                         r"with it; this run's sensor is 2448 x 2048 rays"):
         make_planner("agent:cpu", with_sensor(CONFIG, "zivid2plus_mr60"))
+    with pytest.raises(ValueError, match=r"agent cpu was trained with the sensor 430 x 300 rays, "
+                                         r"27 x 25 deg, 0.3-0.5 m, ideal sensing and plans only "
+                                         r"with it; this run's sensor is 430 x 300 rays, 27 x 25 "
+                                         r"deg, 0.3-0.5 m, structured_light sensing"):
+        make_planner("agent:cpu", replace(CONFIG, "sensor", sensing="structured_light",
+                                          structured_light=dataclasses.asdict(sensor_preset(
+                                              "zivid2plus_mr60").structured_light)))
     assert isinstance(make_planner("agent:cpu", CONFIG), AgentPlanner)

@@ -89,6 +89,19 @@ def test_unknown_test_lists_are_refused_with_the_profile_before_training(
                     "'bogus'")
 
 
+def test_teacher_needs_a_folder_and_a_profile_with_a_teacher(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    candidates = str(PROFILES_DIR / "cpu-candidates.yaml")
+    assert main(["teacher", candidates]) == 2
+    assert main(["teacher", str(PROFILES_DIR / "cpu.yaml"), "--out", str(tmp_path / "t")]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "vprobot teacher: error: give --out FOLDER, or a profile with agent.teacher_dir (the "
+        "folder its runs read the teacher's states from)",
+        f"vprobot teacher: error: {PROFILES_DIR / 'cpu.yaml'} has no teacher: its "
+        f"agent.pretrain_episodes is 0"]
+    assert not (tmp_path / "t").exists()
+
+
 @pytest.mark.parametrize(("argv", "expected"), [
     (["plan", "--planner", "agent", "--views", "1000000"],
      "vprobot plan: error: argument --views: must be an integer in 1..100, got '1000000', which "

@@ -74,7 +74,7 @@ def test_candidates_the_robot_cannot_take_are_worth_a_wasted_request() -> None:
 
 
 def test_collecting_teacher_states_screens_each_episode_once(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     screenings = []
 
     def counted(*args: object) -> tuple:
@@ -83,16 +83,17 @@ def test_collecting_teacher_states_screens_each_episode_once(
 
     monkeypatch.setattr("vprobot.env.grid_state.screen_reachability", counted)
     monkeypatch.setattr("vprobot.planners.candidates.screen_reachability", counted)
-    states = collect(config("robot"), episodes=1, seed=0)
+    states = collect(config("robot"), episodes=1, seed=0, folder=tmp_path)
     assert len(screenings) == 1 and len(states) >= 1
     # The candidates the state shows unreachable are the ones the teacher values as wasted.
     unreachable = states.observations["candidates"][:, :, FEATURES.index("reachable")] == 0
     np.testing.assert_array_equal(states.values == WASTED, unreachable)
 
 
-def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_best() -> None:
+def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_best(
+        tmp_path: Path) -> None:
     cfg = config("free")
-    states = collect(cfg, episodes=2, seed=0)
+    states = collect(cfg, episodes=2, seed=0, folder=tmp_path)
     model = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")
     losses = fit(model, states, epochs=150, seed=0)
     assert losses[-1] < 0.2 * losses[0]
@@ -133,3 +134,35 @@ def test_a_pretrained_run_evaluates_the_imitation_as_step_0(tmp_path: Path) -> N
     steps = [line.split(",")[0] for line in
              (tmp_path / "run" / "evaluations.csv").read_text().splitlines()[1:]]
     assert steps == ["0", "30"]
+
+
+def test_teacher_shards_are_the_same_rolled_out_alone_or_in_two_processes_and_are_shared(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setattr("vprobot.agents.pretrain.SHARD_EPISODES", 1)
+    cfg = replace(config("free", teacher_seed=7), "env", resolution=(64, 45))
+    alone = collect(cfg, episodes=2, seed=0, folder=tmp_path / "alone")
+    parallel = collect(cfg, episodes=2, seed=1, folder=tmp_path / "two", workers=2)
+    assert sorted(path.name for path in (tmp_path / "two").glob("shard-*")) == [
+        "shard-0000-1.npz", "shard-0001-1.npz"]
+    for states in (parallel, alone):
+        assert states.values.shape[0] == states.observations["mask"].shape[0] > 2
+    np.testing.assert_array_equal(alone.values, parallel.values)
+    for key, value in alone.observations.items():
+        np.testing.assert_array_equal(value, parallel.observations[key])
+    # Another run of the same teacher reads the shards; it rolls out nothing.
+    monkeypatch.setattr("vprobot.agents.pretrain.collect_shard", None)
+    again = collect(cfg, episodes=2, seed=2, folder=tmp_path / "two")
+    np.testing.assert_array_equal(again.values, alone.values)
+
+
+def test_a_teacher_folder_of_another_cell_or_seed_is_refused(tmp_path: Path) -> None:
+    cfg = replace(config("free", teacher_seed=3), "env", resolution=(64, 45))
+    collect(cfg, episodes=1, seed=0, folder=tmp_path)
+    for other, differs in ((replace(cfg, "agent", teacher_seed=4), "teacher_seed"),
+                           (replace(cfg, "env", reward="R1"), "env")):
+        with pytest.raises(ConfigError, match=re.escape(
+                f"{tmp_path} holds the teacher states of another run: its teacher.json differs "
+                f"in {differs}; give another agent.teacher_dir")):
+            collect(other, episodes=1, seed=0, folder=tmp_path)
+    with pytest.raises(ConfigError, match=re.escape("agent.teacher_seed must be >= 0")):
+        config(teacher_seed=-1)

@@ -395,6 +395,26 @@ def command_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def command_teacher(args: argparse.Namespace) -> int:
+    """Roll out a profile's teacher episodes into its teacher folder, on several cores."""
+    from vprobot.agents.pretrain import collect
+    from vprobot.agents.training import profile_config
+
+    config = _sensor_option(profile_config(args.profile, args.set), args)
+    folder = args.out or config.agent.teacher_dir
+    if folder is None:
+        raise ValueError("give --out FOLDER, or a profile with agent.teacher_dir (the folder "
+                         "its runs read the teacher's states from)")
+    if config.agent.pretrain_episodes < 1:
+        raise ValueError(f"{args.profile} has no teacher: its agent.pretrain_episodes is "
+                         f"{config.agent.pretrain_episodes}")
+    states = collect(config, config.agent.pretrain_episodes, args.seed, Path(folder),
+                     workers=args.workers, progress=True)
+    print(f"{config.agent.pretrain_episodes} teacher episodes, {len(states):,} states, are in "
+          f"{folder}")
+    return 0
+
+
 def _scores(row: dict[str, Any]) -> str:
     """An evaluation on the validation episodes, as `train` reports it."""
     return (f"coverage {row['coverage_pct']:.1f} %, {row['acquisitions']:.2f} acquisitions, "
@@ -788,6 +808,22 @@ def build_parser() -> argparse.ArgumentParser:
                           "(default: one after another in this process)")
     training.add_argument("--address", help="with --seeds: run the seeds on this Ray cluster")
 
+    teacher = add("teacher", command_teacher,
+                  "Roll out a profile's teacher episodes (agent.pretrain_episodes) into its "
+                  "teacher folder, shard by shard, on several cores: the runs that share "
+                  "agent.teacher_seed and agent.teacher_dir then read them; resumable.",
+                  commands, config=False)
+    teacher.add_argument("profile", help="agent profile YAML, e.g. "
+                                         "configs/agents/real-candidates.yaml")
+    teacher.add_argument("--set", nargs="+", default=[], metavar="SECTION.KEY=VALUE",
+                         help="override profile settings, as in `vprobot train`")
+    add_sensor(teacher)
+    teacher.add_argument("--out", help="the teacher folder (default: agent.teacher_dir)")
+    teacher.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
+                         help="the run seed the teacher's stream follows when the profile "
+                              "sets no agent.teacher_seed (default 0)")
+    teacher.add_argument("--workers", type=POSITIVE_INT, default=1,
+                         help="processes rolling out shards at once (default 1)")
     study = add("sweep", command_sweep,
                 "Run a study (a grid of agent configurations x seeds) as training runs on Ray.",
                 config=False)

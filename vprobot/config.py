@@ -463,6 +463,10 @@ class AgentConfig:
         pretrain_episodes: With `dqn`: episodes of the model-based teacher whose states the
             Q-network is fitted to before RL (`vprobot.agents.pretrain`; 0: none).
         pretrain_epochs: Passes over those states.
+        teacher_seed: The seed the teacher's episodes are drawn from (None: the run's seed);
+            runs that share it and `teacher_dir` share the teacher's states.
+        teacher_dir: The folder the teacher's states are kept in, shard by shard (None: the
+            run's `teacher/`); relative to where the command runs.
         n_steps: Env steps per PPO rollout (per env).
         n_epochs: PPO epochs per rollout.
         total_steps: Env steps of a training run.
@@ -503,6 +507,8 @@ class AgentConfig:
     exploration_final_eps: float = 0.05
     pretrain_episodes: int = 0
     pretrain_epochs: int = 20
+    teacher_seed: int | None = None
+    teacher_dir: str | None = None
     n_steps: int = 1_024
     n_epochs: int = 10
     total_steps: int = 75_000
@@ -555,6 +561,9 @@ class AgentConfig:
         if self.pretrain_episodes < 0:
             raise ConfigError(f"agent.pretrain_episodes must be >= 0, got "
                               f"{self.pretrain_episodes}")
+        if self.teacher_seed is not None and self.teacher_seed < 0:
+            raise ConfigError(f"agent.teacher_seed must be >= 0 (or null for the run's seed), "
+                              f"got {self.teacher_seed}")
         if self.pretrain_episodes and self.algorithm != "dqn":
             raise ConfigError(f"agent.pretrain_episodes fits a candidate Q-network: it needs "
                               f"agent.algorithm dqn, got {self.algorithm!r}")

@@ -59,6 +59,8 @@ GAINS: tuple[Gain, ...] = ("unknown", "frontier", "rear_side")
 _NEIGHBOURS = np.concatenate([np.eye(3, dtype=int), -np.eye(3, dtype=int)])
 _KIND_BITS = len(GAINS)
 _CODES = (OCCUPIED + 1) << _KIND_BITS
+_RAYS_PER_BLOCK = 256
+"""Rays integrated at once: their samples take a few megabytes."""
 
 
 @dataclasses.dataclass
@@ -105,7 +107,9 @@ class OccupancyGrid:
 
     def flat_index(self, points: np.ndarray) -> np.ndarray:
         """Flat voxel index of each point (..., 3); -1 outside the grid."""
-        cells = np.floor((points - self.origin) / self.voxel_m)
+        cells = np.subtract(points, self.origin)
+        cells /= self.voxel_m
+        np.floor(cells, out=cells)
         # Axis by axis, in floats (whole numbers, exact): a reduction over the last axis of
         # three and an index clipped for `ravel_multi_index` took most of a frame's
         # integration.
@@ -183,14 +187,29 @@ class OccupancyGrid:
         # Free space stops half a voxel short of a measurement, so that the measured surface's
         # own voxel is never crossed.
         length = np.where(np.isposinf(nearest), sensor.far_m, nearest - 0.5 * self.voxel_m)
-        distances, samples = ray_samples(pose, rays, sensor, self.voxel_m)
-        index = self.flat_index(samples)
-        crossed = (distances[None, :] <= length[:, None]) & (index >= 0)
+        distances = sample_distances(sensor, self.voxel_m)
+        world = rays @ pose.rotation.T
         flat = self.state.reshape(-1)
-        cleared = index[crossed]
-        flat[cleared[flat[cleared] != OCCUPIED]] = FREE
+        # Block by block of rays, each only as far as its longest ray goes: the whole frame's
+        # samples at once (a long-range sensor's, pixel by pixel) took gigabytes and most of the
+        # time in allocating them.
+        for start in range(0, len(world), _RAYS_PER_BLOCK):
+            block = slice(start, start + _RAYS_PER_BLOCK)
+            reach = np.searchsorted(distances, length[block].max(), side="right")
+            samples = world[block, None, :] * distances[None, :reach, None]
+            samples += pose.position
+            index = self.flat_index(samples)
+            crossed = (distances[None, :reach] <= length[block, None]) & (index >= 0)
+            cleared = index[crossed]
+            flat[cleared[flat[cleared] != OCCUPIED]] = FREE
         hits = self.flat_index(points_world)
         flat[hits[hits >= 0]] = OCCUPIED
+
+
+def sample_distances(sensor: SensorModel, voxel_m: float) -> np.ndarray:
+    """Distances half a voxel apart from the sensor's near to its far bound."""
+    step = 0.5 * voxel_m
+    return np.arange(sensor.near_m, sensor.far_m + step, step)
 
 
 def ray_samples(pose: Pose, directions: np.ndarray, sensor: SensorModel,
@@ -206,8 +225,7 @@ def ray_samples(pose: Pose, directions: np.ndarray, sensor: SensorModel,
     Returns:
         The distances along every ray (k,) and the sample points (n, k, 3) in the world.
     """
-    step = 0.5 * voxel_m
-    distances = np.arange(sensor.near_m, sensor.far_m + step, step)
+    distances = sample_distances(sensor, voxel_m)
     return distances, (pose.position + (directions @ pose.rotation.T)[:, None, :]
                        * distances[None, :, None])
 

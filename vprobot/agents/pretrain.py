@@ -7,13 +7,23 @@ and the Q-network (and its target) is fitted to them by least squares over the a
 candidates: a target for every candidate at once, where RL sees one reward per step. DQN then
 goes on from there, adding the discounted future to the immediate value.
 
-The episodes come from a stream of their own (`PRETRAIN_RANK`), apart from the RL envs'.
+The episodes come from a stream of their own (`PRETRAIN_RANK`), apart from the RL envs', drawn
+from `agent.teacher_seed` (the run's seed by default). They are rolled out in shards of
+`SHARD_EPISODES`, each saved as it is done into the teacher's folder (`agent.teacher_dir`, by
+default the run's `teacher/`), with `teacher.json` saying what made them: a killed run keeps its
+finished shards, runs with one teacher seed and folder share them (the teacher's data made once
+for every seed of a study), and `vprobot teacher` fills the folder beforehand on several cores.
+A folder made for another cell, sensor, env or teacher seed is refused.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -22,14 +32,19 @@ from tqdm import tqdm
 from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, allowed_rows
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import CandidateTeacher
-from vprobot.config import Config
+from vprobot.config import Config, ConfigError, config_document
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.files import write_text
+from vprobot.files import atomic_output, folder_lock, read_text, write_text
 
 PRETRAIN_RANK = 1_000
 EPSILON = 0.2
 PRETRAIN_FILE = "pretrain.csv"
 """Per epoch of the fit: the mean squared error over the allowed candidates."""
+SHARD_EPISODES = 25
+"""Teacher episodes rolled out and saved together."""
+TEACHER_FILE = "teacher.json"
+"""What made a teacher folder's shards (`teacher_identity`)."""
+_VALUES_KEY = "values"
 
 
 @dataclasses.dataclass
@@ -48,21 +63,42 @@ class TeacherStates:
         return len(self.values)
 
 
-def collect(config: Config, episodes: int, seed: int, progress: bool = False) -> TeacherStates:
-    """Roll out `episodes` teacher episodes on the config's training objects.
+def teacher_seed(config: Config, seed: int) -> int:
+    """The seed the teacher's episodes are drawn from: `agent.teacher_seed`, else the run's."""
+    return seed if config.agent.teacher_seed is None else config.agent.teacher_seed
+
+
+def teacher_identity(config: Config, seed: int) -> dict[str, Any]:
+    """What decides the teacher's states: the cell, sensor, kinematics and env sections, the
+    teacher's seed and its exploration."""
+    document = config_document(config)
+    return {**{section: document[section] for section in ("cell", "sensor", "kinematics", "env")},
+            "teacher_seed": teacher_seed(config, seed), "epsilon": EPSILON,
+            "shard_episodes": SHARD_EPISODES}
+
+
+def shard_sizes(episodes: int) -> list[int]:
+    """Episodes of each shard of `episodes` teacher episodes (the last may be shorter)."""
+    return [min(SHARD_EPISODES, episodes - start) for start in range(0, episodes, SHARD_EPISODES)]
+
+
+def collect_shard(config: Config, seed: int, shard: int, first: int,
+                  episodes: int) -> TeacherStates:
+    """Roll out shard `shard`: `episodes` teacher episodes on the config's training objects,
+    from episode `first` of the teacher's stream on.
 
     Raises:
         ValueError: If episodes < 1.
     """
     if episodes < 1:
-        raise ValueError(f"episodes must be >= 1, got {episodes}")
+        raise ValueError(f"a shard holds at least one episode, got {episodes}")
     inspect = InspectEnv(config)
-    env = EpisodeStream(inspect, seed, PRETRAIN_RANK)
-    rng = np.random.default_rng([seed, PRETRAIN_RANK])
+    env = EpisodeStream(inspect, seed, PRETRAIN_RANK, start=first)
+    rng = np.random.default_rng([seed, PRETRAIN_RANK, shard])
     teacher = CandidateTeacher()
     observations: list[dict[str, np.ndarray]] = []
     values: list[np.ndarray] = []
-    for _ in tqdm(range(episodes), desc="teacher episodes", disable=not progress):
+    for _ in range(episodes):
         observation, _ = env.reset()
         episode = inspect.current_episode()
         # The `s_grid` state screened the candidates' reachability: the teacher reads it.
@@ -83,6 +119,94 @@ def collect(config: Config, episodes: int, seed: int, progress: bool = False) ->
     env.close()
     stacked = {key: np.stack([obs[key] for obs in observations]) for key in observations[0]}
     return TeacherStates(stacked, np.stack(values).astype(np.float32))
+
+
+def _shard_file(folder: Path, shard: int, episodes: int) -> Path:
+    return folder / f"shard-{shard:04d}-{episodes}.npz"
+
+
+def _save_shard(config: Config, seed: int, shard: int, sizes: list[int], folder: Path) -> Path:
+    states = collect_shard(config, seed, shard, sum(sizes[:shard]), sizes[shard])
+    path = _shard_file(folder, shard, sizes[shard])
+    with atomic_output(path) as temporary, temporary.open("wb") as file:
+        arrays: dict[str, Any] = {_VALUES_KEY: states.values, **states.observations}
+        np.savez(file, **arrays)
+    return path
+
+
+def _open_folder(config: Config, seed: int, folder: Path) -> None:
+    """Write the folder's `teacher.json`, or check that it was made for this teacher.
+
+    Raises:
+        ConfigError: For a folder of another teacher, naming the sections that differ.
+    """
+    identity = teacher_identity(config, seed)
+    record = folder / TEACHER_FILE
+    if not record.is_file():
+        write_text(record, json.dumps(identity, indent=1) + "\n")
+        return
+    held = json.loads(read_text(record))
+    differing = [key for key in identity if held.get(key) != json.loads(json.dumps(identity[key]))]
+    if differing:
+        raise ConfigError(f"{folder} holds the teacher states of another run: its "
+                          f"{TEACHER_FILE} differs in {', '.join(differing)}; give another "
+                          f"agent.teacher_dir (or remove that folder)")
+
+
+def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int = 1,
+            progress: bool = False) -> TeacherStates:
+    """The states of `episodes` teacher episodes, from the shards in `folder`, rolling out
+    (with `workers` processes) and saving the missing ones first.
+
+    Raises:
+        ValueError: If episodes < 1 or workers < 1.
+        ConfigError: If `folder` holds another teacher's shards.
+    """
+    if episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    seed = teacher_seed(config, seed)
+    sizes = shard_sizes(episodes)
+    files = [_shard_file(folder, shard, size) for shard, size in enumerate(sizes)]
+    if all(file.is_file() for file in files):
+        # Read without the folder's lock: the seeds of a study load one folder at once.
+        _open_folder(config, seed, folder)
+    else:
+        with folder_lock(folder, f"teacher folder {folder}"):
+            _open_folder(config, seed, folder)
+            _roll_out([shard for shard, file in enumerate(files) if not file.is_file()],
+                      sizes, config, seed, folder, workers, progress)
+    shards = [np.load(file) for file in files]
+    keys = [key for key in shards[0].files if key != _VALUES_KEY]
+    return TeacherStates({key: np.concatenate([shard[key] for shard in shards]) for key in keys},
+                         np.concatenate([shard[_VALUES_KEY] for shard in shards]))
+
+
+def _roll_out(missing: list[int], sizes: list[int], config: Config, seed: int, folder: Path,
+              workers: int, progress: bool) -> None:
+    """Roll out and save the missing shards, in `workers` processes."""
+    bar = tqdm(total=len(sizes), initial=len(sizes) - len(missing),
+               desc=f"teacher shards ({SHARD_EPISODES} episodes)", disable=not progress)
+    if workers == 1 or len(missing) < 2:
+        for shard in missing:
+            _save_shard(config, seed, shard, sizes, folder)
+            bar.update()
+    else:
+        # Spawned: MuJoCo's and torch's threads do not survive a fork.
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(workers, len(missing)), mp_context=context) as pool:
+            futures = [pool.submit(_save_shard, config, seed, shard, sizes, folder)
+                       for shard in missing]
+            for future in futures:
+                future.result()
+                bar.update()
+    bar.close()
+
+
+def teacher_folder(config: Config, run_dir: Path) -> Path:
+    """Where a run's teacher shards are: `agent.teacher_dir`, else the run's `teacher/`."""
+    return Path(config.agent.teacher_dir) if config.agent.teacher_dir else run_dir / "teacher"
 
 
 def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int) -> list[float]:
@@ -117,7 +241,8 @@ def pretrain(model: CandidateDQN, config: Config, seed: int, run_dir: Path,
     """Collect the teacher's states and fit the model to them; the losses go to
     `run_dir/pretrain.csv`."""
     agent = config.agent
-    states = collect(config, agent.pretrain_episodes, seed, progress)
+    states = collect(config, agent.pretrain_episodes, seed, teacher_folder(config, run_dir),
+                     progress=progress)
     losses = fit(model, states, agent.pretrain_epochs, seed)
     write_text(run_dir / PRETRAIN_FILE, "epoch,mse\n" + "".join(
         f"{epoch},{loss:.6g}\n" for epoch, loss in enumerate(losses, start=1)))

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.config import Config
+from vprobot.config import Config, SensorConfig
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
@@ -68,13 +68,14 @@ class AgentPlanner(Planner):
         """The agent of `agent:NAME` or `agent:PATH`, or the default bundled one (`agent`).
 
         Raises:
-            ValueError: If `config`'s sensor is not the one the agent was trained with (its
-                observations are built from that sensor's frames).
+            ValueError: If `config`'s sensor or sensing model is not the one the agent was
+                trained with (its observations are built from that sensor's frames, and what
+                a view measures decides what it learned to request).
         """
         planner = cls(params.get("source"), views)
-        trained, given = (SensorModel.from_config(sensor)
-                          for sensor in (planner.agent.config.sensor, config.sensor))
-        if trained != given:
+        trained, given = planner.agent.config.sensor, config.sensor
+        if (SensorModel.from_config(trained) != SensorModel.from_config(given)
+                or trained.sensing_model != given.sensing_model):
             raise ValueError(f"agent {params.get('source') or 'generalist (bundled)'} was "
                              f"trained with the sensor {_describe(trained)} and plans only with "
                              f"it; this run's sensor is {_describe(given)}")
@@ -100,7 +101,7 @@ class AgentPlanner(Planner):
         return self.observer.request(self.mapping, action, episode.center, self.roll_free)
 
 
-def _describe(sensor: SensorModel) -> str:
+def _describe(sensor: SensorConfig) -> str:
     width, height = sensor.resolution
     return (f"{width} x {height} rays, {sensor.fov_deg[0]:g} x {sensor.fov_deg[1]:g} deg, "
-            f"{sensor.near_m:g}-{sensor.far_m:g} m")
+            f"{sensor.near_m:g}-{sensor.far_m:g} m, {sensor.sensing} sensing")
