@@ -3,6 +3,8 @@ episode, and the decision of every view without it (state from the acquired fram
 
 Usage:
     python scripts/time_agent.py --agent agent --episodes test-v1 --out results/generalist/timing.md
+    python scripts/time_agent.py --config configs/cell_real.yaml --episodes test-v1 \
+        --out results/generalist/real/timing.md
 
 Run it with nothing else on the machine: the figures are wall-clock times.
 """
@@ -16,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.config import Config
+from vprobot.config import load_config
 from vprobot.env.grid_state import GridState
 from vprobot.episode import Episode, MotorScene
 from vprobot.evaluation import evaluation_episodes
@@ -27,9 +29,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agent", default="agent", help="an agent planner (default: the bundled)")
     parser.add_argument("--episodes", default="test-v1", help="an episode list")
+    parser.add_argument("--config", help="YAML config of the cell (default: configs/default.yaml)")
     parser.add_argument("--out", type=Path, required=True, help="the markdown file to write")
     args = parser.parse_args()
-    config = Config()
+    config = load_config(args.config)
     screening_s: list[float] = []
     original = GridState.screening
 
@@ -53,10 +56,11 @@ def main() -> None:
         screened = sum(screening_s[before:])
         plans_s.append(played.plan_seconds)
         decisions_ms.append(1e3 * (played.plan_seconds - screened) / max(requests, 1))
+    given = f"--config {args.config} " if args.config else ""
     lines = [f"# Planning time of `{args.agent}` on `{args.episodes}`", "",
-             f"`python scripts/time_agent.py --agent {args.agent} --episodes {args.episodes} "
-             f"--out {args.out}`; {len(plans_s)} episodes, robot in the loop, full sensor "
-             "resolution, wall clock.", "",
+             f"`python scripts/time_agent.py {given}--agent {args.agent} --episodes "
+             f"{args.episodes} --out {args.out}`; {len(plans_s)} episodes, robot in the loop, "
+             "full sensor resolution, wall clock.", "",
              "| figure | median | max |", "|---|---|---|",
              f"| decision per view, screening left out (ms) | {statistics.median(decisions_ms):.1f}"
              f" | {max(decisions_ms):.1f} |",

@@ -90,7 +90,7 @@ def test_a_run_directory_gives_its_best_model(run: Path) -> None:
 
 
 def test_bundled_agents_load_by_name_and_the_default_is_the_generalist() -> None:
-    assert set(BUNDLED_AGENTS) == {"generalist", "cpu", "cpu-stop"}
+    assert {"generalist", "generalist-real", "cpu", "cpu-stop"} <= set(BUNDLED_AGENTS)
     assert BUNDLED_AGENT == AGENTS_DIR / "generalist"
     motors_only = load_agent("cpu")
     assert motors_only.path == (AGENTS_DIR / "cpu" / "model.zip").resolve()
@@ -184,6 +184,27 @@ def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(
     specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
     evaluate(CONFIG, ["agent:cpu"], specs, tmp_path, progress=True, carriers=["free"])
     assert capsys.readouterr().err.startswith("loading agent cpu ...\n")
+
+
+def test_the_default_agent_is_the_bundled_generalist_trained_with_the_runs_sensor() -> None:
+    from vprobot.config import load_config, replace, with_sensor
+    from vprobot.paths import CONFIGS_DIR
+    from vprobot.planners.runner import make_planner
+
+    real = load_config(CONFIGS_DIR / "cell_real.yaml")
+    for config, name in ((CONFIG, "generalist"), (real, "generalist-real")):
+        planner = make_planner("agent", config)
+        assert isinstance(planner, AgentPlanner)
+        assert planner.agent.path == (AGENTS_DIR / name / "model.zip").resolve()
+        assert planner.agent.config.sensor.sensing == config.sensor.sensing
+    with pytest.raises(ValueError, match=r"no bundled agent was trained with this run's sensor "
+                                         r"\(2448 x 2048 rays, .*, structured_light sensing\); "
+                                         r"the bundled ones were: generalist-real: 612 x 512 "
+                                         r"rays, .*; generalist: 430 x 300 rays, .*; train one "
+                                         r"for it and give agent:PATH"):
+        make_planner("agent", with_sensor(CONFIG, "zivid2plus_mr60"))
+    with pytest.raises(ValueError, match="no bundled agent was trained"):
+        make_planner("agent", replace(real, "sensor", sensing="ideal"))
 
 
 def test_an_agent_asked_to_plan_with_another_sensor_says_which_it_was_trained_with() -> None:

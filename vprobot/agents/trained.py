@@ -13,17 +13,21 @@ from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from vprobot.agents.candidate_q import CandidateDQN
-from vprobot.config import Config, ConfigError, from_mapping, read_yaml
+from vprobot.config import Config, ConfigError, SensorConfig, from_mapping, read_yaml
 from vprobot.env.observations import observation_space
 from vprobot.paths import AGENTS_DIR, names_a_path
+from vprobot.sensor_model import SensorModel
 
 BUNDLED_AGENTS = {path.name: path for path in sorted(AGENTS_DIR.iterdir()) if path.is_dir()}
 """The agents vprobot ships, by name (`--planner agent:NAME`), one run folder each with a README
-saying how it was trained: `generalist` (the candidate-view agent of
+saying how it was trained: `generalist-real` (the candidate-view agent of the realistic cell,
+`configs/agents/real-candidates.yaml`), `generalist` (that of the paper's cell,
 `configs/agents/cpu-candidates.yaml`), `cpu` (the motors-only agent of `configs/agents/cpu.yaml`,
 the paper's setting) and `cpu-stop` (which decides itself when to stop)."""
-BUNDLED_AGENT = AGENTS_DIR / "generalist"
-"""The agent of `--planner agent`."""
+DEFAULT_AGENTS = ("generalist-real", "generalist")
+"""The agents of `--planner agent`: the first trained with the run's sensor and sensing model."""
+BUNDLED_AGENT = AGENTS_DIR / DEFAULT_AGENTS[-1]
+"""The agent `load_agent` gives without a source: the default of the paper's sensor."""
 RUN_MODELS = ("best_model.zip", "final_model.zip", "model.zip")
 """What a directory offers, in order of preference."""
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"sac": SAC, "ppo": PPO, "dqn": CandidateDQN}
@@ -106,6 +110,37 @@ def load_agent(source: str | Path | None = None) -> TrainedAgent:
     shown = _model_file(str(source if source is not None else BUNDLED_AGENT))
     model_file = shown.resolve()
     return _load(model_file, model_file.stat().st_mtime_ns, shown)
+
+
+def trained_with(trained: SensorConfig, given: SensorConfig) -> bool:
+    """Whether an agent trained with the sensor `trained` plans with `given`: the same rays,
+    opening angles and range (its observations are built from that sensor's frames) and the
+    same sensing model (what a view measures decides what it learned to request)."""
+    return (SensorModel.from_config(trained) == SensorModel.from_config(given)
+            and trained.sensing_model == given.sensing_model)
+
+
+def describe_sensor(sensor: SensorConfig) -> str:
+    """A sensor as the messages about an agent's sensor name it."""
+    width, height = sensor.resolution
+    return (f"{width} x {height} rays, {sensor.fov_deg[0]:g} x {sensor.fov_deg[1]:g} deg, "
+            f"{sensor.near_m:g}-{sensor.far_m:g} m, {sensor.sensing} sensing")
+
+
+def default_agent(sensor: SensorConfig) -> str:
+    """The bundled agent `--planner agent` uses with `sensor` (`DEFAULT_AGENTS`).
+
+    Raises:
+        ValueError: If none was trained with it, naming the sensor and the bundled ones'.
+    """
+    for name in DEFAULT_AGENTS:
+        if trained_with(load_run_config(BUNDLED_AGENTS[name]).sensor, sensor):
+            return name
+    trained = "; ".join(f"{name}: {describe_sensor(load_run_config(BUNDLED_AGENTS[name]).sensor)}"
+                        for name in DEFAULT_AGENTS)
+    raise ValueError(f"no bundled agent was trained with this run's sensor "
+                     f"({describe_sensor(sensor)}); the bundled ones were: {trained}; train one "
+                     f"for it and give agent:PATH")
 
 
 def _shapes(space: gym.Space) -> Any:

@@ -16,13 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.config import Config, SensorConfig
+from vprobot.config import Config
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
 from vprobot.planners.base import Planner, check_views, register_planner
 from vprobot.progress import note
-from vprobot.sensor_model import SensorModel
 
 
 @register_planner
@@ -65,20 +64,23 @@ class AgentPlanner(Planner):
 
     @classmethod
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
-        """The agent of `agent:NAME` or `agent:PATH`, or the default bundled one (`agent`).
+        """The agent of `agent:NAME` or `agent:PATH`, or the bundled one trained with the run's
+        sensor (`agent`: `vprobot.agents.trained.default_agent`).
 
         Raises:
             ValueError: If `config`'s sensor or sensing model is not the one the agent was
                 trained with (its observations are built from that sensor's frames, and what
                 a view measures decides what it learned to request).
         """
-        planner = cls(params.get("source"), views)
-        trained, given = planner.agent.config.sensor, config.sensor
-        if (SensorModel.from_config(trained) != SensorModel.from_config(given)
-                or trained.sensing_model != given.sensing_model):
-            raise ValueError(f"agent {params.get('source') or 'generalist (bundled)'} was "
-                             f"trained with the sensor {_describe(trained)} and plans only with "
-                             f"it; this run's sensor is {_describe(given)}")
+        from vprobot.agents.trained import default_agent, describe_sensor, trained_with
+
+        source = params.get("source") or default_agent(config.sensor)
+        planner = cls(source, views)
+        trained = planner.agent.config.sensor
+        if not trained_with(trained, config.sensor):
+            raise ValueError(f"agent {source} was trained with the sensor "
+                             f"{describe_sensor(trained)} and plans only with it; this run's "
+                             f"sensor is {describe_sensor(config.sensor)}")
         return planner
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
@@ -100,8 +102,3 @@ class AgentPlanner(Planner):
             return None
         return self.observer.request(self.mapping, action, episode.center, self.roll_free)
 
-
-def _describe(sensor: SensorConfig) -> str:
-    width, height = sensor.resolution
-    return (f"{width} x {height} rays, {sensor.fov_deg[0]:g} x {sensor.fov_deg[1]:g} deg, "
-            f"{sensor.near_m:g}-{sensor.far_m:g} m, {sensor.sensing} sensing")
