@@ -246,3 +246,19 @@ def test_stop_study_and_error_run_with_the_studys_defaults(tmp_path: Path,
     assert given["study"] == (lists, ["agent", "nbv", "agent:cpu-stop"],
                               ["goal", "estimate", "grid", "views:5", "agent"], None, 1)
     assert given["error"] == (lists, None, None)
+
+
+def test_cli_benchmark_times_each_command_in_a_fresh_process(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.benchmarks import cli as suite
+
+    results = suite.run_cli_benchmark(runs=1)
+    assert set(results) == {"runs", "python_s", *(f"{name}_s" for name in suite.COMMANDS)}
+    assert all(results[key] > 0 for key in results)  # no timing asserted: machines differ
+    with pytest.raises(ValueError, match="runs must be >= 1, got 0"):
+        suite.run_cli_benchmark(runs=0)
+    # A command that fails (here: a typo expected to succeed) gives no figure.
+    monkeypatch.setattr(suite, "COMMANDS", {"typo": (("evalute",), 0)})
+    with pytest.raises(RuntimeError, match="vprobot evalute exited with 2, not 0: vprobot: "
+                                           "error: argument command: invalid choice"):
+        suite.run_cli_benchmark(runs=1)

@@ -17,22 +17,29 @@ from collections.abc import Sequence
 from typing import Any
 
 RUNS = 7
-COMMANDS = {"help": ("--help",), "evaluate_help": ("evaluate", "--help"),
-            "unknown_command": ("evalute",)}
-"""What is timed: the overview, a command's help (which lists the stop rules, and so imports
-them) and a mistyped command (an error before any work)."""
+COMMANDS = {"help": (("--help",), 0), "evaluate_help": (("evaluate", "--help"), 0),
+            "unknown_command": (("evalute",), 2)}
+"""What is timed, with the exit code it must end with: the overview, a command's help (which
+lists the stop rules, and so imports them) and a mistyped command (an error before any work)."""
 _SCRIPT = "import sys\nfrom vprobot.cli import main\nsys.exit(main())\n"
 """What the `vprobot` console script runs."""
 
 
-def _median_s(argv: Sequence[str], runs: int) -> float:
-    """Median wall time of `runs` fresh interpreters running `argv`."""
+def _median_s(argv: Sequence[str], runs: int, shown: str, code: int = 0) -> float:
+    """Median wall time of `runs` fresh interpreters running `argv` (`shown` in messages).
+
+    Raises:
+        RuntimeError: If one exits otherwise than with `code` (a broken command is no figure).
+    """
     times = []
     for _ in range(runs):
         start = time.perf_counter()
-        subprocess.run([sys.executable, *argv], stdout=subprocess.DEVNULL,
-                       stderr=subprocess.DEVNULL, check=False)
+        child = subprocess.run([sys.executable, *argv], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True, check=False)
         times.append(time.perf_counter() - start)
+        if child.returncode != code:
+            raise RuntimeError(f"{shown} exited with {child.returncode}, not {code}: "
+                               f"{child.stderr.strip()}")
     return statistics.median(times)
 
 
@@ -45,7 +52,9 @@ def run_cli_benchmark(runs: int = RUNS) -> dict[str, Any]:
     """
     if runs < 1:
         raise ValueError(f"runs must be >= 1, got {runs}")
-    results: dict[str, Any] = {"runs": runs, "python_s": _median_s(["-c", "pass"], runs)}
-    for name, argv in COMMANDS.items():
-        results[f"{name}_s"] = _median_s(["-c", _SCRIPT, *argv], runs)
+    results: dict[str, Any] = {"runs": runs,
+                               "python_s": _median_s(["-c", "pass"], runs, "python -c pass")}
+    for name, (argv, code) in COMMANDS.items():
+        results[f"{name}_s"] = _median_s(["-c", _SCRIPT, *argv], runs,
+                                         " ".join(["vprobot", *argv]), code)
     return results
