@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -164,12 +166,99 @@ def test_a_warning_is_one_line_in_the_commands_name(monkeypatch: pytest.MonkeyPa
                                                     capsys: pytest.CaptureFixture) -> None:
     import warnings
 
-    from vprobot import cli
+    from vprobot.cli import cell
 
     def warns(args: object) -> int:
         warnings.warn("the cache is not writable", RuntimeWarning, stacklevel=2)
         return 0
 
-    monkeypatch.setattr(cli, "command_sensors", warns)
+    monkeypatch.setattr(cell, "command_sensors", warns)
     assert main(["sensors"]) == 0
     assert capsys.readouterr().err == "vprobot sensors: warning: the cache is not writable\n"
+
+
+HEAVY_MODULES = ("mujoco", "torch", "stable_baselines3", "trimesh", "ray")
+"""What the parser must not import: each costs from a tenth of a second to seconds."""
+
+
+def _heavy_modules_after(code: str) -> list[str]:
+    """The heavy modules that `code` loads in a fresh interpreter (with their submodules)."""
+    check = (f"import json, sys\n{code}\n"
+             f"print(json.dumps(sorted({{name.split('.')[0] for name in sys.modules}})))")
+    child = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True,
+                           check=True)
+    loaded = json.loads(child.stdout.splitlines()[-1])
+    return [name for name in HEAVY_MODULES if name in loaded]
+
+
+def test_building_the_parser_imports_no_heavy_module() -> None:
+    assert _heavy_modules_after("from vprobot.cli import build_parser\nbuild_parser()") == []
+
+
+def test_help_and_an_unknown_command_import_no_heavy_module() -> None:
+    for argv in (["--help"], ["cell", "--help"], ["evalute"]):
+        code = (f"from vprobot.cli import main\ntry:\n    main({argv!r})\n"
+                f"except SystemExit:\n    pass")
+        assert _heavy_modules_after(code) == [], argv
+
+
+def test_the_command_runs_as_python_m_vprobot_cli() -> None:
+    done = subprocess.run([sys.executable, "-m", "vprobot.cli", "evalute"], capture_output=True,
+                          text=True)
+    assert done.returncode == 2
+    assert done.stderr.startswith("vprobot: error: argument command: invalid choice: 'evalute'")
+
+
+def test_help_names_the_registered_planners_and_stop_rules(
+        capsys: pytest.CaptureFixture) -> None:
+    from vprobot.planners.runner import counted_planners, planner_names
+    from vprobot.stopping.rules import stop_names
+
+    with pytest.raises(SystemExit):
+        main(["plan", "--help"])
+    text = " ".join(capsys.readouterr().out.split())  # as one line, whatever the wrapping
+    assert f"--planner PLANNER {', '.join(planner_names())}: agent is" in text
+    assert f"fixed number of views ({', '.join(counted_planners())})" in text
+    assert f"when to stop: {', '.join(stop_names())}; goal:" in text
+
+
+def test_stop_study_and_error_run_with_the_studys_defaults(tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.stopping import report, study
+
+    given: dict[str, tuple[object, ...]] = {}
+
+    def stop_study(config: Config, out: str, *args: object) -> None:
+        given["study"] = args
+        Path(out).mkdir()
+        (Path(out) / "study.md").write_text("")
+
+    def score_estimate(config: Config, out: str, *args: object) -> None:
+        given["error"] = args
+        Path(out).mkdir()
+        (Path(out) / "error.md").write_text("")
+
+    monkeypatch.setattr(study, "stop_study", stop_study)
+    monkeypatch.setattr(report, "score_estimate", score_estimate)
+    assert main(["stop", "study", "--out", str(tmp_path / "study")]) == 0
+    assert main(["stop", "error", "--out", str(tmp_path / "error")]) == 0
+    lists = ["test-v1", "families-test-v1", "shapes-v1"]
+    assert given["study"] == (lists, ["agent", "nbv", "agent:cpu-stop"],
+                              ["goal", "estimate", "grid", "views:5", "agent"], None, 1)
+    assert given["error"] == (lists, None, None)
+
+
+def test_cli_benchmark_times_each_command_in_a_fresh_process(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.benchmarks import cli as suite
+
+    results = suite.run_cli_benchmark(runs=1)
+    assert set(results) == {"runs", "python_s", *(f"{name}_s" for name in suite.COMMANDS)}
+    assert all(results[key] > 0 for key in results)  # no timing asserted: machines differ
+    with pytest.raises(ValueError, match="runs must be >= 1, got 0"):
+        suite.run_cli_benchmark(runs=0)
+    # A command that fails (here: a typo expected to succeed) gives no figure.
+    monkeypatch.setattr(suite, "COMMANDS", {"typo": (("evalute",), 0)})
+    with pytest.raises(RuntimeError, match="vprobot evalute exited with 2, not 0: vprobot: "
+                                           "error: argument command: invalid choice"):
+        suite.run_cli_benchmark(runs=1)

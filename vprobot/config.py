@@ -18,7 +18,7 @@ from typing import Any, Literal
 
 from vprobot.agents.encoders import ENCODERS
 from vprobot.env.rewards import REWARDS
-from vprobot.paths import BUNDLED_EPISODE_LISTS, DEFAULT_CONFIG, SENSORS_DIR
+from vprobot.paths import BUNDLED_EPISODE_LISTS, DEFAULT_CONFIG, SENSORS_DIR, available_sensors
 from vprobot.registry import Registry
 from vprobot.robots import load_robot
 from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
@@ -163,11 +163,6 @@ class SensorConfig:
 
 SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
 """How the sensor sits on the flange: the cell's business, kept when `--sensor` swaps devices."""
-
-
-def available_sensors() -> list[str]:
-    """Names of the sensor presets in `configs/sensors/`, sorted."""
-    return sorted(path.stem for path in SENSORS_DIR.glob("*.yaml"))
 
 
 def _preset_mapping(name: Any, key: str) -> dict[str, Any]:

@@ -38,8 +38,20 @@ ESTIMATOR_DIR = ASSETS_DIR / "estimator"
 """The bundled model-free coverage estimator (`--stop estimate`)."""
 DEFAULT_MOTOR = MOTORS_DIR / "test" / "motor_000.stl"
 """The bundled motor that commands use when no mesh is given."""
+DESCRIPTION_FILE = "robot.yaml"
+"""The file that makes a folder a robot folder (`vprobot.robots.description` reads it)."""
 
 CACHE_ENV_VAR = "VPROBOT_CACHE_DIR"
+
+
+def available_robots() -> list[str]:
+    """Names of the bundled robot folders (those holding a `robot.yaml`)."""
+    return sorted(path.parent.name for path in ROBOTS_DIR.glob(f"*/{DESCRIPTION_FILE}"))
+
+
+def available_sensors() -> list[str]:
+    """Names of the sensor presets in `configs/sensors/`, sorted."""
+    return sorted(path.stem for path in SENSORS_DIR.glob("*.yaml"))
 
 
 def names_a_path(text: str) -> bool:

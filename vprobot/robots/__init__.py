@@ -9,15 +9,10 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from vprobot.paths import ROBOTS_DIR, bundled_or_path
+from vprobot.paths import ROBOTS_DIR, available_robots, bundled_or_path
 from vprobot.robots.description import DESCRIPTION_FILE, RobotDescription
 
 __all__ = ["RobotDescription", "available_robots", "is_bundled", "load_robot", "robot_folder"]
-
-
-def available_robots() -> list[str]:
-    """Names of the bundled robot folders (those holding a `robot.yaml`)."""
-    return sorted(path.parent.name for path in ROBOTS_DIR.glob(f"*/{DESCRIPTION_FILE}"))
 
 
 def robot_folder(robot: str) -> Path:

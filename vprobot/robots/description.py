@@ -20,9 +20,9 @@ import mujoco
 import numpy as np
 import yaml
 
+from vprobot.paths import DESCRIPTION_FILE
 from vprobot.schema import ConfigError, Vec3, from_mapping, read_yaml
 
-DESCRIPTION_FILE = "robot.yaml"
 SCENE_FILE = "scene.xml"
 SUPPORTED_DOF = (6, 7)
 

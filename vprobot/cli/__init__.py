@@ -1,0 +1,83 @@
+"""The `vprobot` command line.
+
+One module per command group builds that group's subcommands and runs them (`cell`, `planning`,
+`export`, `training`, `benchmark`, `objects`, `stop`; `common` holds what they share). The
+package imports what a command runs when it runs (planners, the renderer, training, the
+benchmarks), inside the command functions, and builds the parser from light modules only, so
+that `vprobot --help` and a bad option answer at once; those imports inside the command
+functions are the only ones in vprobot without a comment of their own.
+
+Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is unreachable);
+2 a user error (bad option, config, mesh, plan or output path), reported as one line on stderr;
+130 interrupted (Ctrl-C or SIGTERM; `evaluate` keeps the episodes it finished).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from vprobot.cli import benchmark, cell, export, objects, planning, stop, training
+from vprobot.cli.common import Commands, Parser
+
+INTERRUPTED = 130
+COMMANDS: tuple[Callable[[Commands], None], ...] = (
+    cell.add_reach, cell.add_cell, planning.add_plan, planning.add_render, export.add_export,
+    export.add_check, planning.add_evaluate, training.add_train, training.add_teacher,
+    training.add_sweep, training.add_curves, benchmark.add_benchmark, cell.add_sensors,
+    objects.add_motors, objects.add_objects, stop.add_stop_commands, cell.add_robots)
+"""Each adds its subcommands, in the order `vprobot --help` lists them."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of every command and option (their handler in `handler`)."""
+    parser = Parser(prog="vprobot",
+                    description="Robot-guided visual inspection planning in MuJoCo.")
+    commands = parser.add_subparsers(dest="command", required=True)
+    for add_commands in COMMANDS:
+        add_commands(commands)
+    return parser
+
+
+def _warning_printer(prog: str) -> Callable[..., None]:
+    """A `warnings.showwarning` that prints one line in the user's terms (not Python's file,
+    line number and source line)."""
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: Any = None, line: str | None = None) -> None:
+        print(f"{prog}: warning: {message}", file=sys.stderr)
+
+    return show
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    # SIGTERM takes the Ctrl-C path: partial outputs are cleaned up or saved, not left half.
+    raise KeyboardInterrupt
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    args.argv = argv
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _interrupt) if in_main_thread else None
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_printer(args.prog)
+            return args.handler(args)
+    except (ValueError, OSError) as error:
+        # ConfigError is a ValueError; OSError covers unreadable inputs and full disks.
+        text = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"{args.prog}: error: {text}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{args.prog}: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)

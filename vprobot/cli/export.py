@@ -1,0 +1,58 @@
+"""`vprobot export` and `check`: a plan's motion for a real cell, and its replay."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from vprobot.cli.common import POSITIVE_FLOAT, Commands, add, config_of
+from vprobot.export import CHECK_DT_S, EXPORT_DT_S, SUFFIXES
+from vprobot.outputs import check_output_file
+
+
+def add_export(commands: Commands) -> None:
+    export = add(commands, "export", command_export, "Write a plan's motion for a cell: a "
+                 "sampled trajectory (JSON, CSV), a URScript program or a ROS 2 JointTrajectory.",
+                 config=False)
+    export.add_argument("plan", help="plan JSON of `vprobot plan --out` (docs/plan-format.md)")
+    export.add_argument("--format", required=True, choices=list(SUFFIXES),
+                        help="trajectory (.json), csv (.csv), urscript (.script, UR robots) or "
+                        "ros2 (.yaml) (docs/motion.md#export)")
+    export.add_argument("--out", required=True, help="file to write, with the format's suffix")
+    export.add_argument("--dt", type=POSITIVE_FLOAT, default=EXPORT_DT_S,
+                        help=f"sampling step of the trajectory (s; default {EXPORT_DT_S})")
+
+
+def add_check(commands: Commands) -> None:
+    check = add(commands, "check", command_check, "Replay a plan's trajectory in its cell: "
+                "collisions, joint, velocity, acceleration and jerk limits, sensor poses; exit 1 "
+                "when one fails.")
+    check.add_argument("plan", help="plan JSON of `vprobot plan --out` (docs/plan-format.md)")
+    check.add_argument("--dt", type=POSITIVE_FLOAT, default=CHECK_DT_S,
+                       help=f"replay step (s; default {CHECK_DT_S})")
+
+
+def command_export(args: argparse.Namespace) -> int:
+    """Write a plan's motion as a trajectory, a CSV, a URScript program or a ROS 2 message."""
+    from vprobot.export.formats import export_plan
+    from vprobot.files import write_text
+    from vprobot.render.replay import read_plan
+
+    check_output_file(args.out, "--out", (SUFFIXES[args.format],))
+    if Path(args.out).resolve() == Path(args.plan).resolve():
+        raise ValueError(f"--out {args.out} is the plan itself; give another file")
+    text = export_plan(read_plan(args.plan), args.format, args.dt)
+    print(f"wrote {write_text(Path(args.out), text)}")
+    return 0
+
+
+def command_check(args: argparse.Namespace) -> int:
+    """Replay a plan's trajectory in its cell; exit 1 when a limit, a collision or a view fails."""
+    from vprobot.export.check import check_plan
+    from vprobot.progress import showing_progress
+
+    with showing_progress():
+        result = check_plan(config_of(args), args.plan, args.dt)
+    print(result.report())
+    return 0 if result.holds else 1
+

@@ -1,0 +1,220 @@
+"""`vprobot plan`, `render` and `evaluate`: planning inspections, one or a list of them."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+from typing import Any
+
+from vprobot.cli.common import (
+    NON_NEGATIVE_INT,
+    POSITIVE_FLOAT,
+    POSITIVE_INT,
+    Commands,
+    LateHelp,
+    add,
+    add_robot,
+    add_stop,
+    config_of,
+    number,
+    planner_name,
+)
+from vprobot.outputs import check_output_file, check_output_folder
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
+"""Options that choose what `plan` or `render` plans; a replayed `--plan` fixes them all."""
+EVALUATED_PLANNERS = ("random1", "random2", "uniform4", "uniform5", "uniform6", "nbv", "nbv@grid",
+                      "agent", "hrec", "bscp", "bscp4", "bscp5", "oracle")
+"""What `evaluate` compares by default: every planner, the model-free ones first."""
+
+
+def _planner_help() -> str:
+    from vprobot.planners.runner import planner_names
+
+    return (f"{', '.join(planner_names())}: agent is the bundled trained "
+            f"agent, agent:NAME another bundled one (cpu: motors only), "
+            f"agent:PATH a training run or model .zip, nbv@RULE nbv "
+            f"stopping itself by a --stop rule (nbv@grid); default: bscp")
+
+
+def _views_help() -> str:
+    from vprobot.planners.runner import counted_planners
+
+    return (f"fixed number of views ({', '.join(counted_planners())}); "
+            f"default: until the coverage goal")
+
+
+def _add_planning(sub: argparse.ArgumentParser) -> None:
+    """The options of `plan` and `render` that choose what they plan."""
+    add_robot(sub)
+    sub.add_argument("--mesh", help="mesh file (STL/OBJ/PLY); default: the bundled motor")
+    sub.add_argument("--scale", type=POSITIVE_FLOAT,
+                     help="file units to metres, e.g. 0.001 for millimetres (default 1)")
+    sub.add_argument("--planner", type=planner_name, help=LateHelp(_planner_help))
+    sub.add_argument("--views", type=_view_count, help=LateHelp(_views_help))
+    sub.add_argument("--seed", type=NON_NEGATIVE_INT,
+                     help="seed of the episode (object pose, initial view); default 0")
+    sub.add_argument("--carrier", choices=["robot", "free"],
+                     help="robot in the loop (default), or a free-flying sensor (the paper)")
+    add_stop(sub)
+    sub.add_argument("--summary", help="also write a summary PNG here")
+    sub.add_argument("--width", type=POSITIVE_INT, default=640, help="video width (pixels)")
+    sub.add_argument("--height", type=POSITIVE_INT, default=480,
+                     help="video height (pixels)")
+
+
+def add_plan(commands: Commands) -> None:
+    plan = add(commands, "plan", command_plan,
+               "Plan the inspection of a motor and write the plan JSON.")
+    _add_planning(plan)
+    plan.add_argument("--out", required=True, help="plan JSON to write")
+    plan.add_argument("--video", help="also render the rollout to this .mp4 or .gif")
+    plan.add_argument("--no-timing", action="store_true",
+                      help="leave the timing block out of the plan JSON, so that the same "
+                      "inputs give the same file byte for byte")
+
+
+def add_render(commands: Commands) -> None:
+    render = add(commands, "render", command_render,
+                 "Render an inspection (a plan JSON or a planner's run) as an MP4 or GIF.")
+    _add_planning(render)
+    render.add_argument("--plan", help="plan JSON (docs/plan-format.md) to replay instead")
+    render.add_argument("--out", required=True, help="video to write (.mp4 or .gif)")
+
+
+def add_evaluate(commands: Commands) -> None:
+    evaluation = add(commands, "evaluate", command_evaluate,
+                     "Compare planners on a fixed episode list (default: the test motors).")
+    add_robot(evaluation)
+    evaluation.add_argument("--planners", nargs="+", default=list(EVALUATED_PLANNERS),
+        help="planner names: uniform<k> (k fixed views), nbv (volumetric next-best view; "
+        "nbv:GAIN ranks by another gain, nbv@RULE stops itself by a --stop rule), bscp<N> / "
+        "agent<N> for B_SCP / the bundled agent with N views, agent (the bundled agent), "
+        "agent:NAME (another bundled one, e.g. agent:cpu, motors only) or agent:PATH (a "
+        "training run or model .zip); default: the model-free planners, then the model-based "
+        "ones")
+    evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
+                            "the test motors; shapes-v1: the non-motor objects) or a JSON file "
+                            "as written into --out; default: test-v1")
+    evaluation.add_argument("--motors", nargs="+",
+                            help="mesh files to draw episodes for instead (default: the test "
+                            "motors)")
+    evaluation.add_argument("--seeds", type=NON_NEGATIVE_INT, nargs="+",
+                            help="seeds to draw episodes for instead (default: 0 1 2)")
+    evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
+                            default=["robot", "free"],
+                            help="robot: the robot in the loop; free: a free-flying sensor (the "
+                            "paper's setting); each episode runs with each (default: both)")
+    add_stop(evaluation, many=["goal"])
+    evaluation.add_argument("--out", default="results", help="folder for the tables")
+    evaluation.add_argument("--workers", type=POSITIVE_INT, default=1,
+                            help="episodes at once on Ray (one CPU each); 1: in this process")
+    evaluation.add_argument("--address", help="Ray cluster address (default: a local Ray)")
+
+
+def _view_count(text: str) -> int:
+    """An argparse type: a fixed number of views, 1..MAX_VIEWS."""
+    from vprobot.planners.base import MAX_VIEWS
+
+    return number(int, 0, True, f"an integer in 1..{MAX_VIEWS}", MAX_VIEWS)(text)
+
+
+def _planning(args: argparse.Namespace) -> dict[str, Any]:
+    """The planning options of `plan` / `render`, defaults filled in."""
+    chosen = {name: getattr(args, name) for name in PLANNING_OPTIONS}
+    defaults = {"scale": 1.0, "planner": "bscp", "seed": 0, "carrier": "robot", "stop": "goal"}
+    return {name: defaults.get(name) if value is None else value
+            for name, value in chosen.items()}
+
+
+def command_plan(args: argparse.Namespace) -> int:
+    """Plan the inspection of a motor, write the plan JSON and optionally a video."""
+    from vprobot.plan_export import write_json
+    from vprobot.planners.runner import plan_motor
+    from vprobot.progress import showing_progress
+
+    check_output_file(args.out, "--out", (".json",))
+    _check_render_outputs(args, args.video, "--video")
+    options = _planning(args)
+    with showing_progress():
+        scene, record, document, summary = plan_motor(
+            config_of(args), options["mesh"], options["scale"], options["planner"],
+            options["views"], options["carrier"], options["seed"], options["stop"],
+            options["estimator"])
+    if args.no_timing:
+        document.pop("timing")
+    print(summary)
+    print(f"wrote {write_json(args.out, document)}")
+    _render_outputs(args, scene, record, args.video)
+    return 0
+
+
+def command_render(args: argparse.Namespace) -> int:
+    """Render an inspection (a plan JSON, or a planner's run) as a video."""
+    from vprobot.planners.runner import plan_motor
+    from vprobot.progress import showing_progress
+    from vprobot.render import episode_from_plan
+
+    _check_render_outputs(args, args.out, "--out")
+    config = config_of(args)
+    if args.plan:
+        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "robot", "sensor", "sensing")
+                 if getattr(args, name) is not None]
+        if given:
+            raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose, robot, "
+                             f"sensor, sensing model and views; {', '.join(given)} cannot be "
+                             f"combined with it")
+        with showing_progress():
+            scene, record = episode_from_plan(config, args.plan)
+    else:
+        options = _planning(args)
+        with showing_progress():
+            scene, record, _, summary = plan_motor(
+                config, options["mesh"], options["scale"], options["planner"],
+                options["views"], options["carrier"], options["seed"], options["stop"],
+                options["estimator"])
+        print(summary)
+    _render_outputs(args, scene, record, args.out)
+    return 0
+
+
+def _check_render_outputs(args: argparse.Namespace, video: str | None, option: str) -> None:
+    """Fail before the long work when a video or summary output cannot be written."""
+    check_output_file(video, option, VIDEO_SUFFIXES)
+    check_output_file(args.summary, "--summary", (".png",))
+
+
+def _render_outputs(args: argparse.Namespace, scene: Any, record: Any, video: str | None) -> None:
+    from vprobot.render import render_episode, render_summary
+
+    if video:
+        rendered = render_episode(scene, record, video, width=args.width, height=args.height,
+                                  progress=True)
+        print(f"wrote {rendered.path} ({rendered.frames} frames, {rendered.duration_s:.1f} s)")
+    if args.summary:
+        print(f"wrote {render_summary(scene, record, args.summary)}")
+
+
+def command_evaluate(args: argparse.Namespace) -> int:
+    """Compare planners on one episode list; write evaluation.md, .csv, episodes.json and the
+    coverage curves plot."""
+    from vprobot.evaluation import EPISODES_NAME, PLOT_NAME, evaluate, evaluation_episodes
+
+    check_output_folder(args.out, "--out")
+    config = config_of(args)
+    specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
+    evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers,
+             workers=args.workers, address=args.address, stops=args.stop,
+             estimator=args.estimator)
+    print((Path(args.out) / "evaluation.md").read_text())
+    print(f"coverage curves: {Path(args.out) / PLOT_NAME}")
+    with (Path(args.out) / EPISODES_NAME).open(newline="") as stream:
+        empty = [f"{row['planner']} ({row['carrier']}) on episode {row['episode']}"
+                 for row in csv.DictReader(stream) if row["requested"] == "0"]
+    if empty:
+        print(f"note: {len(empty)} episode(s) requested no view, covering nothing (the robot "
+              f"reached no initial view, or no candidate view was usable): {'; '.join(empty)}")
+    return 0
+
