@@ -25,6 +25,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from vprobot import plugins
 from vprobot.config import (
     Config,
     available_sensors,
@@ -642,6 +643,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="vprobot", description="Robot-guided visual inspection planning in MuJoCo."
     )
+    parser.add_argument("--plugin", action="append", metavar="MODULE",
+                        help="import this module first, to use what it registers (a planner, "
+                        "a reward, ...): a module name or a .py file; repeatable; besides the "
+                        "vprobot.plugins entry points (docs/extending.md#plugins)")
     commands = parser.add_subparsers(dest="command", required=True)
 
     def add(name: str, handler: Callable[[argparse.Namespace], int], help_text: str,
@@ -991,6 +996,11 @@ def _interrupt(signum: int, frame: object) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    try:  # before the parser, which checks names against the registries
+        plugins.load_requested(argv)
+    except ValueError as error:
+        print(f"vprobot: error: {error}", file=sys.stderr)
+        return 2
     args = build_parser().parse_args(argv)
     args.argv = argv
     in_main_thread = threading.current_thread() is threading.main_thread()
