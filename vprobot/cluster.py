@@ -14,9 +14,11 @@ import socket
 import sys
 import threading
 import time
-from collections.abc import Callable, Generator, Iterable
+from collections.abc import Callable, Generator, Iterable, Sequence
 from pathlib import Path
 from typing import Any
+
+from vprobot import plugins
 
 INSTALL_HINT = 'pip install -e ".[cluster]"'
 SHUTDOWN_GRACE_S = 5.0
@@ -105,6 +107,13 @@ def _one_thread(function: Callable[..., Any], *args: Any) -> Any:
     return function(*args)
 
 
+def _task(plugin_modules: Sequence[str], function: Callable[..., Any], *args: Any) -> Any:
+    """A Ray task: the driver's plugins imported (`vprobot.plugins`), then `function(*args)` on
+    one thread."""
+    plugins.load(plugin_modules)
+    return _one_thread(function, *args)
+
+
 def _result(ray: Any, reference: Any) -> Any:
     """A finished task's result; a user error it raised (a bad input, a run in use) is raised
     as itself, so that its message, not Ray's remote traceback, reaches the user."""
@@ -119,9 +128,9 @@ def _result(ray: Any, reference: Any) -> Any:
 def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
                  workers: int, address: str | None = None,
                  ) -> Generator[tuple[int, Any], None, None]:
-    """Run `function(*item)` for every item as a Ray task (one CPU each), yielding
-    (item index, result) as tasks finish; on an interrupt (or when closed early) the pending
-    tasks are cancelled and their workers ended.
+    """Run `function(*item)` for every item as a Ray task (one CPU each, after this process's
+    plugins), yielding (item index, result) as tasks finish; on an interrupt (or when closed
+    early) the pending tasks are cancelled and their workers ended.
 
     Raises:
         ValueError: Without Ray or a reachable cluster, or for workers < 1.
@@ -129,8 +138,9 @@ def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     ray = start(address, workers)
-    remote = ray.remote(num_cpus=1)(_one_thread)
-    pending = {remote.remote(function, *item): index for index, item in enumerate(items)}
+    remote = ray.remote(num_cpus=1)(_task)
+    loaded = plugins.loaded()
+    pending = {remote.remote(loaded, function, *item): index for index, item in enumerate(items)}
     try:
         while pending:
             (ready,), _ = ray.wait(list(pending), num_returns=1)

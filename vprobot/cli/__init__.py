@@ -22,6 +22,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from vprobot import plugins
 from vprobot.cli import benchmark, cell, export, objects, planning, stop, training
 from vprobot.cli.common import Commands, Parser
 
@@ -38,6 +39,10 @@ def build_parser() -> argparse.ArgumentParser:
     """The parser of every command and option (their handler in `handler`)."""
     parser = Parser(prog="vprobot",
                     description="Robot-guided visual inspection planning in MuJoCo.")
+    parser.add_argument("--plugin", action="append", metavar="MODULE",
+                        help="import this module first, to use what it registers (a planner, "
+                        "a reward, ...): a module name or a .py file; repeatable; besides the "
+                        "vprobot.plugins entry points (docs/extending.md#plugins)")
     commands = parser.add_subparsers(dest="command", required=True)
     for add_commands in COMMANDS:
         add_commands(commands)
@@ -62,6 +67,11 @@ def _interrupt(signum: int, frame: object) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    try:  # before the parser, which checks names against the registries
+        plugins.load_requested(argv)
+    except ValueError as error:
+        print(f"vprobot: error: {error}", file=sys.stderr)
+        return 2
     args = build_parser().parse_args(argv)
     args.argv = argv
     in_main_thread = threading.current_thread() is threading.main_thread()

@@ -72,6 +72,7 @@ class AgentPlanner(Planner):
                 trained with (its observations are built from that sensor's frames, and what
                 a view measures decides what it learned to request).
         """
+        # Imported here, as in `__init__`: the agent needs torch and stable-baselines3.
         from vprobot.agents.trained import default_agent, describe_sensor, trained_with
 
         source = params.get("source") or default_agent(config.sensor)

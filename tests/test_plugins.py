@@ -1,0 +1,159 @@
+"""Plugins: a planner in a module outside the package, loaded by `--plugin` or an entry point,
+in the main process and in the Ray workers."""
+
+from __future__ import annotations
+
+import csv
+import importlib.metadata
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from vprobot import plugins
+from vprobot.cli import main
+from vprobot.paths import DEFAULT_MOTOR
+from vprobot.planners.base import PLANNERS
+from vprobot.planners.runner import planner_names
+
+ROOT = Path(__file__).resolve().parents[1]
+TOY = '''"""A user's own planner: NAME, two views straight down onto the object."""
+
+import os
+from pathlib import Path
+
+from vprobot.episode import ViewRequest
+from vprobot.kinematics import SensorTarget
+from vprobot.planners.base import PlanPlanner, register_planner
+
+
+@register_planner
+class TopViews(PlanPlanner):
+    name = "NAME"
+    stops_at_goal = False
+
+    def plan(self, episode):
+        # Which processes planned: the command's, or Ray's workers.
+        with (Path(__file__).parent / "pids.txt").open("a") as stream:
+            stream.write(f"{os.getpid()}\\n")
+        distance = episode.scene.cell.config.sensor.working_distance_m
+        return [ViewRequest(SensorTarget.look_at(
+            episode.center + [0.0, 0.0, distance * (1.0 - 0.02 * index)], episode.center))
+            for index in range(2)]
+'''
+ONE_FREE_EPISODE = ["--motors", str(DEFAULT_MOTOR), "--carriers", "free"]
+
+
+def _toy(folder: Path, module: str, planner: str) -> Path:
+    """A module `module` in `folder` that registers the planner `planner`."""
+    folder.mkdir(exist_ok=True)
+    path = folder / f"{module}.py"
+    path.write_text(TOY.replace("NAME", planner))
+    return path
+
+
+def _rows(out: Path) -> list[dict[str, str]]:
+    with (out / "evaluation_episodes.csv").open() as stream:
+        return list(csv.DictReader(stream))
+
+
+@pytest.fixture
+def fresh_plugins(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
+    """This process without plugins, and afterwards without the toy modules (listed by the
+    test) and their planners."""
+    monkeypatch.setattr(plugins, "_loaded", [])
+    planner_names()  # the package's own planners registered first: only the toys' are undone
+    planners = set(PLANNERS)
+    toys: list[str] = []
+    yield toys
+    for name in set(PLANNERS) - planners:
+        PLANNERS.unregister(name)
+    for module in toys:
+        sys.modules.pop(module, None)
+
+
+def test_plugin_planners_run_in_an_evaluation_on_two_ray_workers(tmp_path: Path) -> None:
+    """The issue's case: registered outside the package, a planner ran with one worker and was
+    unknown to the Ray workers with two. One plugin is a module on PYTHONPATH, the other a .py
+    file given relative to the command's folder."""
+    pytest.importorskip("ray")
+    _toy(tmp_path / "mine", "mytop_plugin", "mytop")
+    _toy(tmp_path / "files", "filetop_plugin", "filetop")
+    path = [str(tmp_path / "mine"), str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
+    command = subprocess.Popen(
+        [sys.executable, "-m", "vprobot.cli", "--plugin", "mytop_plugin",
+         "--plugin", "files/filetop_plugin.py", "evaluate", "--planners", "mytop", "filetop",
+         *ONE_FREE_EPISODE, "--seeds", "0", "1", "--workers", "2", "--out", "out"],
+        cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(path)})
+    _, stderr = command.communicate(timeout=600)
+    assert command.returncode == 0, stderr
+    rows = sorted(_rows(tmp_path / "out"), key=lambda row: (row["episode"], row["planner"]))
+    assert [(row["episode"], row["planner"], row["acquisitions"]) for row in rows] == [
+        ("0", "filetop", "2"), ("0", "mytop", "2"), ("1", "filetop", "2"), ("1", "mytop", "2")]
+    for folder in ("mine", "files"):
+        planned_in = {int(pid) for pid in (tmp_path / folder / "pids.txt").read_text().split()}
+        assert planned_in and command.pid not in planned_in
+
+
+def test_a_py_file_plugin_registers_its_planner_for_the_command(
+        tmp_path: Path, fresh_plugins: list[str]) -> None:
+    toy = _toy(tmp_path, "filetop_plugin", "filetop")
+    fresh_plugins.append("filetop_plugin")
+    assert main(["--plugin", str(toy), "--plugin", str(toy), "evaluate", "--planners", "filetop",
+                 *ONE_FREE_EPISODE, "--seeds", "0", "--out", str(tmp_path / "out")]) == 0
+    assert [(row["planner"], row["acquisitions"]) for row in _rows(tmp_path / "out")] == [
+        ("filetop", "2")]
+    # Imported once, under the file's name, and listed as Ray tasks take it.
+    assert plugins.loaded() == (str(toy.resolve()),)
+    assert sys.modules["filetop_plugin"].__file__ == str(toy.resolve())
+
+
+def test_an_entry_point_plugin_is_imported_without_an_option(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fresh_plugins: list[str]) -> None:
+    _toy(tmp_path, "entrytop_plugin", "entrytop")
+    fresh_plugins.append("entrytop_plugin")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    entry = importlib.metadata.EntryPoint("entrytop", "entrytop_plugin", plugins.ENTRY_POINT_GROUP)
+
+    def entry_points(**selection: str) -> list[importlib.metadata.EntryPoint]:
+        return [entry] if selection == {"group": plugins.ENTRY_POINT_GROUP} else []
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
+    assert main(["evaluate", "--planners", "entrytop", *ONE_FREE_EPISODE, "--seeds", "0",
+                 "--out", str(tmp_path / "out")]) == 0
+    assert [row["planner"] for row in _rows(tmp_path / "out")] == ["entrytop"]
+    assert plugins.loaded() == ("entrytop_plugin",)
+
+
+@pytest.mark.parametrize(("plugin", "error"), [
+    ("no_such_plugin", "ModuleNotFoundError: No module named 'no_such_plugin'"),
+    ("{tmp}/missing.py", "FileNotFoundError: no such file: {tmp}/missing.py"),
+    ("{tmp}/broken.py", "RuntimeError: half-written"),
+    ("{tmp}/csv.py", "ValueError: a module named 'csv' is already imported; rename the file"),
+], ids=["unknown-module", "missing-file", "raises", "shadows-a-module"])
+def test_a_plugin_that_fails_to_import_is_a_one_line_error_naming_it(
+        plugin: str, error: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        fresh_plugins: list[str]) -> None:
+    (tmp_path / "broken.py").write_text('raise RuntimeError("half-written\\nsecond line")\n')
+    (tmp_path / "csv.py").write_text("")
+    plugin, error = (text.replace("{tmp}", str(tmp_path)) for text in (plugin, error))
+    assert main(["--plugin", plugin, "evaluate", "--planners", "hrec"]) == 2
+    assert capsys.readouterr().err == (f"vprobot: error: plugin {plugin!r} failed to import: "
+                                       f"{error}\n")
+    assert plugins.loaded() == ()
+
+
+def test_only_the_global_plugin_options_are_plugins(capsys: pytest.CaptureFixture[str]) -> None:
+    """Not a `--plugin` after the command (which the parser refuses), nor an abbreviation of
+    another option there (`evaluate --pl hrec`)."""
+    assert plugins.requested(["--plugin", "a", "--plugin=b", "--plug", "c", "evaluate",
+                              "--pl", "hrec", "--plugin", "d"]) == ["a", "b", "c"]
+    assert plugins.requested(["--plugin"]) == []  # the parser says what is missing
+    with pytest.raises(SystemExit) as refused:
+        main(["evaluate", "--plugin", "x"])
+    assert refused.value.code == 2
+    assert "unrecognized arguments: --plugin x" in capsys.readouterr().err

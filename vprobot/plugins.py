@@ -1,0 +1,101 @@
+"""Plugins: extensions (planners, rewards, stop rules, ...) in modules outside the package.
+
+A plugin is a module that registers what it defines when it is imported (docs/extending.md).
+`vprobot` imports, before it checks its arguments against the registries, the modules of the
+`vprobot.plugins` entry points of the installed distributions, then each `--plugin`: a module
+name importable on `sys.path` (`mypkg.planners`), or a path to a `.py` file (`./mytop.py`).
+
+A Ray worker is a fresh process that imports only what its task's function needs, so
+`vprobot.cluster.parallel_map` hands each task the list this process loaded (`loaded`), and the
+worker loads it before running the task: passed with the task, it reaches a Ray started by
+someone else or a cluster as surely as a local Ray, and loading again is a no-op.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.metadata
+import importlib.util
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+ENTRY_POINT_GROUP = "vprobot.plugins"
+"""The entry-point group whose modules every `vprobot` command imports."""
+
+_loaded: list[str] = []
+"""What `load` imported in this process, in order: module names and absolute `.py` paths."""
+
+
+def entry_point_modules() -> list[str]:
+    """The modules of the `vprobot.plugins` entry points of the installed distributions."""
+    return [entry.module for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)]
+
+
+def requested(argv: Sequence[str]) -> list[str]:
+    """The `--plugin` values among the global options of `argv` (those before the command);
+    a malformed one is left to the command line's parser to report."""
+    parser = argparse.ArgumentParser(add_help=False, exit_on_error=False)
+    parser.add_argument("--plugin", action="append", default=[])
+    parser.add_argument("command", nargs=argparse.REMAINDER)
+    try:
+        return parser.parse_known_args(argv)[0].plugin
+    except argparse.ArgumentError:
+        return []
+
+
+def load_requested(argv: Sequence[str]) -> None:
+    """Load the entry points' modules, then the `--plugin` values of a command line's `argv`.
+
+    Raises:
+        ValueError: Naming the first plugin that fails to import and its error.
+    """
+    load([*entry_point_modules(), *requested(argv)])
+
+
+def load(plugins: Sequence[str]) -> None:
+    """Import each plugin not yet loaded, in order: a module name, or a path to a `.py` file
+    (imported as a module named after the file).
+
+    Raises:
+        ValueError: Naming the first plugin that fails to import and its error.
+    """
+    for plugin in plugins:
+        key = str(Path(plugin).resolve()) if plugin.endswith(".py") else plugin
+        if key in _loaded:
+            continue
+        try:
+            _import(key)
+        except Exception as error:  # whatever the plugin's code raised
+            message = str(error).splitlines()[0] if str(error) else ""
+            raise ValueError(f"plugin {plugin!r} failed to import: {type(error).__name__}"
+                             f"{': ' if message else ''}{message}") from None
+        _loaded.append(key)
+
+
+def _import(key: str) -> None:
+    """Import a module by name, or a `.py` file (an absolute path) as a module named after it."""
+    if not key.endswith(".py"):
+        importlib.import_module(key)
+        return
+    path = Path(key)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+    if path.stem in sys.modules:
+        raise ValueError(f"a module named {path.stem!r} is already imported; rename the file")
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    assert spec is not None and spec.loader is not None  # a .py file always has both
+    module = importlib.util.module_from_spec(spec)
+    # In sys.modules, so that its classes pickle and its dataclasses resolve their module.
+    sys.modules[path.stem] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[path.stem]
+        raise
+
+
+def loaded() -> tuple[str, ...]:
+    """What `load` imported in this process, in order, as `load` takes it in another process."""
+    return tuple(_loaded)
