@@ -186,6 +186,22 @@ def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(
     assert capsys.readouterr().err.startswith("loading agent cpu ...\n")
 
 
+def test_the_bundled_agent_plans_a_part_of_no_family_end_to_end_in_the_realistic_cell(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from vprobot.paths import CONFIGS_DIR
+
+    plan = tmp_path / "plan.json"
+    code = main(["plan", "--config", str(CONFIGS_DIR / "cell_real.yaml"), "--planner", "agent",
+                 "--mesh", str(OBJECTS_DIR / "pipe_tee.stl"), "--out", str(plan)])
+    assert code == 0, capsys.readouterr().err
+    document = json.loads(plan.read_text())
+    views = document["views"]
+    # The initial view and at least one the agent chose, each reached by the robot.
+    assert len(views) >= 2 and all(view["reachable"] for view in views)
+    assert all(len(view["joints"]) == 6 for view in views)
+    assert document["planner"] == "agent" and document["sensor"]["sensing"] == "structured_light"
+
+
 def test_the_default_agent_is_the_bundled_generalist_trained_with_the_runs_sensor() -> None:
     from vprobot.config import load_config, replace, with_sensor
     from vprobot.paths import CONFIGS_DIR

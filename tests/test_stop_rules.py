@@ -265,3 +265,24 @@ def test_stop_error_is_the_mean_absolute_error_of_the_estimate_against_the_rollo
     assert rows["1"] == pytest.approx(expected[0])
     assert rows["2"] == pytest.approx(expected[1])
     assert rows["all"] == pytest.approx(expected.mean())
+
+
+def test_estimate_takes_the_bundled_estimator_fitted_on_the_runs_sensor_and_sensing() -> None:
+    from vprobot.config import load_config, with_sensor
+    from vprobot.paths import CONFIGS_DIR
+    from vprobot.stopping.estimator import BUNDLED_ESTIMATORS, bundled_estimator
+
+    real = load_config(CONFIGS_DIR / "cell_real.yaml")
+    assert bundled_estimator(Config().sensor) == BUNDLED_ESTIMATOR
+    assert bundled_estimator(real.sensor) == BUNDLED_ESTIMATORS[1]
+    rule = make_stop_rule("estimate", real)
+    assert isinstance(rule, EstimateStop)
+    domain = rule.estimator.domain
+    assert domain is not None and domain.sensor_mismatch(real.sensor) is None
+    # The full-frame preset: the features count per pixel, so the 612 x 512 fit serves it.
+    assert bundled_estimator(with_sensor(Config(), "zivid2plus_mr60").sensor) == (
+        BUNDLED_ESTIMATORS[1])
+    # Fitted on none: the paper sensor's, whose estimates the tracker then refuses.
+    ideal_zivid = replace(real, "sensor", sensing="ideal").sensor
+    assert bundled_estimator(ideal_zivid) == BUNDLED_ESTIMATOR
+    assert load_estimator(None, ideal_zivid).domain.sensor_mismatch(ideal_zivid) is not None

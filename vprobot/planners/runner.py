@@ -300,7 +300,7 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
         raise ValueError(f"carrier must be one of {list(CARRIERS)}, got {carrier!r}")
     chosen = make_planner(planner, config, views)
     rule = make_stop_rule(stop, config, estimator)
-    estimate = load_estimator(estimator) if estimates else None
+    estimate = load_estimator(estimator, config.sensor) if estimates else None
     episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable, shared)
     start = time.perf_counter()
     played = run_episode(chosen, episode, spec, config, np.random.default_rng(spec.seed), rule)

@@ -73,7 +73,10 @@ CLAIM_QUANTILE = 0.98
 views on which the estimate claimed the goal (chosen on the validation list and the foreign
 parts of sets a and b, then frozen; results/stop_estimate/README.md)."""
 BUNDLED_ESTIMATOR = ESTIMATOR_DIR / "estimator.npz"
-"""The estimator `--stop estimate` uses unless told otherwise (its README says how it was fit)."""
+"""The estimator of the paper's sensor (its README says how it was fit)."""
+BUNDLED_ESTIMATORS = (BUNDLED_ESTIMATOR, ESTIMATOR_DIR / "structured_light" / "estimator.npz")
+"""The estimators `--stop estimate` chooses from unless told otherwise: the first fitted on the
+run's sensor and sensing model (`bundled_estimator`)."""
 
 
 def widened_std(variance: np.ndarray, disagreement: np.ndarray,
@@ -360,13 +363,26 @@ def claim_limits(estimator: CoverageEstimator, features: np.ndarray, goal: float
     return limits
 
 
-def load_estimator(path: str | Path | None = None) -> CoverageEstimator:
-    """The estimator of an `.npz` file of `vprobot stop fit`, or the bundled one (None).
+def bundled_estimator(sensor: SensorConfig | None = None) -> Path:
+    """The bundled estimator fitted on `sensor` and its sensing model (`BUNDLED_ESTIMATORS`);
+    the paper sensor's where none is (its estimates are then refused, saying why)."""
+    if sensor is not None:
+        for path in BUNDLED_ESTIMATORS:
+            domain = load_estimator(path).domain
+            if domain is not None and domain.sensor_mismatch(sensor) is None:
+                return path
+    return BUNDLED_ESTIMATOR
+
+
+def load_estimator(path: str | Path | None = None,
+                   sensor: SensorConfig | None = None) -> CoverageEstimator:
+    """The estimator of an `.npz` file of `vprobot stop fit`, or (None) the bundled one of
+    `sensor` (`bundled_estimator`).
 
     Raises:
         ValueError: If the file is missing or not an estimator.
     """
-    shown = Path(path) if path is not None else BUNDLED_ESTIMATOR
+    shown = Path(path) if path is not None else bundled_estimator(sensor)
     try:
         modified = shown.stat().st_mtime_ns
     except OSError as error:

@@ -269,7 +269,7 @@ def score_estimate(config: Config, out_dir: str | Path, lists: Sequence[str],
     planners = tuple(planners) if planners is not None else DEFAULT_PLANNERS
     for planner in planners:
         make_planner(planner, config)
-    model = load_estimator(estimator)
+    model = load_estimator(estimator, config.sensor)
     mismatch = None if model.domain is None else model.domain.sensor_mismatch(config.sensor)
     if mismatch is not None:
         raise ValueError(f"the estimator cannot be scored on these rollouts: {mismatch}; fit one "

@@ -79,7 +79,7 @@ class EstimateStop(StopRule):
     @classmethod
     def build(cls, config: Config, estimator: str | Path | None = None,
               **options: Any) -> StopRule:
-        return cls(config, load_estimator(estimator), **options)
+        return cls(config, load_estimator(estimator, config.sensor), **options)
 
     def bind(self, planner: Planner) -> None:
         super().bind(planner)
