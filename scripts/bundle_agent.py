@@ -12,7 +12,7 @@ import shutil
 from pathlib import Path
 
 from vprobot.agents.runs import best_evaluation, current_names
-from vprobot.agents.trained import BUNDLED_AGENT, load_run_config
+from vprobot.agents.trained import BUNDLED_AGENT, describe_sensor, load_run_config
 
 
 def main() -> None:
@@ -42,7 +42,8 @@ def main() -> None:
 
 Trained by `{command[0]}` ({command[1]}, {command[2]}): {config.agent.algorithm.upper()}, the
 `{config.agent.encoder}` encoder on `{config.env.state}`, {config.env.action},
-{config.env.reward}, carrier `{config.env.carrier}`{decides}.
+{config.env.reward}, carrier `{config.env.carrier}`{decides}; with the sensor
+{describe_sensor(config.sensor)} (it plans with that sensor and sensing model only).
 `model.zip` is the run's best evaluated model under `agent.select: {config.agent.select}`
 (step {int(best['step']):,}{pretrained}): on the run's {int(float(best['episodes']))} evaluation
 episodes, deterministic, at full sensor resolution, it covered
