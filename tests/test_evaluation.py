@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import dataclasses
 from pathlib import Path
 from typing import Any
@@ -738,6 +739,26 @@ def test_resuming_with_other_settings_is_refused(tmp_path: Path,
     with pytest.raises(ValueError, match="other settings"):
         evaluate(replace(CONFIG, "cell", robot="ur5"), ["hrec"], specs, tmp_path,
                  progress=False, carriers=["free"])
+
+
+def test_a_setting_added_since_the_folder_was_made_resumes_at_its_default(
+        tmp_path: Path) -> None:
+    """`env.split` came after some committed folders were made: a folder without it resumes
+    with the default split, and is refused with another."""
+    from vprobot.config import replace
+
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
+    evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    path = tmp_path / "evaluation_settings.json"
+    settings = json.loads(path.read_text())
+    del settings["config"]["env"]["split"]
+    path.write_text(json.dumps(settings))
+    table = evaluate(CONFIG, ["hrec", "uniform2"], specs, tmp_path, progress=False,
+                     carriers=["free"])
+    assert [row["planner"] for row in table] == ["hrec", "uniform2"]
+    with pytest.raises(ValueError, match="other settings \\(env.split 1 there, 2 now"):
+        evaluate(replace(CONFIG, "env", split=2), ["hrec"], specs, tmp_path, progress=False,
+                 carriers=["free"])
 
 
 def test_a_planner_or_carrier_given_twice_runs_once(tmp_path: Path) -> None:

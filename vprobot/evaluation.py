@@ -451,6 +451,11 @@ def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None
         write_text(path, json.dumps(settings, indent=1) + "\n")
         return
     recorded, current = _flat_settings(json.loads(path.read_text())), _flat_settings(settings)
+    # A setting added to vprobot after the folder was made left its rows as they were if it is
+    # at its default.
+    defaults = _flat_settings({"config": config_document(Config())})
+    recorded = {**{key: defaults[key] for key in current
+                   if key not in recorded and key in defaults}, **recorded}
     changed = [key for key in {**recorded, **current} if recorded.get(key) != current.get(key)]
     if changed:
         key = changed[0]
