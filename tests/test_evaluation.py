@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import csv
-import json
 import dataclasses
+import json
 from pathlib import Path
 from typing import Any
 
@@ -756,7 +756,7 @@ def test_a_setting_added_since_the_folder_was_made_resumes_at_its_default(
     table = evaluate(CONFIG, ["hrec", "uniform2"], specs, tmp_path, progress=False,
                      carriers=["free"])
     assert [row["planner"] for row in table] == ["hrec", "uniform2"]
-    with pytest.raises(ValueError, match="other settings \\(env.split 1 there, 2 now"):
+    with pytest.raises(ValueError, match=r"other settings \(env.split 1 there, 2 now"):
         evaluate(replace(CONFIG, "env", split=2), ["hrec"], specs, tmp_path, progress=False,
                  carriers=["free"])
 
