@@ -70,11 +70,10 @@ def teacher_seed(config: Config, seed: int) -> int:
 
 def teacher_identity(config: Config, seed: int) -> dict[str, Any]:
     """What decides the teacher's states: the cell, sensor, kinematics and env sections, the
-    teacher's seed and its exploration."""
+    teacher's seed (`teacher_seed`'s) and its exploration."""
     document = config_document(config)
     return {**{section: document[section] for section in ("cell", "sensor", "kinematics", "env")},
-            "teacher_seed": teacher_seed(config, seed), "epsilon": EPSILON,
-            "shard_episodes": SHARD_EPISODES}
+            "teacher_seed": seed, "epsilon": EPSILON, "shard_episodes": SHARD_EPISODES}
 
 
 def shard_sizes(episodes: int) -> list[int]:
@@ -177,9 +176,12 @@ def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int
             _open_folder(config, seed, folder)
             _roll_out([shard for shard, file in enumerate(files) if not file.is_file()],
                       sizes, config, seed, folder, workers, progress)
-    shards = [np.load(file) for file in files]
-    keys = [key for key in shards[0].files if key != _VALUES_KEY]
-    return TeacherStates({key: np.concatenate([shard[key] for shard in shards]) for key in keys},
+    shards = []
+    for file in files:
+        with np.load(file) as shard:
+            shards.append({key: shard[key] for key in shard.files})
+    return TeacherStates({key: np.concatenate([shard[key] for shard in shards])
+                          for key in shards[0] if key != _VALUES_KEY},
                          np.concatenate([shard[_VALUES_KEY] for shard in shards]))
 
 
