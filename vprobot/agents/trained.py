@@ -127,6 +127,12 @@ def describe_sensor(sensor: SensorConfig) -> str:
             f"{sensor.near_m:g}-{sensor.far_m:g} m, {sensor.sensing} sensing")
 
 
+@functools.cache
+def _bundled_sensor(name: str) -> SensorConfig:
+    # Read once: an evaluation builds its agent planner every episode.
+    return load_run_config(BUNDLED_AGENTS[name]).sensor
+
+
 def default_agent(sensor: SensorConfig) -> str:
     """The bundled agent `--planner agent` uses with `sensor` (`DEFAULT_AGENTS`).
 
@@ -134,9 +140,9 @@ def default_agent(sensor: SensorConfig) -> str:
         ValueError: If none was trained with it, naming the sensor and the bundled ones'.
     """
     for name in DEFAULT_AGENTS:
-        if trained_with(load_run_config(BUNDLED_AGENTS[name]).sensor, sensor):
+        if trained_with(_bundled_sensor(name), sensor):
             return name
-    trained = "; ".join(f"{name}: {describe_sensor(load_run_config(BUNDLED_AGENTS[name]).sensor)}"
+    trained = "; ".join(f"{name}: {describe_sensor(_bundled_sensor(name))}"
                         for name in DEFAULT_AGENTS)
     raise ValueError(f"no bundled agent was trained with this run's sensor "
                      f"({describe_sensor(sensor)}); the bundled ones were: {trained}; train one "
