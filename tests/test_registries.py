@@ -4,6 +4,8 @@ run through the same config and CLI paths as the bundled ones, with no edit else
 from __future__ import annotations
 
 import csv
+import sys
+import types
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -88,7 +90,7 @@ def toy_encoder() -> Iterator[None]:
     ENCODERS.unregister("toy")
 
 
-def test_a_registry_keeps_registration_order_and_names_what_it_allows() -> None:
+def test_a_registry_lists_its_entries_in_name_order_and_names_what_it_allows() -> None:
     registry: Registry[int] = Registry("widget")
     registry.register("b", 2)
 
@@ -96,15 +98,41 @@ def test_a_registry_keeps_registration_order_and_names_what_it_allows() -> None:
     def widget() -> int:
         return 1
 
-    assert list(registry) == ["b", "a"] and registry["a"] is widget and "a" in registry
+    assert list(registry) == ["a", "b"] and registry["a"] is widget and "a" in registry
     with pytest.raises(ValueError, match="widget 'b' is already registered"):
         registry.register("b", 3)
     with pytest.raises(UnknownNameError) as error:
         registry["c"]
     assert isinstance(error.value, ValueError) and isinstance(error.value, KeyError)
-    assert str(error.value) == "unknown widget 'c'; allowed: b, a"
+    assert str(error.value) == "unknown widget 'c'; allowed: a, b"
     assert registry.get("c") is None and 3 not in registry
     assert registry.unregister("b") == 2 and list(registry) == ["a"]
+
+
+def test_a_registry_imports_the_modules_of_its_package_when_first_read(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    package = tmp_path / "toy_widgets"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    registration = ("from vprobot.registry import Registry\n"
+                    "import sys\n"
+                    "WIDGETS = sys.modules['toy_widgets_registry'].WIDGETS\n"
+                    "WIDGETS.register({name!r}, {value})\n")
+    (package / "zeta.py").write_text(registration.format(name="zeta", value=1))
+    (package / "alpha.py").write_text(registration.format(name="alpha", value=2))
+    (package / "_private.py").write_text("raise RuntimeError('a private module is no entry')")
+    holder = types.ModuleType("toy_widgets_registry")
+    holder.WIDGETS = Registry("widget", package="toy_widgets")  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "toy_widgets_registry", holder)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    widgets = holder.WIDGETS
+    # Registering does not import the package; the first read does, once.
+    widgets.register("mine", 3)
+    assert "toy_widgets.zeta" not in sys.modules
+    assert list(widgets) == ["alpha", "mine", "zeta"] and widgets["zeta"] == 1
+    assert "toy_widgets.alpha" in sys.modules and "toy_widgets._private" not in sys.modules
+    for module in ("toy_widgets", "toy_widgets.alpha", "toy_widgets.zeta"):
+        monkeypatch.delitem(sys.modules, module)
 
 
 def test_a_planner_registered_elsewhere_is_built_by_name_and_evaluated(

@@ -1,10 +1,16 @@
 """Named registries of the extension points (planners, rewards, encoders, part families, stop
-rules): a new one is a module that registers itself, and the config, the CLI and the error
-messages read the names from the registry (docs/extending.md).
+rules, sensing models, export formats): a new one is a module that registers itself, and the
+config, the CLI and the error messages read the names from the registry (docs/extending.md).
+
+A registry knows the package of its bundled entries and imports every module of it the first
+time it is read, so that a bundled extension is one file in that package; one from outside is a
+plugin (`vprobot.plugins`), registered by being imported.
 """
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Generic, Protocol, TypeVar, overload
 
@@ -32,25 +38,48 @@ class UnknownNameError(KeyError, ValueError):
 
 
 class Registry(Mapping[str, T], Generic[T]):
-    """Entries of one kind by name, in registration order.
+    """Entries of one kind by name, in name order (so that what a message lists does not depend
+    on which module happened to be imported first).
 
     Args:
         kind: What an entry is, as error messages name it (`planner`, `reward`).
+        package: The package whose modules register the bundled entries: the first read of the
+            registry (a lookup, `in`, iteration, `len`) imports each of its modules whose name
+            does not start with `_`, in name order. None: entries come only from `register`.
 
     Example:
         >>> GREETINGS: Registry[str] = Registry("greeting")
-        >>> GREETINGS.register("hello", "Hello!")
-        'Hello!'
-        >>> @GREETINGS.register("shout")
-        ... def shout() -> str:
-        ...     return "HEY"
+        >>> GREETINGS.register("shout", "HEY")
+        'HEY'
+        >>> @GREETINGS.register("hello")
+        ... def hello() -> str:
+        ...     return "Hello!"
         >>> list(GREETINGS)
         ['hello', 'shout']
     """
 
-    def __init__(self, kind: str):
+    def __init__(self, kind: str, package: str | None = None):
         self.kind = kind
+        self.package = package
         self._entries: dict[str, T] = {}
+        self._discovered = package is None
+
+    def _discover(self) -> None:
+        """Import the modules of `package` once, which register the bundled entries."""
+        if self._discovered:
+            return
+        # Set first: a module imported here may read the registry while it registers.
+        self._discovered = True
+        assert self.package is not None
+        folder = importlib.import_module(self.package).__path__
+        for module in sorted(info.name for info in pkgutil.iter_modules(folder)):
+            if not module.startswith("_"):
+                importlib.import_module(f"{self.package}.{module}")
+
+    @property
+    def _sorted(self) -> dict[str, T]:
+        self._discover()
+        return dict(sorted(self._entries.items()))
 
     @overload
     def register(self, name: str) -> Callable[[V], V]: ...
@@ -91,20 +120,23 @@ class Registry(Mapping[str, T], Generic[T]):
         return entry
 
     def __getitem__(self, name: str) -> T:
+        self._discover()
         try:
             return self._entries[name]
         except (KeyError, TypeError):
             raise UnknownNameError(f"unknown {self.kind} {name!r}; allowed: "
-                                   f"{', '.join(self._entries)}") from None
+                                   f"{', '.join(self._sorted)}") from None
 
     def __contains__(self, name: object) -> bool:
+        self._discover()
         return isinstance(name, str) and name in self._entries
 
     def __iter__(self) -> Iterator[str]:
-        return iter(list(self._entries))
+        return iter(list(self._sorted))
 
     def __len__(self) -> int:
+        self._discover()
         return len(self._entries)
 
     def __repr__(self) -> str:
-        return f"Registry({self.kind!r}: {', '.join(self._entries)})"
+        return f"Registry({self.kind!r}: {', '.join(self._sorted)})"
