@@ -32,7 +32,7 @@ from vprobot.kinematics.travel import (
     paper_travel,
     polyline_length,
 )
-from vprobot.robots.urdf_import import GEOM_GROUP_ROBOT
+from vprobot.robots.description import GEOM_GROUP_ROBOT
 from vprobot.scene import Cell
 
 FailureReason = Literal["out_of_reach", "did_not_converge", "joint_limits", "collision",

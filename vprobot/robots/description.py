@@ -31,6 +31,9 @@ SENSOR_SITE = "sensor"
 SENSOR_CAMERA = "sensor_camera"
 """vprobot's sensor mount, added on the flange by the converter: a body, the optical centre site
 (+z viewing direction) and a camera for the renderer's sensor panel."""
+GEOM_GROUP_ROBOT = 2
+"""The geom group of the arm's geoms (0 environment, 1 object), which the converter writes and
+the arm's sight check casts rays against (`RobotArm.hides`)."""
 
 LIMIT_KEYS = ("velocity_limits_rad_s", "acceleration_limits_rad_s2", "jerk_limits_rad_s3")
 """The per-joint motion limits of `robot.yaml`, which time the trajectories

@@ -25,6 +25,7 @@ from vprobot.robots.description import (
     ASSUMED_JERK_RAD_S3,
     ASSUMED_LIMIT_SOURCES,
     DESCRIPTION_FILE,
+    GEOM_GROUP_ROBOT,
     SCENE_FILE,
     SENSOR_BODY,
     SENSOR_CAMERA,
@@ -59,7 +60,6 @@ CONVERSION_STEPS = """\
 
 ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
 """Collision bits (contype / conaffinity), shared with vprobot.scene."""
-GEOM_GROUP_ROBOT = 2
 
 SENSOR_HALF_SIZE = (0.10, 0.03, 0.04)
 """A structured-light sensor housing (about 200 x 60 x 80 mm), the optical centre at its front."""
