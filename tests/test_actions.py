@@ -11,7 +11,7 @@ import pytest
 from vprobot.config import Config, EnvConfig
 from vprobot.env.actions import ACTION_SIZES, ActionMapping
 from vprobot.occupancy import VOXEL_M
-from vprobot.planners.candidates import band_candidates
+from vprobot.views import band_candidates
 
 R = 0.47
 

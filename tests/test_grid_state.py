@@ -21,8 +21,8 @@ from vprobot.geometry import Pose
 from vprobot.occupancy import GAINS, UNKNOWN_PASS, OccupancyGrid
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.agent import AgentPlanner
-from vprobot.planners.candidates import band_directions, offered
 from vprobot.sensor_model import SensorModel
+from vprobot.views import band_directions, offered
 
 RESOLUTION = (64, 45)
 # The sensor itself at a small resolution: the agent planner integrates frames at the sensor's.

@@ -38,13 +38,13 @@ from vprobot.occupancy import (
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
-from vprobot.planners.candidates import band_candidates
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.planners.uniform import view_band
 from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
 from vprobot.stopping.rules import make_stop_rule
+from vprobot.views import band_candidates
 
 CONFIG = Config()
 RESOLUTION = (107, 75)

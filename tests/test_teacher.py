@@ -18,7 +18,7 @@ from vprobot.config import Config, ConfigError, replace
 from vprobot.env.grid_state import FEATURES
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.paths import MOTORS_DIR
-from vprobot.planners.candidates import screen_reachability
+from vprobot.views import screen_reachability
 
 ENV = {"action": "A_view", "state": "s_grid", "motors": "mesh",
        "mesh": str(MOTORS_DIR / "train" / "motor_000.stl"), "resolution": (96, 67)}

@@ -20,7 +20,8 @@ import numpy as np
 
 from vprobot.config import ConfigError, EnvConfig
 from vprobot.episode import Episode
-from vprobot.planners.candidates import BAND_COUNT, CandidateViews, candidate_views
+from vprobot.planners.candidates import CandidateViews, candidate_views
+from vprobot.views import BAND_COUNT
 
 WASTED = -1.0
 """R2's reward for a request that adds nothing: here, one the robot cannot take."""

@@ -7,7 +7,7 @@ Absolute orientations are ZYZ Euler angles with the roll gamma = 0, R = Rz(alpha
 the viewing axis is then (sin b cos a, sin b sin a, cos b). The `_lim` variants look at the
 centre and deviate by d_alpha about the sensor's y axis (pan) and d_beta about its x axis (tilt).
 
-`A_view` is discrete: action k requests the k-th band candidate (`planners.candidates`), the
+`A_view` is discrete: action k requests the k-th band candidate (`vprobot.views`), the
 look-at view at the working distance that `nbv` requests as its candidate k.
 """
 
@@ -26,7 +26,7 @@ from vprobot.geometry import (
     spherical_position,
 )
 from vprobot.kinematics import SensorTarget
-from vprobot.planners.candidates import band_directions
+from vprobot.views import band_directions
 
 ACTION_SIZES: dict[str, int] = {
     "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,

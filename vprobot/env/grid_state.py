@@ -26,7 +26,7 @@ from gymnasium import spaces
 from vprobot.config import Config
 from vprobot.env.rewards import step_limit
 from vprobot.occupancy import GAINS, VOXEL_M, EpisodeGrid
-from vprobot.planners.candidates import (
+from vprobot.views import (
     band_candidates,
     band_directions,
     offered,

@@ -129,7 +129,7 @@ class InspectEnv(gym.Env):
     | 16-18 | shares of the grid's voxels occupied, free, unknown | [0, 1] |
 
     Columns 15-18 are the same on every row. `mask` is 1 where the candidate may be requested:
-    reachable, not within 10 deg (`candidates.EXCLUDE_DEG`) of an earlier request, taken or
+    reachable, not within 10 deg (`views.EXCLUDE_DEG`) of an earlier request, taken or
     failed, and not failed; if that leaves none, every candidate that did not fail is unmasked.
 
     ## Action

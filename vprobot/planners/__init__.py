@@ -5,6 +5,6 @@ and a greedy oracle.
 (by importing their modules), builds planners by name (`make_planner`), plays one episode of a
 planner (`run`) and plans one motor end to end (`plan_motor`, the `vprobot plan` job).
 
-The package imports none of its modules: the environment and the stop rules build on
-`candidates`, and importing it must not import every planner.
+The package imports none of its modules, so that importing one (`base`, `candidates`) does not
+import every planner.
 """

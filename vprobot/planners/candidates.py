@@ -1,5 +1,5 @@
-"""Candidate views: the model-based planners' view sphere, its reachable part and visibility;
-the model-free band candidates of `nbv` and of the environment's `A_view` action.
+"""Candidate views of the model-based planners: the view sphere, its reachable part and
+visibility (the model-free band and the screening live in `vprobot.views`).
 
 The candidates are `count` positions spread evenly (Fibonacci lattice) over the sphere of the
 working distance around the object's centre, looking at the centre, from the top down to the
@@ -7,11 +7,8 @@ polar angle of the ground-truth views (`ground_truth.MAX_POLAR_DEG`, 30 degrees 
 equator): the surface that counts was defined from that cap, and lower views mostly see the
 fixture. The paper used 900 such positions (B_SCP).
 
-With the robot, every candidate is reached by the IK for the episode's object pose. The
-candidates are visited breadth-first over their neighbourhood graph, each IK warm-started from
-an already solved neighbour, so a reachable candidate converges in a few iterations and
-neighbours share an arm branch (short joint moves between them). The screening uses at most
-`SCREEN_RESTARTS` restarts: a candidate it misses is merely not offered. A candidate is usable
+With the robot, every candidate is reached by the IK for the episode's object pose, neighbour
+after neighbour (`vprobot.views.screen_reachability`). A candidate is usable
 when its configuration is within the limits and collision-free (the path to it is checked when
 a view is executed); it then acquires from the FK pose of that configuration, roll included.
 Without the robot every candidate is usable at its look-at pose.
@@ -25,51 +22,30 @@ Visibility of the ground-truth points from every usable candidate is predicted b
 `VisibilityRenderer` (all candidates in a few numpy passes), within the sensing model's
 deterministic limits (projector shadow, incidence limits); planners confirm the candidates they
 are about to take with a simulated acquisition (`measured`).
-
-The band candidates (`band_candidates`) know nothing of the object: `BAND_COUNT` look-at views
-over the same part of the sphere at the working distance around the cell's object centre, with
-their rays through the cell's occupancy grid. `offered` says which of them may still be
-requested: none within `EXCLUDE_DEG` of an earlier request and none that failed.
 """
-
 from __future__ import annotations
 
-import collections
 import dataclasses
-import functools
 import time
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from vprobot.config import Config
 from vprobot.coverage import EPSILON_PER_SPACING
-from vprobot.episode import Episode, ViewRecord, ViewRequest
+from vprobot.episode import Episode, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
-from vprobot.kinematics.collision import CollisionChecker
-from vprobot.occupancy import OccupancyGrid, ViewGains
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
-from vprobot.progress import stage
-from vprobot.sensor_model import SensorModel
+from vprobot.views import look_at_targets, screen_reachability
 from vprobot.viewsphere import sphere_directions
 
 CANDIDATE_COUNT = 900
-SCREEN_RESTARTS = 1
-"""IK restarts (home) of the screening: 8 find the same reachable candidates (781 of 900 on the
-default motor, one more on some) at twice the time, none misses about 3 %."""
 CONFIRMATIONS_PER_PICK = 6
 """Simulated acquisitions per greedy pick at most. On the test motors (3 poses each), B_SCP,5
 covers 96.2 % with none, 97.9 % with 4, 98.4 % with 8 and 99.3 % unlimited, which takes 63
 acquisitions a plan on average and up to 150."""
-_NEIGHBOURS = 8
-BAND_COUNT = 128
-"""Band candidates (model-free): about 15 degrees apart."""
-EXCLUDE_DEG = 10.0
-"""Band candidates this close to an earlier request are not offered again."""
 SIGHT_OFFSETS_M = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [-0.04, 0.0, 0.0],
                             [0.0, 0.04, 0.0], [0.0, -0.04, 0.0]])
 """Points about the centre, across the image (sensor frame), that the arm must not hide."""
@@ -243,109 +219,9 @@ def _build_candidates(episode: Episode, count: int, resolution: tuple[int, int],
                           visibility_seconds=time.perf_counter() - start)
 
 
-def look_at_targets(center: np.ndarray, distance: float,
-                    directions: np.ndarray) -> tuple[SensorTarget, ...]:
-    """Targets `distance` from `center` along each unit direction (n, 3), looking at it."""
-    center = np.asarray(center, dtype=float)
-    return tuple(SensorTarget.look_at(center + distance * d, center) for d in directions)
-
-
 def arm_hides_view(arm: RobotArm, q: np.ndarray, center: np.ndarray) -> bool:
     """Whether the arm at `q` hides the middle of its sensor's view of `center` (the centre
     and four points 4 cm across the image from it)."""
     return arm.hides(q, center + SIGHT_OFFSETS_M @ arm.fk(q).rotation.T)
 
 
-def screen_reachability(arm: RobotArm, collisions: CollisionChecker, start_q: np.ndarray,
-                        directions: np.ndarray, targets: Sequence[SensorTarget]
-                        ) -> tuple[np.ndarray, tuple[str | None, ...]]:
-    """IK of every candidate, neighbour after neighbour (see the module docstring).
-
-    Args:
-        arm: The robot.
-        collisions: The checker holding the cell (and the object placement) to avoid.
-        start_q: The configuration the first IK of each connected region starts from.
-        directions: Unit directions of the candidates from the centre (count, 3).
-        targets: The candidates' targets, one per direction.
-
-    Returns:
-        Configurations (count, dof) with NaN rows for unusable candidates, and the reasons.
-    """
-    count = len(targets)
-    _, neighbours = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1, count))
-    neighbours = np.asarray(neighbours).reshape(count, -1)[:, 1:]
-    joints = np.full((count, arm.joints.dof), np.nan)
-    reasons: list[str | None] = [None] * count
-    visited = np.zeros(count, dtype=bool)
-    with stage("reachability of the candidates", count, "view") as bar:
-        for root in range(count):
-            if visited[root]:
-                continue
-            visited[root] = True
-            queue = collections.deque([root])
-            while queue:
-                index = queue.popleft()
-                solved = [n for n in neighbours[index] if not np.isnan(joints[n, 0])]
-                seed = joints[solved[0]] if solved else start_q
-                result = arm.reach(targets[index], seed, collisions, restarts=SCREEN_RESTARTS)
-                if result.reachable:
-                    joints[index] = result.q
-                else:
-                    reasons[index] = result.reason
-                bar.update()
-                for neighbour in neighbours[index]:
-                    if not visited[neighbour]:
-                        visited[neighbour] = True
-                        queue.append(neighbour)
-    return joints, tuple(reasons)
-
-
-@dataclasses.dataclass(frozen=True)
-class BandCandidates:
-    """The model-free candidate views of a cell.
-
-    Attributes:
-        targets: Look-at targets at the working distance around the cell's object centre.
-        directions: Their unit directions from the centre (count, 3), world axes.
-        gains: Their rays through the cell's occupancy grid.
-    """
-
-    targets: tuple[SensorTarget, ...]
-    directions: np.ndarray
-    gains: ViewGains
-
-    def __len__(self) -> int:
-        return len(self.targets)
-
-
-def band_directions() -> np.ndarray:
-    """Unit directions (`BAND_COUNT`, 3) of the band candidates from the object's centre."""
-    return sphere_directions(BAND_COUNT, np.deg2rad(MAX_POLAR_DEG))
-
-
-@functools.lru_cache(maxsize=4)
-def band_candidates(config: Config, voxel_m: float) -> BandCandidates:
-    """The band candidates of a cell and their rays through its grid of `voxel_m` voxels;
-    cached, as they depend on the cell and the sensor only."""
-    directions = band_directions()
-    sensor = SensorModel.from_config(config.sensor)
-    targets = look_at_targets(np.asarray(config.cell.object_center_m),
-                              sensor.working_distance_m, directions)
-    return BandCandidates(targets, directions,
-                          ViewGains(OccupancyGrid.for_cell(config, voxel_m), sensor,
-                                    [target.pose for target in targets]))
-
-
-def request_directions(views: Sequence[ViewRecord], center: np.ndarray) -> np.ndarray:
-    """Unit directions (n, 3) from the object's centre to where each view was requested."""
-    requested = np.array([view.requested.position - center for view in views]).reshape(-1, 3)
-    return requested / np.linalg.norm(requested, axis=1, keepdims=True)
-
-
-def offered(directions: np.ndarray, requested: np.ndarray, failed: np.ndarray) -> np.ndarray:
-    """Which candidates may be requested: none that failed (bool, count) and none within
-    `EXCLUDE_DEG` of a requested direction (n, 3; taken or failed)."""
-    allowed = ~failed
-    if len(requested):
-        allowed &= (directions @ requested.T).max(axis=1) < np.cos(np.deg2rad(EXCLUDE_DEG))
-    return allowed

@@ -2,7 +2,7 @@
 
 Like the agents it starts from the episode's initial view. After every acquisition the frame is
 integrated into an occupancy grid over where an object may stand in the cell
-(`vprobot.occupancy`); the candidates are the band candidates (`candidates.band_candidates`:
+(`vprobot.occupancy`); the candidates are the band candidates (`views.band_candidates`:
 look-at views spread evenly over the view band at the working distance, as `uniform<k>`), each
 scored by the expected information of
 its rays through the grid (`DEFAULT_GAIN`). The best candidate is requested next, skipping
@@ -31,14 +31,10 @@ from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.occupancy import GAINS, VOXEL_M, EpisodeGrid, Gain
 from vprobot.planners.base import Planner, register_planner
-from vprobot.planners.candidates import EXCLUDE_DEG as EXCLUDE_DEG
-from vprobot.planners.candidates import (
-    arm_hides_view,
-    band_candidates,
-    offered,
-    request_directions,
-)
+from vprobot.planners.candidates import arm_hides_view
 from vprobot.stopping.rules import StopRule, make_stop_rule
+from vprobot.views import EXCLUDE_DEG as EXCLUDE_DEG
+from vprobot.views import band_candidates, offered, request_directions
 
 DEFAULT_GAIN: Gain = "unknown"
 REACH_TRIES = 40

@@ -43,14 +43,10 @@ from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
-from vprobot.planners.candidates import (
-    CANDIDATE_COUNT,
-    arm_hides_view,
-    look_at_targets,
-    screen_reachability,
-)
+from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view
 from vprobot.planners.ordering import fixed_plan
 from vprobot.scene import Cell
+from vprobot.views import look_at_targets, screen_reachability
 from vprobot.viewsphere import sphere_directions
 
 _NEIGHBOURS = 8

@@ -22,7 +22,7 @@ of the `nbv` planner (`vprobot.occupancy`), one frame at a time. After each view
 - `blocked`, `blocked_last`: blocked pixels per sensor pixel, mean over frames and the latest;
 - `spread`: one minus the length of the mean direction from the cell's centre to the sensor
   over the acquisitions (0: all from one side);
-- `band_seen`: the share of the band candidates' directions (`candidates.band_directions`)
+- `band_seen`: the share of the band candidates' directions (`views.band_directions`)
   within `BAND_NEAR_DEG` of an acquisition's direction.
 """
 
@@ -35,8 +35,8 @@ import numpy as np
 from vprobot.config import Config
 from vprobot.episode import ViewRecord
 from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN, VOXEL_M, OccupancyGrid
-from vprobot.planners.candidates import band_directions
 from vprobot.sensor_model import SensorModel
+from vprobot.views import band_directions
 
 FEATURES = ("requested", "acquired", "occupied", "free", "unknown", "rear_side", "open_surface",
             "extent", "hull_unknown", "added_last", "added_before", "novel_last", "points",
