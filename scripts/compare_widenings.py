@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.stopping.calibration import (
+from vprobot.stop_studies.calibration import (
     LEVELS,
     UNSEEN_LEVEL,
     interval_coverage,

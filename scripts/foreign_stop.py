@@ -5,7 +5,7 @@ interval misses the truth.
 `rollouts` runs each planner on each part (STL in millimetres, `--scale 0.001`, as a user
 would) and seed with the robot in the loop and no coverage goal, so that every episode runs to
 the view budget, and appends one row per view (its features and true coverage, the columns of
-`vprobot.stopping.dataset`) to `rollouts.csv`; it resumes after the episodes already there.
+`vprobot.stop_studies.dataset`) to `rollouts.csv`; it resumes after the episodes already there.
 `score` replays `--stop estimate` on those views, as the rule meets them (a planner under the
 rule follows the same views until the rule stops it): `before`, the estimator's plain estimate
 after each view (the rule before issue 30); `after`, the estimate as
@@ -30,7 +30,7 @@ import numpy as np
 from vprobot.config import Config
 from vprobot.episode import seeded_episode
 from vprobot.files import append_line, csv_text, write_text
-from vprobot.stopping.dataset import COLUMNS, read_dataset, rollout
+from vprobot.stop_studies.dataset import COLUMNS, read_dataset, rollout
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, load_estimator
 
 FOLDER = Path("results/stop_estimate/foreign")

@@ -19,7 +19,7 @@ import json
 from pathlib import Path
 
 from vprobot.config import Config, sensor_preset
-from vprobot.stopping.dataset import read_dataset
+from vprobot.stop_studies.dataset import read_dataset
 from vprobot.stopping.estimator import CoverageEstimator, TrainingDomain, claim_limits
 from vprobot.stopping.rules.estimate import DEFAULT_CONFIDENCE
 

@@ -224,7 +224,7 @@ def test_help_names_the_registered_planners_and_stop_rules(
 
 def test_stop_study_and_error_run_with_the_studys_defaults(tmp_path: Path,
                                                            monkeypatch: pytest.MonkeyPatch) -> None:
-    from vprobot.stopping import report, study
+    from vprobot.stop_studies import report, study
 
     given: dict[str, tuple[object, ...]] = {}
 

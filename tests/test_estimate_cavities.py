@@ -13,7 +13,7 @@ import pytest
 from vprobot.config import Config, replace
 from vprobot.episode import MotorScene, seeded_episode
 from vprobot.planners.runner import run, summary
-from vprobot.stopping.dataset import read_dataset
+from vprobot.stop_studies.dataset import read_dataset
 from vprobot.stopping.estimator import (
     CoverageEstimator,
     EstimateTracker,

@@ -149,7 +149,7 @@ def test_an_import_executes_the_packages_not_yet_started() -> None:
     # A cousin: the common packages have started, the cousin's own has not.
     assert _executed("vprobot.stopping.rules.grid", "vprobot.stopping.features") == {
         "vprobot.stopping.features"}
-    assert _executed("vprobot.stopping.study", "vprobot.stopping.rules.grid") == {
+    assert _executed("vprobot.stopping.estimator", "vprobot.stopping.rules.grid") == {
         "vprobot.stopping.rules", "vprobot.stopping.rules.grid"}
     # The enclosing package's namespace, and a package's own submodule.
     assert _executed("vprobot.planners.runner", "vprobot.planners") == {"vprobot.planners"}

@@ -18,11 +18,11 @@ from vprobot.config import Config, replace
 from vprobot.episode import MotorScene, episode_list, seeded_episode, write_episode_list
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, run
+from vprobot.stop_studies.study import combinations, study_row
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, load_estimator
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.rules import make_stop_rule, parse_stop
 from vprobot.stopping.rules.estimate import EstimateStop
-from vprobot.stopping.study import combinations, study_row
 
 RESOLUTION = (107, 75)
 CONFIG = replace(Config(), "sensor", resolution=RESOLUTION)

@@ -25,16 +25,16 @@ from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.sensor_model import SensorModel
 from vprobot.splits import Split
-from vprobot.stopping import dataset as dataset_module
-from vprobot.stopping import folds as folds_module
-from vprobot.stopping import report as report_module
-from vprobot.stopping import study as study_module
-from vprobot.stopping.calibration import interval_coverage, mae_per_view, unseen_scale
-from vprobot.stopping.dataset import Dataset, training_jobs
+from vprobot.stop_studies import dataset as dataset_module
+from vprobot.stop_studies import folds as folds_module
+from vprobot.stop_studies import report as report_module
+from vprobot.stop_studies import study as study_module
+from vprobot.stop_studies.calibration import interval_coverage, mae_per_view, unseen_scale
+from vprobot.stop_studies.dataset import Dataset, training_jobs
+from vprobot.stop_studies.folds import family_folds
+from vprobot.stop_studies.report import fit_estimate
 from vprobot.stopping.estimator import UNEXPLORED, CoverageEstimator, fit
 from vprobot.stopping.features import BAND_NEAR_DEG, FEATURES, CoverageFeatures
-from vprobot.stopping.folds import family_folds
-from vprobot.stopping.report import fit_estimate
 from vprobot.viewsphere import sphere_directions
 
 CONFIG = Config()
@@ -454,7 +454,7 @@ import sys, time, types
 from pathlib import Path
 
 from vprobot.cli import main
-from vprobot.stopping import dataset, study
+from vprobot.stop_studies import dataset, study
 
 
 def hold(*args, **kwargs):

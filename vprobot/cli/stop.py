@@ -24,8 +24,8 @@ MODEL_FREE_HELP = ("model-free planners of the rollouts (default: random2 unifor
 
 
 def _study_default(name: str) -> tuple[str, ...]:
-    """A default of the stop study (`vprobot.stopping.study`, which imports the planners)."""
-    from vprobot.stopping import study
+    """A default of the stop study (`vprobot.stop_studies.study`, which imports the planners)."""
+    from vprobot.stop_studies import study
 
     return getattr(study, name)
 
@@ -91,7 +91,7 @@ def _given(values: Sequence[str] | None, default: str) -> list[str]:
 
 def command_stop_fit(args: argparse.Namespace) -> int:
     """Fit the model-free coverage estimate on rollouts of split v1 and report it."""
-    from vprobot.stopping.report import fit_estimate
+    from vprobot.stop_studies.report import fit_estimate
 
     check_output_folder(args.out, "--out")
     figures = fit_estimate(config_of(args), args.out, args.episodes, args.seed, args.planners)
@@ -104,7 +104,7 @@ def command_stop_fit(args: argparse.Namespace) -> int:
 def command_stop_error(args: argparse.Namespace) -> int:
     """Score the coverage estimate on episode lists (rollouts of model-free planners)."""
     from vprobot.progress import showing_progress
-    from vprobot.stopping.report import score_estimate
+    from vprobot.stop_studies.report import score_estimate
 
     check_output_folder(args.out, "--out")
     with showing_progress():
@@ -118,7 +118,7 @@ def command_stop_study(args: argparse.Namespace) -> int:
     """Run the stop study: every stop rule with every planner it applies to, robot in the
     loop, on the episode lists."""
     from vprobot.progress import showing_progress
-    from vprobot.stopping.study import stop_study
+    from vprobot.stop_studies.study import stop_study
 
     check_output_folder(args.out, "--out")
     with showing_progress():

@@ -1,7 +1,7 @@
-"""Knowing when to stop without the model: a model-free coverage estimate with its uncertainty.
+"""Knowing when to stop without the model: the stop rules and the model-free coverage estimate.
 
-`features` states what a real cell knows after each view; `estimator` maps it to an estimate of
-the current coverage (mean and standard deviation), learned in simulation where the coverage is
-known (`dataset`, `report`); `calibration` checks that the stated uncertainty matches the
-observed error.
+`rules` holds the stop rules any planner can use; `features` states what a real cell knows after
+each view; `estimator` maps it to an estimate of the current coverage (mean and standard
+deviation), learned in simulation where the coverage is known. The studies that fit the estimate
+and compare the rules run planners, and live above them (`vprobot.stop_studies`).
 """

@@ -12,8 +12,8 @@ uncertainty.
 As fitted, that disagreement is far too small for a part family the rollouts never showed:
 there the estimate is biased, by an amount that depends on the family. So the disagreement's
 share of the variance is scaled up (`unseen_scale`), by the least factor that made the 95 %
-intervals hold on families left out of the fit in turn (`vprobot.stopping.folds`,
-`vprobot.stopping.calibration.unseen_scale`): the uncertainty stated for any part is the one
+intervals hold on families left out of the fit in turn (`vprobot.stop_studies.folds`,
+`vprobot.stop_studies.calibration.unseen_scale`): the uncertainty stated for any part is the one
 that held on families the estimate had not seen, and it grows where the members disagree (on
 unfamiliar inputs) rather than everywhere.
 

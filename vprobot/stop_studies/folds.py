@@ -4,7 +4,7 @@ Each training family of the split is left out in turn: its rows are removed from
 training and the validation rollouts, an estimator is fit on the rest as `stop fit` fits the
 full one (same seed, same selection), and it estimates the left-out family's rows (training and
 validation alike: it saw none of them). The pooled errors of the folds are what
-`vprobot.stopping.calibration.unseen_scale` turns into the widening the estimate states for
+`vprobot.stop_studies.calibration.unseen_scale` turns into the widening the estimate states for
 any part, since a cell cannot tell whether its part is of a family the estimate knows. Motors
 are never left out: they are the cell's own objects, present in every fold.
 
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from vprobot.stopping.dataset import Dataset
+from vprobot.stop_studies.dataset import Dataset
 from vprobot.stopping.estimator import CoverageEstimator, fit
 
 FOLDS_DIR = "folds"

@@ -27,7 +27,7 @@ from vprobot.evaluation import evaluation_episodes
 from vprobot.files import csv_text, folder_lock, write_text
 from vprobot.planners.runner import make_planner
 from vprobot.splits import Split
-from vprobot.stopping.calibration import (
+from vprobot.stop_studies.calibration import (
     LEVELS,
     UNSEEN_LEVEL,
     interval_coverage,
@@ -37,7 +37,7 @@ from vprobot.stopping.calibration import (
     two_sided_z,
     unseen_scale,
 )
-from vprobot.stopping.dataset import (
+from vprobot.stop_studies.dataset import (
     DEFAULT_PLANNERS,
     collect,
     drawn_alike,
@@ -47,6 +47,8 @@ from vprobot.stopping.dataset import (
     training_jobs,
     validation_jobs,
 )
+from vprobot.stop_studies.folds import FOLDS_DIR, family_folds
+from vprobot.stop_studies.study import list_names
 from vprobot.stopping.estimator import (
     CoverageEstimator,
     TrainingDomain,
@@ -56,9 +58,7 @@ from vprobot.stopping.estimator import (
     widened_std,
 )
 from vprobot.stopping.features import FEATURES
-from vprobot.stopping.folds import FOLDS_DIR, family_folds
 from vprobot.stopping.rules.estimate import DEFAULT_CONFIDENCE
-from vprobot.stopping.study import list_names
 
 ESTIMATOR_NAME = "estimator.npz"
 
