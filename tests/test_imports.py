@@ -19,11 +19,15 @@ stable-baselines3, Ray, the offscreen renderer, the shape generators) out of a m
 light to import, never to hide a circle: the graph with those imports has no cycle either, and
 each such import says why in a comment above it. The command line (`vprobot.cli` and its
 modules) imports what a command runs when it runs (its package docstring says so).
+
+The modules sit in layers (`LAYERS`, drawn in docs/layers.md), and no import, at top level or
+inside a function, executes a module of a higher layer than the importer's.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import vprobot
@@ -134,6 +138,55 @@ def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
     return None
 
 
+LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("foundations", ("vprobot", "vprobot.paths", "vprobot.schema", "vprobot.files",
+                     "vprobot.outputs", "vprobot.progress", "vprobot.native_memory",
+                     "vprobot.registry", "vprobot.plugins", "vprobot.cluster", "vprobot.geometry",
+                     "vprobot.raster", "vprobot.viewsphere", "vprobot.sensing")),
+    ("objects", ("vprobot.families", "vprobot.motors", "vprobot.mesh_simplify",
+                 "vprobot.mesh_loading", "vprobot.generated", "vprobot.splits")),
+    ("configuration", ("vprobot.config", "vprobot.robots", "vprobot.sensor_model")),
+    ("cell", ("vprobot.scene", "vprobot.kinematics", "vprobot.fit", "vprobot.sensor",
+              "vprobot.ground_truth", "vprobot.coverage", "vprobot.occupancy")),
+    ("episode", ("vprobot.episode", "vprobot.views")),
+    ("files in and out", ("vprobot.plan_export", "vprobot.export", "vprobot.render",
+                          "vprobot.robots.urdf_import")),
+    ("what planners use", ("vprobot.env", "vprobot.agents", "vprobot.stopping")),
+    ("planners", ("vprobot.planners",)),
+    ("evaluation", ("vprobot.evaluation",)),
+    ("training and studies", ("vprobot.stop_studies", *(
+        f"vprobot.agents.{name}" for name in (
+            "training", "evaluation", "callbacks", "pretrain", "teacher", "stream", "seeds",
+            "sweep", "runs", "curves")))),
+    ("benchmarks", ("vprobot.benchmarks",)),
+    ("command line", ("vprobot.cli",)),
+)
+"""vprobot's layers, low to high, each a name and the modules it holds by prefix: a module is
+in the layer of the longest prefix that is it or a package enclosing it, so a module can sit
+apart from its package (the agents' training above the planners that run trained agents)."""
+
+
+def _prefix(module: str, layers: tuple[tuple[str, tuple[str, ...]], ...] = LAYERS) -> str:
+    """The longest prefix of `layers` that is `module` or a package enclosing it."""
+    return max((prefix for _, prefixes in layers for prefix in prefixes
+                if module == prefix or module.startswith(prefix + ".")), key=len)
+
+
+def _layer(module: str, layers: tuple[tuple[str, tuple[str, ...]], ...] = LAYERS) -> int:
+    """The index of `module`'s layer in `layers`, low to high."""
+    prefix = _prefix(module, layers)
+    return next(index for index, (_, prefixes) in enumerate(layers) if prefix in prefixes)
+
+
+def _upward(graph: dict[str, set[str]], layers: tuple[tuple[str, tuple[str, ...]], ...] = LAYERS
+            ) -> list[str]:
+    """Each edge of `graph` that executes a module of a higher layer than its importer's."""
+    return [f"{module} ({layers[_layer(module, layers)][0]}) -> {target} "
+            f"({layers[_layer(target, layers)][0]})"
+            for module, targets in sorted(graph.items()) for target in sorted(targets)
+            if _layer(target, layers) > _layer(module, layers)]
+
+
 def test_cycle_search_finds_a_hand_made_circle() -> None:
     assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
     assert _cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
@@ -183,6 +236,50 @@ def test_import_graph_with_the_imports_inside_functions_has_no_cycle() -> None:
     assert "vprobot.agents.trained" in graph["vprobot.planners.agent"]
     assert "vprobot.agents.trained" not in _graph(lazy=False)["vprobot.planners.agent"]
     assert (cycle := _cycle(graph)) is None, " -> ".join(cycle)
+
+
+def test_layer_check_catches_a_hand_made_upward_import() -> None:
+    layers = (("low", ("p",)), ("high", ("q", "p.up")))
+    graph = {"p": set(), "p.m": {"q"}, "p.up": {"q"}, "q": {"p.m"}}
+    # `p.m` sits with its package below `q`; `p.up` sits apart from it, in `q`'s layer.
+    assert _upward(graph, layers) == ["p.m (low) -> q (high)"]
+    assert _upward({**graph, "p.m": set()}, layers) == []
+
+
+def test_every_module_sits_in_a_declared_layer() -> None:
+    # The root package is the lowest prefix: a new top-level module or package says where it
+    # sits instead of falling to the bottom, and every prefix is a module of the package.
+    assert [name for name in MODULES if name != "vprobot" and _prefix(name) == "vprobot"] == []
+    assert [prefix for _, prefixes in LAYERS for prefix in prefixes
+            if prefix not in MODULES] == []
+
+
+def test_no_import_points_up_a_layer() -> None:
+    graph = _graph(lazy=True)
+    # The check covers the imports inside functions: the agent planner loads the trained agent
+    # when it plans, from a layer below the planners.
+    assert "vprobot.agents.trained" in graph["vprobot.planners.agent"]
+    assert _layer("vprobot.agents.trained") < _layer("vprobot.planners.agent")
+    assert _upward(graph) == []
+
+
+def _drawn_layers(page: str) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """The layers docs/layers.md draws in its `text` block (highest first; a line that starts
+    blank goes on with the layer above it), low to high as `LAYERS` holds them."""
+    drawn: list[tuple[str, list[str]]] = []
+    for line in page.split("```text\n", 1)[1].split("\n```", 1)[0].splitlines():
+        if line.startswith(" "):
+            drawn[-1][1].extend(line.split())
+        else:
+            name, modules = re.split(r"\s{2,}", line, maxsplit=1)
+            drawn.append((name, modules.split()))
+    return tuple((name, tuple(module if module == "vprobot" else f"vprobot.{module}"
+                              for module in modules)) for name, modules in reversed(drawn))
+
+
+def test_the_docs_draw_the_declared_layers() -> None:
+    page = (ROOT.parent / "docs" / "layers.md").read_text()
+    assert _drawn_layers(page) == LAYERS
 
 
 def _lazy_without_reason(name: str) -> list[int]:
