@@ -2,7 +2,7 @@
 
 Runs `vprobot evaluate` on the folder's own episode list (`episodes.json`) with the planners and
 carriers of its table, into a temporary folder and with an empty cache (as a fresh clone has),
-then compares every episode row cell by cell (`compare_evaluations.py`'s rule: timing columns
+then compares every episode row cell by cell (`vprobot report compare`'s rule: timing columns
 left out) and, for a full regeneration, the summary table `evaluation.csv` too. Prints each cell
 that differs and exits 1 if any does.
 
@@ -20,7 +20,6 @@ Usage:
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import platform
@@ -32,19 +31,12 @@ from pathlib import Path
 
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from compare_evaluations import moved_cells
-
 from vprobot.evaluation import SETTINGS_NAME
+from vprobot.report.compare import moved_cells, read_rows
 
 ROOT = Path(__file__).resolve().parents[1]
 EPISODE_KEY = ("episode", "carrier", "planner")
 """What names an episode row."""
-
-
-def read_rows(path: Path) -> list[dict[str, str]]:
-    with path.open(newline="") as stream:
-        return list(csv.DictReader(stream))
 
 
 def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
