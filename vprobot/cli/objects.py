@@ -17,13 +17,16 @@ def add_motors(commands: Commands) -> None:
     motors = commands.add_parser("motors", help="Synthetic starter motors.")
     motor_commands = motors.add_subparsers(dest="motors_command", required=True)
     generate = add(motor_commands, "generate", command_motors_generate,
-                   "Generate seeded starter motors.")
-    generate.add_argument("--count", type=COUNT, required=True,
-                          help=f"number of motors (1..{MAX_COUNT})")
-    generate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
+                   "Generate seeded starter motors, or the bundled sets (--bundled).")
+    generate.add_argument("--count", type=COUNT, help=f"number of motors (1..{MAX_COUNT})")
+    generate.add_argument("--seed", type=NON_NEGATIVE_INT,
                           help="seed of the set: motor i depends only on (seed, i), so a "
                           "larger count extends a smaller one (default 0: the paper's motors)")
-    generate.add_argument("--out", required=True, help="output folder")
+    generate.add_argument("--bundled", action="store_true",
+                          help="the bundled sets instead, byte for byte: train/ (20 motors of "
+                          "seed 0) and test/ (5 of seed 1), named motor_<iii>; --out defaults "
+                          "to the package's assets/motors/")
+    generate.add_argument("--out", help="output folder (required without --bundled)")
 
 
 def add_objects(commands: Commands) -> None:
@@ -60,11 +63,22 @@ def _family_name(text: str) -> str:
 
 
 def command_motors_generate(args: argparse.Namespace) -> int:
-    from vprobot.motors import generate_motors
+    """A seeded set of `--count` motors, or with `--bundled` the bundled sets."""
+    from vprobot.motors import generate_bundled_motors, generate_motors
+    from vprobot.paths import MOTORS_DIR
 
-    check_output_folder(args.out, "--out")
-    paths = generate_motors(args.count, args.seed, Path(args.out))
-    print(f"wrote {len(paths)} motors to {args.out}")
+    if args.bundled:
+        if args.count is not None or args.seed is not None:
+            raise ValueError("--bundled writes the bundled sets (train/: 20 motors of seed 0, "
+                             "test/: 5 of seed 1); --count and --seed are not allowed with it")
+        out = Path(check_output_folder(args.out or MOTORS_DIR, "--out"))
+        paths = generate_bundled_motors(out)
+    else:
+        if args.count is None or args.out is None:
+            raise ValueError("--count and --out are required (or --bundled)")
+        out = check_output_folder(args.out, "--out")
+        paths = generate_motors(args.count, args.seed or 0, out)
+    print(f"wrote {len(paths)} motors to {out}")
     return 0
 
 
