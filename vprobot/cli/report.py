@@ -1,12 +1,12 @@
-"""`vprobot report`: the README's tables, agents beside the baselines, and two evaluation
-tables compared cell by cell."""
+"""`vprobot report`: the README's tables, agents beside the baselines, two evaluation tables
+compared cell by cell, and a committed evaluation folder checked against its regeneration."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from vprobot.cli.common import Commands, add
+from vprobot.cli.common import NON_NEGATIVE_INT, Commands, add
 from vprobot.outputs import check_output_file
 
 
@@ -48,6 +48,20 @@ def add_report(commands: Commands) -> None:
                          "evaluation_episodes.csv")
     compare.add_argument("new", type=Path, help="the table of the same kind to check; each of "
                          "its rows must be in OLD")
+    check = add(reports, "check", command_check,
+                "Run a committed evaluation folder's command again (its episode list, recorded "
+                "config and estimator, an empty cache, OpenBLAS's Haswell kernels) and compare "
+                "the tables cell by cell: print each cell that differs; exit 1 if any does.",
+                config=False)
+    check.add_argument("folder", type=Path, help="a committed evaluation folder, e.g. "
+                       "results/motors")
+    check.add_argument("--episodes", type=NON_NEGATIVE_INT, nargs="+", metavar="INDEX",
+                       help="indices into its episodes.json (default: all, and the summary "
+                       "table is compared too)")
+    check.add_argument("--planners", nargs="+", metavar="PLANNER",
+                       help="default: those of its table")
+    check.add_argument("--carriers", nargs="+", choices=("robot", "free"),
+                       help="default: those of its table")
 
 
 def _labelled_folder(text: str) -> tuple[str, Path]:
@@ -93,3 +107,31 @@ def command_compare(args: argparse.Namespace) -> int:
         print(line)
     print(f"{rows} rows, {compared} cells compared, {len(lines)} moved")
     return 1 if lines else 0
+
+
+def command_check(args: argparse.Namespace) -> int:
+    """Regenerate into a temporary folder, print the cells that differ and a count; 1 if any
+    cell differs."""
+    import subprocess
+    import tempfile
+
+    from vprobot.report.check import differences, episode_count, regenerate
+    from vprobot.report.compare import read_rows
+
+    count = episode_count(args.folder)
+    if args.episodes and max(args.episodes) >= count:
+        raise ValueError(f"--episodes {' '.join(map(str, args.episodes))}: {args.folder} has "
+                         f"episodes 0 to {count - 1}")
+    with tempfile.TemporaryDirectory(prefix="check-results-") as temporary:
+        out = Path(temporary) / "regenerated"
+        try:
+            regenerate(args.folder, out, args.episodes, args.planners, args.carriers)
+        except subprocess.CalledProcessError as error:
+            raise ValueError(f"the regeneration's `vprobot evaluate` exited with "
+                             f"{error.returncode} (its message is above)") from None
+        moved = differences(args.folder, out, args.episodes)
+        rows = len(read_rows(out / "tables" / "evaluation_episodes.csv"))
+    for line in moved:
+        print(line)
+    print(f"{args.folder}: {rows} episode rows regenerated, {len(moved)} cells differ")
+    return 1 if moved else 0
