@@ -8,7 +8,7 @@ that `vprobot --help` and a bad option answer at once; those imports inside the 
 functions are the only ones in vprobot without a comment of their own.
 
 Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is unreachable;
-`report compare`: a cell moved);
+`check`: the replay fails; `report compare`, `report check`: a cell moved);
 2 a user error (bad option, config, mesh, plan or output path), reported as one line on stderr;
 130 interrupted (Ctrl-C or SIGTERM; `evaluate` keeps the episodes it finished).
 """
