@@ -182,3 +182,35 @@ def test_a_read_only_cache_warns_once_and_the_run_goes_on(
     assert (f"vprobot objects cache: warning: cannot write the generated-objects cache "
             f"{cache / 'objects' / f'v{VERSION}'} ([Errno 30] Read-only file system") in err
     assert not list(cache.rglob("*.stl"))
+
+
+def test_objects_generate_bundled_rewrites_the_committed_objects_byte_for_byte(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from vprobot.paths import OBJECTS_DIR
+
+    assert main(["objects", "generate", "--bundled", "--out", str(tmp_path)]) == 0
+    committed = sorted(path.name for path in OBJECTS_DIR.glob("*.stl"))
+    assert sorted(path.name for path in tmp_path.iterdir()) == committed == [
+        "bracket.stl", "pipe_tee.stl", "torus.stl"]
+    assert all((tmp_path / name).read_bytes() == (OBJECTS_DIR / name).read_bytes()
+               for name in committed)
+    assert capsys.readouterr().out == f"wrote 3 objects to {tmp_path}\n"
+
+
+BUNDLED_ONLY = ("--bundled writes the bundled objects (bracket, pipe_tee, torus); --family, "
+                "--count and --seed are not allowed with it")
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--bundled", "--family", "lever"], BUNDLED_ONLY),
+    (["--bundled", "--count", "2"], BUNDLED_ONLY),
+    (["--family", "lever", "--out", "parts"],
+     "--family, --count and --out are required (or --bundled)"),
+])
+def test_objects_generate_refuses_mixed_or_missing_options_in_one_line(
+        argv: list[str], message: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["objects", "generate", *argv]) == 2
+    assert capsys.readouterr().err == f"vprobot objects generate: error: {message}\n"
+    assert list(tmp_path.iterdir()) == []

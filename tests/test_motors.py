@@ -138,3 +138,36 @@ def test_generate_motors_rejects_bad_arguments(tmp_path: Path, count: int, seed:
     with pytest.raises(ValueError, match=str(count if count < 1 else seed)):
         generate_motors(count, seed=seed, out_dir=tmp_path, progress=False)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_generate_bundled_rewrites_the_committed_motors_byte_for_byte(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from vprobot.cli import main
+    from vprobot.paths import MOTORS_DIR
+
+    assert main(["motors", "generate", "--bundled", "--out", str(tmp_path)]) == 0
+    written = sorted(path.relative_to(tmp_path) for path in tmp_path.rglob("motor_*"))
+    committed = sorted(path.relative_to(MOTORS_DIR) for path in MOTORS_DIR.rglob("motor_*"))
+    assert written == committed and len(written) == 2 * (20 + 5)
+    assert all((tmp_path / name).read_bytes() == (MOTORS_DIR / name).read_bytes()
+               for name in written)
+    assert capsys.readouterr().out == f"wrote 25 motors to {tmp_path}\n"
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--bundled", "--count", "3"], "--count and --seed are not allowed with it"),
+    (["--bundled", "--seed", "0"], "--count and --seed are not allowed with it"),
+    (["--count", "3"], "--count and --out are required (or --bundled)"),
+    (["--out", "m"], "--count and --out are required (or --bundled)"),
+])
+def test_generate_refuses_mixed_or_missing_options_in_one_line(
+        argv: list[str], message: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from vprobot.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["motors", "generate", *argv]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("vprobot motors generate: error: ") and error.endswith(
+        f"{message}\n") and error.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []

@@ -1,16 +1,17 @@
 """The committed evaluation tables regenerate: a small subset of `results/motors` is run again
 from its own episode list, with an empty cache, and must give the committed rows cell by cell
-(`scripts/check_results.py`; the full check is recorded in results/regenerated/README.md)."""
+(`vprobot report check`; the full check is recorded in results/regenerated/README.md)."""
 
 from __future__ import annotations
 
 import csv
-import importlib.util
 import shutil
 from pathlib import Path
-from types import ModuleType
 
 import pytest
+
+from vprobot.cli import main
+from vprobot.report import check
 
 ROOT = Path(__file__).resolve().parents[1]
 MOTORS = ROOT / "results" / "motors"
@@ -21,37 +22,23 @@ PLANNERS = ["random2", "uniform4", "agent"]
 README's rows name."""
 
 
-def load_check() -> ModuleType:
-    spec = importlib.util.spec_from_file_location(
-        "check_results", ROOT / "scripts" / "check_results.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.fixture(scope="module")
-def regenerated(tmp_path_factory: pytest.TempPathFactory) -> tuple[ModuleType, Path]:
-    check = load_check()
+def regenerated(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("check") / "regenerated"
     check.regenerate(MOTORS, out, EPISODES, PLANNERS, ["free", "robot"])
-    return check, out
+    return out
 
 
-def test_committed_motor_rows_equal_their_regeneration(
-        regenerated: tuple[ModuleType, Path]) -> None:
-    check, out = regenerated
-    rows = list(csv.DictReader((out / "tables" / "evaluation_episodes.csv").open()))
+def test_committed_motor_rows_equal_their_regeneration(regenerated: Path) -> None:
+    rows = list(csv.DictReader((regenerated / "tables" / "evaluation_episodes.csv").open()))
     assert sorted(row["planner"] for row in rows) == sorted(2 * PLANNERS)
     # The robot rows too: the folder's settings record gives the config it was made with,
-    # planned moves included (`check_results.recorded_config`).
-    assert check.differences(MOTORS, out, EPISODES) == []
+    # planned moves included (`check.recorded_config`).
+    assert check.differences(MOTORS, regenerated, EPISODES) == []
     assert check.recorded_config(MOTORS)["kinematics"]["path_planner"] == "rrt_connect"
 
 
-def test_check_names_a_committed_cell_that_differs(regenerated: tuple[ModuleType, Path],
-                                                   tmp_path: Path) -> None:
-    check, out = regenerated
+def test_check_names_a_committed_cell_that_differs(regenerated: Path, tmp_path: Path) -> None:
     committed = tmp_path / "motors"
     shutil.copytree(MOTORS, committed)
     path = committed / "evaluation_episodes.csv"
@@ -63,20 +50,19 @@ def test_check_names_a_committed_cell_that_differs(regenerated: tuple[ModuleType
         writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    moved = check.differences(committed, out, EPISODES)
-    assert len(moved) == 1 and "('0', 'free', 'agent') coverage_pct" in moved[0]
+    moved = check.differences(committed, regenerated, EPISODES)
+    assert len(moved) == 1 and "('0', 'agent', 'free') coverage_pct" in moved[0]
 
 
 @pytest.mark.parametrize(("arguments", "message"), [
-    (["{tmp}"], "is not an evaluation folder"),
-    ([str(MOTORS), "--episodes", "0", "15"], "has episodes 0 to 14"),
+    (["{tmp}"], "{tmp} is not an evaluation folder: it needs episodes.json, evaluation.csv, "
+     "evaluation_episodes.csv"),
+    ([str(MOTORS), "--episodes", "0", "15"],
+     f"--episodes 0 15: {MOTORS} has episodes 0 to 14"),
 ])
 def test_check_refuses_a_bad_folder_or_episode_in_one_line(
-        arguments: list[str], message: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        arguments: list[str], message: str, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
-    check = load_check()
-    monkeypatch.setattr("sys.argv", ["check_results.py",
-                                     *(value.format(tmp=tmp_path) for value in arguments)])
-    assert check.main() == 2
-    error = capsys.readouterr().err
-    assert error.count("\n") == 1 and message in error
+    assert main(["report", "check", *(value.format(tmp=tmp_path) for value in arguments)]) == 2
+    assert capsys.readouterr().err == (
+        f"vprobot report check: error: {message.format(tmp=tmp_path)}\n")

@@ -5,7 +5,6 @@ visibility, the simulated confirmations, the robot's moves and frames and the lo
 from __future__ import annotations
 
 import csv
-import importlib.util
 from collections import Counter
 from pathlib import Path
 
@@ -24,6 +23,7 @@ from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners import candidates
 from vprobot.planners.candidates import CandidateViews, candidate_views
 from vprobot.planners.visibility import VisibilityRenderer
+from vprobot.report.compare import EPISODE_KEY, moved_cells
 from vprobot.sensor import DepthSensor
 
 CONFIG = Config()
@@ -56,15 +56,9 @@ def calls(monkeypatch: pytest.MonkeyPatch) -> Counter[str]:
 
 def _moved_cells(old: list[dict[str, str]], new: list[dict[str, str]]
                  ) -> tuple[list[str], int]:
-    """`scripts/compare_evaluations.py`'s cell-by-cell comparison (timing columns left out)
-    of episode rows."""
-    spec = importlib.util.spec_from_file_location(
-        "compare_evaluations",
-        Path(__file__).resolve().parents[1] / "scripts" / "compare_evaluations.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.moved_cells(old, new, ("episode", "planner", "carrier"))
+    """`vprobot report compare`'s cell-by-cell comparison (timing columns left out) of episode
+    rows."""
+    return moved_cells(old, new, EPISODE_KEY)
 
 
 def _rows(folder: Path) -> list[dict[str, str]]:

@@ -3,7 +3,9 @@
 Per test motor and seed (one episode spec each), it runs B_SCP until the coverage goal with the
 robot in the loop (planning time includes the reachability of all 900 candidates), B_SCP,4 and
 B_SCP,5 with the free-flying sensor, H_rec with both carriers, and the bundled agent with the
-robot (coverage, acquisitions, reachable share of its requests, policy time per view), and the
+robot (coverage, acquisitions, reachable share of its requests, policy time per view; and that
+time split into its decision per view, from the acquired frames and the network, and its
+reachability screening, once per episode), and the
 model-free baselines: uniform4 with both carriers and nbv (goal-stopped) with both carriers, whose
 planning time per view free-flying is the occupancy grid's own cost (integrating the frame,
 scoring every candidate) and with the robot adds the IK of the candidates it tries.
@@ -12,14 +14,17 @@ scoring every candidate) and with the robot adds the IK of the candidates it tri
 from __future__ import annotations
 
 import statistics
-from collections.abc import Sequence
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from tqdm import tqdm
 
 from vprobot.config import Config
-from vprobot.episode import CarrierName, MotorScene, seeded_episode
+from vprobot.env.grid_state import GridState
+from vprobot.episode import CarrierName, Episode, MotorScene, seeded_episode
 from vprobot.evaluation import PAPER_TABLE_9, held_out_motors
 from vprobot.planners.runner import EpisodeResult, run
 
@@ -37,6 +42,29 @@ RUNS: tuple[tuple[str, str, int | None, CarrierName], ...] = (
     ("nbv_robot", "nbv", None, "robot"),
 )
 """(key, planner, fixed views, carrier) of every benchmarked run."""
+
+
+@contextmanager
+def _timed_screenings() -> Iterator[list[float]]:
+    """The seconds of each reachability screening of the agent's state (`GridState.screening`'s
+    first call in an episode; later calls reuse it), recorded while the context lasts."""
+    seconds: list[float] = []
+    screening = GridState.screening
+
+    def timed(state: GridState, episode: Episode) -> tuple[Any, ...]:
+        first = state._screening is None
+        start = time.perf_counter()
+        screened = screening(state, episode)
+        if first:
+            seconds.append(time.perf_counter() - start)
+        return screened
+
+    # The screening runs inside the planner's own calls; only wrapping it separates it there.
+    GridState.screening = timed  # type: ignore[method-assign,assignment]
+    try:
+        yield seconds
+    finally:
+        GridState.screening = screening  # type: ignore[method-assign]
 
 
 def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None = None,
@@ -57,7 +85,10 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         `bscp_free_coverage_pct`, `bscp4_free_coverage_pct`, `bscp5_free_coverage_pct`,
         `hrec_free_coverage_pct`, `hrec_robot_coverage_pct`, `hrec_robot_reachable_pct`,
         `agent_robot_coverage_pct`, `agent_robot_acquisitions`, `agent_reachable_share`,
-        `agent_ms_per_view` (median), `uniform4_free_coverage_pct`,
+        `agent_ms_per_view` (median), `agent_decision_ms_per_view_median` / `_max` (the same
+        with the screening left out), `agent_screening_s_median` / `_max` (the reachability
+        screening, once per episode), `agent_plan_s_median` / `_max` (all of an episode's
+        planning), `uniform4_free_coverage_pct`,
         `uniform4_robot_coverage_pct`, `nbv_free_coverage_pct`, `nbv_robot_coverage_pct`,
         `nbv_free_views`, `nbv_robot_views` (requests, the initial view included),
         `nbv_free_ms_per_view` and `nbv_robot_ms_per_view` (median planning time per view it
@@ -70,14 +101,18 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
     if not paths or not seeds:
         raise ValueError("the planner benchmark needs at least one motor and one seed")
     results: dict[str, list[EpisodeResult]] = {key: [] for key, *_ in RUNS}
+    agent_screening_s: list[float] = []
     with tqdm(total=len(paths) * len(seeds) * len(RUNS), desc="planners",
-              disable=not progress) as bar:
+              disable=not progress) as bar, _timed_screenings() as screenings:
         for path in paths:
             scene = MotorScene.load(config, path)
             for seed in seeds:
                 spec = seeded_episode(config.env, path, seed)
                 for key, planner, views, carrier in RUNS:
+                    before = len(screenings)
                     results[key].append(run(config, scene, planner, spec, carrier, views))
+                    if key == "agent_robot":
+                        agent_screening_s.append(sum(screenings[before:]))
                     bar.update()
 
     def coverage_pct(key: str) -> float:
@@ -93,6 +128,9 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         return 1e3 * statistics.median(result.plan_seconds / max(result.requested - 1, 1)
                                        for result in results[key])
 
+    agent = results["agent_robot"]
+    decision_ms = [1e3 * (result.plan_seconds - screened) / max(result.requested - 1, 1)
+                   for result, screened in zip(agent, agent_screening_s, strict=True)]
     bscp = results["bscp_robot"]
     candidates = [result.candidates for result in bscp if result.candidates is not None]
     paper = {name: (coverage, seconds) for name, coverage, _, seconds in PAPER_TABLE_9}
@@ -119,6 +157,12 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
         "agent_reachable_share": reachable_share("agent_robot"),
         # The agent chooses every view but the initial one.
         "agent_ms_per_view": ms_per_chosen_view("agent_robot"),
+        "agent_decision_ms_per_view_median": statistics.median(decision_ms),
+        "agent_decision_ms_per_view_max": max(decision_ms),
+        "agent_screening_s_median": statistics.median(agent_screening_s),
+        "agent_screening_s_max": max(agent_screening_s),
+        "agent_plan_s_median": statistics.median(result.plan_seconds for result in agent),
+        "agent_plan_s_max": max(result.plan_seconds for result in agent),
         "uniform4_free_coverage_pct": coverage_pct("uniform4_free"),
         "uniform4_robot_coverage_pct": coverage_pct("uniform4_robot"),
         "nbv_free_coverage_pct": coverage_pct("nbv_free"),
@@ -170,3 +214,9 @@ def print_table(results: dict[str, Any]) -> None:
     print(f"B_SCP with the robot: {results['bscp_plan_s_median']:.2f} s per plan (median; max "
           f"{results['bscp_plan_s_max']:.2f} s; paper, free-flying: "
           f"{results['paper_bscp_plan_s']:.0f} s)")
+    print(f"agent with the robot: {results['agent_decision_ms_per_view_median']:.1f} ms a "
+          f"decision per view, screening left out (median; max "
+          f"{results['agent_decision_ms_per_view_max']:.1f} ms); reachability screening "
+          f"{results['agent_screening_s_median']:.3f} s once per episode (max "
+          f"{results['agent_screening_s_max']:.3f} s); {results['agent_plan_s_median']:.3f} s "
+          f"planning per episode (max {results['agent_plan_s_max']:.3f} s)")

@@ -1,13 +1,14 @@
 """The `vprobot` command line.
 
 One module per command group builds that group's subcommands and runs them (`cell`, `planning`,
-`export`, `training`, `benchmark`, `objects`, `stop`; `common` holds what they share). The
-package imports what a command runs when it runs (planners, the renderer, training, the
+`export`, `training`, `benchmark`, `objects`, `stop`, `report`; `common` holds what they share).
+The package imports what a command runs when it runs (planners, the renderer, training, the
 benchmarks), inside the command functions, and builds the parser from light modules only, so
 that `vprobot --help` and a bad option answer at once; those imports inside the command
 functions are the only ones in vprobot without a comment of their own.
 
-Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is unreachable);
+Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is unreachable;
+`check`: the replay fails; `report compare`, `report check`: a cell moved);
 2 a user error (bad option, config, mesh, plan or output path), reported as one line on stderr;
 130 interrupted (Ctrl-C or SIGTERM; `evaluate` keeps the episodes it finished).
 """
@@ -23,7 +24,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from vprobot import plugins
-from vprobot.cli import benchmark, cell, export, objects, planning, stop, training
+from vprobot.cli import benchmark, cell, export, objects, planning, report, stop, training
 from vprobot.cli.common import Commands, Parser
 
 INTERRUPTED = 130
@@ -31,7 +32,8 @@ COMMANDS: tuple[Callable[[Commands], None], ...] = (
     cell.add_reach, cell.add_cell, planning.add_plan, planning.add_render, export.add_export,
     export.add_check, planning.add_evaluate, training.add_train, training.add_teacher,
     training.add_sweep, training.add_curves, benchmark.add_benchmark, cell.add_sensors,
-    objects.add_motors, objects.add_objects, stop.add_stop_commands, cell.add_robots)
+    objects.add_motors, objects.add_objects, stop.add_stop_commands, cell.add_robots,
+    report.add_report)
 """Each adds its subcommands, in the order `vprobot --help` lists them."""
 
 

@@ -264,3 +264,28 @@ def generate_motors(count: int, seed: int, out_dir: Path, progress: bool = True)
         _write_atomic(stem.with_suffix(".json"), (json.dumps(meta, indent=2) + "\n").encode())
         paths.append(stem.with_suffix(".stl"))
     return paths
+
+
+BUNDLED_SETS = (("train", 20, 0), ("test", 5, 1))
+"""(folder, count, seed) of each bundled set of `assets/motors/`; the paper's 100 motors are
+`count 100, seed 0`, so `train/` is their first 20."""
+
+
+def generate_bundled_motors(root: Path, progress: bool = True) -> list[Path]:
+    """Write the bundled sets (`BUNDLED_SETS`) into `root/train/` and `root/test/`, replacing
+    files of the same name: with `root` the package's motors folder, byte-identical to the
+    committed files.
+
+    The bundled motors keep the names the episode lists and splits give them
+    (`test/motor_000.stl`), from before files were named by their set's seed.
+
+    Returns:
+        The STL paths, set by set in index order.
+    """
+    paths = []
+    for folder, count, seed in BUNDLED_SETS:
+        for index, stl in enumerate(generate_motors(count, seed, root / folder, progress)):
+            named = stl.with_stem(f"motor_{index:03d}")
+            stl.with_suffix(".json").replace(named.with_suffix(".json"))
+            paths.append(stl.replace(named))
+    return paths

@@ -1,4 +1,5 @@
-"""Make the non-motor test objects of the generalisation study (vprobot/assets/objects/).
+"""The bundled non-motor objects of the generalisation study (`vprobot/assets/objects/`, the
+`shapes-v1` list): fixed shapes, no family, no seed, no parameters.
 
 None of them is a starter motor, and no agent is trained on them. Each tests something a motor
 does not: `bracket` (an L-shaped sheet-metal part: large flat faces and a concave inner corner),
@@ -9,24 +10,20 @@ fit the cell (bounding-sphere radius below vprobot.fit's limit).
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
-OUT = Path(__file__).resolve().parent.parent / "vprobot" / "assets" / "objects"
-
+from vprobot.families.solids import box
+from vprobot.files import atomic_output
 
 Vec3 = tuple[float, float, float]
 
 
-def _box(extents: Vec3, center: Vec3) -> trimesh.Trimesh:
-    return trimesh.creation.box(extents=extents,
-                                transform=trimesh.transformations.translation_matrix(center))
-
-
 def _cylinder(radius: float, height: float, axis: str, center: Vec3) -> trimesh.Trimesh:
+    # Not `solids.rod`, which turns a cylinder along y otherwise about its axis: other
+    # vertices, other bytes than the committed files.
     rotation = {"x": trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]),
                 "y": trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]),
                 "z": np.eye(4)}[axis]
@@ -36,10 +33,11 @@ def _cylinder(radius: float, height: float, axis: str, center: Vec3) -> trimesh.
     return mesh
 
 
-def objects() -> dict[str, trimesh.Trimesh]:
-    bracket = trimesh.boolean.union([_box((0.20, 0.07, 0.012), (0.0, 0.0, 0.0)),
-                                     _box((0.012, 0.07, 0.12), (-0.094, 0.0, 0.054)),
-                                     _box((0.05, 0.012, 0.05), (-0.07, 0.0, 0.025))])
+def bundled_shapes() -> dict[str, trimesh.Trimesh]:
+    """Each bundled object by name (its file's stem)."""
+    bracket = trimesh.boolean.union([box((0.20, 0.07, 0.012), (0.0, 0.0, 0.0)),
+                                     box((0.012, 0.07, 0.12), (-0.094, 0.0, 0.054)),
+                                     box((0.05, 0.012, 0.05), (-0.07, 0.0, 0.025))])
     torus = trimesh.creation.torus(major_radius=0.08, minor_radius=0.028,
                                    major_sections=64, minor_sections=24)
     tee = trimesh.boolean.union([
@@ -52,18 +50,18 @@ def objects() -> dict[str, trimesh.Trimesh]:
     return {"bracket": bracket, "torus": torus, "pipe_tee": tee}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=OUT)
-    args = parser.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
-    for name, mesh in objects().items():
-        assert mesh.is_watertight, name
-        path = args.out / f"{name}.stl"
-        mesh.export(path)
-        radius = float(np.linalg.norm(mesh.extents) / 2)
-        print(f"{path}: extents {np.round(mesh.extents, 3).tolist()} m, radius {radius:.3f} m")
+def write_bundled_shapes(out_dir: Path) -> list[Path]:
+    """Write each bundled object as `out_dir/NAME.stl` (binary, metres; created if missing):
+    with the package's objects folder, byte-identical to the committed files.
 
-
-if __name__ == "__main__":
-    main()
+    Returns:
+        The STL paths.
+    """
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, mesh in bundled_shapes().items():
+        path = out_dir / f"{name}.stl"
+        with atomic_output(path) as temporary:
+            temporary.write_bytes(trimesh.exchange.stl.export_stl(mesh))
+        paths.append(path)
+    return paths

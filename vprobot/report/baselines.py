@@ -1,31 +1,25 @@
-"""One table per test list: seed-averaged agent rows (`vprobot train --seeds`) beside baselines.
+"""Seed-averaged agents (`vprobot train --seeds`) beside the baselines, one table per test list
+(`vprobot report baselines`).
 
-The agents' `seeds.csv` give mean and min-max over seeds; the baselines come from a
-`vprobot evaluate` folder of the repository on the same episode list (checked: its
+The agents' `seeds.csv` give mean and min-max over seeds; the baselines come from the
+repository's committed `vprobot evaluate` folder of the same episode list (checked: its
 `episodes.json` must equal the bundled list, so agents and baselines are scored on the same
 episodes). An agent row over fewer of the agent's seeds than it has (those in its `seeds.csv` and
-its `seed-<n>` folders: a partial `seeds.csv`) says so: `0 2 (2 of 3 seeds)`. Exit 2 with one
-line on stderr for a bad argument or an unreadable input.
-
-Usage:
-    python scripts/compare_with_baselines.py --agents motors=results/families/motors \
-        mix=results/families/mix --out results/families/comparison.md
+its `seed-<n>` folders: a partial `seeds.csv`) says so: `0 2 (2 of 3 seeds)`.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
-import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from vprobot.episode.specs import bundled_episode_list
-from vprobot.files import write_text
-from vprobot.outputs import check_output_file
+from vprobot.paths import PACKAGE_DIR
 
-ROOT = Path(__file__).resolve().parents[1]
-"""The repository, which holds the baselines (so the script runs from any folder)."""
+ROOT = PACKAGE_DIR.parent
+"""The repository, which holds the baselines (so the report runs from any folder)."""
 BASELINES = {"test-v1": "results/motors", "families-test-v1": "results/families-test",
              "shapes-v1": "results/shapes"}
 """The committed baseline evaluation of each test list (in `ROOT`)."""
@@ -40,7 +34,7 @@ BSCP_MARGIN = 0.8
 METRICS = (("coverage_pct", "{:.1f}"), ("acquisitions", "{:.2f}"), ("success_pct", "{:.0f}"))
 
 
-def read_csv(path: Path) -> list[dict[str, str]]:
+def _read_csv(path: Path) -> list[dict[str, str]]:
     with path.open(newline="") as handle:
         return list(csv.DictReader(handle))
 
@@ -52,10 +46,12 @@ class Agent:
         """Read `folder/seeds.csv`.
 
         Raises:
-            ValueError: If the file is not a seeds table.
+            ValueError: If the folder holds no seeds table.
         """
         path = folder / "seeds.csv"
-        rows = read_csv(path)
+        if not path.is_file():
+            raise ValueError(f"{folder} holds no seeds.csv (of `vprobot train --seeds`)")
+        rows = _read_csv(path)
         if rows and not {"evaluation", "seeds", *(key for key, _ in METRICS)} <= set(rows[0]):
             raise ValueError(f"{path} is not the seeds.csv of `vprobot train --seeds`")
         self.rows = {row["evaluation"]: row for row in rows}
@@ -87,7 +83,7 @@ class Agent:
         return f"{row['seeds']} ({shortfall})" if shortfall else row["seeds"]
 
 
-def agent_cell(row: dict[str, str], key: str, fmt: str) -> str:
+def _agent_cell(row: dict[str, str], key: str, fmt: str) -> str:
     if not row[key]:
         return "-"
     return (f"{fmt.format(float(row[key]))} ({fmt.format(float(row[key + '_min']))}-"
@@ -98,22 +94,25 @@ def baselines(name: str) -> list[dict[str, str]]:
     """The shown baselines' rows (robot in the loop) on the episode list `name`.
 
     Raises:
-        ValueError: If the baseline folder ran another episode list.
+        ValueError: If the baseline folder is missing or ran another episode list.
     """
     baseline_dir = ROOT / BASELINES[name]
+    if not (baseline_dir / "episodes.json").is_file():
+        raise ValueError(f"{baseline_dir} holds no evaluation: the baselines are the "
+                         "repository's results/ (run from a clone)")
     listed = json.loads(bundled_episode_list(name).read_text())["episodes"]
     if json.loads((baseline_dir / "episodes.json").read_text())["episodes"] != listed:
         raise ValueError(f"{baseline_dir}/episodes.json is not the episode list {name}")
-    return [row for row in read_csv(baseline_dir / "evaluation.csv")
+    return [row for row in _read_csv(baseline_dir / "evaluation.csv")
             if row["carrier"] == "robot" and row["planner"] in PLANNERS]
 
 
-def table(name: str, agents: dict[str, Agent]) -> list[str]:
+def _table(name: str, agents: dict[str, Agent]) -> list[str]:
     lines = [f"### {name}", "", "| planner | seeds | coverage % | acquisitions | at goal % |",
              "|---|---|---|---|---|"]
     for label, agent in agents.items():
         row = agent.scored(name)
-        cells = [agent_cell(row, key, fmt) if row else "-" for key, fmt in METRICS]
+        cells = [_agent_cell(row, key, fmt) if row else "-" for key, fmt in METRICS]
         lines.append(f"| agent ({label}) | {agent.seeds_cell(name)} | {' | '.join(cells)} |")
     for row in baselines(name):
         cells = [fmt.format(float(row[key])) for key, fmt in METRICS]
@@ -121,7 +120,7 @@ def table(name: str, agents: dict[str, Agent]) -> list[str]:
     return [*lines, ""]
 
 
-def targets(agents: dict[str, Agent]) -> list[str]:
+def _targets(agents: dict[str, Agent]) -> list[str]:
     """Issue 21's targets per list and agent (seed means), met or missed by how much."""
     lines = ["## Issue 21's targets (seed means; a miss says by how much)", "",
              f"| list | agent | at goal % (>= {GOAL_PCT:.0f}) | acquisitions | best model-free "
@@ -153,49 +152,25 @@ def targets(agents: dict[str, Agent]) -> list[str]:
     return [*lines, ""]
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--agents", nargs="+", required=True, metavar="LABEL=DIR",
-                        help="folders holding a seeds.csv, each with a label")
-    parser.add_argument("--out", type=Path, required=True, help="the markdown file to write")
-    parser.add_argument("--targets", action="store_true",
-                        help="add issue 21's targets, met or missed by how much")
-    args = parser.parse_args(argv)
-    try:
-        compare(args)
-    except (ValueError, OSError) as error:
-        print(f"{parser.prog}: error: {str(error).splitlines()[0]}", file=sys.stderr)
-        return 2
-    return 0
+def comparison(agents: Sequence[tuple[str, Path]], command: str, targets: bool) -> str:
+    """The Markdown comparison of labelled agent folders with the baselines.
 
-
-def compare(args: argparse.Namespace) -> None:
-    """Write the comparison of `args` (parsed by `main`).
+    Args:
+        agents: Label and folder (holding `seeds.csv`) of each agent.
+        command: The command that writes it, named in the text.
+        targets: Add issue 21's targets, met or missed by how much.
 
     Raises:
-        ValueError, OSError: For a bad `--agents` or `--out`, or an unreadable input.
+        ValueError: For a folder without a seeds table, or a missing baseline.
     """
-    check_output_file(args.out, "--out", (".md",))
-    agents = {}
-    for item in args.agents:
-        label, sep, folder = item.partition("=")
-        if not sep or not (Path(folder) / "seeds.csv").is_file():
-            raise ValueError(f"--agents {item}: expected LABEL=DIR with DIR/seeds.csv")
-        agents[label] = Agent(Path(folder))
+    read = {label: Agent(folder) for label, folder in agents}
     lines = ["# Agents (mean, min-max over seeds) beside the baselines, robot in the loop", "",
-             "Written by `python scripts/compare_with_baselines.py "
-             f"--agents {' '.join(args.agents)} --out {args.out}"
-             f"{' --targets' if args.targets else ''}`; agents from their "
+             f"Written by `{command}`; agents from their "
              "`seeds.csv`, baselines from `results/motors`, `results/families-test` and "
              "`results/shapes` (the same episodes); `k of n seeds`: a row over only k of "
              "the agent's n seeds.", ""]
     for name in BASELINES:
-        lines += table(name, agents)
-    if args.targets:
-        lines += targets(agents)
-    write_text(args.out, "\n".join(lines))
-    print(f"wrote {args.out}")
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+        lines += _table(name, read)
+    if targets:
+        lines += _targets(read)
+    return "\n".join(lines)

@@ -1,42 +1,32 @@
-"""The README's result tables, from the committed evaluation folders of one cell.
+"""The README's result tables, from the evaluation folders of one cell (`vprobot report tables`).
 
 For each test list (motors `test-v1`, held-out families `families-test-v1`, shapes `shapes-v1`)
 it reads the cell's `vprobot evaluate` folder and, for agents trained with `vprobot train
 --seeds`, each seed's scoring of that list (`seed-<n>/test/LIST/`). An agent's episodes are
 compared with the folder's `optimum` rows of the same episodes (the episode lists must be the
 same, which is checked), then summarised per seed (`vprobot.evaluation.summarize`) and given as
-mean (min-max) over the seeds. Exit 2 with one line on stderr for a bad argument or an
-unreadable input.
-
-Usage:
-    python scripts/results_tables.py --folders results/real --carrier robot \
-        --out results/real/tables.md
-    python scripts/results_tables.py --folders results --carrier robot \
-        --agents "agent, generalist=results/generalist/planned" --out results/tables_paper.md
+mean (min-max) over the seeds.
 """
 
 from __future__ import annotations
 
-import argparse
 import statistics
-import sys
 from pathlib import Path
 from typing import Any
 
 from vprobot.episode import read_episode_list
 from vprobot.evaluation import EPISODES_NAME, OPTIMUM, finished_rows, summarize
-from vprobot.files import write_text
-from vprobot.outputs import check_output_file
 
 LISTS = (("motors", "test-v1", "motors"), ("families", "families-test-v1", "families-test"),
          ("shapes", "shapes-v1", "shapes"))
-"""Each test list: its column label, its name and its folder under `--folders`."""
+"""Each test list: its column label, its name and its folder in the cell's folder."""
 COLUMNS = (("success_pct", "at goal %", "{:.0f}"), ("acquisitions", "views", "{:.2f}"),
            ("failed_requests", "failed", "{:.2f}"), ("cycle_time_s", "cycle s", "{:.2f}"),
            ("views_above_optimum", "above optimum", "{:+.2f}"))
 """The figures shown per list: key in the summary, header, format."""
 FREE_COLUMNS = (COLUMNS[0], COLUMNS[1], COLUMNS[4])
 """Without the robot nothing fails and there is no cycle."""
+CARRIERS = ("robot", "free")
 
 
 def _episodes(folder: Path) -> list[dict[str, Any]]:
@@ -58,9 +48,20 @@ def _cell(values: list[float | None], form: str, seeds: bool) -> str:
 
 def table(folders: Path, carrier: str, agents: dict[str, Path],
           planners: list[str] | None = None, after: str = "nbv@grid") -> str:
-    """The Markdown table of the planners of the cell's folders (`planners`, in that order;
-    None: all, in the folders' order) and the agents, placed after `after`'s row, on the three
-    lists, for one carrier."""
+    """The Markdown table of the planners of a cell's folders and of agents over seeds, on the
+    three test lists, for one carrier.
+
+    Args:
+        folders: The folder holding `motors/`, `families-test/` and `shapes/`.
+        carrier: `robot` or `free`.
+        agents: Label and folder (holding `seed-<n>/test/LIST/`) of each agent.
+        planners: The folders' planners shown, in this order; None: all, in the folders' order.
+        after: The row after which the agents' rows go (the end if it is not shown).
+
+    Raises:
+        ValueError: For a missing folder or planner, a list without rows of `carrier`, or an
+            agent without seeds or scored on other episodes than the folder's.
+    """
     columns = COLUMNS if carrier == "robot" else FREE_COLUMNS
     cells: dict[str, dict[str, str]] = {}
     agent_rows: dict[str, None] = {}
@@ -110,37 +111,3 @@ def table(folders: Path, carrier: str, agents: dict[str, Path],
         lines.append(f"| {planner} | " + " | ".join(by_list.get(label, empty)
                                                    for label, _, _ in LISTS) + " |")
     return "\n".join(lines) + "\n"
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--folders", type=Path, required=True,
-                        help="the folder holding motors/, families-test/ and shapes/")
-    parser.add_argument("--carrier", choices=("robot", "free"), default="robot")
-    parser.add_argument("--agents", nargs="*", default=[], metavar="LABEL=DIR",
-                        help="agents trained with --seeds: DIR holds seed-<n>/test/LIST/")
-    parser.add_argument("--planners", nargs="+", metavar="PLANNER",
-                        help="the folders' planners shown, in this order (default: all)")
-    parser.add_argument("--agents-after", default="nbv@grid", metavar="PLANNER",
-                        help="the row after which the agents' rows go (default: nbv@grid)")
-    parser.add_argument("--out", type=Path, required=True, help="the Markdown file to write")
-    args = parser.parse_args(argv)
-    try:
-        agents = {}
-        for item in args.agents:
-            label, separator, folder = item.partition("=")
-            if not separator or not label or not folder:
-                raise ValueError(f"--agents takes LABEL=DIR, got {item!r}")
-            agents[label] = Path(folder)
-        check_output_file(args.out, "--out", (".md",))
-        text = table(args.folders, args.carrier, agents, args.planners, args.agents_after)
-    except (ValueError, OSError) as error:
-        print(f"results_tables.py: error: {error}", file=sys.stderr)
-        return 2
-    write_text(args.out, text)
-    print(text, end="")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

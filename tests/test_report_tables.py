@@ -1,19 +1,18 @@
-"""`scripts/results_tables.py`: the README's tables from evaluation folders, agents over seeds
+"""`vprobot report tables`: the README's tables from evaluation folders, agents over seeds
 compared with the optimum of the same episodes, and one line (exit 2) for a bad input."""
 
 from __future__ import annotations
 
 import csv
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
+import pytest
+
+from vprobot.cli import main
 from vprobot.episode import EpisodeSpec, write_episode_list
 from vprobot.evaluation import CURVE_COLUMNS, EPISODE_COLUMNS, EPISODES_NAME
 
-ROOT = Path(__file__).resolve().parents[1]
-SCRIPT = ROOT / "scripts" / "results_tables.py"
 FOLDERS = {"test-v1": "motors", "families-test-v1": "families-test", "shapes-v1": "shapes"}
 
 
@@ -42,13 +41,15 @@ def _folder(folder: Path, rows: list[dict[str, Any]], episodes: list[int]) -> No
                     initial_views=((1.42, 0.71),), seed=seed) for seed in episodes])
 
 
-def _tables(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, str(SCRIPT), *args], cwd=cwd, capture_output=True,
-                          text=True, timeout=120, check=False)
+def _tables(*args: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """`vprobot report tables ARGS` in the current folder: the exit code and stderr."""
+    code = main(["report", "tables", *args])
+    return code, capsys.readouterr().err
 
 
 def test_agents_are_averaged_over_seeds_against_the_optimum_of_the_same_episodes(
-        tmp_path: Path) -> None:
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
     # Two episodes per list: the optimum takes 3 and 4 views (cycles 10 and 12 s).
     for name, sub in FOLDERS.items():
         _folder(tmp_path / "cell" / sub,
@@ -59,9 +60,10 @@ def test_agents_are_averaged_over_seeds_against_the_optimum_of_the_same_episodes
                 [_row(0, "policy", 4, True, 20.0), _row(1, "policy", 6, True, 22.0)], [0, 1])
         _folder(tmp_path / "agent" / "seed-1" / "test" / name,
                 [_row(0, "policy", 3, True, 20.0), _row(1, "policy", 5, False, 22.0)], [0, 1])
-    result = _tables("--folders", "cell", "--agents", "learned=agent", "--out", "t.md",
-                     cwd=tmp_path)
-    assert result.returncode == 0, result.stderr
+    monkeypatch.chdir(tmp_path)
+    code, err = _tables("--folders", "cell", "--agents", "learned=agent", "--out", "t.md",
+                        capsys=capsys)
+    assert code == 0, err
     text = (tmp_path / "t.md").read_text()
     # bscp: 4.5 views, +1 above, cycle 12 s; the optimum +0.
     assert "| bscp | 100 | 4.50 | 1.00 | 12.00 | +1.00 |" in text
@@ -70,43 +72,32 @@ def test_agents_are_averaged_over_seeds_against_the_optimum_of_the_same_episodes
     assert ("| learned (2 seeds) | 75 (50-100) | 4.50 (4.00-5.00) | 1.00 (1.00-1.00) "
             "| 21.00 (21.00-21.00) | +1.00 (0.50-1.50) |") in text
     # Chosen rows in the order given, the agent after the one named.
-    chosen = _tables("--folders", "cell", "--agents", "learned=agent", "--planners", "optimum",
-                     "bscp", "--agents-after", "optimum", "--out", "c.md", cwd=tmp_path)
-    assert chosen.returncode == 0, chosen.stderr
+    code, err = _tables("--folders", "cell", "--agents", "learned=agent", "--planners",
+                        "optimum", "bscp", "--agents-after", "optimum", "--out", "c.md",
+                        capsys=capsys)
+    assert code == 0, err
     names = [line.split(" | ")[0][2:] for line in (tmp_path / "c.md").read_text().splitlines()[2:]]
     assert names == ["optimum", "learned (2 seeds)", "bscp"]
-    unknown = _tables("--folders", "cell", "--planners", "nbv", "--out", "u.md", cwd=tmp_path)
-    assert unknown.returncode == 2 and "no rows of planner(s) nbv" in unknown.stderr
+    assert _tables("--folders", "cell", "--planners", "nbv", "--out", "u.md", capsys=capsys) == (
+        2, "vprobot report tables: error: no rows of planner(s) nbv in cell\n")
 
 
-def test_an_agent_scored_on_other_episodes_is_refused_in_one_line(tmp_path: Path) -> None:
+def test_an_agent_scored_on_other_episodes_is_refused_in_one_line(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
     for name, sub in FOLDERS.items():
         _folder(tmp_path / "cell" / sub, [_row(0, "optimum", 3, True, 10.0)], [0])
         _folder(tmp_path / "agent" / "seed-0" / "test" / name,
                 [_row(0, "policy", 4, True, 20.0)], [7])
-    result = _tables("--folders", "cell", "--agents", "learned=agent", "--out", "t.md",
-                     cwd=tmp_path)
-    assert result.returncode == 2 and "scored on other episodes" in result.stderr
-    assert len(result.stderr.strip().splitlines()) == 1 and not (tmp_path / "t.md").exists()
-    missing = _tables("--folders", "nowhere", "--out", "t.md", cwd=tmp_path)
-    assert missing.returncode == 2 and "does not exist" in missing.stderr
-
-
-def test_comparing_episode_tables_matches_every_episode_not_one_per_planner(
-        tmp_path: Path) -> None:
-    """`scripts/compare_evaluations.py` on two episodes tables that differ in the first of two
-    episodes of a planner: the moved cell is found (rows keyed by episode too)."""
-    old = [_row(0, "bscp", 3, True, 10.0), _row(1, "bscp", 4, True, 12.0)]
-    new = [_row(0, "bscp", 5, True, 10.0), _row(1, "bscp", 4, True, 12.0)]
-    for name, rows in (("old", old), ("new", new)):
-        _folder(tmp_path / name, rows, [0, 1])
-    result = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "compare_evaluations.py"),
-         str(tmp_path / "old" / EPISODES_NAME), str(tmp_path / "new" / EPISODES_NAME)],
-        capture_output=True, text=True, timeout=120, check=False)
-    assert result.returncode == 1
-    # acquisitions and requested (acquisitions + 1 in `_row`) of episode 0 moved; 26 columns
-    # compared per row (the 32 less the key and the timing columns).
-    assert result.stdout.splitlines() == ["('0', 'bscp', 'robot') acquisitions: 3 -> 5",
-                                          "('0', 'bscp', 'robot') requested: 4 -> 6",
-                                          "2 rows, 52 cells compared, 2 moved"]
+    monkeypatch.chdir(tmp_path)
+    code, err = _tables("--folders", "cell", "--agents", "learned=agent", "--out", "t.md",
+                        capsys=capsys)
+    assert code == 2 and "scored on other episodes" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "t.md").exists()
+    code, err = _tables("--folders", "nowhere", "--out", "t.md", capsys=capsys)
+    assert code == 2 and "does not exist" in err
+    with pytest.raises(SystemExit) as exit_:
+        _tables("--folders", "cell", "--agents", "agent", "--out", "t.md", capsys=capsys)
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err == ("vprobot report tables: error: argument --agents: must be "
+                                       "LABEL=DIR, got 'agent'\n")
