@@ -154,7 +154,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("what planners use", ("vprobot.env", "vprobot.agents", "vprobot.stopping")),
     ("planners", ("vprobot.planners",)),
     ("evaluation", ("vprobot.evaluation",)),
-    ("training and studies", ("vprobot.stop_studies", *(
+    ("training and studies", ("vprobot.stop_studies", "vprobot.report", *(
         f"vprobot.agents.{name}" for name in (
             "training", "evaluation", "callbacks", "pretrain", "teacher", "stream", "seeds",
             "sweep", "runs", "curves")))),
