@@ -22,7 +22,7 @@ from vprobot.rewards import REWARDS
 from vprobot.robots import load_robot
 from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
 from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
-from vprobot.sensing import IDEAL, SensingModel, StructuredLight, check_sensing
+from vprobot.sensing import SENSING_MODELS, SensingModel, StructuredLight, check_sensing
 from vprobot.splits import Split, split_file
 
 
@@ -124,8 +124,9 @@ class SensorConfig:
         working_distance_m: Optimal distance to the object's centre.
         mount_position_m: Optical centre in the flange frame (`tool0`).
         mount_quaternion_wxyz: Sensor frame orientation in the flange frame.
-        sensing: How the rays' hits become points (`vprobot.sensing`): `ideal` or
-            `structured_light` (which needs `structured_light`).
+        sensing: How the rays' hits become points: a name in
+            `vprobot.sensing.SENSING_MODELS`, `ideal` or `structured_light` (which needs
+            `structured_light`).
         structured_light: The device's structured-light figures (baseline, incidence limits,
             noise, dropout); None where the sensor has none (the paper's).
         acquisition_time_s: How long the robot stands still at a view while the sensor
@@ -146,18 +147,16 @@ class SensorConfig:
     def __post_init__(self) -> None:
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
-        check_sensing(self.sensing, self.structured_light)
+        check_sensing(self)
         if not 0.0 <= self.acquisition_time_s < math.inf:
             raise ConfigError(f"sensor.acquisition_time_s must be >= 0 s (finite), got "
                               f"{self.acquisition_time_s!r}")
 
     @property
     def sensing_model(self) -> SensingModel:
-        """The sensing model in use: `IDEAL` or the sensor's `StructuredLight` figures."""
-        if self.sensing != "structured_light":
-            return IDEAL
-        assert self.structured_light is not None  # check_sensing requires it
-        return self.structured_light
+        """The sensing model in use, as this sensor configures it (`IDEAL`, the sensor's
+        `StructuredLight` figures, ...)."""
+        return SENSING_MODELS[self.sensing].of_sensor(self)
 
 
 SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
@@ -198,7 +197,7 @@ def sensor_preset(name: str) -> SensorConfig:
 
 
 def with_sensing(config: Config, name: str) -> Config:
-    """`config` with the sensor's sensing model `name` (`ideal` or `structured_light`).
+    """`config` with the sensor's sensing model `name` (one of `SENSING_MODELS`).
 
     Raises:
         ConfigError: If the name is unknown, or the sensor has no figures for that model.
