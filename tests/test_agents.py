@@ -34,12 +34,9 @@ from vprobot.agents.callbacks import (
 )
 from vprobot.agents.curves import plot_curves, read_monitor
 from vprobot.agents.encoders import ENCODERS
-from vprobot.agents.extractors import (
-    InputTransform,
-    PCNExtractor,
-    PointNetExtractor,
-    SphereMapExtractor,
-)
+from vprobot.agents.extractors.pcn import PCNExtractor
+from vprobot.agents.extractors.pointnet import InputTransform, PointNetExtractor
+from vprobot.agents.extractors.sphere_map import SphereMapExtractor
 from vprobot.agents.training import (
     buffer_memory,
     build_model,
@@ -63,7 +60,7 @@ ACTION = gym.spaces.Box(-1, 1, (5,), np.float32)
 
 def tiny_extractor(name: str, space: gym.Space):
     return (SphereMapExtractor(space) if name == "sphere"
-            else ENCODERS[name].load()(space, scale=0.05))
+            else ENCODERS[name].network(space, scale=0.05))
 
 
 @pytest.mark.parametrize("name", [name for name, encoder in ENCODERS.items()

@@ -201,6 +201,16 @@ def test_a_state_with_no_allowed_candidate_keeps_finite_q_values() -> None:
                                 "'pointnet', 'sphere']"),
     ({"algorithm": "dqn"}, "agent.encoder 'pcn' serves agent.algorithm ['sac', 'ppo'], got "
                            "'dqn'; agent.algorithm 'dqn' takes agent.encoder ['candidates']"),
+])
+def test_an_encoder_serving_another_algorithm_is_refused_where_the_model_is_built(
+        changes: dict[str, Any], message: str) -> None:
+    # The config loads: it does not read the encoders, whose modules import torch.
+    config = replace(Config(), "agent", **changes)
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        build_model(config, DummyVecEnv([ToyCandidateEnv]), seed=0, device="cpu")
+
+
+@pytest.mark.parametrize(("changes", "message"), [
     ({**DQN_AGENT, "exploration_fraction": 0.0},
      "agent.exploration_fraction must lie in (0, 1], got 0.0"),
     ({**DQN_AGENT, "exploration_initial_eps": 0.2, "exploration_final_eps": 0.5},

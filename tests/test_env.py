@@ -16,9 +16,9 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
 from vprobot.env import ENV_ID, inspect_env
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.env.rewards import REWARDS
 from vprobot.episode import EpisodeSpec, timed_episode
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.rewards import REWARDS
 
 SMALL = {"motors": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}
 

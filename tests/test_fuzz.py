@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 from vprobot.cli import main
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.env.rewards import REWARDS
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.rewards import REWARDS
 
 FUZZ = settings(deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture,

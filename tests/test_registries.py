@@ -18,7 +18,7 @@ from torch import nn
 
 from vprobot.agents.encoders import ENCODERS, Encoder
 from vprobot.agents.extractors import PointCloudExtractor
-from vprobot.agents.training import build_model
+from vprobot.agents.training import build_model, profile_config
 from vprobot.cli import main
 from vprobot.config import ConfigError, load_config
 from vprobot.episode import Episode, ViewRequest
@@ -179,9 +179,12 @@ def test_a_config_naming_a_registered_encoder_builds_a_model_with_it(
     assert action.shape == (1, 5)
 
 
-def test_an_unregistered_encoder_is_refused_with_the_registered_names(tmp_path: Path) -> None:
+def test_an_unregistered_encoder_is_refused_with_the_registered_names_where_the_agent_is_used(
+        tmp_path: Path) -> None:
     path = tmp_path / "toy.yaml"
     path.write_text("agent: {encoder: toy}\n")
-    with pytest.raises(ConfigError, match=r"agent.encoder must be one of \['pcn', 'pointnet', "
-                                          r"'sphere', 'candidates'\], got 'toy'"):
-        load_config(path)
+    # The config loads: it does not read the encoders, whose modules import torch.
+    assert load_config(path).agent.encoder == "toy"
+    with pytest.raises(ConfigError, match=r"agent.encoder must be one of \[.*'pcn'.*\], got "
+                                          r"'toy'"):
+        profile_config(path)

@@ -16,14 +16,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-from vprobot.agents.encoders import ENCODERS
-from vprobot.env.rewards import REWARDS
 from vprobot.paths import BUNDLED_EPISODE_LISTS, DEFAULT_CONFIG, SENSORS_DIR, available_sensors
 from vprobot.registry import Registry
+from vprobot.rewards import REWARDS
 from vprobot.robots import load_robot
 from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
 from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
-from vprobot.sensing import IDEAL, SensingModel, StructuredLight, check_sensing
+from vprobot.sensing import SENSING_MODELS, SensingModel, StructuredLight, check_sensing
 from vprobot.splits import Split, split_file
 
 
@@ -125,8 +124,9 @@ class SensorConfig:
         working_distance_m: Optimal distance to the object's centre.
         mount_position_m: Optical centre in the flange frame (`tool0`).
         mount_quaternion_wxyz: Sensor frame orientation in the flange frame.
-        sensing: How the rays' hits become points (`vprobot.sensing`): `ideal` or
-            `structured_light` (which needs `structured_light`).
+        sensing: How the rays' hits become points: a name in
+            `vprobot.sensing.SENSING_MODELS`, `ideal` or `structured_light` (which needs
+            `structured_light`).
         structured_light: The device's structured-light figures (baseline, incidence limits,
             noise, dropout); None where the sensor has none (the paper's).
         acquisition_time_s: How long the robot stands still at a view while the sensor
@@ -147,18 +147,16 @@ class SensorConfig:
     def __post_init__(self) -> None:
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
-        check_sensing(self.sensing, self.structured_light)
+        check_sensing(self)
         if not 0.0 <= self.acquisition_time_s < math.inf:
             raise ConfigError(f"sensor.acquisition_time_s must be >= 0 s (finite), got "
                               f"{self.acquisition_time_s!r}")
 
     @property
     def sensing_model(self) -> SensingModel:
-        """The sensing model in use: `IDEAL` or the sensor's `StructuredLight` figures."""
-        if self.sensing != "structured_light":
-            return IDEAL
-        assert self.structured_light is not None  # check_sensing requires it
-        return self.structured_light
+        """The sensing model in use, as this sensor configures it (`IDEAL`, the sensor's
+        `StructuredLight` figures, ...)."""
+        return SENSING_MODELS[self.sensing].of_sensor(self)
 
 
 SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
@@ -199,7 +197,7 @@ def sensor_preset(name: str) -> SensorConfig:
 
 
 def with_sensing(config: Config, name: str) -> Config:
-    """`config` with the sensor's sensing model `name` (`ideal` or `structured_light`).
+    """`config` with the sensor's sensing model `name` (one of `SENSING_MODELS`).
 
     Raises:
         ConfigError: If the name is unknown, or the sensor has no figures for that model.
@@ -307,7 +305,7 @@ class EnvConfig:
         wpk_distance_range_m: wpk distance range of the Cartesian actions.
         deviation_limit_deg: Largest deviation of the `_lim` actions from looking at the centre.
         reward: Reward R1-R14 (docs/states-actions-rewards.md#rewards): a name in
-            `vprobot.env.rewards.REWARDS`.
+            `vprobot.rewards.REWARDS`.
         travel_cost: Which travel cost k_t the rewards use.
         travel_cost_floor: Lower bound of k_t and k_cum in divisions.
         unreachable_penalty: Added to the reward of an unreachable request.
@@ -432,9 +430,11 @@ class AgentConfig:
         algorithm: `sac` (off-policy, replay buffer), `ppo` (on-policy) or `dqn` (off-policy,
             a Q-value per candidate view: needs `encoder: candidates` and an env whose action
             is a choice among candidate views, `vprobot.agents.candidate_q`).
-        encoder: A name in `vprobot.agents.encoders.ENCODERS`: a point-cloud feature extractor,
-            `pcn`, `pointnet` or `sphere` (CPU budget); or `candidates`, the Q-network of `dqn`
-            (one shared MLP per candidate row).
+        encoder: A name in `vprobot.agents.encoders.ENCODERS`: a point-cloud feature
+            extractor, `pcn`, `pointnet` or `sphere` (CPU budget); or `candidates`, the
+            Q-network of `dqn` (one shared MLP per candidate row). Checked, with the algorithm
+            it serves, where the agent is built or loaded (`vprobot.agents.encoders.
+            check_encoder`), not here: the encoders' modules import torch, a config does not.
         encoder_scale: Multiplies the widths of `pcn` and `pointnet` (1: published sizes).
         sphere_bins: Polar and azimuth bins of the `sphere` encoder's direction map.
         sphere_features: Size of the `sphere` encoding.
@@ -517,13 +517,6 @@ class AgentConfig:
     device: Literal["cpu", "cuda", "auto"] = "cpu"
 
     def __post_init__(self) -> None:
-        check_registered(self.encoder, ENCODERS, "agent.encoder")
-        if self.algorithm not in ENCODERS[self.encoder].algorithms:
-            serving = [name for name, encoder in ENCODERS.items()
-                       if self.algorithm in encoder.algorithms]
-            raise ConfigError(f"agent.encoder {self.encoder!r} serves agent.algorithm "
-                              f"{list(ENCODERS[self.encoder].algorithms)}, got {self.algorithm!r}; "
-                              f"agent.algorithm {self.algorithm!r} takes agent.encoder {serving}")
         for name in ("sphere_features", "batch_size", "buffer_size", "train_freq",
                      "gradient_steps", "target_update_interval", "n_steps", "n_epochs",
                      "total_steps", "n_envs", "pretrain_epochs",

@@ -30,7 +30,8 @@ inspectability is that of the upright placement. The result is deterministic and
 memory and on disk (an `.npz` per mesh under `default_cache_dir()`, written atomically), keyed
 by the mesh hash (sha256 of its vertices and faces) and the settings that shape it (with the
 robot folder's description and MJCF files, whose scene and base placement occlude, and a
-sensing model other than `ideal` with its baseline and incidence limits). A cache
+sensing model other than `ideal` with what of it shapes the GT, `ground_truth_key`: for
+`structured_light` its baseline and incidence limits). A cache
 file that does not hold a valid GT of the mesh is recomputed and replaced; a cache directory
 that cannot be written draws one warning per process and the GT is then only kept in memory.
 """
@@ -55,7 +56,7 @@ from vprobot.progress import stage
 from vprobot.robots import robot_folder
 from vprobot.robots.description import DESCRIPTION_FILE
 from vprobot.scene import Cell
-from vprobot.sensing import SensingModel, StructuredLight
+from vprobot.sensing import SensingModel
 from vprobot.sensor import DepthSensor
 from vprobot.viewsphere import sphere_directions
 
@@ -183,14 +184,15 @@ def inspectable_points(mesh: trimesh.Trimesh, config: Config) -> tuple[np.ndarra
 
 
 def gt_sensing(sensor: SensorConfig) -> SensingModel:
-    """The sensing model the GT views measure with: the sensor's, without noise or dropout.
+    """The sensing model the GT views measure with: the sensor's, without its random draws
+    (`SensingModel.deterministic`).
 
     A point some view measures with a probability above 0 is inspectable (dropout is drawn per
-    frame, and noise moves a point without losing it), so only the model's deterministic limits,
-    the projector's shadow and the incidence limits, shape the inspectable surface.
+    frame, and noise moves a point without losing it), so only the model's deterministic limits
+    (for `structured_light`, the projector's shadow and the incidence limits) shape the
+    inspectable surface.
     """
-    model = sensor.sensing_model
-    return model.limits_only() if isinstance(model, StructuredLight) else model
+    return sensor.sensing_model.deterministic()
 
 
 def _packed_voxel_keys(points: np.ndarray, voxel_size: float) -> np.ndarray:
@@ -271,12 +273,9 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     settings: tuple[Any, ...] = (_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
                 ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
                 _sensor_settings(config.sensor), _robot_digest(config.cell.robot))
-    sensing = gt_sensing(config.sensor)
-    if isinstance(sensing, StructuredLight):
-        # Only a model other than the ideal one joins the key: the ideal GTs keep the keys they
-        # always had, and their caches stay valid. Noise and dropout do not shape the GT.
-        settings += (sensing.name, sensing.baseline_m, sensing.max_incidence_deg,
-                     sensing.projector_max_incidence_deg)
+    # Only a model other than the ideal one joins the key (`ground_truth_key`): the ideal GTs
+    # keep the keys they always had, and their caches stay valid.
+    settings += gt_sensing(config.sensor).ground_truth_key()
     text = repr(settings)
     return f"{mesh_hash(mesh)[:32]}-{hashlib.sha256(text.encode()).hexdigest()[:16]}"
 

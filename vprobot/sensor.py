@@ -19,9 +19,11 @@ primitive geoms (fixture plate, pedestal, floor, robot stand) are left to `mujoc
 for the few rays whose segment to the object crosses their bounding boxes, on worker threads
 (MuJoCo releases the GIL; each thread has its own MjData).
 
-The sensing model (`vprobot.sensing`) then decides which hits become points: all of them,
-exactly (`ideal`), or under `structured_light` those within the incidence limits that a second
-visibility pass from the projector finds lit, with noise and dropout (docs/sensor.md#sensing).
+The sensing model (`vprobot.sensing`) then decides which hits become points, reading them and
+the geometry it needs (rays, normals, what a light source beside the camera reaches) through
+`CameraHits`: all of them, exactly (`ideal`), or under `structured_light` those within the
+incidence limits that a second visibility pass from the projector finds lit, with noise and
+dropout (docs/sensor.md#sensing).
 `DepthSensor.losses_at` tells which hits a frame lost and why (docs/sensor.md#lost-points).
 """
 
@@ -38,7 +40,7 @@ import numpy as np
 from vprobot.geometry import Pose
 from vprobot.raster import covered_pixels, index_range, max3, min3
 from vprobot.scene import Cell
-from vprobot.sensing import SensingModel, StructuredLight, frame_generator
+from vprobot.sensing import SensingModel, frame_generator
 from vprobot.sensor_model import SensorModel
 
 TRAINING_RESOLUTION = (320, 224)
@@ -178,8 +180,8 @@ class DepthSensor:
         workers: Threads for the MuJoCo ray casts.
         groups: Geom groups the rays see, as MuJoCo's geomgroup; all when omitted. Leaving out
             the robot's group (2) measures as if the robot were not there.
-        sensing: How hits become points (`vprobot.sensing`): `IDEAL` or a `StructuredLight`;
-            the cell's sensor config's model when omitted.
+        sensing: How hits become points (a `vprobot.sensing.SensingModel`); the cell's sensor
+            config's model when omitted.
 
     Raises:
         ValueError: If the resolution or worker count is invalid, an object geom is not a mesh,
@@ -197,7 +199,7 @@ class DepthSensor:
             raise ValueError(f"workers must be a positive integer, got {workers!r}")
         sensing = sensing if sensing is not None else cell.config.sensor.sensing_model
         if not isinstance(sensing, SensingModel):
-            raise TypeError(f"sensing must be IDEAL or a StructuredLight, got {sensing!r}")
+            raise TypeError(f"sensing must be a vprobot.sensing.SensingModel, got {sensing!r}")
         self.sensing = sensing
         self.model = cell.model
         self._site_id = cell.sensor_site_id
@@ -211,10 +213,10 @@ class DepthSensor:
         self._object_depth = np.empty(self.rays_per_frame)
         self._occluder_depth = np.empty(self.rays_per_frame)
         self._geomid = np.empty(self.rays_per_frame, dtype=np.int32)
-        # The object triangle each pixel keeps (numbered as `_normals` numbers them); only the
-        # structured-light model needs normals.
+        # The object triangle each pixel keeps (numbered as `_normals` numbers them), for a
+        # model that reads the normals.
         self._face = (np.empty(self.rays_per_frame, dtype=np.int32)
-                      if isinstance(sensing, StructuredLight) else None)
+                      if sensing.uses_normals else None)
         self._distance = np.empty(self.rays_per_frame)
         self._worker_data = [mujoco.MjData(self.model) for _ in range(workers)]
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
@@ -319,33 +321,31 @@ class DepthSensor:
         Args:
             data: The cell state.
             pose: The sensor frame in the world.
-            rng: The structured-light model's noise and dropout draws; when omitted, a generator
-                seeded from the sensor and object poses (`vprobot.sensing.frame_generator`), so
-                that the same frame always gets the same noise. The ideal model draws nothing.
+            rng: The sensing model's random draws (structured light's noise and dropout); when
+                omitted, a generator seeded from the sensor and object poses
+                (`vprobot.sensing.frame_generator`), so that the same frame always gets the same
+                noise. The ideal model draws nothing.
         """
         frame = self._camera_hits(data, pose)
-        if isinstance(self.sensing, StructuredLight) and len(frame):
-            rng = rng if rng is not None else self._frame_generator(frame)
-            pixels, points = self._structured_light(self.sensing, data, pose, frame.pixels,
-                                                    frame.points_world, rng)
+        if len(frame):
+            pixels, points = self.sensing.measure(_CameraHits(self, data, pose, frame, rng))
             frame = dataclasses.replace(frame, points_world=points, pixels=pixels,
                                         points_object=points - frame.object_pose.position)
         return frame
 
     def losses_from_pose(self, data: mujoco.MjData, pose: Pose) -> FrameLosses:
         """What the frame `acquire_from_pose(data, pose)` takes lost to the sensing model, and
-        why: the camera's hits (the ideal frame) measured under the model's reductions in turn,
-        the projector alone (`StructuredLight.shadow_only`), its limits (`limits_only`) and the
-        whole model, each keeping a subset of the one before's points; a point is lost to the
-        first that drops it (`LOSS_CAUSES`). Nothing is lost under the ideal model.
+        why: the camera's hits (the ideal frame) measured under the model's reductions in turn
+        (`SensingModel.loss_stages`; for `structured_light` the projector alone, its limits and
+        the whole model), each keeping a subset of the one before's points; a point is lost to
+        the first that drops it (`LOSS_CAUSES`). Nothing is lost under a model without stages,
+        such as the ideal one.
         """
         ideal = self._camera_hits(data, pose)
         cause = np.full(len(ideal), -1)
-        model = self.sensing
-        if isinstance(model, StructuredLight) and len(ideal):
-            stages = (model.shadow_only(), model.limits_only(), model)
-            kept = [self._structured_light(stage, data, pose, ideal.pixels, ideal.points_world,
-                                           self._frame_generator(ideal))[0]
+        stages = self.sensing.loss_stages()
+        if stages and len(ideal):
+            kept = [stage.measure(_CameraHits(self, data, pose, ideal, None))[0]
                     for stage in stages]
             # The last step first: each earlier one overwrites, so the first to drop a point
             # names its cause.
@@ -386,50 +386,6 @@ class DepthSensor:
                            pixels=pixels, blocked_pixels=blocked_pixels,
                            sensor_pose=pose, object_pose=object_pose,
                            rays_cast=self.rays_per_frame)
-
-    def _structured_light(self, model: StructuredLight, data: mujoco.MjData, pose: Pose,
-                          pixels: np.ndarray, points: np.ndarray, rng: np.random.Generator
-                          ) -> tuple[np.ndarray, np.ndarray]:
-        """Keep the camera's points (the frame `_camera_hits` took last) within both incidence
-        limits of `model` that its projector lights, drop some by its dropout law and move the
-        rest along their rays by its noise law.
-
-        The geometry is done in the sensor frame, where the rays are the grid's own and the
-        projector sits at (baseline, 0, 0) with the camera's axes: no point is rotated.
-        """
-        min_camera, min_projector = model.min_cos_incidence
-        assert self._face is not None  # kept under a structured-light sensing model
-        normals = np.take(self._normals(data, pose), self._face[pixels], axis=0)
-        rays = np.take(self.directions, pixels, axis=0)
-        cos_camera = np.einsum("ij,ij->i", rays, normals)
-        # The camera's limit and the dropout first: they need the camera ray alone, and fewer
-        # points are left for the projector. (Rows are picked with np.take: boolean indexing of
-        # (n, 3) arrays costs several times more.)
-        incidence = np.arccos(np.minimum(np.abs(cos_camera), 1.0))
-        seen = np.flatnonzero((np.abs(cos_camera) >= min_camera)
-                              & (rng.random(len(pixels)) >= model.dropout_probability(incidence)))
-        rays, normals = np.take(rays, seen, axis=0), np.take(normals, seen, axis=0)
-        cos_camera, pixels = cos_camera[seen], pixels[seen]
-        distance = self._object_depth[pixels] * self._ray_scale[pixels]
-        light = rays * distance[:, None]
-        light[:, 0] -= model.baseline_m
-        light_distance = np.sqrt(np.einsum("ij,ij->i", light, light))
-        cos_projector = np.einsum("ij,ij->i", light, normals) / light_distance
-        # Both rays must meet the surface from the same side (a sheet lit from behind is dark).
-        facing = np.flatnonzero((cos_camera * cos_projector > 0.0)
-                                & (np.abs(cos_projector) >= min_projector))
-        if len(facing):
-            facing = facing[self._lit(data, pose, model.baseline_m,
-                                      np.take(light, facing, axis=0),
-                                      light_distance[facing],
-                                      np.take(points, seen[facing], axis=0),
-                                      np.take(normals, facing, axis=0))]
-        points = np.take(points, seen[facing], axis=0)
-        distance = distance[facing]
-        noise = rng.standard_normal(len(facing)) * model.noise_sigma(
-            light[facing, 2], np.abs(cos_camera[facing]))
-        # Along the camera ray: the point moves from `distance` to `distance + noise`.
-        return pixels[facing], points + (points - pose.position) * (noise / distance)[:, None]
 
     def _normals(self, data: mujoco.MjData, pose: Pose) -> np.ndarray:
         """Unit normals (m, 3) of every object triangle in the sensor frame, numbered as the
@@ -612,6 +568,63 @@ class DepthSensor:
             list(self._pool.map(cast, range(workers)))
         hit = self._distance[:count]
         return (self._geomid[:count] >= 0) & (hit >= 0) & (hit < distance)
+
+
+@dataclasses.dataclass
+class _CameraHits:
+    """A frame's camera hits as its sensing model reads them (`vprobot.sensing.CameraHits`):
+    the frame before the model, and the sensor's geometry of it.
+
+    Attributes:
+        sensor: The sensor that took the frame, its buffers still holding the frame's hits.
+        data: The cell state of the frame.
+        pose: The sensor frame in the world.
+        frame: The camera's hits (`DepthSensor._camera_hits`).
+        given_rng: The caller's random draws, or None for the frame's own (`rng`).
+    """
+
+    sensor: DepthSensor
+    data: mujoco.MjData
+    pose: Pose
+    frame: Acquisition
+    given_rng: np.random.Generator | None
+
+    @property
+    def pixels(self) -> np.ndarray:
+        return self.frame.pixels
+
+    @property
+    def points(self) -> np.ndarray:
+        return self.frame.points_world
+
+    @property
+    def sensor_position(self) -> np.ndarray:
+        return self.pose.position
+
+    @functools.cached_property
+    def rng(self) -> np.random.Generator:
+        # Made only when the model draws: the ideal model never does.
+        if self.given_rng is not None:
+            return self.given_rng
+        return DepthSensor._frame_generator(self.frame)
+
+    def rays(self, pixels: np.ndarray) -> np.ndarray:
+        return np.take(self.sensor.directions, pixels, axis=0)
+
+    def distances(self, pixels: np.ndarray) -> np.ndarray:
+        return self.sensor._object_depth[pixels] * self.sensor._ray_scale[pixels]
+
+    def normals(self, pixels: np.ndarray) -> np.ndarray:
+        faces = self.sensor._face
+        if faces is None:
+            raise TypeError(f"sensing model {self.sensor.sensing.name!r} reads normals: set its "
+                            f"uses_normals")
+        return np.take(self.sensor._normals(self.data, self.pose), faces[pixels], axis=0)
+
+    def lit(self, baseline_m: float, light: np.ndarray, light_distance: np.ndarray,
+            points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        return self.sensor._lit(self.data, self.pose, baseline_m, light, light_distance, points,
+                                normals)
 
 
 def _scan_convert(vertices: np.ndarray, faces: np.ndarray, u: np.ndarray, v: np.ndarray,

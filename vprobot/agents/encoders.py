@@ -1,19 +1,22 @@
 """The agents' encoders by name (`agent.encoder`, docs/agents.md#encoders).
 
 An entry says which network an encoder is, which of its settings it takes and which algorithms
-it serves; a new encoder is a module with its network that registers an `Encoder` in
-`ENCODERS`. This module imports no torch: the config checks names against it when it loads,
-and the built-in networks are named by their paths, imported when a model is built.
+it serves. A bundled encoder is a module of `vprobot.agents.extractors` holding its network and
+its registration (`ENCODERS` imports them all when first read, and with them torch); one from
+outside is a plugin (`vprobot.plugins`). This module itself imports no torch, and the config
+does not read `ENCODERS`: `check_encoder` checks `agent.encoder` wherever the agent section is
+used, before any work starts.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from vprobot.config import check_registered
 from vprobot.registry import Registry
+from vprobot.schema import ConfigError
 
 if TYPE_CHECKING:
     from vprobot.config import AgentConfig
@@ -31,32 +34,27 @@ class Encoder:
     Attributes:
         network: With `sac` and `ppo` the policy's features extractor (a
             `vprobot.agents.extractors.PointCloudExtractor` subclass), with `dqn` its policy
-            class; or the `"module:Class"` path of one, imported by `load`.
+            class.
         settings: The network's keyword arguments, from the agent's settings.
         algorithms: The values of `agent.algorithm` it serves.
     """
 
-    network: type | str
+    network: type
     settings: Callable[[AgentConfig], dict[str, Any]] = scaled
     algorithms: tuple[str, ...] = ("sac", "ppo")
 
-    def load(self) -> type:
-        """The network class (imported from its path on first use)."""
-        if isinstance(self.network, type):
-            return self.network
-        module, name = self.network.split(":")
-        network: type = getattr(importlib.import_module(module), name)
-        return network
+
+ENCODERS: Registry[Encoder] = Registry("encoder", package="vprobot.agents.extractors")
+"""Every encoder by name, one module each in `vprobot.agents.extractors`."""
 
 
-ENCODERS: Registry[Encoder] = Registry("encoder")
-"""Every encoder by name, in registration order."""
-
-ENCODERS.register("pcn", Encoder("vprobot.agents.extractors.pcn:PCNExtractor"))
-ENCODERS.register("pointnet", Encoder("vprobot.agents.extractors.pointnet:PointNetExtractor"))
-ENCODERS.register("sphere", Encoder(
-    "vprobot.agents.extractors.sphere_map:SphereMapExtractor",
-    settings=lambda agent: {"bins": agent.sphere_bins, "features": agent.sphere_features}))
-ENCODERS.register("candidates", Encoder(
-    "vprobot.agents.candidate_q:CandidatePolicy",
-    settings=lambda agent: {"net_arch": list(agent.net_arch)}, algorithms=("dqn",)))
+def check_encoder(agent: AgentConfig) -> None:
+    """Raise ConfigError unless `agent.encoder` is registered and serves `agent.algorithm` (the
+    messages name the encoders, and those that serve the algorithm)."""
+    check_registered(agent.encoder, ENCODERS, "agent.encoder")
+    encoder = ENCODERS[agent.encoder]
+    if agent.algorithm not in encoder.algorithms:
+        serving = [name for name, other in ENCODERS.items() if agent.algorithm in other.algorithms]
+        raise ConfigError(f"agent.encoder {agent.encoder!r} serves agent.algorithm "
+                          f"{list(encoder.algorithms)}, got {agent.algorithm!r}; "
+                          f"agent.algorithm {agent.algorithm!r} takes agent.encoder {serving}")

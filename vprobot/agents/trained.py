@@ -13,6 +13,7 @@ from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from vprobot.agents.candidate_q import CandidateDQN
+from vprobot.agents.encoders import check_encoder
 from vprobot.config import Config, ConfigError, SensorConfig, from_mapping, read_yaml
 from vprobot.env.observations import observation_space
 from vprobot.paths import AGENTS_DIR, names_a_path
@@ -67,10 +68,11 @@ def _model_file(name: str) -> Path:
 
 
 def load_run_config(run_dir: Path) -> Config:
-    """The resolved config a run was started with.
+    """The resolved config a run was started with, its encoder checked (`check_encoder`).
 
     Raises:
-        ValueError: If the run directory has none, or it is empty or not a config (naming it).
+        ValueError: If the run directory has none, or it is empty or not a config, or names an
+            encoder not registered here (naming it).
     """
     path = run_dir / "config.yaml"
     if not path.is_file():
@@ -81,9 +83,11 @@ def load_run_config(run_dir: Path) -> Config:
                           f"`vprobot train` writes it; got {type(data).__name__}"
                           f"{' (an empty file)' if data is None else ''}")
     try:
-        return from_mapping(Config, data)
+        config = from_mapping(Config, data)
+        check_encoder(config.agent)
     except ConfigError as error:
         raise ConfigError(f"{path}: {error}") from None
+    return config
 
 
 def _run_config(model_file: Path, shown: Path) -> Config:

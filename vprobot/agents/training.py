@@ -50,7 +50,7 @@ from vprobot.agents.callbacks import (
 )
 from vprobot.agents.candidate_q import CandidateDQN, check_candidate_spaces
 from vprobot.agents.curves import NoEpisodesError, plot_curves
-from vprobot.agents.encoders import ENCODERS
+from vprobot.agents.encoders import ENCODERS, check_encoder
 from vprobot.agents.evaluation import evaluation_env
 from vprobot.agents.extractors import split_space
 from vprobot.agents.pretrain import pretrain
@@ -213,15 +213,17 @@ def build_model(config: Config, env: gym.Env | VecEnv, seed: int, device: str) -
     regression MLP, or DQN with the encoder's policy (`candidates`: `vprobot.agents.candidate_q`).
 
     Raises:
-        ConfigError: If the algorithm cannot act in the env's spaces (`check_spaces`).
+        ConfigError: If the encoder is not registered or does not serve the algorithm
+            (`check_encoder`), or the algorithm cannot act in the env's spaces (`check_spaces`).
     """
     agent = config.agent
+    check_encoder(agent)
     check_spaces(agent, env.observation_space, env.action_space)
     rate: Any = (LinearSchedule(agent.learning_rate) if agent.learning_rate_schedule == "linear"
                  else agent.learning_rate)
     encoder = ENCODERS[agent.encoder]
     if agent.algorithm == "dqn":
-        return CandidateDQN(encoder.load(), env, learning_rate=rate, gamma=agent.gamma,
+        return CandidateDQN(encoder.network, env, learning_rate=rate, gamma=agent.gamma,
                             batch_size=agent.batch_size, buffer_size=agent.buffer_size,
                             learning_starts=agent.learning_starts, train_freq=agent.train_freq,
                             gradient_steps=agent.gradient_steps,
@@ -231,7 +233,7 @@ def build_model(config: Config, env: gym.Env | VecEnv, seed: int, device: str) -
                             exploration_final_eps=agent.exploration_final_eps,
                             policy_kwargs=encoder.settings(agent), seed=seed, device=device)
     policy = "MultiInputPolicy" if config.env.robot_state else "MlpPolicy"
-    policy_kwargs = {"features_extractor_class": encoder.load(),
+    policy_kwargs = {"features_extractor_class": encoder.network,
                      "features_extractor_kwargs": encoder.settings(agent),
                      "net_arch": list(agent.net_arch)}
     if agent.algorithm == "sac":
@@ -254,14 +256,16 @@ def _commit() -> str:
 
 
 def check_environment(config: Config) -> None:
-    """Check what the envs will need before a run folder is touched: the env settings, that the
-    algorithm can act in the env's spaces and every motor file episodes draw from (it loads and
-    fits the cell; generated objects are made later).
+    """Check what the run will need before a run folder is touched: the encoder, the env
+    settings, that the algorithm can act in the env's spaces and every motor file episodes draw
+    from (it loads and fits the cell; generated objects are made later).
 
     Raises:
-        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, env
-            settings that do not make an env, or an algorithm that cannot act in it.
+        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, an
+            encoder not registered or not serving the algorithm, env settings that do not make
+            an env, or an algorithm that cannot act in it.
     """
+    check_encoder(config.agent)
     env = config.env
     scale = env.mesh_scale if env.motors == "mesh" else 1.0
     inspect_env = InspectEnv(config)
@@ -486,7 +490,8 @@ def parse_overrides(pairs: Sequence[str]) -> dict[str, dict[str, Any]]:
 def profile_config(profile: str | Path, overrides: Sequence[str] = (),
                    steps: int | None = None) -> Config:
     """A profile YAML (any config sections, `agent` among them) with `section.key=value`
-    overrides and `--steps` applied, validated.
+    overrides and `--steps` applied, validated, its encoder too (`check_encoder`: what
+    `train`, `teacher` and a sweep's trials start from).
 
     Raises:
         FileNotFoundError, ConfigError: For a missing profile or a bad key or value.
@@ -499,5 +504,6 @@ def profile_config(profile: str | Path, overrides: Sequence[str] = (),
         config = replace(config, section, **changes)
     if steps is not None:
         config = replace(config, "agent", total_steps=steps)
+    check_encoder(config.agent)
     return config
 

@@ -1,76 +1,17 @@
-"""Rewards R1-R14 of the paper's Table 3 (docs/states-actions-rewards.md#rewards).
-
-Dense rewards are paid every step from the coverage gain dCOV_t, the remaining coverage before
-the step COV_rem and the travel cost k_t; sparse rewards pay 0 until the episode's last step T
-and then a function of the final coverage COV_T, T and the summed travel k_cum. Travel costs in
-divisions are floored at `travel_cost_floor`. A new reward is one more `RewardFormula` registered
-in `REWARDS`, from any module imported before the config names it.
+"""How the environment pays the rewards of `vprobot.rewards.REWARDS`
+(docs/states-actions-rewards.md#rewards): a step's reward from its formula, travel costs in
+divisions and COV_rem floored at `travel_cost_floor`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from vprobot.registry import Registry
+from vprobot.rewards import REWARDS
 
 if TYPE_CHECKING:
     from vprobot.config import EnvConfig
-
-
-@dataclasses.dataclass(frozen=True)
-class RewardFormula:
-    """One reward variant.
-
-    Attributes:
-        dense: Paid every step from (dCOV_t, COV_rem, k_t); else only at the last step, from
-            (COV_T, T, k_cum).
-        value: The formula of those three arguments (the travel costs and COV_rem floored).
-        uses_travel: Whether it divides by a travel cost (so that the config refuses a
-            joint-space cost without the robot).
-        no_gain_penalty: A dense step that gains no coverage pays -1 instead.
-        goal_only: Episodes end only at the coverage goal (with a safety cap), and the sparse
-            reward is paid only there.
-    """
-
-    dense: bool
-    value: Callable[[float, float, float], float]
-    uses_travel: bool = False
-    no_gain_penalty: bool = False
-    goal_only: bool = False
-
-
-REWARDS: Registry[RewardFormula] = Registry("reward")
-"""Every reward by name (`env.reward`), in registration order."""
-
-REWARDS.register("R1", RewardFormula(True, lambda delta, remaining, travel: delta))
-REWARDS.register("R2", RewardFormula(True, lambda delta, remaining, travel: delta,
-                                     no_gain_penalty=True))
-REWARDS.register("R3", RewardFormula(True, lambda delta, remaining, travel: delta / remaining))
-REWARDS.register("R4", RewardFormula(True, lambda delta, remaining, travel: delta / remaining,
-                                     no_gain_penalty=True))
-REWARDS.register("R5", RewardFormula(True, lambda delta, remaining, travel: delta / travel,
-                                     uses_travel=True))
-REWARDS.register("R6", RewardFormula(
-    True, lambda delta, remaining, travel: delta / remaining / travel, uses_travel=True))
-REWARDS.register("R7", RewardFormula(True, lambda delta, remaining, travel: delta / travel,
-                                     uses_travel=True, no_gain_penalty=True))
-REWARDS.register("R8", RewardFormula(
-    True, lambda delta, remaining, travel: delta / remaining / travel, uses_travel=True,
-    no_gain_penalty=True))
-REWARDS.register("R9", RewardFormula(False, lambda coverage, steps, travel_sum: coverage))
-REWARDS.register("R10", RewardFormula(False, lambda coverage, steps, travel_sum: coverage / steps))
-REWARDS.register("R11", RewardFormula(
-    False, lambda coverage, steps, travel_sum: coverage / travel_sum, uses_travel=True))
-REWARDS.register("R12", RewardFormula(
-    False, lambda coverage, steps, travel_sum: coverage / (steps * travel_sum),
-    uses_travel=True))
-REWARDS.register("R13", RewardFormula(False, lambda coverage, steps, travel_sum: 1.0 / steps,
-                                      goal_only=True))
-REWARDS.register("R14", RewardFormula(
-    False, lambda coverage, steps, travel_sum: 1.0 / (steps * travel_sum), uses_travel=True,
-    goal_only=True))
 
 
 def step_limit(env: EnvConfig) -> int:

@@ -1,7 +1,7 @@
 """The points each frame lost to the sensing model, for the video's inset and the summary still.
 
-Only a structured-light sensor loses points (docs/sensor.md#sensing); under the ideal model
-nothing here draws, and the pictures are what they were without it.
+Only a sensing model that tells its losses apart (structured light's, docs/sensor.md#sensing)
+draws here; under the ideal model nothing does, and the pictures are what they were without it.
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from vprobot.render.camera import project
 from vprobot.render.markers import LOST_RGBA
 from vprobot.render.overlay import draw_swatch
 from vprobot.scene import Cell
-from vprobot.sensing import StructuredLight
 from vprobot.sensor import LOSS_CAUSES, FrameLosses
 
 
@@ -37,13 +36,14 @@ def frame_losses(scene: MotorScene | Cell, record: EpisodeRecord) -> list[FrameL
     a `free` episode), which gives the same frames: noise and dropout are seeded per frame.
 
     Returns:
-        One entry per view; an empty list under the ideal model, or for a bare cell, which has
-        no sensor of its own.
+        One entry per view; an empty list under a model whose losses are not told apart (the
+        ideal one: `SensingModel.loss_stages`), or for a bare cell, which has no sensor of its
+        own.
     """
     if not isinstance(scene, MotorScene):
         return []
     sensor = scene.free_sensor if record.carrier == "free" else scene.sensor
-    if not isinstance(sensor.sensing, StructuredLight):
+    if not sensor.sensing.loss_stages():
         return []
     rotation = record.object_pose.rotation
     return [sensor.losses_at(view.sensor_pose, rotation, view.joints)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import gymnasium as gym
 import torch
 
+from vprobot.agents.encoders import ENCODERS, Encoder
 from vprobot.agents.extractors.base import PointCloudExtractor, shared_mlp
 
 
@@ -28,3 +29,6 @@ class PCNExtractor(PointCloudExtractor):
         local = self.first(points.transpose(1, 2))
         pooled = local.max(dim=2, keepdim=True).values.expand_as(local)
         return self.second(torch.cat([local, pooled], dim=1)).max(dim=2).values
+
+
+ENCODERS.register("pcn", Encoder(PCNExtractor))

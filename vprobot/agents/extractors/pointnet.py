@@ -6,6 +6,7 @@ import gymnasium as gym
 import torch
 from torch import nn
 
+from vprobot.agents.encoders import ENCODERS, Encoder
 from vprobot.agents.extractors.base import PointCloudExtractor, shared_mlp
 
 
@@ -52,3 +53,6 @@ class PointNetExtractor(PointCloudExtractor):
         coordinates = points[..., :3] @ self.input_transform(points)
         points = torch.cat([coordinates, points[..., 3:]], dim=2)
         return self.encoder(points.transpose(1, 2)).max(dim=2).values
+
+
+ENCODERS.register("pointnet", Encoder(PointNetExtractor))

@@ -22,6 +22,7 @@ import gymnasium as gym
 import torch
 from torch import nn
 
+from vprobot.agents.encoders import ENCODERS, Encoder
 from vprobot.agents.extractors.base import PointCloudExtractor
 
 _MAP_CACHE: collections.deque[tuple[torch.Tensor, int, torch.Tensor]] = collections.deque(
@@ -113,3 +114,8 @@ class SphereMapExtractor(PointCloudExtractor):
         maps = self.direction_map(points)
         _MAP_CACHE.append((points, points._version, maps))
         return maps
+
+
+ENCODERS.register("sphere", Encoder(
+    SphereMapExtractor,
+    settings=lambda agent: {"bins": agent.sphere_bins, "features": agent.sphere_features}))

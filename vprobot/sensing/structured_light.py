@@ -1,8 +1,5 @@
-"""How a sensor turns what its rays reach into points: the sensing model (docs/sensor.md#sensing).
-
-`ideal` keeps every object point that a camera ray meets first within range, exactly where it
-lies. `structured_light` models a camera and a projector a baseline apart, as the structured-light
-devices of the presets are built:
+"""The `structured_light` sensing model: a camera and a projector a baseline apart, as the
+structured-light devices of the presets are built (docs/sensor.md#sensing):
 
 - the projector's optical centre lies at `baseline_m` along the sensor's +x axis, its axes
   parallel to the camera's (the sensor frame stays the camera's); a point counts only where the
@@ -15,36 +12,28 @@ devices of the presets are built:
   along the optical axis and theta the camera ray's incidence;
 - a point drops out with probability p(theta) = dropout_grazing * (theta / 90 deg)^dropout_exponent.
 
-The geometry (projector visibility, normals) is the acquisition's (`vprobot.sensor`); this module
-holds the figures and the two laws.
+The geometry (projector visibility, normals) is the acquisition's (`vprobot.sensor`, through
+`CameraHits`); this module holds the figures and the laws.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vprobot.schema import ConfigError
+from vprobot.sensing.base import SENSING_MODELS, CameraHits, SensingModel
 
-SENSING_MODELS = ("ideal", "structured_light")
-"""The names a sensor's `sensing` setting and `--sensing` take."""
+if TYPE_CHECKING:
+    from vprobot.config import SensorConfig
 
 
+@SENSING_MODELS.register_named
 @dataclasses.dataclass(frozen=True)
-class IdealSensing:
-    """Every point a camera ray reaches first within range, measured exactly."""
-
-    name = "ideal"
-
-
-IDEAL = IdealSensing()
-
-
-@dataclasses.dataclass(frozen=True)
-class StructuredLight:
+class StructuredLight(SensingModel):
     """The figures of a structured-light sensor (a camera and a projector a baseline apart).
 
     Attributes:
@@ -64,6 +53,7 @@ class StructuredLight:
     """
 
     name = "structured_light"
+    uses_normals = True
 
     baseline_m: float
     max_incidence_deg: float
@@ -117,24 +107,68 @@ class StructuredLight:
         """p(theta) = dropout_grazing * (theta / 90 deg)^dropout_exponent, per point."""
         return self.dropout_grazing * (incidence_rad / (0.5 * math.pi)) ** self.dropout_exponent
 
+    @classmethod
+    def of_sensor(cls, sensor: SensorConfig) -> SensingModel:
+        """The sensor's `structured_light` figures.
 
-SensingModel = IdealSensing | StructuredLight
-"""A sensor's sensing model: `IDEAL` or a `StructuredLight`."""
+        Raises:
+            ConfigError: If the sensor gives none.
+        """
+        if sensor.structured_light is None:
+            raise ConfigError("sensor.sensing structured_light needs the sensor's "
+                              "structured_light figures, which this sensor does not give "
+                              "(`vprobot sensors` lists the presets that have them)")
+        return sensor.structured_light
 
+    def deterministic(self) -> StructuredLight:
+        return self.limits_only()
 
-def frame_generator(*state: np.ndarray) -> np.random.Generator:
-    """The noise and dropout generator of a frame taken in `state` (e.g. the sensor's and the
-    object's pose): the same frame gets the same draws, whichever order frames are taken in."""
-    digest = hashlib.sha256(b"".join(np.ascontiguousarray(part, dtype=np.float64).tobytes()
-                                     for part in state)).digest()
-    return np.random.default_rng(int.from_bytes(digest[:16], "little"))
+    def ground_truth_key(self) -> tuple[Any, ...]:
+        # Noise and dropout do not shape the GT (`deterministic` has none).
+        return (self.name, self.baseline_m, self.max_incidence_deg,
+                self.projector_max_incidence_deg)
 
+    def loss_stages(self) -> tuple[SensingModel, ...]:
+        """The projector alone (shadowed), its limits (grazing), the whole model (dropped out)."""
+        return self.shadow_only(), self.limits_only(), self
 
-def check_sensing(name: str, structured_light: StructuredLight | None) -> None:
-    """Raise ConfigError unless `name` is a sensing model the sensor has figures for."""
-    if name not in SENSING_MODELS:
-        raise ConfigError(f"sensor.sensing must be one of {list(SENSING_MODELS)}, got {name!r}")
-    if name == "structured_light" and structured_light is None:
-        raise ConfigError("sensor.sensing structured_light needs the sensor's structured_light "
-                          "figures, which this sensor does not give (`vprobot sensors` lists "
-                          "the presets that have them)")
+    def measure(self, hits: CameraHits) -> tuple[np.ndarray, np.ndarray]:
+        """Keep the hits within both incidence limits that the projector lights, drop some by
+        the dropout law and move the rest along their rays by the noise law.
+
+        The geometry is done in the sensor frame, where the rays are the grid's own and the
+        projector sits at (baseline, 0, 0) with the camera's axes: no point is rotated.
+        """
+        min_camera, min_projector = self.min_cos_incidence
+        pixels, points, rng = hits.pixels, hits.points, hits.rng
+        normals = hits.normals(pixels)
+        rays = hits.rays(pixels)
+        cos_camera = np.einsum("ij,ij->i", rays, normals)
+        # The camera's limit and the dropout first: they need the camera ray alone, and fewer
+        # points are left for the projector. (Rows are picked with np.take: boolean indexing of
+        # (n, 3) arrays costs several times more.)
+        incidence = np.arccos(np.minimum(np.abs(cos_camera), 1.0))
+        seen = np.flatnonzero((np.abs(cos_camera) >= min_camera)
+                              & (rng.random(len(pixels)) >= self.dropout_probability(incidence)))
+        rays, normals = np.take(rays, seen, axis=0), np.take(normals, seen, axis=0)
+        cos_camera, pixels = cos_camera[seen], pixels[seen]
+        distance = hits.distances(pixels)
+        light = rays * distance[:, None]
+        light[:, 0] -= self.baseline_m
+        light_distance = np.sqrt(np.einsum("ij,ij->i", light, light))
+        cos_projector = np.einsum("ij,ij->i", light, normals) / light_distance
+        # Both rays must meet the surface from the same side (a sheet lit from behind is dark).
+        facing = np.flatnonzero((cos_camera * cos_projector > 0.0)
+                                & (np.abs(cos_projector) >= min_projector))
+        if len(facing):
+            facing = facing[hits.lit(self.baseline_m, np.take(light, facing, axis=0),
+                                     light_distance[facing],
+                                     np.take(points, seen[facing], axis=0),
+                                     np.take(normals, facing, axis=0))]
+        points = np.take(points, seen[facing], axis=0)
+        distance = distance[facing]
+        noise = rng.standard_normal(len(facing)) * self.noise_sigma(
+            light[facing, 2], np.abs(cos_camera[facing]))
+        # Along the camera ray: the point moves from `distance` to `distance + noise`.
+        return (pixels[facing],
+                points + (points - hits.sensor_position) * (noise / distance)[:, None])

@@ -1,0 +1,220 @@
+"""A reward, an encoder and a sensing model of a user's own, in `.py` plugins outside the package:
+each is one file that registers itself, and runs through the config, the command line and (the
+sensing model) an evaluation on two Ray workers, as docs/extending.md says."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from helpers import TINY_TRAINING
+
+from vprobot import plugins
+from vprobot.agents.encoders import ENCODERS
+from vprobot.cli import main
+from vprobot.config import ConfigError, load_config
+from vprobot.evaluation import SETTINGS_NAME
+from vprobot.geometry import Pose
+from vprobot.ground_truth import gt_sensing
+from vprobot.mesh_loading import load_mesh
+from vprobot.paths import CONFIGS_DIR, DEFAULT_MOTOR
+from vprobot.rewards import REWARDS
+from vprobot.scene import Cell
+from vprobot.sensing import IDEAL, SENSING_MODELS, frame_generator
+from vprobot.sensor import DepthSensor
+
+ROOT = Path(__file__).resolve().parents[1]
+LIGHT = '''"""A user's own reward and sensing model (no torch: Ray workers import it cheaply)."""
+
+import dataclasses
+import os
+from pathlib import Path
+
+from vprobot.rewards import REWARDS, RewardFormula
+from vprobot.sensing import IDEAL, SENSING_MODELS, SensingModel
+
+REWARDS.register("twice_gain", RewardFormula(True, lambda delta, remaining, travel: 2.0 * delta))
+
+
+@SENSING_MODELS.register_named
+@dataclasses.dataclass(frozen=True)
+class HalfDropout(SensingModel):
+    """Every hit drops out with probability 1/2; the rest are measured exactly."""
+
+    name = "half_dropout"
+
+    def measure(self, hits):
+        # Which processes measured: the command's, or Ray's workers.
+        with (Path(__file__).parent / "pids.txt").open("a") as stream:
+            stream.write(f"{os.getpid()}\\n")
+        kept = hits.rng.random(len(hits.pixels)) < 0.5
+        return hits.pixels[kept], hits.points[kept]
+
+    def deterministic(self):
+        # A point kept with a probability above 0 is inspectable: the ideal sensor's GT.
+        return IDEAL
+'''
+ENCODER = '''"""A user's own encoder: a linear layer per point, max-pooled."""
+
+from torch import nn
+
+from vprobot.agents.encoders import ENCODERS, Encoder
+from vprobot.agents.extractors import PointCloudExtractor
+
+
+class MaxPool(PointCloudExtractor):
+    def __init__(self, observation_space, width):
+        super().__init__(observation_space, width)
+        self.layer = nn.Linear(self.columns, width)
+
+    def encode(self, points):
+        return self.layer(points).max(dim=1).values
+
+
+ENCODERS.register("maxpool_toy", Encoder(MaxPool, settings=lambda agent: {
+    "width": agent.net_arch[1]}))
+'''
+PROFILE = CONFIGS_DIR / "agents" / "cpu.yaml"
+ONE_FREE_EPISODE = ["--motors", str(DEFAULT_MOTOR), "--carriers", "free"]
+
+
+@pytest.fixture
+def toys(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Path, Path]]:
+    """The two plugin files (not yet loaded); afterwards this process without them, their
+    modules and what they registered."""
+    monkeypatch.setattr(plugins, "_loaded", [])
+    light, encoder = tmp_path / "light_toys.py", tmp_path / "encoder_toy.py"
+    light.write_text(LIGHT)
+    encoder.write_text(ENCODER)
+    registries = (REWARDS, ENCODERS, SENSING_MODELS)
+    before = [set(registry) for registry in registries]
+    yield light, encoder
+    for registry, names in zip(registries, before, strict=True):
+        for name in set(registry) - names:
+            registry.unregister(name)
+    for module in ("light_toys", "encoder_toy"):
+        sys.modules.pop(module, None)
+
+
+def test_a_plugin_reward_is_named_by_the_config_and_paid_by_the_env(
+        toys: tuple[Path, Path], tmp_path: Path) -> None:
+    from vprobot.env.inspect_env import InspectEnv
+
+    config = tmp_path / "twice.yaml"
+    config.write_text("env: {reward: twice_gain}\n")
+    with pytest.raises(ConfigError, match=r"env.reward must be one of"):
+        load_config(config)
+    plugins.load([str(toys[0])])
+    assert load_config(config).env.reward == "twice_gain"
+    with pytest.raises(ConfigError, match=r"env.reward must be one of \[.*'twice_gain'.*\], "
+                                          r"got 'R99'"):
+        config.write_text("env: {reward: R99}\n")
+        load_config(config)
+    # The free-flying sensor acquires every request; A_2S0R looks at the centre from
+    # (azimuth, polar angle) at the working distance.
+    env = InspectEnv(motors="mesh", mesh=str(DEFAULT_MOTOR), resolution=(107, 75),
+                     reward="twice_gain", carrier="free", travel_cost="cartesian",
+                     action="A_2S0R")
+    env.reset(seed=0)
+    gains = []
+    for phi, theta in ((0.0, 1.2), (2.1, 1.2), (4.2, 1.2)):
+        action = np.array([phi / np.pi - 1.0, 2.0 * theta / np.pi - 1.0], dtype=np.float32)
+        _, reward, *_, info = env.step(action)
+        gains.append(info["delta_coverage"])
+        assert reward == 2.0 * info["delta_coverage"]
+    assert max(gains) > 0.0
+
+
+def test_a_plugin_sensing_model_is_named_by_the_config_and_measures_through_its_class(
+        toys: tuple[Path, Path], tmp_path: Path) -> None:
+    path = tmp_path / "half.yaml"
+    path.write_text("sensor: {sensing: half_dropout}\n")
+    with pytest.raises(ConfigError, match=r"sensor.sensing must be one of"):
+        load_config(path)
+    plugins.load([str(toys[0])])
+    config = load_config(path)
+    assert "half_dropout" in SENSING_MODELS and gt_sensing(config.sensor) == IDEAL
+    cell = Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
+    data = cell.make_data()
+    pose = Pose.look_at(cell.object_center + [0.1, -0.2, 0.4], cell.object_center)
+    frame = DepthSensor(cell, resolution=(107, 75)).acquire_from_pose(data, pose)
+    # The reference: the ideal frame, each hit kept by the frame's own draw (vprobot.sensing).
+    ideal = DepthSensor(cell, resolution=(107, 75), sensing=IDEAL).acquire_from_pose(data, pose)
+    kept = frame_generator(pose.position, pose.rotation, ideal.object_pose.position,
+                           ideal.object_pose.rotation).random(len(ideal)) < 0.5
+    assert 0 < len(frame) < len(ideal)
+    np.testing.assert_array_equal(frame.pixels, ideal.pixels[kept])
+    np.testing.assert_array_equal(frame.points_world, ideal.points_world[kept])
+
+
+def test_a_plugin_sensing_model_runs_an_evaluation_on_two_ray_workers(
+        toys: tuple[Path, Path], tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    path = [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
+    command = subprocess.Popen(
+        [sys.executable, "-m", "vprobot.cli", "--plugin", str(toys[0]), "evaluate",
+         "--planners", "hrec", "--sensing", "half_dropout", *ONE_FREE_EPISODE, "--seeds", "0",
+         "1", "--workers", "2", "--out", "out"],
+        cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(path)})
+    _, stderr = command.communicate(timeout=600)
+    assert command.returncode == 0, stderr
+    settings = json.loads((tmp_path / "out" / SETTINGS_NAME).read_text())
+    assert settings["config"]["sensor"]["sensing"] == "half_dropout"
+    measured_in = {int(pid) for pid in (tmp_path / "pids.txt").read_text().split()}
+    assert measured_in and command.pid not in measured_in
+
+
+def test_a_plugin_reward_and_encoder_train_an_agent_from_the_command_line(
+        toys: tuple[Path, Path], tmp_path: Path) -> None:
+    from vprobot.agents.trained import load_agent
+
+    run = tmp_path / "run"
+    assert main(["--plugin", str(toys[0]), "--plugin", str(toys[1]), "train", str(PROFILE),
+                 "--steps", "5", "--set", *TINY_TRAINING, "env.reward=twice_gain",
+                 "agent.encoder=maxpool_toy", "--out", str(run)]) == 0
+    saved = yaml.safe_load((run / "config.yaml").read_text())
+    assert (saved["env"]["reward"], saved["agent"]["encoder"]) == ("twice_gain", "maxpool_toy")
+    extractor = load_agent(run).model.policy.actor.features_extractor
+    # TINY_TRAINING's net_arch is [16, 16]: the toy's width.
+    assert type(extractor).__name__ == "MaxPool" and extractor.features_dim == 16
+
+
+def test_an_unknown_encoder_is_refused_where_the_agent_is_used_before_any_work(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "run"
+    assert main(["train", str(PROFILE), "--set", "agent.encoder=nope", "--out", str(out)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith("vprobot train: error: agent.encoder must be one of [")
+    assert "'pcn'" in line and line.endswith("], got 'nope'") and not out.exists()
+    # A run folder whose config names it is refused before its model is read.
+    run = tmp_path / "copied"
+    run.mkdir()
+    document = yaml.safe_load((CONFIGS_DIR / "default.yaml").read_text()) or {}
+    (run / "config.yaml").write_text(yaml.safe_dump({**document, "agent": {"encoder": "nope"}}))
+    (run / "best_model.zip").write_text("not read")
+    assert main(["evaluate", "--planners", f"agent:{run}", *ONE_FREE_EPISODE, "--seeds", "0",
+                 "--out", str(tmp_path / "evaluation")]) == 2
+    # After the progress line that says which agent it loads.
+    error = capsys.readouterr().err.splitlines()[-1]
+    assert error.startswith(f"vprobot evaluate: error: {run / 'config.yaml'}: agent.encoder "
+                            f"must be one of [")
+
+
+def test_loading_a_config_that_names_an_unknown_encoder_imports_no_torch(tmp_path: Path) -> None:
+    """The encoders' modules import torch (2 s): the config leaves `agent.encoder` to the agents."""
+    path = tmp_path / "nope.yaml"
+    path.write_text("agent: {encoder: nope}\n")
+    code = (f"import sys\nfrom vprobot.config import load_config\n"
+            f"assert load_config({str(path)!r}).agent.encoder == 'nope'\n"
+            f"print('torch' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            check=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert result.stdout.strip() == "False"

@@ -1,0 +1,13 @@
+"""The `candidates` encoder: DQN's policy over candidate views (`agent.algorithm: dqn`).
+
+Its network, `CandidatePolicy`, stays in `vprobot.agents.candidate_q` beside the DQN it serves:
+a saved DQN model names its policy class by that module, so the runs and bundled agents saved
+so far load only from there.
+"""
+
+from vprobot.agents.candidate_q import CandidatePolicy
+from vprobot.agents.encoders import ENCODERS, Encoder
+
+ENCODERS.register("candidates", Encoder(
+    CandidatePolicy, settings=lambda agent: {"net_arch": list(agent.net_arch)},
+    algorithms=("dqn",)))
