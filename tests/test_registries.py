@@ -105,6 +105,10 @@ def test_a_registry_lists_its_entries_in_name_order_and_names_what_it_allows() -
         registry["c"]
     assert isinstance(error.value, ValueError) and isinstance(error.value, KeyError)
     assert str(error.value) == "unknown widget 'c'; allowed: a, b"
+    registry.register("a10", 10)
+    registry.register("a9", 9)
+    assert list(registry) == ["a", "a9", "a10", "b"]
+    registry.unregister("a9"), registry.unregister("a10")
     assert registry.get("c") is None and 3 not in registry
     assert registry.unregister("b") == 2 and list(registry) == ["a"]
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import re
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Generic, Protocol, TypeVar, overload
 
@@ -37,9 +38,15 @@ class UnknownNameError(KeyError, ValueError):
         return str(self.args[0])
 
 
+def _natural(name: str) -> list[tuple[int, str | int]]:
+    """Sort key of a name in natural order: `R2` before `R10`."""
+    return [(1, int(part)) if part.isdigit() else (0, part)
+            for part in re.split(r"(\d+)", name) if part]
+
+
 class Registry(Mapping[str, T], Generic[T]):
-    """Entries of one kind by name, in name order (so that what a message lists does not depend
-    on which module happened to be imported first).
+    """Entries of one kind by name, in natural name order (`R2` before `R10`), so that what a
+    message lists does not depend on which module happened to be imported first.
 
     Args:
         kind: What an entry is, as error messages name it (`planner`, `reward`).
@@ -79,7 +86,7 @@ class Registry(Mapping[str, T], Generic[T]):
     @property
     def _sorted(self) -> dict[str, T]:
         self._discover()
-        return dict(sorted(self._entries.items()))
+        return {name: self._entries[name] for name in sorted(self._entries, key=_natural)}
 
     @overload
     def register(self, name: str) -> Callable[[V], V]: ...
