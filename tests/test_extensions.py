@@ -1,12 +1,14 @@
 """Each extension point extended from outside the package, as docs/extending.md says (issue 35):
 one plugin file, written to a temporary folder, registers a toy of each kind, and the CLI
-(`vprobot --plugin FILE ...`), the config where one names the kind, and `vprobot evaluate
+(`vprobot --plugin FILE ...`), a config file where one names the kind, and `vprobot evaluate
 --workers 2` (Ray workers, which import the plugin themselves) take each toy as they take the
 bundled ones, with no other file changed.
 
-One section per kind: its toy's source in `TOYS`, its registry in `REGISTRIES`, its tests
-under its heading. The Ray evaluation at the end runs the toys that an evaluation takes (a
-planner, a stop rule, a part family: the list's objects) together, once.
+One section per kind: its toy's source in `TOYS`, its registry in `REGISTRIES` (and how a
+bundled module registers in `BUNDLED`), its tests under its heading; a new kind adds the three.
+No config names a planner, a stop rule, a part family or an export format: their toys go
+through the CLI. The Ray evaluation at the end runs the toys an evaluation takes (a planner, a
+stop rule, a part family: the episode list's objects) together, once.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from vprobot.config import Config
 from vprobot.episode import seeded_episode, write_episode_list
 from vprobot.export.formats import FORMATS
 from vprobot.families import FAMILIES
+from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.base import PLANNERS
 from vprobot.planners.runner import make_planner
 from vprobot.registry import Registry
@@ -46,6 +49,9 @@ TOYS: dict[str, str] = {}
 """Each kind's toy, as plugin source."""
 REGISTRIES: dict[str, Registry[Any]] = {}
 """Each kind's registry."""
+BUNDLED: dict[str, tuple[str, str, str, str]] = {}
+"""Each kind's registry as a fresh process finds it (its module and name), the decorator a
+bundled module registers with, and the module an entry comes from (an expression of `entry`)."""
 
 
 def plugin_source() -> str:
@@ -105,6 +111,7 @@ class TopToy(PlanPlanner):
             episode.center + [0.0, 0.0, distance * (1.0 - 0.02 * index)], episode.center))
             for index in range(3)]'''
 REGISTRIES["planner"] = PLANNERS
+BUNDLED["planner"] = ("vprobot.planners.base", "PLANNERS", "@register_planner", "entry.__module__")
 
 
 def test_a_plugin_planner_is_named_by_the_cli_built_by_name_and_evaluated_by_default(
@@ -118,6 +125,20 @@ def test_a_plugin_planner_is_named_by_the_cli_built_by_name_and_evaluated_by_def
     assert "toptoy" in planner.split(": ")[0].split(", ")
     built = make_planner("toptoy", CONFIG)
     assert type(built).__module__ == MODULE and not built.stops_at_goal
+
+
+def test_evaluate_without_planners_runs_the_plugin_planner_it_declares(
+        plugin: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    plugins.load([str(plugin)])
+    # The bundled planners out of the default set, which then holds the toy alone.
+    for cls in PLANNERS.values():
+        if cls.__module__ != MODULE:
+            monkeypatch.setattr(cls, "evaluated", ())
+    assert main(["--plugin", str(plugin), "evaluate", "--motors", str(DEFAULT_MOTOR), "--seeds",
+                 "0", "--carriers", "free", "--out", str(tmp_path / "out")]) == 0
+    with (tmp_path / "out" / "evaluation_episodes.csv").open() as stream:
+        assert [(row["planner"], row["acquisitions"]) for row in csv.DictReader(stream)] == [
+            ("toptoy", "3")]
 
 
 # ---- stop rule ----------------------------------------------------------------------------
@@ -135,6 +156,8 @@ class TwoToy(StopRule):
     def check(self, episode):
         return "two views" if sum(view.acquired for view in episode.views) >= 2 else None'''
 REGISTRIES["stop rule"] = STOPS
+BUNDLED["stop rule"] = ("vprobot.stopping.rules.base", "STOPS", "@register_stop",
+                        "entry.__module__")
 
 
 def test_a_plugin_stop_rule_is_described_by_the_help_and_stops_a_plan(
@@ -170,6 +193,8 @@ class BlockToy(PartFamily):
         side = values["side_m"]
         return trimesh.creation.box((side, side, side * values["height_ratio"]))'''
 REGISTRIES["part family"] = FAMILIES
+BUNDLED["part family"] = ("vprobot.families.base", "FAMILIES", "@register_family",
+                          "type(entry).__module__")
 
 
 def test_a_plugin_part_family_is_listed_and_generated_by_the_cli(
@@ -197,6 +222,8 @@ def joints_toy(motion, dt):
     return "".join(f"{stop.view} {' '.join(map(repr, stop.joints.tolist()))}\\n"
                    for stop in motion.stops)'''
 REGISTRIES["export format"] = FORMATS
+BUNDLED["export format"] = ("vprobot.export.formats.base", "FORMATS", "@register_format(",
+                            "entry.write.__module__")
 
 
 def test_a_plugin_export_format_writes_a_plan_through_the_cli(
@@ -224,19 +251,12 @@ def test_a_plugin_export_format_writes_a_plan_through_the_cli(
 
 # ---- every kind ---------------------------------------------------------------------------
 
-BUNDLED = {"planner": ("vprobot.planners.base", "PLANNERS", "@register_planner"),
-           "stop rule": ("vprobot.stopping.rules.base", "STOPS", "@register_stop"),
-           "part family": ("vprobot.families.base", "FAMILIES", "@register_family"),
-           "export format": ("vprobot.export.formats.base", "FORMATS", "@register_format(")}
-"""Each kind's registry (module, name) and the decorator a bundled module registers with."""
 ENTRY_MODULES = """
 import importlib, json, sys
 found = {}
-for kind, (module, name) in json.loads(sys.argv[1]).items():
+for kind, (module, name, _, expression) in json.loads(sys.argv[1]).items():
     registry = getattr(importlib.import_module(module), name)
-    found[kind] = sorted({getattr(entry, "write", entry).__module__ if kind == "export format"
-                          else (entry if isinstance(entry, type) else type(entry)).__module__
-                          for entry in registry.values()})
+    found[kind] = sorted({eval(expression) for entry in registry.values()})
 print(json.dumps(found))
 """
 """A fresh process that reads each registry, having imported nothing but its module, and
@@ -245,10 +265,9 @@ prints the modules its entries come from."""
 
 def test_a_bundled_module_that_registers_is_found_by_its_registry_alone() -> None:
     """One file per bundled extension: no list imports it, its registry finds it."""
-    argument = json.dumps({kind: [module, name] for kind, (module, name, _) in BUNDLED.items()})
-    found = json.loads(subprocess.run([sys.executable, "-c", ENTRY_MODULES, argument],
+    found = json.loads(subprocess.run([sys.executable, "-c", ENTRY_MODULES, json.dumps(BUNDLED)],
                                       check=True, capture_output=True, text=True).stdout)
-    for kind, (module, _, decorator) in BUNDLED.items():
+    for kind, (module, _, decorator, _) in BUNDLED.items():
         package = module.rsplit(".", 1)[0]
         folder = ROOT / package.replace(".", "/")
         registering = sorted(f"{package}.{path.stem}" for path in folder.glob("*.py")
