@@ -13,6 +13,8 @@ from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.cli import main
 from vprobot.config import Config
+from vprobot.paths import available_robots
+from vprobot.planners.runner import counted_planners
 
 
 def test_reach_writes_the_plan_json(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
@@ -84,7 +86,8 @@ def test_unknown_robot_is_one_line_listing_the_bundled_ones(capsys: pytest.Captu
                  "kuka"])
     error = capsys.readouterr().err
     assert code == 2 and len(error.strip().splitlines()) == 1
-    assert "unknown robot 'kuka'" in error and "panda, ur10, ur5" in error
+    assert "unknown robot 'kuka'" in error and f"({', '.join(available_robots())})" in error
+    assert "ur10" in available_robots()
 
 
 def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
@@ -106,7 +109,8 @@ def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.Captu
         (["plan", "--out", "/nonexistent/plan.json"], "folder /nonexistent does not exist"),
         (["plan", "--out", "plan.json", "--mesh", "missing.stl"], "mesh file not found"),
         (["plan", "--out", "plan.json", "--planner", "hrec", "--views", "3"],
-         "applies to bscp, optimum, agent only"),
+         f"a fixed number of views applies to {', '.join(counted_planners())} only, not to "
+         f"'hrec'"),
         (["render", "--plan", "missing.json", "--out", "video.mp4"], "missing.json"),
     ],
 )
@@ -145,7 +149,8 @@ def test_option_errors_are_one_line_without_usage(argv: list[str], line: str,
         (["plan", "--planner", "agent7", "--out", "p.json"], "--planner agent --views 7",
          "--planner bscp"),
         (["render", "--planner", "dijkstra", "--out", "v.gif"],
-         "a fixed number of views (bscp, optimum, agent) goes in --views", "bscp<N>"),
+         f"a fixed number of views ({', '.join(counted_planners())}) goes in --views",
+         "bscp<N>"),
     ],
 )
 def test_planner_hints_name_forms_that_plan_accepts(argv: list[str], wanted: str, unwanted: str,
@@ -159,7 +164,8 @@ def test_planner_hints_name_forms_that_plan_accepts(argv: list[str], wanted: str
 def test_evaluate_lists_the_planners_with_a_view_count(tmp_path: Path,
                                                        capsys: pytest.CaptureFixture) -> None:
     assert main(["evaluate", "--planners", "dijkstra", "--out", str(tmp_path / "out")]) == 2
-    assert "bscp<N> / optimum<N> / agent<N>" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert " / ".join(f"{name}<N>" for name in counted_planners()) in err and "bscp<N>" in err
 
 
 def test_a_warning_is_one_line_in_the_commands_name(monkeypatch: pytest.MonkeyPatch,
@@ -219,7 +225,8 @@ def test_help_names_the_registered_planners_and_stop_rules(
     text = " ".join(capsys.readouterr().out.split())  # as one line, whatever the wrapping
     assert f"--planner PLANNER {', '.join(planner_names())}: agent is" in text
     assert f"fixed number of views ({', '.join(counted_planners())})" in text
-    assert f"when to stop: {', '.join(stop_names())}; goal:" in text
+    assert f"when to stop: {', '.join(stop_names())}; agent: the agent's learned stop" in text
+    assert "goal: the simulator's stop at the coverage goal" in text
 
 
 def test_stop_study_and_error_run_with_the_studys_defaults(tmp_path: Path,

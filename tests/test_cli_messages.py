@@ -16,6 +16,7 @@ from vprobot.config import Config, parse_yaml
 from vprobot.episode import seeded_episode
 from vprobot.kinematics import FAILURE_REASONS, OUT_OF_REACH
 from vprobot.paths import DEFAULT_MOTOR, PROFILES_DIR
+from vprobot.stopping.rules import stop_names
 
 
 def _closed_port() -> int:
@@ -115,7 +116,7 @@ def test_teacher_needs_a_folder_and_a_profile_with_a_teacher(
      "'99999999999999999999', which is too large"),
     (["plan", "--stop", "views:²"],
      "vprobot plan: error: argument --stop: bad stop rule 'views:²': N must be an integer >= 1; "
-     "allowed: agent, estimate[:C] (0 < C < 1, default 0.95), goal, grid, views:N (N >= 1)"),
+     f"allowed: {', '.join(stop_names())}"),
 ], ids=["views", "agent-count", "uniform-count", "count", "stop-views-superscript"])
 def test_out_of_range_counts_say_what_is_allowed(argv: list[str], expected: str, tmp_path: Path,
                                                  capsys: pytest.CaptureFixture) -> None:

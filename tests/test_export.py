@@ -16,8 +16,7 @@ import pytest
 import yaml
 
 from vprobot.cli import main
-from vprobot.export import SUFFIXES
-from vprobot.export.formats import WRITERS, export_plan
+from vprobot.export.formats import FORMATS, export_plan
 from vprobot.paths import ROBOTS_DIR
 
 VIEWS = 10
@@ -211,18 +210,17 @@ def test_trajectory_json_holds_the_samples_and_the_sensor_pose_at_each_acquisiti
 
 def test_every_format_is_written_by_the_command(plan: Path, tmp_path: Path,
                                                 capsys: pytest.CaptureFixture) -> None:
-    assert WRITERS.keys() == SUFFIXES.keys()
-    for name, suffix in SUFFIXES.items():
-        out = tmp_path / f"out{suffix}"
+    for name, form in FORMATS.items():
+        out = tmp_path / f"out{form.suffix}"
         assert main(["export", str(plan), "--format", name, "--out", str(out)]) == 0
         assert out.stat().st_size > 0
-    assert capsys.readouterr().out.count("wrote ") == len(SUFFIXES)
+    assert capsys.readouterr().out.count("wrote ") == len(FORMATS)
 
 
 def test_a_10_view_plan_exports_every_format_with_each_acquisition(
         document: dict[str, Any]) -> None:
     # How long this takes is `vprobot benchmark motion`'s (export_10_views), not a test's.
-    texts = {name: export_plan(document, name) for name in SUFFIXES}
+    texts = {name: export_plan(document, name) for name in FORMATS}
     assert texts["urscript"].count("trigger_acquisition(") == VIEWS + 1  # the stub and each view
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from vprobot.geometry import rotation_angle
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.path import joint_path
 from vprobot.kinematics.travel import joint_path_length, joint_time, paper_travel
+from vprobot.paths import available_robots
 from vprobot.scene import Cell
 
 
@@ -235,8 +237,9 @@ def test_bad_configurations_are_rejected(arm: RobotArm) -> None:
 
 
 def test_unknown_robot_is_rejected() -> None:
-    with pytest.raises(ValueError, match=r"cell\.robot: unknown robot 'kuka': neither a bundled "
-                                         r"robot \(panda, ur10, ur5\) nor a robot folder"):
+    bundled = re.escape(", ".join(available_robots()))
+    with pytest.raises(ValueError, match=rf"cell\.robot: unknown robot 'kuka': neither a bundled "
+                                         rf"robot \({bundled}\) nor a robot folder"):
         Cell(dataclasses.replace(Config(), cell=CellConfig(robot="kuka")))
 
 

@@ -25,7 +25,13 @@ from vprobot.planners.hrec import BoxFacesPlanner
 from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.ordering import cost_matrix, order_views, path_cost
 from vprobot.planners.random_views import Random1Planner, Random2Planner
-from vprobot.planners.runner import make_planner, parse_planner, plan_motor, run_episode
+from vprobot.planners.runner import (
+    counted_planners,
+    make_planner,
+    parse_planner,
+    plan_motor,
+    run_episode,
+)
 from vprobot.planners.visibility import VisibilityRenderer
 from vprobot.scene import Cell
 from vprobot.sensing import IDEAL
@@ -300,7 +306,8 @@ def test_predicted_visibility_follows_the_structured_light_limits() -> None:
     ("call", "message"),
     [
         (lambda: make_planner("astar", CONFIG), "unknown planner 'astar'"),
-        (lambda: make_planner("hrec", CONFIG, views=4), "applies to bscp, optimum, agent only"),
+        (lambda: make_planner("hrec", CONFIG, views=4),
+         f"applies to {', '.join(counted_planners())} only, not to 'hrec'"),
         (lambda: parse_planner("bscp0"), "unknown planner 'bscp0'"),
         (lambda: SetCoverPlanner(views=0), "views must lie in 1..100"),
         (lambda: SetCoverPlanner(goal=1.5), "goal must lie in (0, 1]"),

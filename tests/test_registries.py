@@ -4,6 +4,7 @@ run through the same config and CLI paths as the bundled ones, with no edit else
 from __future__ import annotations
 
 import csv
+import re
 import sys
 import types
 from collections.abc import Iterator
@@ -25,7 +26,7 @@ from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.base import PLANNERS, PlanPlanner, register_planner
-from vprobot.planners.runner import make_planner, planner_names
+from vprobot.planners.runner import evaluated_planners, make_planner, planner_names
 from vprobot.registry import Registry, UnknownNameError
 
 
@@ -139,6 +140,20 @@ def test_a_registry_imports_the_modules_of_its_package_when_first_read(
         monkeypatch.delitem(sys.modules, module)
 
 
+def test_a_bundled_module_that_fails_to_import_fails_every_read_of_its_registry(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    package = tmp_path / "broken_widgets"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "bad.py").write_text("raise ImportError('bad widget')")
+    widgets: Registry[int] = Registry("widget", package="broken_widgets")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for _ in range(2):
+        with pytest.raises(ImportError, match="bad widget"):
+            list(widgets)
+    monkeypatch.delitem(sys.modules, "broken_widgets")
+
+
 def test_a_planner_registered_elsewhere_is_built_by_name_and_evaluated(
         toy_planner: type[TopViews], tmp_path: Path) -> None:
     assert "toy<k>" in planner_names()
@@ -155,13 +170,24 @@ def test_a_planner_registered_elsewhere_is_built_by_name_and_evaluated(
     assert 0.0 < float(row["coverage_pct"]) < 100.0
 
 
-def test_planners_are_listed_in_the_bundled_order_whichever_registered_first() -> None:
+def test_planners_are_listed_in_name_order_whichever_registered_first() -> None:
     # The planners' modules register when first imported, which one first depends on the
     # caller (the stop rules import nbv); register nbv again last.
     PLANNERS.register("nbv", PLANNERS.unregister("nbv"))
-    assert list(PLANNERS)[-1] == "nbv"
-    assert planner_names() == ["bscp", "hrec", "oracle", "optimum", "random1", "random2",
-                               "agent, agent:NAME, agent:PATH", "nbv", "uniform<k>"]
+    names = planner_names()
+    assert names.index("nbv") < names.index("uniform<k>")
+    assert names == [PLANNERS[name].usage or name for name in sorted(PLANNERS)]
+
+
+def test_evaluates_default_planners_are_what_each_planner_declares_in_name_order() -> None:
+    # From the planner classes themselves: B_SCP with 4 and 5 views, nbv stopping at the grid,
+    # not the exact optimum (minutes per episode), which is a B_SCP subclass.
+    defaults = evaluated_planners()
+    assert {"bscp", "bscp4", "bscp5", "nbv@grid", "uniform5", "random2"} <= set(defaults)
+    assert "optimum" not in defaults and len(set(defaults)) == len(defaults)
+    owners = [next(name for name in sorted(PLANNERS, key=len, reverse=True)
+                   if default.startswith(name)) for default in defaults]
+    assert owners == sorted(owners)
 
 
 def test_after_unregistering_the_planner_is_unknown(tmp_path: Path) -> None:
@@ -189,6 +215,6 @@ def test_an_unregistered_encoder_is_refused_with_the_registered_names_where_the_
     path.write_text("agent: {encoder: toy}\n")
     # The config loads: it does not read the encoders, whose modules import torch.
     assert load_config(path).agent.encoder == "toy"
-    with pytest.raises(ConfigError, match=r"agent.encoder must be one of \[.*'pcn'.*\], got "
-                                          r"'toy'"):
+    with pytest.raises(ConfigError, match=re.escape(f"agent.encoder must be one of "
+                                                    f"{list(ENCODERS)}, got 'toy'")):
         profile_config(path)

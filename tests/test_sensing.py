@@ -31,6 +31,7 @@ from vprobot.coverage import CoverageTracker
 from vprobot.geometry import Pose
 from vprobot.ground_truth import _cache_key, inspectable_points
 from vprobot.occupancy import FREE, OCCUPIED, OccupancyGrid
+from vprobot.paths import available_sensors
 from vprobot.sensing import IDEAL, IdealSensing, StructuredLight
 from vprobot.sensor import LOSS_CAUSES, DepthSensor, FrameLosses
 from vprobot.sensor_model import SensorModel
@@ -479,11 +480,14 @@ def test_sensing_option_without_figures_is_one_line(capsys: pytest.CaptureFixtur
 
 def test_sensors_lists_each_presets_model_and_sources(capsys: pytest.CaptureFixture) -> None:
     assert main(["sensors"]) == 0
-    header, *rows = capsys.readouterr().out.splitlines()
+    header, *lines = capsys.readouterr().out.splitlines()
     assert "sensing" in header and "sources" in header
-    for row, name in zip(rows, ("paper", "phoxi_m", "zivid2plus_mr60"), strict=True):
-        assert row.startswith(name) and row.endswith(f"configs/sensors/{name}.yaml")
-        assert f" {DEFAULT_SENSING[name]} " in row
-    assert header.index("sensing") == rows[0].index("ideal") == rows[2].index("structured_light")
-    assert "350 mm, 70 / 70 deg, 0.062 mm at 0.788 m, 0.5 (theta / 90 deg)^4" in rows[1]
-    assert "150 mm" in rows[2] and "0.08 mm at 0.6 m" in rows[2]
+    rows = {line.split()[0]: line for line in lines}
+    assert list(rows) == available_sensors()
+    for name, sensing in DEFAULT_SENSING.items():
+        assert rows[name].endswith(f"configs/sensors/{name}.yaml")
+        assert f" {sensing} " in rows[name]
+    assert (header.index("sensing") == rows["paper"].index("ideal")
+            == rows["zivid2plus_mr60"].index("structured_light"))
+    assert "350 mm, 70 / 70 deg, 0.062 mm at 0.788 m, 0.5 (theta / 90 deg)^4" in rows["phoxi_m"]
+    assert "150 mm" in rows["zivid2plus_mr60"] and "0.08 mm at 0.6 m" in rows["zivid2plus_mr60"]

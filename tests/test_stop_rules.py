@@ -21,7 +21,7 @@ from vprobot.planners.runner import PLAN_RAN_OUT, run
 from vprobot.stop_studies.study import combinations, study_row
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, load_estimator
 from vprobot.stopping.features import FEATURES
-from vprobot.stopping.rules import make_stop_rule, parse_stop
+from vprobot.stopping.rules import make_stop_rule, parse_stop, stop_names
 from vprobot.stopping.rules.estimate import EstimateStop
 
 RESOLUTION = (107, 75)
@@ -50,7 +50,7 @@ def test_a_bad_stop_value_is_one_line_naming_it_and_what_is_allowed(
     assert exit_.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and problem in err
-    assert "allowed: agent, estimate[:C] (0 < C < 1, default 0.95), goal, grid, views:N" in err
+    assert f"allowed: {', '.join(stop_names())}\n" in err and "views:N (N >= 1)" in err
     assert not (tmp_path / "plan.json").exists()
 
 
@@ -158,8 +158,7 @@ def test_nbv_at_any_rule_stops_itself_by_that_rule(motor: MotorScene) -> None:
 
 
 @pytest.mark.parametrize(("planner", "problem"), [
-    ("nbv@foo", "nbv@foo: unknown stop rule 'foo'; allowed: agent, estimate[:C] (0 < C < 1, "
-                "default 0.95), goal, grid, views:N (N >= 1)"),
+    ("nbv@foo", f"nbv@foo: unknown stop rule 'foo'; allowed: {', '.join(stop_names())}\n"),
     ("nbv@views:0", "nbv@views:0: bad stop rule 'views:0': N must be an integer >= 1"),
     ("nbv@agent", "nbv@agent: stop rule 'agent' needs an agent planner"),
 ])

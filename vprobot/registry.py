@@ -78,10 +78,16 @@ class Registry(Mapping[str, T], Generic[T]):
         # Set first: a module imported here may read the registry while it registers.
         self._discovered = True
         assert self.package is not None
-        folder = importlib.import_module(self.package).__path__
-        for module in sorted(info.name for info in pkgutil.iter_modules(folder)):
-            if not module.startswith("_"):
-                importlib.import_module(f"{self.package}.{module}")
+        try:
+            folder = importlib.import_module(self.package).__path__
+            for module in sorted(info.name for info in pkgutil.iter_modules(folder)):
+                if not module.startswith("_"):
+                    importlib.import_module(f"{self.package}.{module}")
+        except BaseException:
+            # A bundled module that fails to import must fail every read, not leave the
+            # registry silently short of its entries.
+            self._discovered = False
+            raise
 
     @property
     def _sorted(self) -> dict[str, T]:

@@ -25,9 +25,8 @@ from vprobot.episode import MotorScene
 from vprobot.episode.cycle import episode_moves
 from vprobot.episode.records import EpisodeRecord
 from vprobot.evaluation import held_out_motors
-from vprobot.export import SUFFIXES
 from vprobot.export.check import check_plan
-from vprobot.export.formats import export_plan
+from vprobot.export.formats import FORMATS, export_plan
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlanner
 from vprobot.kinematics.survey import view_sphere_targets
@@ -110,10 +109,10 @@ def time_export(document: dict[str, Any], repeats: int = EXPORT_REPEATS) -> dict
         -> median seconds of that format alone).
     """
     totals: list[float] = []
-    per_format: dict[str, list[float]] = {name: [] for name in SUFFIXES}
+    per_format: dict[str, list[float]] = {name: [] for name in FORMATS}
     for _ in range(repeats):
         begin = time.perf_counter()
-        for name in SUFFIXES:
+        for name in FORMATS:
             start = time.perf_counter()
             export_plan(document, name)
             per_format[name].append(time.perf_counter() - start)

@@ -178,14 +178,13 @@ def add_stop(sub: argparse.ArgumentParser,
     is not given (a default that only a heavy module knows)."""
 
     def help_text() -> str:
-        from vprobot.stopping.rules import stop_names
+        from vprobot.stopping.rules import STOPS, stop_names
 
         rules = many() if callable(many) else many
+        described = [f"{name}: {cls.description}" for name, cls in STOPS.items()
+                     if cls.description]
         return (f"when to stop{'' if rules is None else ' (each rule in turn)'}: "
-                f"{', '.join(stop_names())}; goal: the simulator's stop at the "
-                f"coverage goal, estimate: the model-free coverage estimate reaches it "
-                f"with confidence C, grid: the seen surface stops growing, views:N: "
-                f"after N acquisitions, agent: the agent's learned stop action "
+                f"{', '.join(stop_names())}; {', '.join(described)} "
                 f"(docs/planners.md#stop-rules); default: "
                 f"{'goal' if rules is None else ' '.join(rules)}")
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from vprobot.cli.common import POSITIVE_FLOAT, Commands, add, config_of
-from vprobot.export import CHECK_DT_S, EXPORT_DT_S, SUFFIXES
+from vprobot.cli.common import POSITIVE_FLOAT, Commands, LateHelp, add, config_of
+from vprobot.export import CHECK_DT_S, EXPORT_DT_S
 from vprobot.outputs import check_output_file
 
 
@@ -15,12 +15,28 @@ def add_export(commands: Commands) -> None:
                  "sampled trajectory (JSON, CSV), a URScript program or a ROS 2 JointTrajectory.",
                  config=False)
     export.add_argument("plan", help="plan JSON of `vprobot plan --out` (docs/plan-format.md)")
-    export.add_argument("--format", required=True, choices=list(SUFFIXES),
-                        help="trajectory (.json), csv (.csv), urscript (.script, UR robots) or "
-                        "ros2 (.yaml) (docs/motion.md#export)")
+    export.add_argument("--format", required=True, type=_format_name,
+                        help=LateHelp(_formats_help))
     export.add_argument("--out", required=True, help="file to write, with the format's suffix")
     export.add_argument("--dt", type=POSITIVE_FLOAT, default=EXPORT_DT_S,
                         help=f"sampling step of the trajectory (s; default {EXPORT_DT_S})")
+
+
+def _format_name(text: str) -> str:
+    """An argparse type: a registered export format."""
+    from vprobot.export.formats import FORMATS
+
+    try:
+        return FORMATS[text].name
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _formats_help() -> str:
+    from vprobot.export.formats import FORMATS
+
+    formats = [f"{name} ({form.suffix}): {form.description}" for name, form in FORMATS.items()]
+    return f"{'; '.join(formats)} (docs/motion.md#export)"
 
 
 def add_check(commands: Commands) -> None:
@@ -34,11 +50,11 @@ def add_check(commands: Commands) -> None:
 
 def command_export(args: argparse.Namespace) -> int:
     """Write a plan's motion as a trajectory, a CSV, a URScript program or a ROS 2 message."""
-    from vprobot.export.formats import export_plan
+    from vprobot.export.formats import FORMATS, export_plan
     from vprobot.files import write_text
     from vprobot.render.replay import read_plan
 
-    check_output_file(args.out, "--out", (SUFFIXES[args.format],))
+    check_output_file(args.out, "--out", (FORMATS[args.format].suffix,))
     if Path(args.out).resolve() == Path(args.plan).resolve():
         raise ValueError(f"--out {args.out} is the plan itself; give another file")
     text = export_plan(read_plan(args.plan), args.format, args.dt)

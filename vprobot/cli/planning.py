@@ -25,9 +25,6 @@ from vprobot.outputs import check_output_file, check_output_folder
 VIDEO_SUFFIXES = (".mp4", ".gif")
 PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
 """Options that choose what `plan` or `render` plans; a replayed `--plan` fixes them all."""
-EVALUATED_PLANNERS = ("random1", "random2", "uniform4", "uniform5", "uniform6", "nbv", "nbv@grid",
-                      "agent", "hrec", "bscp", "bscp4", "bscp5", "oracle")
-"""What `evaluate` compares by default: every planner, the model-free ones first."""
 
 
 def _planner_help() -> str:
@@ -37,6 +34,16 @@ def _planner_help() -> str:
             f"agent, agent:NAME another bundled one (cpu: motors only), "
             f"agent:PATH a training run or model .zip, nbv@RULE nbv "
             f"stopping itself by a --stop rule (nbv@grid); default: bscp")
+
+
+def _planners_help() -> str:
+    from vprobot.planners.runner import counted_planners, evaluated_planners, planner_names
+
+    return (f"planner names: {', '.join(planner_names())}; uniform<k>: k fixed views, "
+            f"{' / '.join(f'{name}<N>' for name in counted_planners())} with N views, nbv:GAIN "
+            f"nbv ranking by another gain, nbv@RULE nbv stopping itself by a --stop rule, "
+            f"agent:NAME another bundled agent (e.g. agent:cpu, motors only), agent:PATH a "
+            f"training run or model .zip; default: {' '.join(evaluated_planners())}")
 
 
 def _views_help() -> str:
@@ -88,13 +95,7 @@ def add_evaluate(commands: Commands) -> None:
     evaluation = add(commands, "evaluate", command_evaluate,
                      "Compare planners on a fixed episode list (default: the test motors).")
     add_robot(evaluation)
-    evaluation.add_argument("--planners", nargs="+", default=list(EVALUATED_PLANNERS),
-        help="planner names: uniform<k> (k fixed views), nbv (volumetric next-best view; "
-        "nbv:GAIN ranks by another gain, nbv@RULE stops itself by a --stop rule), bscp<N> / "
-        "agent<N> for B_SCP / the bundled agent with N views, agent (the bundled agent), "
-        "agent:NAME (another bundled one, e.g. agent:cpu, motors only) or agent:PATH (a "
-        "training run or model .zip); default: the model-free planners, then the model-based "
-        "ones")
+    evaluation.add_argument("--planners", nargs="+", help=LateHelp(_planners_help))
     evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
                             "the test motors; shapes-v1: the non-motor objects) or a JSON file "
                             "as written into --out; default: test-v1")
@@ -201,13 +202,14 @@ def command_evaluate(args: argparse.Namespace) -> int:
     """Compare planners on one episode list; write evaluation.md, .csv, episodes.json and the
     coverage curves plot."""
     from vprobot.evaluation import EPISODES_NAME, PLOT_NAME, evaluate, evaluation_episodes
+    from vprobot.planners.runner import evaluated_planners
 
     check_output_folder(args.out, "--out")
     config = config_of(args)
     specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
-    evaluate(config, args.planners, specs, args.out, progress=True, carriers=args.carriers,
-             workers=args.workers, address=args.address, stops=args.stop,
-             estimator=args.estimator)
+    evaluate(config, args.planners or evaluated_planners(), specs, args.out, progress=True,
+             carriers=args.carriers, workers=args.workers, address=args.address,
+             stops=args.stop, estimator=args.estimator)
     print((Path(args.out) / "evaluation.md").read_text())
     print(f"coverage curves: {Path(args.out) / PLOT_NAME}")
     with (Path(args.out) / EPISODES_NAME).open(newline="") as stream:

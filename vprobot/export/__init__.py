@@ -1,14 +1,13 @@
 """Programs and trajectories a cell runs, made from a plan JSON, and the replay check that
 holds them to the cell's limits (docs/motion.md#export).
 
-One file per format (`trajectory`, `urscript`, `ros2`), `formats.export_plan` writes any of
-them; this module holds only what the command line needs before it runs one (no heavy imports).
+One module per format in `formats`, registered in `formats.FORMATS`; `formats.export_plan`
+writes any of them. This module holds only what the command line needs before it runs one (no
+heavy imports).
 """
 
 from __future__ import annotations
 
-SUFFIXES = {"trajectory": ".json", "csv": ".csv", "urscript": ".script", "ros2": ".yaml"}
-"""The export formats and their file suffixes."""
 EXPORT_DT_S = 0.008
 """Default sampling step of the exported trajectories (s): 125 Hz, the rate of the UR's
 controller and a common one of ROS 2 controllers."""

@@ -110,8 +110,9 @@ class PartFamily(abc.ABC):
         return Instance(self.name, seed, values, mesh)
 
 
-FAMILIES: Registry[PartFamily] = Registry("part family")
-"""Every family by name (one instance each), in registration order."""
+FAMILIES: Registry[PartFamily] = Registry("part family", package="vprobot.families")
+"""Every family by name (one instance each), in name order: the bundled ones (the modules of
+this package) and those of plugins."""
 
 F = TypeVar("F", bound=type[PartFamily])
 

@@ -1,9 +1,10 @@
 """View planners behind one interface: random agents, H_rec, B_SCP, uniform views, NBV, an agent
 and a greedy oracle.
 
-`base` holds the interface and the registry `PLANNERS`; `runner` registers the bundled planners
-(by importing their modules), builds planners by name (`make_planner`), plays one episode of a
-planner (`run`) and plans one motor end to end (`plan_motor`, the `vprobot plan` job).
+`base` holds the interface and the registry `PLANNERS`, which imports every module of this
+package when first read, so that a bundled planner is one module that registers itself;
+`runner` builds planners by name (`make_planner`), plays one episode of a planner (`run`) and
+plans one motor end to end (`plan_motor`, the `vprobot plan` job).
 
 The package imports none of its modules, so that importing one (`base`, `candidates`) does not
 import every planner.

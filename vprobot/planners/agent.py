@@ -41,6 +41,7 @@ class AgentPlanner(Planner):
     pattern = r"(?::(?P<source>.+))?"
     usage = "agent, agent:NAME, agent:PATH"
     counted = True
+    evaluated = ("agent",)
     initial_view = True
 
     def __init__(self, source: str | Path | None = None, views: int | None = None):

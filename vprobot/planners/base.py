@@ -5,8 +5,9 @@ free-flying sensor, `vprobot.episode`) until it returns None or the runner stops
 goal, view budget); planners that compute a whole plan up front (`PlanPlanner`) hand it out
 view by view.
 
-Every planner registers its class in `PLANNERS` under its `name` (`register_planner`); the
-runner builds planners by name from there (`vprobot.planners.runner.make_planner`).
+Every planner registers its class in `PLANNERS` under its `name` (`register_planner`): a bundled
+one is a module of this package, which the registry imports when first read; the runner builds
+planners by name from there (`vprobot.planners.runner.make_planner`).
 """
 
 from __future__ import annotations
@@ -64,6 +65,8 @@ class Planner(abc.ABC):
             `uniform12`); empty: the bare name only.
         usage: The planner name as messages list it (`uniform<k>`); empty: `name`.
         counted: Whether a fixed number of views may be given (`bscp5`, `--views 5`).
+        evaluated: The names of it that `vprobot evaluate` runs by default (`uniform4`,
+            `uniform5`, `uniform6`); empty: none.
         initial_view: Whether the episode starts with the environment's fixed initial view, as
             the next-best-view agents of the paper do (whole-plan baselines do not).
         stops_at_goal: Whether the runner stops at the coverage goal (a fixed plan runs out).
@@ -79,6 +82,7 @@ class Planner(abc.ABC):
     pattern: ClassVar[str] = ""
     usage: ClassVar[str] = ""
     counted: ClassVar[bool] = False
+    evaluated: ClassVar[tuple[str, ...]] = ()
     initial_view: ClassVar[bool] = False
     stops_at_goal: bool = True
     decides_stop: bool = False
@@ -118,8 +122,9 @@ class PlanPlanner(Planner):
         return self._queue.pop(0) if self._queue else None
 
 
-PLANNERS: Registry[type[Planner]] = Registry("planner")
-"""Every planner class by name, in registration order."""
+PLANNERS: Registry[type[Planner]] = Registry("planner", package="vprobot.planners")
+"""Every planner class by name, in name order: the bundled ones (the modules of this package)
+and those of plugins."""
 
 register_planner = PLANNERS.register_named
 """Class decorator: registers a planner under its `name`."""

@@ -13,6 +13,8 @@ view on the measured coverage until the goal or the view budget is reached.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
 from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
@@ -48,6 +50,7 @@ class SetCoverPlanner(PlanPlanner):
 
     name = "bscp"
     counted = True
+    evaluated: ClassVar[tuple[str, ...]] = ("bscp", "bscp4", "bscp5")
 
     def __init__(self, views: int | None = None, goal: float = 0.9, max_views: int = 10,
                  candidate_count: int = CANDIDATE_COUNT,

@@ -36,6 +36,7 @@ class BoxFacesPlanner(PlanPlanner):
     """H_rec: six bounding-box face views."""
 
     name = "hrec"
+    evaluated = ("hrec",)
     stops_at_goal = False
 
     def plan(self, episode: Episode) -> list[ViewRequest]:

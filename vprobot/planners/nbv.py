@@ -63,6 +63,7 @@ class VolumetricPlanner(Planner):
 
     name = "nbv"
     pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>.+))?"
+    evaluated = ("nbv", "nbv@grid")
     initial_view = True
 
     def __init__(self, config: Config, gain: Gain = DEFAULT_GAIN, stop: str = "goal",

@@ -355,6 +355,7 @@ class OptimumPlanner(SetCoverPlanner):
     """
 
     name = "optimum"
+    evaluated = ()  # minutes per episode: asked for by name (and not B_SCP's)
 
     def __init__(self, views: int | None = None, goal: float = 0.9, max_views: int = 10,
                  candidate_count: int = CANDIDATE_COUNT,

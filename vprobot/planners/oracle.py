@@ -27,6 +27,7 @@ class OraclePlanner(Planner):
     """
 
     name = "oracle"
+    evaluated = ("oracle",)
     initial_view = True
 
     def __init__(self, candidate_count: int = CANDIDATE_COUNT,

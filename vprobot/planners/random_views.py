@@ -48,6 +48,7 @@ class Random1Planner(RandomPlanner):
     """NBV1^rand: A_3S2R, npk radius, absolute orientation."""
 
     name = "random1"
+    evaluated = ("random1",)
 
     def __init__(self, config: Config):
         env = dataclasses.replace(config.env, action="A_3S2R", position_mapping="npk")
@@ -63,6 +64,7 @@ class Random2Planner(RandomPlanner):
     """NBV2^rand: A_3S0R looking at the centre, radius over the sensor's range."""
 
     name = "random2"
+    evaluated = ("random2",)
 
     def __init__(self, config: Config):
         sensor = config.sensor

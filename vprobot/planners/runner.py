@@ -27,39 +27,33 @@ from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
-from vprobot.planners import agent, bscp, hrec, nbv, optimum, oracle, random_views, uniform
 from vprobot.planners.base import PLANNERS, Planner, Proof, check_views
 from vprobot.planners.candidates import CandidateViews
 from vprobot.stopping.estimator import load_estimator
 from vprobot.stopping.rules import StopRule, make_stop_rule
 from vprobot.stopping.rules.estimate import view_estimates
 
-BUNDLED_PLANNERS = (bscp, hrec, oracle, optimum, random_views, agent, nbv, uniform)
-"""The bundled planner modules, which register their planners in `PLANNERS` when imported, in
-the order in which messages and listings name their planners."""
-
-
-def _planners() -> list[tuple[str, type[Planner]]]:
-    """The registered planners: the bundled ones in `BUNDLED_PLANNERS` order (whichever of their
-    modules was imported first), then the others in registration order."""
-    rank = {module.__name__: index for index, module in enumerate(BUNDLED_PLANNERS)}
-    return sorted(PLANNERS.items(), key=lambda item: rank.get(item[1].__module__, len(rank)))
-
 
 def planner_names() -> list[str]:
-    """The planners as messages list them (`uniform<k>` stands for uniform1, uniform2, ...: k
-    fixed views)."""
-    return [cls.usage or name for name, cls in _planners()]
+    """The planners as messages list them, in name order (`uniform<k>` stands for uniform1,
+    uniform2, ...: k fixed views)."""
+    return [cls.usage or name for name, cls in PLANNERS.items()]
 
 
 def counted_planners() -> list[str]:
     """The planners that take a fixed number of views (`bscp5`, `--views 5`)."""
-    return [name for name, cls in _planners() if cls.counted]
+    return [name for name, cls in PLANNERS.items() if cls.counted]
+
+
+def evaluated_planners() -> list[str]:
+    """What `vprobot evaluate` runs by default: each planner's `evaluated` names, in the
+    planners' name order."""
+    return list(dict.fromkeys(name for cls in PLANNERS.values() for name in cls.evaluated))
 
 
 def _match(name: str) -> tuple[type[Planner], dict[str, str]] | None:
     """The planner class a name (without a view count) selects and its pattern's groups."""
-    for registered, cls in _planners():
+    for registered, cls in PLANNERS.items():
         match = re.fullmatch(re.escape(registered) + cls.pattern, name)
         if match is not None:
             return cls, {key: value for key, value in match.groupdict().items()

@@ -172,6 +172,7 @@ class UniformPlanner(PlanPlanner):
     name = "uniform"
     pattern = r"(?P<count>[1-9]\d*)"
     usage = "uniform<k>"
+    evaluated = ("uniform4", "uniform5", "uniform6")
     stops_at_goal = False
 
     def __init__(self, config: Config, count: int):

@@ -3,9 +3,10 @@
 `goal` is the simulator's stop at the coverage goal (the default); `estimate` stops when the
 model-free coverage estimate says the goal is reached with a chosen confidence; `grid` when the
 surface seen stops growing; `views:N` after N acquisitions; `agent` leaves it to an agent's
-learned stop action. One module per rule, registered in `STOPS` (`base`); the runner asks the
-rule before each request (`vprobot.planners.runner`), and `nbv@RULE` asks its rule itself
-before each view (`vprobot.planners.nbv`).
+learned stop action. One module per rule, registered in `STOPS` (`base`), which imports every
+module of this package when first read; the runner asks the rule before each request
+(`vprobot.planners.runner`), and `nbv@RULE` asks its rule itself before each view
+(`vprobot.planners.nbv`).
 """
 
 from __future__ import annotations
@@ -15,16 +16,13 @@ from pathlib import Path
 from typing import Any
 
 from vprobot.config import Config
-
-# The rule modules register themselves in STOPS when imported.
-from vprobot.stopping.rules import agent, estimate, goal, grid, views  # noqa: F401
 from vprobot.stopping.rules.base import STOPS, StopRule, register_stop
 
 __all__ = ["STOPS", "StopRule", "make_stop_rule", "parse_stop", "register_stop", "stop_names"]
 
 
 def stop_names() -> list[str]:
-    """The stop rules as messages list them, in registration order."""
+    """The stop rules as messages list them, in name order."""
     return [cls.usage or name for name, cls in STOPS.items()]
 
 

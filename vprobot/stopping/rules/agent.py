@@ -16,6 +16,7 @@ class AgentStop(StopRule):
     """Leaves stopping to the agent's stop action; the runner still stops at the view budget."""
 
     name = "agent"
+    description = "the agent's learned stop action"
 
     def applies_to(self, planner: Planner) -> bool:
         return planner.decides_stop

@@ -30,11 +30,13 @@ class StopRule(abc.ABC):
         pattern: What may follow `name`, a regular expression whose named groups are passed to
             `options` (`views` takes `:(?P<count>.*)`: `views:5`); empty: the bare name only.
         usage: The rule as messages list it (`views:N (N >= 1)`); empty: `name`.
+        description: When it stops, for `--help` (`after N acquisitions`).
     """
 
     name: ClassVar[str]
     pattern: ClassVar[str] = ""
     usage: ClassVar[str] = ""
+    description: ClassVar[str] = ""
 
     @classmethod
     def options(cls, **groups: str) -> dict[str, Any]:
@@ -82,8 +84,9 @@ class StopRule(abc.ABC):
         by `nbv@RULE` before each of its views)."""
 
 
-STOPS: Registry[type[StopRule]] = Registry("stop rule")
-"""Every stop rule class by name, in registration order."""
+STOPS: Registry[type[StopRule]] = Registry("stop rule", package="vprobot.stopping.rules")
+"""Every stop rule class by name, in name order: the bundled ones (the modules of this package)
+and those of plugins."""
 
 register_stop = STOPS.register_named
 """Class decorator: registers a stop rule under its `name`."""

@@ -49,6 +49,7 @@ class EstimateStop(StopRule):
     name = "estimate"
     pattern = r"(?::(?P<confidence>.*))?"
     usage = f"estimate[:C] (0 < C < 1, default {DEFAULT_CONFIDENCE})"
+    description = "the model-free coverage estimate reaches the goal with confidence C"
 
     def __init__(self, config: Config, estimator: CoverageEstimator,
                  confidence: float = DEFAULT_CONFIDENCE):

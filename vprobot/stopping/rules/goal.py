@@ -21,6 +21,7 @@ class GoalStop(StopRule):
     action) keeps doing so, as before there were stop rules."""
 
     name = "goal"
+    description = "the simulator's stop at the coverage goal"
 
     def __init__(self, goal: float):
         self.goal = goal

@@ -40,6 +40,7 @@ class GridStop(StopRule):
     latest informative frames each added too little to the occupied voxels."""
 
     name = "grid"
+    description = "the seen surface stops growing"
 
     def __init__(self, config: Config):
         self.grid = EpisodeGrid(config)

@@ -18,6 +18,7 @@ class ViewsStop(StopRule):
     name = "views"
     pattern = r"(?::(?P<count>.*))?"
     usage = "views:N (N >= 1)"
+    description = "after N acquisitions"
 
     def __init__(self, count: int):
         if count < 1:

@@ -1,4 +1,5 @@
-"""A ROS 2 `trajectory_msgs/msg/JointTrajectory` as YAML (docs/motion.md#ros-2).
+"""The export format `ros2`: a ROS 2 `trajectory_msgs/msg/JointTrajectory` as YAML
+(docs/motion.md#ros-2).
 
 The document is the message and nothing else (`header`, `joint_names`, `points` with
 `positions`, `velocities`, `accelerations` and `time_from_start`), so it can be published or
@@ -10,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from vprobot.export.formats.base import register_format
 from vprobot.export.motion import PlanMotion
-from vprobot.kinematics.trajectory import Trajectory
 
 NANOSECONDS = 1_000_000_000
 
@@ -25,8 +26,10 @@ def time_from_start(seconds: float) -> tuple[int, int]:
     return divmod(round(seconds * NANOSECONDS), NANOSECONDS)
 
 
-def joint_trajectory_yaml(motion: PlanMotion, samples: Trajectory) -> str:
-    """The sampled trajectory as a JointTrajectory message in YAML."""
+@register_format("ros2", ".yaml", "a ROS 2 JointTrajectory message as YAML")
+def joint_trajectory_yaml(motion: PlanMotion, dt: float) -> str:
+    """The trajectory sampled every `dt` s as a JointTrajectory message in YAML."""
+    samples = motion.timed.sample(dt)
     starts = {start_s: index for index, (start_s, _, _) in enumerate(samples.acquisitions)}
     lines = [f"# vprobot inspection trajectory for the {motion.robot}: "
              f"{len(motion.stops)} acquisitions, cycle time {motion.timed.cycle.total_s:.3f} s",

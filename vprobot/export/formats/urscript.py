@@ -1,4 +1,5 @@
-"""A URScript program for Universal Robots arms (docs/motion.md#urscript).
+"""The export format `urscript`: a URScript program for Universal Robots arms
+(docs/motion.md#urscript).
 
 One `movej` per straight segment of every move: UR's `movej` moves the joints linearly in joint
 space, all arriving together, with a trapezoidal speed profile whose acceleration `a` and speed
@@ -18,6 +19,7 @@ import math
 
 import numpy as np
 
+from vprobot.export.formats.base import register_format
 from vprobot.export.motion import PlanMotion, ViewStop, require_ur
 from vprobot.kinematics.trajectory import Segment
 
@@ -52,9 +54,11 @@ def _acquire(stop: ViewStop, count: int, total: int, time_s: float) -> list[str]
             f"  {TRIGGER}({stop.view})", f"  sleep({time_s!r})"]
 
 
-def urscript(motion: PlanMotion) -> str:
+@register_format("urscript", ".script", "a URScript program (UR robots)")
+def urscript(motion: PlanMotion, dt: float) -> str:
     """The program: `def inspection():` with the moves, an acquisition call and a stop of the
-    acquisition time at every view.
+    acquisition time at every view. `dt` is not used: the controller times each segment
+    itself, so the program sends segments, not samples.
 
     Raises:
         ValueError: If the robot is not a Universal Robots arm.

@@ -1,0 +1,60 @@
+"""What an export format is, and the registry of them (docs/motion.md#export)."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+from vprobot.export import EXPORT_DT_S
+from vprobot.export.motion import PlanMotion, plan_motion
+from vprobot.registry import Registry
+
+Writer = Callable[[PlanMotion, float], str]
+"""A format's writer: the plan's motion and the sampling step (s) -> the file's text."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ExportFormat:
+    """One file format a plan's motion is written in.
+
+    Attributes:
+        name: Its name in `FORMATS` (`vprobot export --format NAME`).
+        suffix: The suffix the output file must have (`.json`).
+        description: What the file is, for `vprobot export --help`.
+        write: Its writer.
+    """
+
+    name: str
+    suffix: str
+    description: str
+    write: Writer
+
+
+FORMATS: Registry[ExportFormat] = Registry("export format", package="vprobot.export.formats")
+"""Every export format by name, in name order: the bundled ones (the modules of this package)
+and those of plugins."""
+
+
+def register_format(name: str, suffix: str, description: str) -> Callable[[Writer], Writer]:
+    """Function decorator: registers the writer it decorates as the format `name`.
+
+    Raises:
+        ValueError: If a format of that name is already registered.
+    """
+
+    def register(write: Writer) -> Writer:
+        FORMATS.register_named(ExportFormat(name, suffix, description, write))
+        return write
+
+    return register
+
+
+def export_plan(document: dict[str, Any], format_name: str, dt: float = EXPORT_DT_S) -> str:
+    """The text of a plan's motion in one format.
+
+    Raises:
+        ValueError: For an unknown format, a plan that has no robot cycle to export
+            (`plan_motion`), a non-UR robot asked for URScript, or a step that is not > 0.
+    """
+    return FORMATS[format_name].write(plan_motion(document), dt)
