@@ -109,7 +109,8 @@ def test_the_estimate_rule_stops_when_mean_minus_z_std_reaches_the_goal(
         vector[FEATURES.index("acquired")] = sum(view.acquired for view in views)
         return vector
 
-    rule.features = types.SimpleNamespace(update=features, reset=lambda: None)  # type: ignore
+    rule.features = types.SimpleNamespace(  # type: ignore[assignment]
+        update=features, reset=lambda: None, read=lambda episode: None)
     view = types.SimpleNamespace(acquired=True)
     reason = rule.check(types.SimpleNamespace(views=[view]))  # type: ignore[arg-type]
     assert (reason is not None) == stops
