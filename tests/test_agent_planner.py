@@ -243,3 +243,20 @@ def test_an_agent_asked_to_plan_with_another_sensor_says_which_it_was_trained_wi
                                           structured_light=dataclasses.asdict(sensor_preset(
                                               "zivid2plus_mr60").structured_light)))
     assert isinstance(make_planner("agent:cpu", CONFIG), AgentPlanner)
+
+
+def test_an_s_grid_agent_refuses_a_cell_whose_grid_is_not_the_one_it_was_trained_in() -> None:
+    """The agent's state reads an occupancy grid placed by the cell (where it puts the object,
+    how large an object it takes); the planner used to place it silently by the agent's own
+    cell. Another cell is refused, naming both grids; an `s_cov` agent reads no grid and plans
+    in it."""
+    from vprobot.config import replace
+    from vprobot.planners.runner import make_planner
+
+    moved = replace(CONFIG, "cell", object_center_m=(0.5, 0.0, 0.75))
+    with pytest.raises(ValueError, match=r"agent generalist reads the occupancy grid of the cell "
+                                         r"it was trained in, a cube about \(0.45, 0, 0.75\) m "
+                                         r"with a half edge of 0.189 m; this run's cell gives a "
+                                         r"cube about \(0.5, 0, 0.75\) m .*cell.object_center_m"):
+        make_planner("agent:generalist", moved)
+    assert isinstance(make_planner("agent:cpu", moved), AgentPlanner)

@@ -20,9 +20,12 @@ from vprobot.episode import (
 )
 from vprobot.episode.specs import FALLBACK_INITIAL_VIEWS
 from vprobot.geometry import rotation_about_x, rotation_about_z
-from vprobot.kinematics import SensorTarget
+from vprobot.kinematics import SensorTarget, TravelCost
+from vprobot.occupancy import OCCUPIED, GridSettings, OccupancyGrid
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import run, summary
+from vprobot.sensor_model import SensorModel
+from vprobot.stopping.features import FEATURES, CoverageFeatures, episode_features
 
 CONFIG = Config()
 DIRECTIONS = [(0.0, 1.0), (2.0, 1.1), (4.0, 0.8), (1.0, 1.9)]
@@ -195,3 +198,75 @@ def test_a_robot_that_misses_the_spec_initial_view_starts_from_the_nearest_it_re
     taken = next(r for r in fallbacks if np.allclose(r.target.pose.position,
                                                      view.requested.position))
     assert view.acquired and direction(taken) @ direction(first) > np.cos(np.radians(60))
+
+
+def _travel_from_scratch(views: list) -> tuple[dict[str, float], dict[str, float]]:
+    """The approach (the move to the first acquisition) and k_cum (every move after it), summed
+    field by field over the views, as docs/states-actions-rewards.md#travel-costs defines them."""
+    names = [field.name for field in dataclasses.fields(TravelCost)]
+    approach = dict.fromkeys(names, 0.0)
+    total = dict.fromkeys(names, 0.0)
+    first = next((index for index, view in enumerate(views) if view.acquired), len(views))
+    for index, view in enumerate(views):
+        if index == first:
+            approach = {name: getattr(view.travel, name) for name in names}
+        elif index > first:
+            for name in names:
+                total[name] += getattr(view.travel, name)
+    return approach, total
+
+
+@pytest.mark.parametrize("carrier", ["robot", "free"])
+def test_the_running_travel_sums_equal_the_sums_over_the_views_from_scratch(
+        scene: MotorScene, carrier: str) -> None:
+    episode = Episode(scene, np.eye(3), carrier)
+    requests = _requests(episode)
+    # A request skipped before the first acquisition, and one skipped between acquisitions.
+    episode.skip(requests[0].target.pose, "collision")
+    seen = []
+    for request in (*requests, requests[1]):
+        episode.request(request)
+        if len(episode.views) == 3:
+            episode.skip(requests[2].target.pose, "collision")
+        seen.append((episode.approach.as_dict(), episode.travel_sum.as_dict()))
+        assert seen[-1] == _travel_from_scratch(episode.views)
+    assert seen[-1][1]["cartesian"] > 0.0
+
+
+def test_the_episodes_grid_after_each_view_and_its_features_are_those_integrated_from_scratch(
+        scene: MotorScene) -> None:
+    """The episode integrates each frame once and reads the grid after any earlier view back
+    from what each frame changed; the grid, the share of occupied voxels a frame added and the
+    share of its voxels that were new are those of a grid integrated here frame by frame, and
+    the coverage features read from it are those integrated afresh for each prefix."""
+    config = replace(CONFIG, "sensor", resolution=(107, 75))  # the scene's frames
+    episode = Episode(scene, np.eye(3), "free")
+    requests = _requests(episode)
+    episode.request(requests[0])
+    episode.skip(requests[1].target.pose, "collision")
+    for request in requests[1:]:
+        episode.request(request)
+    settings = GridSettings.of(config)
+    grid = episode.occupancy(settings)
+    assert episode.occupancy(settings) is grid
+    rows = episode_features(config, episode.views, grid)
+    sensor = SensorModel.from_config(config.sensor)
+    reference = OccupancyGrid.for_cell(config)
+    added, novel = [1.0, 1.0], 1.0
+    for count, view in enumerate(episode.views, start=1):
+        if view.acquired:
+            hits = np.unique(reference.flat_index(view.points_world))
+            hits = hits[hits >= 0]
+            before = reference.counts()["occupied"]
+            novel = (reference.state.reshape(-1)[hits] != OCCUPIED).sum() / max(len(hits), 1)
+            reference.integrate(sensor, view.sensor_pose, view.points_world, view.pixels,
+                                view.blocked_pixels)
+            after = reference.counts()["occupied"]
+            added = [added[1], (after - before) / max(after, 1)]
+        np.testing.assert_array_equal(grid.after(count).state, reference.state)
+        row = dict(zip(FEATURES, rows[count - 1], strict=True))
+        assert row["occupied"] == reference.counts()["occupied"] / reference.state.size
+        assert (row["added_before"], row["added_last"], row["novel_last"]) == (*added, novel)
+        np.testing.assert_array_equal(rows[count - 1],
+                                      CoverageFeatures(config).update(episode.views[:count]))
+    assert 0.0 < novel < 1.0 and 0.0 < added[1] < 1.0

@@ -18,7 +18,7 @@ from vprobot.env.grid_state import FEATURES, GridState
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import Episode
 from vprobot.geometry import Pose
-from vprobot.occupancy import GAINS, UNKNOWN_PASS, OccupancyGrid
+from vprobot.occupancy import GAINS, UNKNOWN_PASS, EpisodeGrid, OccupancyGrid
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.sensor_model import SensorModel
@@ -142,7 +142,7 @@ def test_the_features_are_the_brute_force_values_and_the_gains_of_an_independent
             grid.integrate(sensor, view.sensor_pose, view.points_world, view.pixels,
                            view.blocked_pixels)
     builder = env.observer.grid_state
-    np.testing.assert_array_equal(builder.episode_grid.grid.state, grid.state)
+    np.testing.assert_array_equal(episode.occupancy(builder.settings).grid.state, grid.state)
     # The candidates look at the centre from the working distance along their directions.
     poses = [target.pose for target in builder.band.targets]
     distance = CONFIG.sensor.working_distance_m
@@ -187,7 +187,8 @@ def test_the_mask_is_a_brute_force_angle_check_against_every_earlier_request() -
     views = [types.SimpleNamespace(requested=Pose(center + 0.47 * d, np.eye(3)), reachable=ok,
                                    sensor_pose=None)
              for d, ok in zip(requested, reached, strict=True)]
-    episode = types.SimpleNamespace(views=views, center=center, uses_robot=False, q=np.zeros(0))
+    episode = types.SimpleNamespace(views=views, center=center, uses_robot=False, q=np.zeros(0),
+                                    occupancy=EpisodeGrid)  # nothing acquired: all unknown
     observation = GridState(CONFIG).observe(episode)  # type: ignore[arg-type]
     expected = []
     for candidate in directions:
@@ -208,7 +209,8 @@ def test_when_every_candidate_is_masked_all_that_did_not_fail_are_offered() -> N
                                    reachable=index != 5, sensor_pose=None)
              for index, d in enumerate(directions)]
     # Free-flying: every candidate is reachable.
-    episode = types.SimpleNamespace(views=views, center=center, uses_robot=False, q=np.zeros(0))
+    episode = types.SimpleNamespace(views=views, center=center, uses_robot=False, q=np.zeros(0),
+                                    occupancy=EpisodeGrid)  # nothing acquired: all unknown
     observation = GridState(CONFIG).observe(episode)  # type: ignore[arg-type]
     expected = np.ones(len(directions))
     expected[5] = 0.0

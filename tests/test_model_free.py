@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import itertools
 import json
+import weakref
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +34,8 @@ from vprobot.occupancy import (
     UNKNOWN,
     UNKNOWN_PASS,
     VOXEL_M,
+    EpisodeGrid,
+    GridSettings,
     OccupancyGrid,
     ViewGains,
 )
@@ -82,14 +86,33 @@ class Guarded:
         raise AssertionError(f"the planner read {self._what}.{name}")
 
 
+_GRIDS: weakref.WeakKeyDictionary[Episode, dict[GridSettings, EpisodeGrid]] = (
+    weakref.WeakKeyDictionary())
+"""The grids of each guarded episode, kept from view to view as `Episode.occupancy` keeps them."""
+
+
+def guarded_occupancy(grids: dict[GridSettings, EpisodeGrid], views: list[Guarded]
+                      ) -> Callable[[GridSettings], EpisodeGrid]:
+    """`Episode.occupancy` of guarded views: the grid integrates what they measured, no more."""
+
+    def occupancy(settings: GridSettings) -> EpisodeGrid:
+        grid = grids.setdefault(settings, EpisodeGrid(settings))
+        grid.update(views)  # type: ignore[arg-type]
+        return grid
+
+    return occupancy
+
+
 def planner_view(episode: Episode) -> Guarded:
-    """The episode as a model-free planner may see it: the views' poses and points, the
-    robot's state and kinematics, the fixture's centre; no mesh, ground truth or coverage."""
+    """The episode as a model-free planner may see it: the views' poses and points (and the
+    episode's occupancy grid of them), the robot's state and kinematics, the fixture's centre;
+    no mesh, ground truth or coverage."""
     views = [Guarded("view", **{name: getattr(view, name) for name in VIEW_FIELDS})
              for view in episode.views]
     robot = ({"collisions": episode.robot.collisions, "path_is_free": episode.robot.path_is_free}
              if episode.uses_robot else {})
     return Guarded("episode", views=views, q=episode.q.copy(), center=episode.center.copy(),
+                   occupancy=guarded_occupancy(_GRIDS.setdefault(episode, {}), views),
                    uses_robot=episode.uses_robot,
                    scene=Guarded("scene", arm=episode.scene.arm),
                    robot=Guarded("robot", **robot))
@@ -210,8 +233,10 @@ def test_the_model_free_stop_rules_never_read_mesh_ground_truth_or_coverage(
     views = planner_view(guarded_run(make_planner("nbv", CONFIG), bracket, "robot")).views
     stop = make_stop_rule(rule, config)
     stop.reset()
-    decisions = [stop.check(Guarded("episode", views=views[:count]))  # type: ignore[arg-type]
-                 for count in range(len(views) + 1)]
+    grids: dict[GridSettings, EpisodeGrid] = {}
+    decisions = [stop.check(Guarded(  # type: ignore[arg-type]
+        "episode", views=views[:count], occupancy=guarded_occupancy(grids, views[:count])))
+        for count in range(len(views) + 1)]
     assert decisions[0] is None and any(decisions) == decides
 
 

@@ -9,13 +9,16 @@ import re
 import shutil
 import types
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from vprobot.agents.trained import TrainedAgent
 from vprobot.cli import main
 from vprobot.config import Config, replace
 from vprobot.episode import MotorScene, episode_list, seeded_episode, write_episode_list
+from vprobot.occupancy import OccupancyGrid
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, run
 from vprobot.stop_studies.study import combinations, study_row
@@ -109,7 +112,8 @@ def test_the_estimate_rule_stops_when_mean_minus_z_std_reaches_the_goal(
         vector[FEATURES.index("acquired")] = sum(view.acquired for view in views)
         return vector
 
-    rule.features = types.SimpleNamespace(update=features, reset=lambda: None)  # type: ignore
+    rule.features = types.SimpleNamespace(  # type: ignore[assignment]
+        update=features, reset=lambda: None, read=lambda episode: None)
     view = types.SimpleNamespace(acquired=True)
     reason = rule.check(types.SimpleNamespace(views=[view]))  # type: ignore[arg-type]
     assert (reason is not None) == stops
@@ -285,3 +289,35 @@ def test_estimate_takes_the_bundled_estimator_fitted_on_the_runs_sensor_and_sens
     ideal_zivid = replace(real, "sensor", sensing="ideal").sensor
     assert bundled_estimator(ideal_zivid) == BUNDLED_ESTIMATOR
     assert load_estimator(None, ideal_zivid).domain.sensor_mismatch(ideal_zivid) is not None
+
+
+class FirstOffered:
+    """An `s_grid` policy: the first candidate its mask offers."""
+
+    def predict(self, observation: dict[str, np.ndarray], deterministic: bool = True) -> tuple:
+        return np.array(int(np.argmax(observation["mask"]))), None
+
+
+@pytest.mark.parametrize(("planner", "stop"), [("agent:stub", "estimate"), ("nbv", "grid")])
+def test_every_frame_is_integrated_once_however_many_read_the_episodes_grid(
+        motor: MotorScene, planner: str, stop: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The `s_grid` agent's state or nbv, the rule and the estimate after each view each read
+    an occupancy grid of the same settings: the episode's, into which each acquired frame is
+    integrated once (each of them integrated every frame into its own before)."""
+    config = replace(CONFIG, "env", action="A_view", state="s_grid", max_acquisitions=4)
+    monkeypatch.setattr("vprobot.agents.trained.load_agent", lambda source: TrainedAgent(
+        model=FirstOffered(), config=config, path=Path("stub.zip")))  # type: ignore[arg-type]
+    integrated: list[int] = []
+    integrate = OccupancyGrid.integrate
+
+    def counting(grid: OccupancyGrid, sensor: Any, pose: Any, points_world: np.ndarray,
+                 *args: Any) -> None:
+        integrated.append(id(points_world))
+        integrate(grid, sensor, pose, points_world, *args)
+
+    monkeypatch.setattr(OccupancyGrid, "integrate", counting)
+    spec = seeded_episode(config.env, DEFAULT_MOTOR, 0)
+    result = run(config, motor, planner, spec, "free", stop=stop, estimates=True)
+    acquired = [id(view.points_world) for view in result.record.views if view.acquired]
+    assert len(acquired) >= 3 and result.estimates is not None
+    assert sorted(integrated) == sorted(acquired)

@@ -28,8 +28,10 @@ gain sums the visibility of the samples of one kind:
 - `frontier`: unknown voxels next to a free one (the border of the explored space);
 - `rear_side`: unknown voxels next to an occupied one (behind or beside seen surfaces).
 
-`EpisodeGrid` keeps the grid of one episode, integrating each acquired frame once: the `nbv`
-planner and the `s_grid` state of the environment both own one.
+`EpisodeGrid` keeps the grid of one episode, integrating each acquired frame once; the episode
+owns it (`vprobot.episode.Episode.occupancy`), so that the `nbv` planner, the `s_grid` state, the
+`grid` stop rule and the coverage estimate's features read one grid wherever their
+`GridSettings` agree.
 """
 
 from __future__ import annotations
@@ -354,44 +356,115 @@ class _SampleRuns:
         return sums.reshape(self._count, -1) @ self._counts
 
 
+@dataclasses.dataclass(frozen=True)
+class GridSettings:
+    """What an episode's grid depends on: where it stands, its voxel and the sensor whose frames
+    it integrates. Readers of one episode that give equal settings share its grid
+    (`vprobot.episode.Episode.occupancy`).
+
+    Attributes:
+        center: The centre of the grid's cube (world, m): where the cell places an object.
+        half_size_m: Half the cube's edge: the largest object the cell accepts (`fit_limit`).
+        voxel_m: Voxel edge (m).
+        sensor: The ray grid and range of the episode's frames.
+    """
+
+    center: tuple[float, float, float]
+    half_size_m: float
+    voxel_m: float
+    sensor: SensorModel
+
+    @classmethod
+    def of(cls, config: Config, resolution: tuple[int, int] | None = None,
+           voxel_m: float = VOXEL_M) -> GridSettings:
+        """The settings of the configured cell and sensor (at `resolution`: the frames', None
+        for the configured sensor's) with voxels of `voxel_m`."""
+        sensor = SensorModel.from_config(config.sensor)
+        center = np.asarray(config.cell.object_center_m, dtype=float)
+        return cls((float(center[0]), float(center[1]), float(center[2])),
+                   fit_limit(config).radius_m, voxel_m,
+                   sensor if resolution is None else sensor.at_resolution(resolution))
+
+    def new_grid(self) -> OccupancyGrid:
+        """An all-unknown grid of these settings (`OccupancyGrid.for_cell` of the config)."""
+        return OccupancyGrid.around(np.array(self.center), self.half_size_m, self.voxel_m)
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameChange:
+    """What integrating one acquired frame changed in an episode's grid.
+
+    Attributes:
+        changed: Flat indices of the voxels whose state it changed.
+        previous: Their states before it (int8).
+        novel: Voxels it made occupied: its points' voxels that were not occupied before.
+        occupied: Occupied voxels after it.
+        informative: Whether the cell did not mostly hide it (fewer blocked pixels than
+            points).
+    """
+
+    changed: np.ndarray
+    previous: np.ndarray
+    novel: int
+    occupied: int
+    informative: bool
+
+
 class EpisodeGrid:
-    """The occupancy grid of one episode, integrating each acquired frame of it once.
+    """The occupancy grid of one episode, integrating each acquired frame of it once and
+    keeping what each changed, so that the grid after any of its views can be read back.
 
     Args:
-        config: The cell (where the grid stands) and the sensor (its range and angles).
-        resolution: The resolution of the episode's frames; None for the configured sensor's.
-        voxel_m: Voxel edge of the grid.
+        settings: Where the grid stands, its voxel and the sensor of the frames.
 
     Attributes:
         grid: The grid of the frames integrated so far.
-        added: Per informative frame (one the cell did not mostly hide), the share of the
-            occupied voxels it added.
+        changes: Per view integrated so far, what its frame changed (None: none acquired).
     """
 
-    def __init__(self, config: Config, resolution: tuple[int, int] | None = None,
-                 voxel_m: float = VOXEL_M):
-        self.config = config
-        self.voxel_m = voxel_m
-        sensor = SensorModel.from_config(config.sensor)
-        self.sensor = sensor if resolution is None else sensor.at_resolution(resolution)
-        self.reset()
+    def __init__(self, settings: GridSettings):
+        self.settings = settings
+        self.grid = settings.new_grid()
+        self.changes: list[FrameChange | None] = []
 
-    def reset(self) -> None:
-        """A new episode: an all-unknown grid, nothing integrated."""
-        self.grid = OccupancyGrid.for_cell(self.config, self.voxel_m)
-        self.added: list[float] = []
-        self._integrated = 0
+    @property
+    def added(self) -> list[float]:
+        """Per informative frame (one the cell did not mostly hide: it says nothing about what
+        is left), the share of the occupied voxels it added."""
+        return [change.novel / max(change.occupied, 1) for change in self.changes
+                if change is not None and change.informative]
 
     def update(self, views: Sequence[ViewRecord]) -> None:
         """Integrate the frames of the views not integrated yet (the episode's views so far)."""
-        for view in views[self._integrated:]:
+        flat = self.grid.state.reshape(-1)
+        for view in views[len(self.changes):]:
             if view.sensor_pose is None:
+                self.changes.append(None)
                 continue
-            before = self.grid.counts()["occupied"]
-            self.grid.integrate(self.sensor, view.sensor_pose, view.points_world, view.pixels,
-                                view.blocked_pixels)
-            # A frame the cell mostly hid (e.g. by the robot) says nothing about what is left.
-            if len(view.blocked_pixels) < len(view.points_world):
-                after = self.grid.counts()["occupied"]
-                self.added.append((after - before) / max(after, 1))
-        self._integrated = len(views)
+            before = flat.copy()
+            self.grid.integrate(self.settings.sensor, view.sensor_pose, view.points_world,
+                                view.pixels, view.blocked_pixels)
+            changed = np.flatnonzero(before != flat)
+            # Only a frame's own points turn voxels occupied, and none is ever cleared.
+            self.changes.append(FrameChange(
+                changed, before[changed], int(np.count_nonzero(flat[changed] == OCCUPIED)),
+                self.grid.counts()["occupied"],
+                len(view.blocked_pixels) < len(view.points_world)))
+
+    def after(self, count: int) -> OccupancyGrid:
+        """The grid after the first `count` views integrated (the grid itself after all).
+
+        Raises:
+            ValueError: If fewer than `count` views were integrated.
+        """
+        if not 0 <= count <= len(self.changes):
+            raise ValueError(f"the grid after {count} views was asked for; {len(self.changes)} "
+                             f"were integrated")
+        if count == len(self.changes):
+            return self.grid
+        state = self.grid.state.copy()
+        flat = state.reshape(-1)
+        for change in reversed(self.changes[count:]):
+            if change is not None:
+                flat[change.changed] = change.previous
+        return dataclasses.replace(self.grid, state=state)

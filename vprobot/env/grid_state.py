@@ -1,16 +1,16 @@
 """`s_grid`: the state of an `A_view` agent, one row of features per band candidate.
 
-The state is built from the episode's occupancy grid (`vprobot.occupancy.EpisodeGrid`, each
-frame integrated once) and from where views were requested, as `nbv` plans: it reads the views'
-requested poses, sensor poses, points, pixels and blocked pixels and the object's centre, never
-the mesh, the ground truth or the coverage. Every row holds the same features (`FEATURES`), so a
-network can score each candidate with one shared function of its row; the episode-wide context
-is repeated on every row. With the robot, the candidates' reachability is screened once per
-episode (`screen_reachability`, from the configuration the episode starts in): a row says
-whether the candidate is reachable and how far the joints move to it. `mask` marks the
-candidates that may be requested (`offered`: not within `EXCLUDE_DEG` of an earlier request,
-taken or failed, and not failed; and reachable); should that leave none, every candidate that
-did not fail is offered again, so an action always exists.
+The state is built from the episode's occupancy grid (`Episode.occupancy`: each frame integrated
+once, for every reader of a grid of the same settings) and from where views were requested, as
+`nbv` plans: it reads the views' requested poses, sensor poses, points, pixels and blocked
+pixels and the object's centre, never the mesh, the ground truth or the coverage. Every row holds
+the same features (`FEATURES`), so a network can score each candidate with one shared function
+of its row; the episode-wide context is repeated on every row. With the robot, the candidates'
+reachability is screened once per episode (`screen_reachability`, from the configuration the
+episode starts in): a row says whether the candidate is reachable and how far the joints move to
+it. `mask` marks the candidates that may be requested (`offered`: not within `EXCLUDE_DEG` of an
+earlier request, taken or failed, and not failed; and reachable); should that leave none, every
+candidate that did not fail is offered again, so an action always exists.
 
 A request or a sensor pose belongs to a candidate when its direction from the centre lies within
 `MATCH_DEG` of the candidate's (the robot reaches a target to about 0.1 degrees).
@@ -25,7 +25,7 @@ from gymnasium import spaces
 
 from vprobot.config import Config
 from vprobot.env.rewards import step_limit
-from vprobot.occupancy import GAINS, VOXEL_M, EpisodeGrid
+from vprobot.occupancy import GAINS, VOXEL_M, GridSettings
 from vprobot.views import (
     band_candidates,
     band_directions,
@@ -72,7 +72,7 @@ def candidate_count() -> int:
 
 
 class GridState:
-    """Builds the `s_grid` state of an episode, integrating each of its frames once.
+    """Builds the `s_grid` state of an episode from the episode's grid of its settings.
 
     Args:
         config: The cell, the sensor and the env (its view budget).
@@ -81,15 +81,14 @@ class GridState:
 
     def __init__(self, config: Config, resolution: tuple[int, int] | None = None):
         self.band = band_candidates(config, VOXEL_M)
-        self.episode_grid = EpisodeGrid(config, resolution)
+        self.settings = GridSettings.of(config, resolution)
         self.step_limit = step_limit(config.env)
         self._match = np.cos(np.deg2rad(MATCH_DEG))
         self._low = grid_spaces(len(self.band))["candidates"].low[0]
         self._screening: tuple[np.ndarray, tuple[str | None, ...]] | None = None
 
     def reset(self) -> None:
-        """A new episode: an all-unknown grid, reachability not screened yet."""
-        self.episode_grid.reset()
+        """A new episode: reachability not screened yet."""
         self._screening = None
 
     def screening(self, episode: Episode) -> tuple[np.ndarray, tuple[str | None, ...]]:
@@ -118,8 +117,7 @@ class GridState:
     def observe(self, episode: Episode) -> dict[str, np.ndarray]:
         """The `candidates` and `mask` entries for the episode's views so far."""
         views = episode.views
-        self.episode_grid.update(views)
-        grid = self.episode_grid.grid
+        grid = episode.occupancy(self.settings).grid
         directions = self.band.directions
         requested = request_directions(views, episode.center)
         cosines = directions @ requested.T

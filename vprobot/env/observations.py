@@ -104,8 +104,8 @@ class Observer:
     With `s_cov` the points are the accumulated acquired cloud only, posed in the world-aligned
     object frame (the model-free premise: a real cell measures these points in the world and
     knows where the fixture holds the object); `s_bin` shows the ground truth and its covered
-    flags, so it needs the object model; `s_grid` (model-free) keeps the episode's occupancy
-    grid, so `reset` must start every episode.
+    flags, so it needs the object model; `s_grid` (model-free) reads the episode's occupancy
+    grid and keeps the episode's reachability screening, so `reset` must start every episode.
 
     Args:
         config: The configuration (`env` says which state).

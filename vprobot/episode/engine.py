@@ -16,12 +16,13 @@ from vprobot.coverage import CoverageTracker
 from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
 from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
-from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest, split_travel
+from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest
 from vprobot.episode.robot_carrier import RobotCarrier
 from vprobot.episode.shared import SharedWork
 from vprobot.episode.specs import EpisodeSpec
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
+from vprobot.occupancy import EpisodeGrid, GridSettings
 
 
 def make_carrier(name: CarrierName, scene: MotorScene, object_rotation: np.ndarray,
@@ -53,6 +54,9 @@ class Episode:
 
     Attributes:
         shared: Results computed from the episode's start, for every planner that asks.
+        approach: The move from the start to the first acquisition (`split_travel`'s).
+        travel_sum: k_cum so far: the moves between acquisitions, the approach excluded
+            (`split_travel`'s, summed view by view as they come).
 
     Raises:
         ValueError: For an unknown carrier or policy, bad start joints, or `shared` serving
@@ -75,7 +79,10 @@ class Episode:
         self.shared.bind(scene, self.object_pose.rotation, carrier, self.start_joints)
         self.pose: Pose | None = None
         self.views: list[ViewRecord] = []
+        self.approach = TravelCost()
+        self.travel_sum = TravelCost()
         self._first_covered_by = np.full(len(scene.ground_truth.points), -1)
+        self._grids: dict[GridSettings, EpisodeGrid] = {}
         # The way back to the start, planned once per configuration it leaves from.
         self._return: tuple[np.ndarray, np.ndarray | None] | None = None
 
@@ -182,6 +189,7 @@ class Episode:
 
     def _execute(self, move: ViewRecord) -> ViewRecord:
         """Acquire at the end of a carrier's move, score and record the view."""
+        acquired_before = self.pose is not None  # the first acquisition sets it
         points_world = np.zeros((0, 3))
         pixels = blocked = np.zeros(0, dtype=np.int64)
         if move.acquired:
@@ -196,18 +204,22 @@ class Episode:
             self.pose = move.sensor_pose
         view = dataclasses.replace(move, joints=self._joints(), points_world=points_world,
                                    coverage=self.coverage, pixels=pixels, blocked_pixels=blocked)
+        if acquired_before:
+            self.travel_sum = self.travel_sum + view.travel
+        elif view.acquired:
+            self.approach = view.travel
         self.views.append(view)
         return view
 
-    @property
-    def travel_sum(self) -> TravelCost:
-        """k_cum so far: the moves between acquisitions (the approach excluded)."""
-        return split_travel(self.views)[1]
-
-    @property
-    def approach(self) -> TravelCost:
-        """The move from the start to the first acquisition."""
-        return split_travel(self.views)[0]
+    def occupancy(self, settings: GridSettings) -> EpisodeGrid:
+        """The episode's occupancy grid of these settings, with every frame acquired so far
+        integrated: made on first need, each frame integrated once however many readers share
+        it (the agent's state, the planners, the stop rules, the coverage estimate)."""
+        grid = self._grids.get(settings)
+        if grid is None:
+            grid = self._grids[settings] = EpisodeGrid(settings)
+        grid.update(self.views)
+        return grid
 
     def record(self) -> EpisodeRecord:
         """The episode so far, for rendering and export."""

@@ -8,6 +8,16 @@ frames, never the mesh or the ground truth. It stops at the coverage goal (a sim
 tell); given `views`, after that many views in all, the initial one included; an agent trained
 with `stop_action` decides itself when to stop (a real cell, where coverage is unknown), unless
 a stop rule takes charge (`--stop`, `vprobot.stopping.rules`).
+
+Two configurations meet here. The agent's run config (`TrainedAgent.config`) says what the policy
+was trained on: its state and action (`env`: `state`, `action`, `stop_action`, `state_scale_m`,
+the step limit of its state and the `max_acquisitions` a self-stopping agent keeps to) and how its
+views roll (`kinematics.roll`). The run's config gives everything else: the cell and robot the
+episode runs in, the goal, the runner's view budget. Where the two must agree, `from_name` checks
+it rather than take the agent's silently: the sensor and sensing model (`trained_with`; the
+agent's views are taken at its working distance) and, for an `s_grid` agent, the occupancy grid
+its state is read from (`GridSettings`: where the cell places an object and the largest it
+takes). The agent then reads the episode's own grid, the one the coverage estimate reads too.
 """
 
 from __future__ import annotations
@@ -20,6 +30,7 @@ from vprobot.config import Config
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
+from vprobot.occupancy import GridSettings
 from vprobot.planners.base import Planner, check_views, register_planner
 from vprobot.progress import note
 
@@ -71,7 +82,8 @@ class AgentPlanner(Planner):
         Raises:
             ValueError: If `config`'s sensor or sensing model is not the one the agent was
                 trained with (its observations are built from that sensor's frames, and what
-                a view measures decides what it learned to request).
+                a view measures decides what it learned to request), or, for an `s_grid`
+                agent, its cell gives another grid than the agent's cell.
         """
         # Imported here, as in `__init__`: the agent needs torch and stable-baselines3.
         from vprobot.agents.trained import default_agent, describe_sensor, trained_with
@@ -83,6 +95,13 @@ class AgentPlanner(Planner):
             raise ValueError(f"agent {source} was trained with the sensor "
                              f"{describe_sensor(trained)} and plans only with it; this run's "
                              f"sensor is {describe_sensor(config.sensor)}")
+        grid_state, given = planner.observer.grid_state, GridSettings.of(config)
+        if grid_state is not None and grid_state.settings != given:
+            raise ValueError(
+                f"agent {source} reads the occupancy grid of the cell it was trained in, "
+                f"{_describe_grid(grid_state.settings)}; this run's cell gives "
+                f"{_describe_grid(given)} (cell.object_center_m and the robot's placement "
+                f"decide it)")
         return planner
 
     def reset(self, episode: Episode, rng: np.random.Generator) -> None:
@@ -104,3 +123,9 @@ class AgentPlanner(Planner):
             return None
         return self.observer.request(self.mapping, action, episode.center, self.roll_free)
 
+
+
+def _describe_grid(settings: GridSettings) -> str:
+    """Where a grid stands, as the agent's messages name it."""
+    center = ", ".join(f"{value:g}" for value in settings.center)
+    return f"a cube about ({center}) m with a half edge of {settings.half_size_m:.3f} m"

@@ -29,7 +29,7 @@ import numpy as np
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
-from vprobot.occupancy import GAINS, VOXEL_M, EpisodeGrid, Gain
+from vprobot.occupancy import GAINS, VOXEL_M, Gain, GridSettings
 from vprobot.planners.base import Planner, register_planner
 from vprobot.planners.candidates import arm_hides_view
 from vprobot.stopping.rules import StopRule, make_stop_rule
@@ -57,7 +57,7 @@ class VolumetricPlanner(Planner):
             the planner (`agent`).
 
     Attributes:
-        episode_grid: The latest episode's grid.
+        settings: The settings of the episode's grid it reads (`Episode.occupancy`).
         stop_rule: The rule it stops itself by; None under `goal`.
     """
 
@@ -81,6 +81,7 @@ class VolumetricPlanner(Planner):
                 raise ValueError(f"nbv@{stop}: {error}") from None
         self.stops_at_goal = self.stop_rule is None
         self.voxel_m = voxel_m
+        self.settings = GridSettings.of(config, voxel_m=voxel_m)
         self._begin()
 
     @classmethod
@@ -95,15 +96,13 @@ class VolumetricPlanner(Planner):
         self._begin()
 
     def _begin(self) -> None:
-        """A new episode: an all-unknown grid, nothing integrated, tried or stopped."""
-        self.episode_grid = EpisodeGrid(self.config, voxel_m=self.voxel_m)
+        """A new episode: nothing tried or stopped."""
         self.stop_reason = None
         if self.stop_rule is not None:
             self.stop_rule.reset()
         self._failed = np.zeros(len(band_candidates(self.config, self.voxel_m)), dtype=bool)
 
     def next_view(self, episode: Episode) -> ViewRequest | None:
-        self.episode_grid.update(episode.views)
         if self.stop_rule is not None:
             # Self-stopped, the runner leaves the view budget to the planner.
             self.stop_reason = ("view budget"
@@ -114,7 +113,8 @@ class VolumetricPlanner(Planner):
         band = band_candidates(self.config, self.voxel_m)
         allowed = offered(band.directions, request_directions(episode.views, episode.center),
                           self._failed)
-        scores = np.where(allowed, band.gains.score(self.episode_grid.grid, self.gain), 0.0)
+        grid = episode.occupancy(self.settings).grid
+        scores = np.where(allowed, band.gains.score(grid, self.gain), 0.0)
         for index in np.argsort(-scores, kind="stable")[:REACH_TRIES]:
             if scores[index] <= 0.0:
                 break

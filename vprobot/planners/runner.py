@@ -25,6 +25,7 @@ from vprobot.episode import (
 )
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import CycleTime
+from vprobot.occupancy import GridSettings
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
 from vprobot.planners.base import PLANNERS, Planner, Proof, check_views
@@ -299,7 +300,9 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
     start = time.perf_counter()
     played = run_episode(chosen, episode, spec, config, np.random.default_rng(spec.seed), rule)
     seconds = time.perf_counter() - start
-    estimated, notes = (view_estimates(config, played.record.views, estimate, chosen.name)
+    # The estimate reads the episode's grid, which the planner and the rule may have filled.
+    estimated, notes = (view_estimates(config, played.record.views, estimate, chosen.name,
+                                       episode.occupancy(GridSettings.of(config)))
                         if estimate is not None else (None, []))
     return EpisodeResult(planner=planner if views is None else f"{planner}{views}",
                          carrier=carrier, spec=spec, record=played.record,

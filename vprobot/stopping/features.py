@@ -4,7 +4,8 @@ Model-free: the features read only what the sensor acquired (its poses, points, 
 were measured on and the pixels the cell blocked), the number of views asked for, and the cell
 (where an object may stand, the view band); never the mesh, the ground truth or the coverage
 (`tests/test_model_free.py` guards it). The acquisitions are integrated into the occupancy grid
-of the `nbv` planner (`vprobot.occupancy`), one frame at a time. After each view:
+of the `nbv` planner (`vprobot.occupancy`), one frame at a time; in an episode that is the
+episode's own grid (`Episode.occupancy`), integrated once for every reader. After each view:
 
 - `requested`, `acquired`: views asked for (the initial view included) and views acquired;
 - `occupied`, `free`, `unknown`: each state's share of the grid's voxels;
@@ -33,9 +34,16 @@ from collections.abc import Sequence
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.episode import ViewRecord
-from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN, VOXEL_M, OccupancyGrid
-from vprobot.sensor_model import SensorModel
+from vprobot.episode import Episode, ViewRecord
+from vprobot.occupancy import (
+    FREE,
+    OCCUPIED,
+    UNKNOWN,
+    VOXEL_M,
+    EpisodeGrid,
+    GridSettings,
+    OccupancyGrid,
+)
 from vprobot.views import band_directions
 
 FEATURES = ("requested", "acquired", "occupied", "free", "unknown", "rear_side", "open_surface",
@@ -46,69 +54,68 @@ BAND_NEAR_DEG = 45.0
 
 
 class CoverageFeatures:
-    """The features of an episode's views, updated view by view.
+    """The features of an episode's views, view by view, read from the episode's grid.
 
     Args:
         config: The cell (grid, view band) and the sensor (rays per frame, range).
         voxel_m: Voxel edge of the grid.
+
+    Attributes:
+        settings: The settings of the grid the features read (`Episode.occupancy`).
+        episode_grid: The grid of the current episode: the episode's own (`reset`), or one the
+            views given to `update` are integrated into.
     """
 
     def __init__(self, config: Config, voxel_m: float = VOXEL_M):
-        self.config = config
-        self.voxel_m = voxel_m
-        self.sensor = SensorModel.from_config(config.sensor)
-        self.center = np.asarray(config.cell.object_center_m, dtype=float)
+        self.settings = GridSettings.of(config, voxel_m=voxel_m)
+        self.sensor = self.settings.sensor
+        self.center = np.array(self.settings.center)
         self._band = band_directions()
         self.reset()
 
-    def reset(self) -> None:
-        """A new episode: an all-unknown grid, nothing integrated."""
-        self.grid = OccupancyGrid.for_cell(self.config, self.voxel_m)
+    def reset(self, grid: EpisodeGrid | None = None) -> None:
+        """A new episode, whose grid is `grid` (the episode's, of `settings`, shared with its
+        other readers), or an all-unknown one of the features' own.
+
+        Raises:
+            ValueError: If `grid` is not of the features' settings.
+        """
+        if grid is not None and grid.settings != self.settings:
+            raise ValueError("the episode's grid is not of the settings the features read")
+        self.episode_grid = grid if grid is not None else EpisodeGrid(self.settings)
         self._seen = 0
-        self._added = [1.0, 1.0]
-        self._novel = 1.0
-        self._points: list[int] = []
-        self._blocked: list[int] = []
-        self._directions: list[np.ndarray] = []
+
+    def read(self, episode: Episode) -> None:
+        """Read the episode's grid of `settings` (`Episode.occupancy`, filled by whoever read it
+        first): a new episode, unless it is the grid read already."""
+        grid = episode.occupancy(self.settings)
+        if grid is not self.episode_grid:
+            self.reset(grid)
+
+    @property
+    def grid(self) -> OccupancyGrid:
+        """The grid after every view integrated so far."""
+        return self.episode_grid.grid
 
     def update(self, views: Sequence[ViewRecord]) -> np.ndarray:
-        """Integrate the views not seen yet and return the features after the last one.
+        """Integrate the views not integrated yet and return the features after the last one.
 
         Args:
             views: The episode's views so far (those seen before first, in order).
 
         Raises:
-            ValueError: If `views` is shorter than what was integrated already.
+            ValueError: If `views` is shorter than what was seen already.
         """
         if len(views) < self._seen:
             raise ValueError(f"{len(views)} views given after {self._seen} were integrated; "
                              f"call reset() for a new episode")
-        for view in views[self._seen:]:
-            if view.acquired:
-                self._integrate(view)
+        self.episode_grid.update(views)
         self._seen = len(views)
-        return self._features()
+        return self._features(views)
 
-    def _integrate(self, view: ViewRecord) -> None:
-        pose = view.sensor_pose
-        assert pose is not None  # an acquired view has a pose
-        flat = self.grid.state.reshape(-1)
-        hits = np.unique(self.grid.flat_index(np.asarray(view.points_world).reshape(-1, 3)))
-        hits = hits[hits >= 0]
-        before = self.grid.counts()["occupied"]
-        novel = int((flat[hits] != OCCUPIED).sum())
-        self.grid.integrate(self.sensor, pose, view.points_world, view.pixels,
-                            view.blocked_pixels)
-        after = self.grid.counts()["occupied"]
-        self._added = [self._added[1], (after - before) / max(after, 1)]
-        self._novel = novel / max(len(hits), 1)
-        self._points.append(len(view.points_world))
-        self._blocked.append(len(view.blocked_pixels))
-        offset = pose.position - self.center
-        self._directions.append(offset / max(float(np.linalg.norm(offset)), 1e-12))
-
-    def _features(self) -> np.ndarray:
-        grid = self.grid
+    def _features(self, views: Sequence[ViewRecord]) -> np.ndarray:
+        """The features after `views`, the first views of the grid's episode."""
+        grid = self.episode_grid.after(len(views))
         counts = grid.counts()
         total = grid.state.size
         occupied = max(counts["occupied"], 1)
@@ -124,17 +131,25 @@ class CoverageFeatures:
             hull_unknown = int(hull.sum())
         else:
             extent, hull_unknown = 0.0, 0
+        frames = [(view, change) for view, change in
+                  zip(views, self.episode_grid.changes[:len(views)], strict=True)
+                  if change is not None]
+        added = [1.0, 1.0, *(change.novel / max(change.occupied, 1) for _, change in frames)]
         pixels = self.sensor.rays_per_frame
-        acquired = len(self._points)
+        acquired = len(frames)
+        points = [len(view.points_world) for view, _ in frames]
+        blocked = [len(view.blocked_pixels) for view, _ in frames]
         if acquired:
-            directions = np.array(self._directions)
+            last, change = frames[-1]
+            novel = change.novel / max(hit_voxels(grid, last.points_world), 1)
+            directions = np.array([self._direction(view) for view, _ in frames])
             spread = 1.0 - float(np.linalg.norm(directions.mean(axis=0)))
             near = (self._band @ directions.T).max(axis=1) >= np.cos(np.deg2rad(BAND_NEAR_DEG))
             band_seen = float(near.mean())
         else:
-            spread = band_seen = 0.0
+            novel, spread, band_seen = 1.0, 0.0, 0.0
         values = {
-            "requested": float(self._seen),
+            "requested": float(len(views)),
             "acquired": float(acquired),
             "occupied": counts["occupied"] / total,
             "free": counts["free"] / total,
@@ -143,21 +158,39 @@ class CoverageFeatures:
             "open_surface": open_surface / occupied,
             "extent": extent,
             "hull_unknown": hull_unknown / occupied,
-            "added_last": self._added[1],
-            "added_before": self._added[0],
-            "novel_last": self._novel,
-            "points": sum(self._points) / pixels,
-            "points_last": self._points[-1] / pixels if acquired else 0.0,
-            "blocked": sum(self._blocked) / pixels / max(acquired, 1),
-            "blocked_last": self._blocked[-1] / pixels if acquired else 0.0,
+            "added_last": added[-1],
+            "added_before": added[-2],
+            "novel_last": novel,
+            "points": sum(points) / pixels,
+            "points_last": points[-1] / pixels if acquired else 0.0,
+            "blocked": sum(blocked) / pixels / max(acquired, 1),
+            "blocked_last": blocked[-1] / pixels if acquired else 0.0,
             "spread": spread,
             "band_seen": band_seen,
         }
         return np.array([values[name] for name in FEATURES])
 
+    def _direction(self, view: ViewRecord) -> np.ndarray:
+        """Unit direction from the cell's centre to where an acquired view was taken from."""
+        pose = view.sensor_pose
+        assert pose is not None  # an acquired view has a pose
+        offset = pose.position - self.center
+        return offset / max(float(np.linalg.norm(offset)), 1e-12)
 
-def episode_features(config: Config, views: Sequence[ViewRecord]) -> np.ndarray:
-    """The features after each view of an episode (len(views), len(FEATURES))."""
+
+def hit_voxels(grid: OccupancyGrid, points_world: np.ndarray) -> int:
+    """How many voxels of the grid hold one of the points."""
+    index = grid.flat_index(np.asarray(points_world).reshape(-1, 3))
+    hit = np.zeros(grid.state.size, dtype=bool)
+    hit[index[index >= 0]] = True
+    return int(np.count_nonzero(hit))
+
+
+def episode_features(config: Config, views: Sequence[ViewRecord],
+                     grid: EpisodeGrid | None = None) -> np.ndarray:
+    """The features after each view of an episode (len(views), len(FEATURES)), read from the
+    episode's grid (`Episode.occupancy` of `CoverageFeatures.settings`) or integrated here."""
     features = CoverageFeatures(config)
+    features.reset(grid)
     return np.array([features.update(views[:count]) for count in range(1, len(views) + 1)]
                     ).reshape(len(views), len(FEATURES))

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vprobot.config import Config
+from vprobot.occupancy import EpisodeGrid
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, Stated, load_estimator
 from vprobot.stopping.features import CoverageFeatures, episode_features
 from vprobot.stopping.rules.base import StopRule, register_stop
@@ -94,6 +95,7 @@ class EstimateStop(StopRule):
 
     def check(self, episode: Episode) -> str | None:
         views = episode.views
+        self.features.read(episode)
         stated: Stated | None = None
         # View by view, as `view_estimates` states them, however many came since the last check.
         for count in range(self._stated + 1, len(views) + 1):
@@ -108,11 +110,13 @@ class EstimateStop(StopRule):
 
 
 def view_estimates(config: Config, views: Sequence[ViewRecord], estimator: CoverageEstimator,
-                   planner: str | None = None) -> tuple[np.ndarray, list[str]]:
+                   planner: str | None = None, grid: EpisodeGrid | None = None
+                   ) -> tuple[np.ndarray, list[str]]:
     """The estimated coverage after each view, as `estimate` states it (`EstimateTracker`):
     (len(views), 2), the mean and the standard deviation (NaN where refused), and the notes
-    on why it was refused, widened or kept (each once)."""
+    on why it was refused, widened or kept (each once). `grid` is the episode's grid of the
+    features (`episode_features`), else the views are integrated here."""
     tracker = EstimateTracker(estimator, config, planner)
-    stated = [tracker.update(features) for features in episode_features(config, views)]
+    stated = [tracker.update(features) for features in episode_features(config, views, grid)]
     return (np.array([(one.mean, one.std) for one in stated]).reshape(len(views), 2),
             tracker.notes)

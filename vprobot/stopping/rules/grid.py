@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vprobot.config import Config
-from vprobot.occupancy import EpisodeGrid
+from vprobot.occupancy import GridSettings
 from vprobot.stopping.rules.base import StopRule, register_stop
 
 if TYPE_CHECKING:
@@ -36,23 +36,19 @@ def surface_quiet(added: Sequence[float]) -> str | None:
 
 @register_stop
 class GridStop(StopRule):
-    """Integrates each acquired frame into the episode's occupancy grid and stops when the
-    latest informative frames each added too little to the occupied voxels."""
+    """Reads the episode's occupancy grid (`Episode.occupancy`) and stops when the latest
+    informative frames each added too little to the occupied voxels."""
 
     name = "grid"
     description = "the seen surface stops growing"
 
     def __init__(self, config: Config):
-        self.grid = EpisodeGrid(config)
+        self.settings = GridSettings.of(config)
 
     @classmethod
     def build(cls, config: Config, estimator: str | Path | None = None,
               **options: Any) -> StopRule:
         return cls(config)
 
-    def reset(self) -> None:
-        self.grid.reset()
-
     def check(self, episode: Episode) -> str | None:
-        self.grid.update(episode.views)
-        return surface_quiet(self.grid.added)
+        return surface_quiet(episode.occupancy(self.settings).added)
