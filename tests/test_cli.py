@@ -128,8 +128,6 @@ def test_planning_errors_are_clear(argv: list[str], message: str, tmp_path: Path
     [
         (["train", "--steps", "0", "--out", "run"],
          "vprobot train: error: argument --steps: must be an integer >= 1, got '0'"),
-        (["plan", "--sensor", "nope", "--out", "p.json"],
-         "vprobot plan: error: argument --sensor: invalid choice: 'nope'"),
         (["robots", "import", "arm.urdf", "--name", "arm"],
          "vprobot robots import: error: the following arguments are required: --flange"),
     ],

@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import shutil
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -28,11 +29,11 @@ import trimesh
 
 from vprobot import plugins
 from vprobot.cli import main
-from vprobot.config import Config
+from vprobot.config import Config, load_config
 from vprobot.episode import seeded_episode, write_episode_list
 from vprobot.export.formats import FORMATS
 from vprobot.families import FAMILIES
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR, SENSORS_DIR
 from vprobot.planners.base import PLANNERS
 from vprobot.planners.runner import make_planner
 from vprobot.registry import Registry
@@ -308,3 +309,32 @@ def test_the_toys_run_in_an_evaluation_on_two_ray_workers(plugin: Path, tmp_path
                                  ("blocktoy_0001.stl", "toptoy --stop twotoy", "2", "2")]
     planned_in = {int(pid) for pid in (tmp_path / "plugin" / PLANNED_IN).read_text().split()}
     assert planned_in and command.pid not in planned_in
+
+
+# --- Robot folders and sensor presets: data, not code --------------------------------------
+
+
+def test_a_robot_folder_and_a_sensor_preset_from_outside_the_package_run_an_evaluation(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A copy of the bundled UR5's folder and a preset file of one's own, outside the package:
+    named by a config file, they make the config; named by `--robot` and `--sensor`, they
+    run an evaluation on two Ray workers, whose settings record them."""
+    pytest.importorskip("ray")
+    robot = tmp_path / "my_arm"
+    shutil.copytree(ROBOTS_DIR / "ur5", robot)
+    preset = tmp_path / "my_sensor.yaml"
+    preset.write_text((SENSORS_DIR / "paper.yaml").read_text().replace(
+        "resolution: [430, 300]", "resolution: [86, 60]"))
+    config_file = tmp_path / "cell.yaml"
+    config_file.write_text(f"cell: {{robot: {robot}}}\nsensor: {preset}\n")
+    config = load_config(config_file)
+    assert config.cell.robot == str(robot) and config.sensor.resolution == (86, 60)
+    assert main(["evaluate", "--robot", str(robot), "--sensor", str(preset), "--planners",
+                 "uniform4", "--motors", str(DEFAULT_MOTOR), "--seeds", "0", "--carriers",
+                 "robot", "--workers", "2", "--out", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    settings = json.loads((tmp_path / "out" / "evaluation_settings.json").read_text())
+    assert settings["config"]["cell"]["robot"] == str(robot)
+    assert settings["config"]["sensor"]["resolution"] == [86, 60]
+    with (tmp_path / "out" / "evaluation_episodes.csv").open() as stream:
+        assert [row["planner"] for row in csv.DictReader(stream)] == ["uniform4"]

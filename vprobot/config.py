@@ -16,7 +16,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-from vprobot.paths import BUNDLED_EPISODE_LISTS, DEFAULT_CONFIG, SENSORS_DIR, available_sensors
+from vprobot.paths import (
+    BUNDLED_EPISODE_LISTS,
+    DEFAULT_CONFIG,
+    SENSORS_DIR,
+    available_sensors,
+    bundled_or_path,
+)
 from vprobot.registry import Registry
 from vprobot.rewards import REWARDS
 from vprobot.robots import load_robot
@@ -164,11 +170,15 @@ SENSOR_MOUNT_KEYS = ("mount_position_m", "mount_quaternion_wxyz")
 
 
 def _preset_mapping(name: Any, key: str) -> dict[str, Any]:
-    """The keys of preset `name` as written in its file."""
+    """The keys of preset `name` as written in its file: a bundled preset's name or the path
+    of a preset file of one's own (`sensors/<name>.yaml`'s keys, anywhere)."""
     presets = available_sensors()
-    if not isinstance(name, str) or name not in presets:
-        raise ConfigError(f"{key} must name a sensor preset, one of {presets}, got {name!r}")
-    path = SENSORS_DIR / f"{name}.yaml"
+    try:
+        path = bundled_or_path(name, {preset: SENSORS_DIR / f"{preset}.yaml"
+                                      for preset in presets}, "sensor preset", "YAML file")
+    except (ValueError, TypeError):
+        raise ConfigError(f"{key} must name a sensor preset, one of {presets}, or a preset's "
+                          f"YAML file, got {name!r}") from None
     data = read_yaml(path) or {}
     if not isinstance(data, Mapping) or "preset" in data:
         raise ConfigError(f"{path}: a sensor preset must be a mapping of sensor keys (no "

@@ -13,7 +13,6 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from vprobot.paths import available_robots, available_sensors
-from vprobot.sensing import SENSING_MODELS
 
 if TYPE_CHECKING:
     from vprobot.config import Config
@@ -76,13 +75,12 @@ def sensor_option(config: Config, args: argparse.Namespace) -> Config:
     then with the `--sensing` model, when given."""
     from vprobot.config import with_sensing, with_sensor
 
-    if getattr(args, "sensor", None):
-        config = with_sensor(config, args.sensor)
-    if getattr(args, "sensing", None):
-        try:
-            config = with_sensing(config, args.sensing)
-        except ValueError as error:  # named as the user gave it
-            raise ValueError(f"--sensing: {error}") from None
+    for option, apply in (("sensor", with_sensor), ("sensing", with_sensing)):
+        if value := getattr(args, option, None):
+            try:
+                config = apply(config, value)
+            except ValueError as error:  # named as the user gave it
+                raise ValueError(f"--{option}: {error}") from None
     return config
 
 
@@ -163,12 +161,20 @@ def add_robot(sub: argparse.ArgumentParser) -> None:
 
 def add_sensor(sub: argparse.ArgumentParser) -> None:
     """`--sensor` and `--sensing`."""
-    sub.add_argument("--sensor", choices=available_sensors(),
-                     help="sensor preset (configs/sensors/) to use instead of the config's "
-                     "sensor, on the config's mount")
-    sub.add_argument("--sensing", choices=SENSING_MODELS,
-                     help="sensing model instead of the sensor's (docs/sensor.md#sensing); "
-                     "structured_light needs a preset with its figures (`vprobot sensors`)")
+    sub.add_argument("--sensor", metavar="PRESET",
+                     help=f"sensor preset to use instead of the config's sensor, on the "
+                     f"config's mount: {', '.join(available_sensors())} (configs/sensors/) or "
+                     f"a preset's YAML file")
+    sub.add_argument("--sensing", metavar="MODEL", help=LateHelp(_sensing_help))
+
+
+def _sensing_help() -> str:
+    # The sensing models' registry imports them (NumPy); only --help and a command pay that.
+    from vprobot.sensing import SENSING_MODELS
+
+    return (f"sensing model instead of the sensor's: {', '.join(SENSING_MODELS)} "
+            f"(docs/sensor.md#sensing); structured_light needs a preset with its figures "
+            f"(`vprobot sensors`)")
 
 
 def add_stop(sub: argparse.ArgumentParser,
