@@ -157,3 +157,20 @@ def test_only_the_global_plugin_options_are_plugins(capsys: pytest.CaptureFixtur
         main(["evaluate", "--plugin", "x"])
     assert refused.value.code == 2
     assert "unrecognized arguments: --plugin x" in capsys.readouterr().err
+
+
+def test_the_entry_points_are_read_for_a_command_not_for_the_list_of_commands(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        fresh_plugins: list[str]) -> None:
+    """`vprobot --help` lists the commands, which no plugin changes: it skips reading every
+    distribution's metadata; `vprobot CMD --help` lists registered names, so it reads them."""
+    reads: list[str] = []
+    monkeypatch.setattr(plugins, "entry_point_modules", lambda: reads.append("read") or [])
+    for argv in (["--help"], ["-h"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+    assert reads == [] and "evaluate" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["stop", "--help"])
+    capsys.readouterr()
+    assert reads == ["read"]

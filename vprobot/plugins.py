@@ -2,7 +2,8 @@
 
 A plugin is a module that registers what it defines when it is imported (docs/extending.md).
 `vprobot` imports, before it checks its arguments against the registries, the modules of the
-`vprobot.plugins` entry points of the installed distributions, then each `--plugin`: a module
+`vprobot.plugins` entry points of the installed distributions (unless it is given no command:
+`vprobot --help` lists the commands, which no plugin changes), then each `--plugin`: a module
 name importable on `sys.path` (`mypkg.planners`), or a path to a `.py` file (`./mytop.py`).
 
 A Ray worker is a fresh process that imports only what its task's function needs, so
@@ -15,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.metadata
 import importlib.util
 import sys
 from collections.abc import Sequence
@@ -30,28 +30,40 @@ _loaded: list[str] = []
 
 def entry_point_modules() -> list[str]:
     """The modules of the `vprobot.plugins` entry points of the installed distributions."""
+    # Reading the distributions' metadata costs about 50 ms, which `vprobot --help` skips.
+    import importlib.metadata
+
     return [entry.module for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)]
 
 
 def requested(argv: Sequence[str]) -> list[str]:
     """The `--plugin` values among the global options of `argv` (those before the command);
     a malformed one is left to the command line's parser to report."""
+    return _global_options(argv).plugin
+
+
+def _global_options(argv: Sequence[str]) -> argparse.Namespace:
+    """The `--plugin` values and the rest (`command`: the command and its arguments) of
+    `argv`; a malformed `--plugin` is left to the command line's parser to report."""
     parser = argparse.ArgumentParser(add_help=False, exit_on_error=False)
     parser.add_argument("--plugin", action="append", default=[])
     parser.add_argument("command", nargs=argparse.REMAINDER)
     try:
-        return parser.parse_known_args(argv)[0].plugin
+        return parser.parse_known_args(argv)[0]
     except argparse.ArgumentError:
-        return []
+        return argparse.Namespace(plugin=[], command=[])
 
 
 def load_requested(argv: Sequence[str]) -> None:
-    """Load the entry points' modules, then the `--plugin` values of a command line's `argv`.
+    """Load the entry points' modules (when `argv` names a command), then the `--plugin` values
+    of a command line's `argv`.
 
     Raises:
         ValueError: Naming the first plugin that fails to import and its error.
     """
-    load([*entry_point_modules(), *requested(argv)])
+    options = _global_options(argv)
+    names_a_command = any(not word.startswith("-") for word in options.command)
+    load([*(entry_point_modules() if names_a_command else []), *options.plugin])
 
 
 def load(plugins: Sequence[str]) -> None:
