@@ -8,7 +8,9 @@ One section per kind: its toy's source in `TOYS`, its registry in `REGISTRIES` (
 bundled module registers in `BUNDLED`), its tests under its heading; a new kind adds the three.
 No config names a planner, a stop rule, a part family or an export format: their toys go
 through the CLI. The Ray evaluation at the end runs the toys an evaluation takes (a planner, a
-stop rule, a part family: the episode list's objects) together, once.
+stop rule, a part family: the episode list's objects, a sensing model) together, once, with a
+robot folder and a sensor preset file of one's own (data, not code: no plugin). The reward's
+and the encoder's toys, which a training run takes, are in tests/test_extensions_agent.py.
 """
 
 from __future__ import annotations
@@ -29,14 +31,21 @@ import trimesh
 
 from vprobot import plugins
 from vprobot.cli import main
-from vprobot.config import Config, load_config
+from vprobot.config import Config, ConfigError, load_config
 from vprobot.episode import seeded_episode, write_episode_list
+from vprobot.evaluation import SETTINGS_NAME
 from vprobot.export.formats import FORMATS
 from vprobot.families import FAMILIES
+from vprobot.geometry import Pose
+from vprobot.ground_truth import gt_sensing
+from vprobot.mesh_loading import load_mesh
 from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR, SENSORS_DIR
 from vprobot.planners.base import PLANNERS
 from vprobot.planners.runner import make_planner
 from vprobot.registry import Registry
+from vprobot.scene import Cell
+from vprobot.sensing import IDEAL, SENSING_MODELS, frame_generator
+from vprobot.sensor import DepthSensor
 from vprobot.stopping.rules import STOPS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,6 +54,8 @@ MODULE = "vprobot_toys"
 """The plugin's module name (its file is `vprobot_toys.py`)."""
 PLANNED_IN = "planned_in.txt"
 """The file beside the plugin where the toy planner notes each process that planned."""
+MEASURED_IN = "measured_in.txt"
+"""The file beside the plugin where the toy sensing model notes each process that measured."""
 
 TOYS: dict[str, str] = {}
 """Each kind's toy, as plugin source."""
@@ -252,6 +263,59 @@ def test_a_plugin_export_format_writes_a_plan_through_the_cli(
 
 # ---- every kind ---------------------------------------------------------------------------
 
+# ---- sensing model ------------------------------------------------------------------------
+
+TOYS["sensing model"] = '''import dataclasses
+import os
+from pathlib import Path
+
+from vprobot.sensing import IDEAL, SENSING_MODELS, SensingModel
+
+
+@SENSING_MODELS.register_named
+@dataclasses.dataclass(frozen=True)
+class HalfDropout(SensingModel):
+    """Every hit drops out with probability 1/2; the rest are measured exactly."""
+
+    name = "half_dropout"
+
+    def measure(self, hits):
+        # Which processes measured: the command's, or Ray's workers.
+        with (Path(__file__).parent / "{MEASURED_IN}").open("a") as stream:
+            stream.write(f"{os.getpid()}\\n")
+        kept = hits.rng.random(len(hits.pixels)) < 0.5
+        return hits.pixels[kept], hits.points[kept]
+
+    def deterministic(self):
+        # A point kept with a probability above 0 is inspectable: the ideal sensor's GT.
+        return IDEAL'''.replace("{MEASURED_IN}", MEASURED_IN)
+REGISTRIES["sensing model"] = SENSING_MODELS
+BUNDLED["sensing model"] = ("vprobot.sensing.base", "SENSING_MODELS",
+                            "@SENSING_MODELS.register_named", "entry.__module__")
+
+
+def test_a_plugin_sensing_model_is_named_by_the_config_and_measures_through_its_class(
+        plugin: Path, tmp_path: Path) -> None:
+    path = tmp_path / "half.yaml"
+    path.write_text("sensor: {sensing: half_dropout}\n")
+    with pytest.raises(ConfigError, match=r"sensor.sensing must be one of"):
+        load_config(path)
+    plugins.load([str(plugin)])
+    config = load_config(path)
+    assert "half_dropout" in SENSING_MODELS and gt_sensing(config.sensor) == IDEAL
+    cell = Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
+    data = cell.make_data()
+    pose = Pose.look_at(cell.object_center + [0.1, -0.2, 0.4], cell.object_center)
+    frame = DepthSensor(cell, resolution=(107, 75)).acquire_from_pose(data, pose)
+    # The reference: the ideal frame, each hit kept by the frame's own draw (vprobot.sensing).
+    ideal = DepthSensor(cell, resolution=(107, 75), sensing=IDEAL).acquire_from_pose(data, pose)
+    kept = frame_generator(pose.position, pose.rotation, ideal.object_pose.position,
+                           ideal.object_pose.rotation).random(len(ideal)) < 0.5
+    assert 0 < len(frame) < len(ideal)
+    np.testing.assert_array_equal(frame.pixels, ideal.pixels[kept])
+    np.testing.assert_array_equal(frame.points_world, ideal.points_world[kept])
+
+
 ENTRY_MODULES = """
 import importlib, json, sys
 found = {}
@@ -282,20 +346,33 @@ def test_the_plugin_registers_one_toy_of_each_kind(plugin: Path) -> None:
     plugins.load([str(plugin)])
     assert {kind: set(registry) - before[kind] for kind, registry in REGISTRIES.items()} == {
         "planner": {"toptoy"}, "stop rule": {"twotoy"}, "part family": {"blocktoy"},
-        "export format": {"jointstoy"}}
+        "export format": {"jointstoy"}, "sensing model": {"half_dropout"}}
 
 
 def test_the_toys_run_in_an_evaluation_on_two_ray_workers(plugin: Path, tmp_path: Path) -> None:
-    """The toy planner, stopped by the toy rule, on two instances of the toy family: planned in
-    the workers, which imported the plugin (given relative to the command's folder)."""
+    """The toy planner, stopped by the toy rule, on two instances of the toy family, measured
+    by the toy sensing model, with a robot folder and a sensor preset file of one's own (a copy
+    of the bundled UR10's folder, the paper's preset at a fifth of its resolution): planned and
+    measured in the workers, which imported the plugin (given relative to the command's
+    folder); a config file names the robot and the preset as the options do."""
     pytest.importorskip("ray")
+    robot = tmp_path / "my_arm"
+    shutil.copytree(ROBOTS_DIR / "ur10", robot)
+    preset = tmp_path / "my_sensor.yaml"
+    preset.write_text((SENSORS_DIR / "paper.yaml").read_text().replace(
+        "resolution: [430, 300]", "resolution: [86, 60]"))
+    config_file = tmp_path / "cell.yaml"
+    config_file.write_text(f"cell: {{robot: {robot}}}\nsensor: {preset}\n")
+    config = load_config(config_file)
+    assert config.cell.robot == str(robot) and config.sensor.resolution == (86, 60)
     episodes = tmp_path / "toys.json"
     write_episode_list(episodes, [seeded_episode(CONFIG.env, f"generated/blocktoy_000{seed}.stl",
                                                  seed) for seed in (0, 1)])
     command = subprocess.Popen(
         [sys.executable, "-m", "vprobot.cli", "--plugin", f"plugin/{MODULE}.py", "evaluate",
          "--planners", "toptoy", "--stop", "twotoy", "--episodes", str(episodes),
-         "--carriers", "free", "--workers", "2", "--out", "out"],
+         "--robot", "my_arm", "--sensor", "my_sensor.yaml", "--sensing", "half_dropout",
+         "--carriers", "robot", "--workers", "2", "--out", "out"],
         cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "PYTHONPATH": os.pathsep.join(
             [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])})
@@ -307,34 +384,9 @@ def test_the_toys_run_in_an_evaluation_on_two_ray_workers(plugin: Path, tmp_path
     assert [(row["motor"], row["planner"], row["requested"], row["acquisitions"])
             for row in rows] == [("blocktoy_0000.stl", "toptoy --stop twotoy", "2", "2"),
                                  ("blocktoy_0001.stl", "toptoy --stop twotoy", "2", "2")]
-    planned_in = {int(pid) for pid in (tmp_path / "plugin" / PLANNED_IN).read_text().split()}
-    assert planned_in and command.pid not in planned_in
-
-
-# --- Robot folders and sensor presets: data, not code --------------------------------------
-
-
-def test_a_robot_folder_and_a_sensor_preset_from_outside_the_package_run_an_evaluation(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """A copy of the bundled UR5's folder and a preset file of one's own, outside the package:
-    named by a config file, they make the config; named by `--robot` and `--sensor`, they
-    run an evaluation on two Ray workers, whose settings record them."""
-    pytest.importorskip("ray")
-    robot = tmp_path / "my_arm"
-    shutil.copytree(ROBOTS_DIR / "ur5", robot)
-    preset = tmp_path / "my_sensor.yaml"
-    preset.write_text((SENSORS_DIR / "paper.yaml").read_text().replace(
-        "resolution: [430, 300]", "resolution: [86, 60]"))
-    config_file = tmp_path / "cell.yaml"
-    config_file.write_text(f"cell: {{robot: {robot}}}\nsensor: {preset}\n")
-    config = load_config(config_file)
-    assert config.cell.robot == str(robot) and config.sensor.resolution == (86, 60)
-    assert main(["evaluate", "--robot", str(robot), "--sensor", str(preset), "--planners",
-                 "uniform4", "--motors", str(DEFAULT_MOTOR), "--seeds", "0", "--carriers",
-                 "robot", "--workers", "2", "--out", str(tmp_path / "out")]) == 0
-    capsys.readouterr()
-    settings = json.loads((tmp_path / "out" / "evaluation_settings.json").read_text())
-    assert settings["config"]["cell"]["robot"] == str(robot)
-    assert settings["config"]["sensor"]["resolution"] == [86, 60]
-    with (tmp_path / "out" / "evaluation_episodes.csv").open() as stream:
-        assert [row["planner"] for row in csv.DictReader(stream)] == ["uniform4"]
+    settings = json.loads((tmp_path / "out" / SETTINGS_NAME).read_text())["config"]
+    assert (settings["cell"]["robot"], settings["sensor"]["resolution"],
+            settings["sensor"]["sensing"]) == ("my_arm", [86, 60], "half_dropout")
+    for noted in (PLANNED_IN, MEASURED_IN):
+        pids = {int(pid) for pid in (tmp_path / "plugin" / noted).read_text().split()}
+        assert pids and command.pid not in pids, noted

@@ -1,10 +1,10 @@
-"""A reward, an encoder and a sensing model of a user's own, in `.py` plugins outside the package:
-each is one file that registers itself, and runs through the config, the command line and (the
-sensing model) an evaluation on two Ray workers, as docs/extending.md says."""
+"""A reward and an encoder of a user's own, in `.py` plugins outside the package: each is one
+file that registers itself, and runs through the config and the command line (a training run),
+as docs/extending.md says. (The sensing model's toy is in tests/test_extensions.py, whose Ray
+evaluation runs it.)"""
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -20,46 +20,15 @@ from vprobot import plugins
 from vprobot.agents.encoders import ENCODERS
 from vprobot.cli import main
 from vprobot.config import ConfigError, load_config
-from vprobot.evaluation import SETTINGS_NAME
-from vprobot.geometry import Pose
-from vprobot.ground_truth import gt_sensing
-from vprobot.mesh_loading import load_mesh
 from vprobot.paths import CONFIGS_DIR, DEFAULT_MOTOR
 from vprobot.rewards import REWARDS
-from vprobot.scene import Cell
-from vprobot.sensing import IDEAL, SENSING_MODELS, frame_generator
-from vprobot.sensor import DepthSensor
 
 ROOT = Path(__file__).resolve().parents[1]
-LIGHT = '''"""A user's own reward and sensing model (no torch: Ray workers import it cheaply)."""
-
-import dataclasses
-import os
-from pathlib import Path
+LIGHT = '''"""A user's own reward (no torch)."""
 
 from vprobot.rewards import REWARDS, RewardFormula
-from vprobot.sensing import IDEAL, SENSING_MODELS, SensingModel
 
 REWARDS.register("twice_gain", RewardFormula(True, lambda delta, remaining, travel: 2.0 * delta))
-
-
-@SENSING_MODELS.register_named
-@dataclasses.dataclass(frozen=True)
-class HalfDropout(SensingModel):
-    """Every hit drops out with probability 1/2; the rest are measured exactly."""
-
-    name = "half_dropout"
-
-    def measure(self, hits):
-        # Which processes measured: the command's, or Ray's workers.
-        with (Path(__file__).parent / "pids.txt").open("a") as stream:
-            stream.write(f"{os.getpid()}\\n")
-        kept = hits.rng.random(len(hits.pixels)) < 0.5
-        return hits.pixels[kept], hits.points[kept]
-
-    def deterministic(self):
-        # A point kept with a probability above 0 is inspectable: the ideal sensor's GT.
-        return IDEAL
 '''
 ENCODER = '''"""A user's own encoder: a linear layer per point, max-pooled."""
 
@@ -93,7 +62,7 @@ def toys(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Path
     light, encoder = tmp_path / "light_toys.py", tmp_path / "encoder_toy.py"
     light.write_text(LIGHT)
     encoder.write_text(ENCODER)
-    registries = (REWARDS, ENCODERS, SENSING_MODELS)
+    registries = (REWARDS, ENCODERS)
     before = [set(registry) for registry in registries]
     yield light, encoder
     for registry, names in zip(registries, before, strict=True):
@@ -130,46 +99,6 @@ def test_a_plugin_reward_is_named_by_the_config_and_paid_by_the_env(
         gains.append(info["delta_coverage"])
         assert reward == 2.0 * info["delta_coverage"]
     assert max(gains) > 0.0
-
-
-def test_a_plugin_sensing_model_is_named_by_the_config_and_measures_through_its_class(
-        toys: tuple[Path, Path], tmp_path: Path) -> None:
-    path = tmp_path / "half.yaml"
-    path.write_text("sensor: {sensing: half_dropout}\n")
-    with pytest.raises(ConfigError, match=r"sensor.sensing must be one of"):
-        load_config(path)
-    plugins.load([str(toys[0])])
-    config = load_config(path)
-    assert "half_dropout" in SENSING_MODELS and gt_sensing(config.sensor) == IDEAL
-    cell = Cell(config, load_mesh(DEFAULT_MOTOR).mesh)
-    data = cell.make_data()
-    pose = Pose.look_at(cell.object_center + [0.1, -0.2, 0.4], cell.object_center)
-    frame = DepthSensor(cell, resolution=(107, 75)).acquire_from_pose(data, pose)
-    # The reference: the ideal frame, each hit kept by the frame's own draw (vprobot.sensing).
-    ideal = DepthSensor(cell, resolution=(107, 75), sensing=IDEAL).acquire_from_pose(data, pose)
-    kept = frame_generator(pose.position, pose.rotation, ideal.object_pose.position,
-                           ideal.object_pose.rotation).random(len(ideal)) < 0.5
-    assert 0 < len(frame) < len(ideal)
-    np.testing.assert_array_equal(frame.pixels, ideal.pixels[kept])
-    np.testing.assert_array_equal(frame.points_world, ideal.points_world[kept])
-
-
-def test_a_plugin_sensing_model_runs_an_evaluation_on_two_ray_workers(
-        toys: tuple[Path, Path], tmp_path: Path) -> None:
-    pytest.importorskip("ray")
-    path = [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
-    command = subprocess.Popen(
-        [sys.executable, "-m", "vprobot.cli", "--plugin", str(toys[0]), "evaluate",
-         "--planners", "hrec", "--sensing", "half_dropout", *ONE_FREE_EPISODE, "--seeds", "0",
-         "1", "--workers", "2", "--out", "out"],
-        cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join(path)})
-    _, stderr = command.communicate(timeout=600)
-    assert command.returncode == 0, stderr
-    settings = json.loads((tmp_path / "out" / SETTINGS_NAME).read_text())
-    assert settings["config"]["sensor"]["sensing"] == "half_dropout"
-    measured_in = {int(pid) for pid in (tmp_path / "pids.txt").read_text().split()}
-    assert measured_in and command.pid not in measured_in
 
 
 def test_a_plugin_reward_and_encoder_train_an_agent_from_the_command_line(
