@@ -17,7 +17,13 @@ import pytest
 
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.episode import EpisodeSpec, ViewRecord, episode_list, write_episode_list
+from vprobot.episode import (
+    EpisodeSpec,
+    ViewRecord,
+    episode_list,
+    seeded_episode,
+    write_episode_list,
+)
 from vprobot.files import FOLDER_LOCK
 from vprobot.generated import family_of
 from vprobot.geometry import Pose
@@ -311,17 +317,17 @@ class FakeRollouts:
         self.runs = 0
         self.interrupt_at: int | None = None
 
-    def run(self, config: Config, scene: object, planner: str, spec: EpisodeSpec,
-            carrier: str) -> types.SimpleNamespace:
+    def play(self, config: Config, scene: object, planner: str, spec: EpisodeSpec
+             ) -> tuple[list[types.SimpleNamespace], None]:
         if self.runs == self.interrupt_at:
             raise KeyboardInterrupt
         self.runs += 1
-        views = [types.SimpleNamespace(coverage=0.3 + 0.2 * view + spec.seed % 10 / 100)
-                 for view in range(1 + spec.seed % 3)]
-        return types.SimpleNamespace(record=types.SimpleNamespace(views=views))
+        return [types.SimpleNamespace(coverage=0.3 + 0.2 * view + spec.seed % 10 / 100)
+                for view in range(1 + spec.seed % 3)], None
 
     @staticmethod
-    def features(config: Config, views: list[types.SimpleNamespace]) -> list[np.ndarray]:
+    def features(config: Config, views: list[types.SimpleNamespace], grid: None
+                 ) -> list[np.ndarray]:
         return [np.full(len(FEATURES), view.coverage + 0.01 * number)
                 for number, view in enumerate(views)]
 
@@ -332,7 +338,7 @@ def fake_rollouts(monkeypatch: pytest.MonkeyPatch) -> FakeRollouts:
     fake = FakeRollouts()
     monkeypatch.setattr(dataset_module, "MotorScene",
                         types.SimpleNamespace(load=lambda *args: None))
-    monkeypatch.setattr(dataset_module, "run", fake.run)
+    monkeypatch.setattr(dataset_module, "play", fake.play)
     monkeypatch.setattr(dataset_module, "episode_features", fake.features)
     tiny = functools.partial(fit, members=2, hidden=4, steps=25)
     monkeypatch.setattr(report_module, "fit", tiny)
@@ -463,7 +469,7 @@ def hold(*args, **kwargs):
 
 
 dataset.MotorScene = types.SimpleNamespace(load=lambda *args: None)
-dataset.run = study.evaluate = hold
+dataset.play = study.evaluate = hold
 sys.exit(main(sys.argv[2:]))
 """
 """Runs a `vprobot` command whose first rollout or evaluation holds still, a file (argv[1])
@@ -487,7 +493,7 @@ def test_a_stop_folder_in_use_by_a_running_command_is_refused_naming_its_pid(
 
     monkeypatch.setattr(dataset_module, "MotorScene",
                         types.SimpleNamespace(load=lambda *args: None))
-    monkeypatch.setattr(dataset_module, "run", reached)
+    monkeypatch.setattr(dataset_module, "play", reached)
     monkeypatch.setattr(study_module, "evaluate", reached)
     (episodes,) = _episode_lists(tmp_path, "one.json")
     out, holding = tmp_path / "out", tmp_path / "holding"
@@ -512,3 +518,37 @@ def test_a_stop_folder_in_use_by_a_running_command_is_refused_naming_its_pid(
     # Its holder gone, the folder is free (the kernel dropped the lock).
     with pytest.raises(Reached):
         main(argv)
+
+
+def test_a_rollout_of_nbv_integrates_each_frame_once_and_reads_its_features_as_integrated_anew(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """`stop fit`'s rollout reads the features from the grid nbv filled (each acquired frame
+    integrated once), and they equal those of a grid integrated anew from the views."""
+    from vprobot.occupancy import OccupancyGrid
+    from vprobot.stopping.features import episode_features
+
+    integrated: list[int] = []
+    integrate = OccupancyGrid.integrate
+
+    def counting(grid: OccupancyGrid, sensor: Any, pose: Any, points_world: np.ndarray,
+                 *args: Any) -> None:
+        integrated.append(id(points_world))
+        integrate(grid, sensor, pose, points_world, *args)
+
+    views: list[ViewRecord] = []
+    play = dataset_module.play
+
+    def keeping(*args: Any) -> Any:
+        played = play(*args)
+        views.extend(played[0])
+        return played
+
+    monkeypatch.setattr(OccupancyGrid, "integrate", counting)
+    monkeypatch.setattr(dataset_module, "play", keeping)
+    config = Config()
+    rows = dataset_module.rollout(config, seeded_episode(config.env, str(DEFAULT_MOTOR), 0), "nbv")
+    acquired = [id(view.points_world) for view in views if view.acquired]
+    assert len(acquired) >= 3 and sorted(integrated) == sorted(acquired)
+    monkeypatch.setattr(OccupancyGrid, "integrate", integrate)
+    anew = episode_features(config, views)
+    np.testing.assert_array_equal([[row[name] for name in FEATURES] for row in rows], anew)

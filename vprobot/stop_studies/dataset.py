@@ -26,13 +26,22 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import Config, replace
-from vprobot.episode import EpisodeSpec, MotorScene, read_episode_list, seeded_episode
+from vprobot.episode import (
+    Episode,
+    EpisodeSpec,
+    MotorScene,
+    ViewRecord,
+    read_episode_list,
+    seeded_episode,
+)
 from vprobot.episode.specs import bundled_episode_list, motor_name
 from vprobot.files import append_line, csv_text, write_text
 from vprobot.generated import family_of
-from vprobot.planners.runner import run
+from vprobot.occupancy import EpisodeGrid, GridSettings
+from vprobot.planners.runner import make_planner, run_episode
 from vprobot.splits import MOTORS, Split
 from vprobot.stopping.features import FEATURES, episode_features
+from vprobot.stopping.rules import make_stop_rule
 
 DEFAULT_PLANNERS = ("random2", "uniform4", "uniform6", "uniform8", "nbv")
 """Planners of the rollouts: random, fixed patterns of several sizes, next-best view."""
@@ -164,10 +173,21 @@ def rollout(config: Config, spec: EpisodeSpec, planner: str) -> list[dict[str, A
     features and true coverage."""
     settings = rollout_config(config)
     scene = MotorScene.load(settings, spec.motor_path, spec.scale)
-    views = run(settings, scene, planner, spec, "robot").record.views
+    views, grid = play(settings, scene, planner, spec)
     return [{"view": view, **dict(zip(FEATURES, features.tolist(), strict=True)),
              "coverage": views[view - 1].coverage}
-            for view, features in enumerate(episode_features(config, views), start=1)]
+            for view, features in enumerate(episode_features(config, views, grid), start=1)]
+
+
+def play(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec
+         ) -> tuple[list[ViewRecord], EpisodeGrid]:
+    """One episode of `planner` with the robot in the loop, as `vprobot.planners.runner.run`
+    plays it: its views, and the episode's grid of the features, which a grid planner (nbv)
+    has filled as it went (each acquired frame is integrated once)."""
+    episode = Episode.from_spec(scene, spec, "robot", config.env.unreachable)
+    played = run_episode(make_planner(planner, config), episode, spec, config,
+                         np.random.default_rng(spec.seed), make_stop_rule("goal", config))
+    return list(played.record.views), episode.occupancy(GridSettings.of(config))
 
 
 def finished_episodes(path: Path) -> set[int]:
