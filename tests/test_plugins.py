@@ -1,12 +1,11 @@
-"""Plugins: a planner in a module outside the package, loaded by `--plugin` or an entry point,
-in the main process and in the Ray workers."""
+"""Plugins: a planner in a module outside the package, loaded by `--plugin` or an entry point.
+(In the Ray workers: tests/test_extensions.py's evaluation loads a `.py` file given relative to
+the command's folder, tests/test_extensions_agent.py's a module on PYTHONPATH and a file.)"""
 
 from __future__ import annotations
 
 import csv
 import importlib.metadata
-import os
-import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -73,30 +72,6 @@ def fresh_plugins(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
         PLANNERS.unregister(name)
     for module in toys:
         sys.modules.pop(module, None)
-
-
-def test_plugin_planners_run_in_an_evaluation_on_two_ray_workers(tmp_path: Path) -> None:
-    """The issue's case: registered outside the package, a planner ran with one worker and was
-    unknown to the Ray workers with two. One plugin is a module on PYTHONPATH, the other a .py
-    file given relative to the command's folder."""
-    pytest.importorskip("ray")
-    _toy(tmp_path / "mine", "mytop_plugin", "mytop")
-    _toy(tmp_path / "files", "filetop_plugin", "filetop")
-    path = [str(tmp_path / "mine"), str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
-    command = subprocess.Popen(
-        [sys.executable, "-m", "vprobot.cli", "--plugin", "mytop_plugin",
-         "--plugin", "files/filetop_plugin.py", "evaluate", "--planners", "mytop", "filetop",
-         *ONE_FREE_EPISODE, "--seeds", "0", "1", "--workers", "2", "--out", "out"],
-        cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join(path)})
-    _, stderr = command.communicate(timeout=600)
-    assert command.returncode == 0, stderr
-    rows = sorted(_rows(tmp_path / "out"), key=lambda row: (row["episode"], row["planner"]))
-    assert [(row["episode"], row["planner"], row["acquisitions"]) for row in rows] == [
-        ("0", "filetop", "2"), ("0", "mytop", "2"), ("1", "filetop", "2"), ("1", "mytop", "2")]
-    for folder in ("mine", "files"):
-        planned_in = {int(pid) for pid in (tmp_path / folder / "pids.txt").read_text().split()}
-        assert planned_in and command.pid not in planned_in
 
 
 def test_a_py_file_plugin_registers_its_planner_for_the_command(
