@@ -56,6 +56,8 @@ PLANNED_IN = "planned_in.txt"
 """The file beside the plugin where the toy planner notes each process that planned."""
 MEASURED_IN = "measured_in.txt"
 """The file beside the plugin where the toy sensing model notes each process that measured."""
+IMPORTED_IN = "imported_in.txt"
+"""The file beside the evaluation's second plugin where it notes each process that imported it."""
 
 TOYS: dict[str, str] = {}
 """Each kind's toy, as plugin source."""
@@ -353,8 +355,9 @@ def test_the_toys_run_in_an_evaluation_on_two_ray_workers(plugin: Path, tmp_path
     """The toy planner, stopped by the toy rule, on two instances of the toy family, measured
     by the toy sensing model, with a robot folder and a sensor preset file of one's own (a copy
     of the bundled UR10's folder, the paper's preset at a fifth of its resolution): planned and
-    measured in the workers, which imported the plugin (given relative to the command's
-    folder); a config file names the robot and the preset as the options do."""
+    measured in the workers, which imported both plugins (a module on PYTHONPATH, a .py file
+    given relative to the command's folder); a config file names the robot and the preset as
+    the options do."""
     pytest.importorskip("ray")
     robot = tmp_path / "my_arm"
     shutil.copytree(ROBOTS_DIR / "ur10", robot)
@@ -368,14 +371,20 @@ def test_the_toys_run_in_an_evaluation_on_two_ray_workers(plugin: Path, tmp_path
     episodes = tmp_path / "toys.json"
     write_episode_list(episodes, [seeded_episode(CONFIG.env, f"generated/blocktoy_000{seed}.stl",
                                                  seed) for seed in (0, 1)])
+    # A second plugin, given as a .py file relative to the command's folder, notes each
+    # process that imported it; the toys' plugin is given as a module on PYTHONPATH.
+    (tmp_path / "extra").mkdir()
+    (tmp_path / "extra" / "noting.py").write_text(
+        f"import os\nfrom pathlib import Path\nwith (Path(__file__).parent / {IMPORTED_IN!r})"
+        f".open('a') as stream:\n    stream.write(f'{{os.getpid()}}\\n')\n")
     command = subprocess.Popen(
-        [sys.executable, "-m", "vprobot.cli", "--plugin", f"plugin/{MODULE}.py", "evaluate",
-         "--planners", "toptoy", "--stop", "twotoy", "--episodes", str(episodes),
+        [sys.executable, "-m", "vprobot.cli", "--plugin", MODULE, "--plugin", "extra/noting.py",
+         "evaluate", "--planners", "toptoy", "--stop", "twotoy", "--episodes", str(episodes),
          "--robot", "my_arm", "--sensor", "my_sensor.yaml", "--sensing", "half_dropout",
          "--carriers", "robot", "--workers", "2", "--out", "out"],
         cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "PYTHONPATH": os.pathsep.join(
-            [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])})
+            [str(plugin.parent), str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])})
     _, stderr = command.communicate(timeout=600)
     assert command.returncode == 0, stderr
     with (tmp_path / "out" / "evaluation_episodes.csv").open() as stream:
@@ -387,6 +396,7 @@ def test_the_toys_run_in_an_evaluation_on_two_ray_workers(plugin: Path, tmp_path
     settings = json.loads((tmp_path / "out" / SETTINGS_NAME).read_text())["config"]
     assert (settings["cell"]["robot"], settings["sensor"]["resolution"],
             settings["sensor"]["sensing"]) == ("my_arm", [86, 60], "half_dropout")
+    imported = {int(pid) for pid in (tmp_path / "extra" / IMPORTED_IN).read_text().split()}
     for noted in (PLANNED_IN, MEASURED_IN):
         pids = {int(pid) for pid in (tmp_path / "plugin" / noted).read_text().split()}
-        assert pids and command.pid not in pids, noted
+        assert pids and command.pid not in pids and pids <= imported, noted

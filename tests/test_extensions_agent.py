@@ -5,7 +5,6 @@ evaluation runs it.)"""
 
 from __future__ import annotations
 
-import csv
 import os
 import subprocess
 import sys
@@ -115,20 +114,6 @@ def test_a_plugin_reward_and_encoder_train_an_agent_from_the_command_line(
     extractor = load_agent(run).model.policy.actor.features_extractor
     # TINY_TRAINING's net_arch is [16, 16]: the toy's width.
     assert type(extractor).__name__ == "MaxPool" and extractor.features_dim == 16
-    # The agent evaluated on two Ray workers, which must import both plugins to read its
-    # config (the reward) and load its model (the encoder): one as a module on PYTHONPATH,
-    # the other as a .py file.
-    pytest.importorskip("ray")
-    path = [str(toys[0].parent), str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
-    done = subprocess.run(
-        [sys.executable, "-m", "vprobot.cli", "--plugin", toys[0].stem, "--plugin",
-         str(toys[1]), "evaluate", "--planners", f"agent:{run}", *ONE_FREE_EPISODE, "--seeds",
-         "0", "1", "--workers", "2", "--out", str(tmp_path / "evaluation")],
-        capture_output=True, text=True, timeout=600,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join(path)})
-    assert done.returncode == 0, done.stderr
-    with (tmp_path / "evaluation" / "evaluation_episodes.csv").open() as stream:
-        assert sorted(row["episode"] for row in csv.DictReader(stream)) == ["0", "1"]
 
 
 def test_an_unknown_encoder_is_refused_where_the_agent_is_used_before_any_work(
