@@ -11,6 +11,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import overload
 
+VIDEO_SUFFIXES = (".mp4", ".gif")
+"""What a video output may be: the renderer writes these, and the commands check for them."""
+
 
 def _check_writable_folder(folder: Path, option: str, path: Path) -> None:
     try:

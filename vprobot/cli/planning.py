@@ -20,9 +20,8 @@ from vprobot.cli.common import (
     number,
     planner_name,
 )
-from vprobot.outputs import check_output_file, check_output_folder
+from vprobot.outputs import VIDEO_SUFFIXES, check_output_file, check_output_folder
 
-VIDEO_SUFFIXES = (".mp4", ".gif")
 PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
 """Options that choose what `plan` or `render` plans; a replayed `--plan` fixes them all."""
 

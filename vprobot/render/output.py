@@ -11,9 +11,8 @@ import imageio.v2 as imageio
 import numpy as np
 
 from vprobot.files import atomic_output
-from vprobot.outputs import check_output_file
+from vprobot.outputs import VIDEO_SUFFIXES, check_output_file
 
-VIDEO_SUFFIXES = (".mp4", ".gif")
 IMAGE_SUFFIXES = (".png",)
 
 
