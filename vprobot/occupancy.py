@@ -100,8 +100,8 @@ class OccupancyGrid:
     @classmethod
     def for_cell(cls, config: Config, voxel_m: float = VOXEL_M) -> OccupancyGrid:
         """The grid over where an object may stand in the configured cell (not from a mesh)."""
-        return cls.around(np.asarray(config.cell.object_center_m, dtype=float),
-                          fit_limit(config).radius_m, voxel_m)
+        center, half_size_m = _cell_cube(config)
+        return cls.around(np.array(center), half_size_m, voxel_m)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -356,6 +356,13 @@ class _SampleRuns:
         return sums.reshape(self._count, -1) @ self._counts
 
 
+def _cell_cube(config: Config) -> tuple[tuple[float, float, float], float]:
+    """Where a grid of the configured cell stands: the centre of the cube in which an object may
+    stand (world, m) and half its edge (the largest object the cell accepts, `fit_limit`)."""
+    x, y, z = (float(value) for value in config.cell.object_center_m)
+    return (x, y, z), fit_limit(config).radius_m
+
+
 @dataclasses.dataclass(frozen=True)
 class GridSettings:
     """What an episode's grid depends on: where it stands, its voxel and the sensor whose frames
@@ -380,9 +387,7 @@ class GridSettings:
         """The settings of the configured cell and sensor (at `resolution`: the frames', None
         for the configured sensor's) with voxels of `voxel_m`."""
         sensor = SensorModel.from_config(config.sensor)
-        center = np.asarray(config.cell.object_center_m, dtype=float)
-        return cls((float(center[0]), float(center[1]), float(center[2])),
-                   fit_limit(config).radius_m, voxel_m,
+        return cls(*_cell_cube(config), voxel_m,
                    sensor if resolution is None else sensor.at_resolution(resolution))
 
     def new_grid(self) -> OccupancyGrid:
