@@ -10,13 +10,13 @@ its `seed-<n>` folders: a partial `seeds.csv`) says so: `0 2 (2 of 3 seeds)`.
 
 from __future__ import annotations
 
-import csv
 import json
 from collections.abc import Sequence
 from pathlib import Path
 
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.paths import PACKAGE_DIR
+from vprobot.report.compare import read_rows
 
 ROOT = PACKAGE_DIR.parent
 """The repository, which holds the baselines (so the report runs from any folder)."""
@@ -34,11 +34,6 @@ BSCP_MARGIN = 0.8
 METRICS = (("coverage_pct", "{:.1f}"), ("acquisitions", "{:.2f}"), ("success_pct", "{:.0f}"))
 
 
-def _read_csv(path: Path) -> list[dict[str, str]]:
-    with path.open(newline="") as handle:
-        return list(csv.DictReader(handle))
-
-
 class Agent:
     """An agent's `seeds.csv` rows by episode list, and all its seeds."""
 
@@ -51,7 +46,7 @@ class Agent:
         path = folder / "seeds.csv"
         if not path.is_file():
             raise ValueError(f"{folder} holds no seeds.csv (of `vprobot train --seeds`)")
-        rows = _read_csv(path)
+        rows = read_rows(path)
         if rows and not {"evaluation", "seeds", *(key for key, _ in METRICS)} <= set(rows[0]):
             raise ValueError(f"{path} is not the seeds.csv of `vprobot train --seeds`")
         self.rows = {row["evaluation"]: row for row in rows}
@@ -103,7 +98,7 @@ def baselines(name: str) -> list[dict[str, str]]:
     listed = json.loads(bundled_episode_list(name).read_text())["episodes"]
     if json.loads((baseline_dir / "episodes.json").read_text())["episodes"] != listed:
         raise ValueError(f"{baseline_dir}/episodes.json is not the episode list {name}")
-    return [row for row in _read_csv(baseline_dir / "evaluation.csv")
+    return [row for row in read_rows(baseline_dir / "evaluation.csv")
             if row["carrier"] == "robot" and row["planner"] in PLANNERS]
 
 
