@@ -125,9 +125,11 @@ def test_a_plugin_that_fails_to_import_is_a_one_line_error_naming_it(
 def test_only_the_global_plugin_options_are_plugins(capsys: pytest.CaptureFixture[str]) -> None:
     """Not a `--plugin` after the command (which the parser refuses), nor an abbreviation of
     another option there (`evaluate --pl hrec`)."""
-    assert plugins.requested(["--plugin", "a", "--plugin=b", "--plug", "c", "evaluate",
-                              "--pl", "hrec", "--plugin", "d"]) == ["a", "b", "c"]
-    assert plugins.requested(["--plugin"]) == []  # the parser says what is missing
+    options = plugins.global_options(["--plugin", "a", "--plugin=b", "--plug", "c", "evaluate",
+                                      "--pl", "hrec", "--plugin", "d"])
+    assert options.plugin == ["a", "b", "c"]
+    assert options.command == ["evaluate", "--pl", "hrec", "--plugin", "d"]
+    assert plugins.global_options(["--plugin"]).plugin == []  # the parser says what is missing
     with pytest.raises(SystemExit) as refused:
         main(["evaluate", "--plugin", "x"])
     assert refused.value.code == 2

@@ -36,15 +36,10 @@ def entry_point_modules() -> list[str]:
     return [entry.module for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)]
 
 
-def requested(argv: Sequence[str]) -> list[str]:
-    """The `--plugin` values among the global options of `argv` (those before the command);
-    a malformed one is left to the command line's parser to report."""
-    return _global_options(argv).plugin
-
-
-def _global_options(argv: Sequence[str]) -> argparse.Namespace:
-    """The `--plugin` values and the rest (`command`: the command and its arguments) of
-    `argv`; a malformed `--plugin` is left to the command line's parser to report."""
+def global_options(argv: Sequence[str]) -> argparse.Namespace:
+    """The `--plugin` values among the global options of `argv` (those before the command) and
+    the rest (`command`: the command and its arguments); a malformed `--plugin` is left to the
+    command line's parser to report."""
     parser = argparse.ArgumentParser(add_help=False, exit_on_error=False)
     parser.add_argument("--plugin", action="append", default=[])
     parser.add_argument("command", nargs=argparse.REMAINDER)
@@ -61,7 +56,7 @@ def load_requested(argv: Sequence[str]) -> None:
     Raises:
         ValueError: Naming the first plugin that fails to import and its error.
     """
-    options = _global_options(argv)
+    options = global_options(argv)
     names_a_command = any(not word.startswith("-") for word in options.command)
     load([*(entry_point_modules() if names_a_command else []), *options.plugin])
 
