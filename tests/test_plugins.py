@@ -21,9 +21,6 @@ from vprobot.planners.runner import planner_names
 ROOT = Path(__file__).resolve().parents[1]
 TOY = '''"""A user's own planner: NAME, two views straight down onto the object."""
 
-import os
-from pathlib import Path
-
 from vprobot.episode import ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.planners.base import PlanPlanner, register_planner
@@ -35,9 +32,6 @@ class TopViews(PlanPlanner):
     stops_at_goal = False
 
     def plan(self, episode):
-        # Which processes planned: the command's, or Ray's workers.
-        with (Path(__file__).parent / "pids.txt").open("a") as stream:
-            stream.write(f"{os.getpid()}\\n")
         distance = episode.scene.cell.config.sensor.working_distance_m
         return [ViewRequest(SensorTarget.look_at(
             episode.center + [0.0, 0.0, distance * (1.0 - 0.02 * index)], episode.center))
