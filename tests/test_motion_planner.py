@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import time
 
 import numpy as np
 import pytest
@@ -94,6 +95,30 @@ def test_goal_in_collision_has_no_path(arm: RobotArm) -> None:
                                     {"path_planning_time_s": 1e-9}])
 def test_planning_out_of_budget_has_no_path(arm: RobotArm, budget: dict[str, object]) -> None:
     assert planner(arm, **budget).plan(Q_FROM, Q_TO) is None
+
+
+def test_waiting_for_a_core_does_not_spend_the_time_cap(arm: RobotArm,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A search descheduled for longer than its cap (as on a loaded machine: here a sleep at its
+    first check) finds the path of an undisturbed one: the cap counts the planning thread's CPU
+    time. A wall-clock cap would have ended it with no path."""
+    cap_s = 0.5
+    undisturbed = planner(arm, path_planning_time_s=cap_s).plan(Q_FROM, Q_TO)
+    assert undisturbed is not None and undisturbed.method == "rrt_connect"
+    check = arm.collisions.in_collision
+    slept: list[float] = []
+
+    def descheduled(q: np.ndarray) -> bool:
+        if not slept:
+            slept.append(cap_s + 0.1)
+            time.sleep(slept[0])
+        return check(q)
+
+    monkeypatch.setattr(arm.collisions, "in_collision", descheduled)
+    delayed = planner(arm, path_planning_time_s=cap_s).plan(Q_FROM, Q_TO)
+    assert slept, "the search never checked a state"
+    assert delayed is not None and delayed.planning_time_s > cap_s
+    np.testing.assert_array_equal(delayed.waypoints, undisturbed.waypoints)
 
 
 def test_line_planner_does_not_go_around(arm: RobotArm) -> None:

@@ -244,8 +244,9 @@ class KinematicsConfig:
             without a path found within it fails (`path_not_found`). It ends a search at the
             same point on every machine (about 0.2 s on the 2-core reference machine), so runs
             repeat exactly.
-        path_planning_time_s: A wall-clock cap per move on top, for a slower machine (a search
-            it ends may end elsewhere on another machine).
+        path_planning_time_s: A cap per move on top, in the planning thread's CPU time (not
+            the wall clock, so a loaded machine does not change the plans), for a slower machine
+            (a search it ends may end elsewhere on another machine).
         roll: `free` leaves the rotation about the optical axis to the IK; `fixed` demands it.
         seed: Seed of the restart configurations (deterministic verdicts).
     """

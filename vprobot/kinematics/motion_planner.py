@@ -68,14 +68,16 @@ class SearchBudget:
 
     Attributes:
         checks: Collision checks left: they end a search at the same point on every machine.
-        deadline: `time.perf_counter()` past which a (slower) machine stops anyway.
+        deadline: `time.thread_time()` past which a (slower) machine stops anyway. The
+            planning thread's CPU time, not the wall clock: on a loaded machine the searches
+            wait for a core without spending it, so other processes do not change the plans.
     """
 
     checks: int
     deadline: float
 
     def spent(self) -> bool:
-        return self.checks <= 0 or time.perf_counter() > self.deadline
+        return self.checks <= 0 or time.thread_time() > self.deadline
 
 
 def query_seed(q_from: np.ndarray, q_to: np.ndarray) -> int:
@@ -143,7 +145,7 @@ class MotionPlanner:
         if self.settings.path_planner == "line" or not self.is_free(line):
             return None
         budget = SearchBudget(self.settings.path_planning_checks,
-                              start + self.settings.path_planning_time_s)
+                              time.thread_time() + self.settings.path_planning_time_s)
         for search in range(SEARCHES):
             if budget.spent():
                 break
