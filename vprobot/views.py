@@ -57,6 +57,14 @@ def look_at_targets(center: np.ndarray, distance: float,
     return tuple(SensorTarget.look_at(center + distance * d, center) for d in directions)
 
 
+def nearest_directions(directions: np.ndarray) -> np.ndarray:
+    """Each unit direction's nearest others (count, up to 8) as indices, nearest first: the
+    neighbourhood the screening and `uniform`'s spreading walk."""
+    count = len(directions)
+    _, found = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1, count))
+    return np.asarray(found).reshape(count, -1)[:, 1:]
+
+
 def screen_reachability(arm: RobotArm, collisions: CollisionChecker, start_q: np.ndarray,
                         directions: np.ndarray, targets: Sequence[SensorTarget]
                         ) -> tuple[np.ndarray, tuple[str | None, ...]]:
@@ -73,8 +81,7 @@ def screen_reachability(arm: RobotArm, collisions: CollisionChecker, start_q: np
         Configurations (count, dof) with NaN rows for unusable candidates, and the reasons.
     """
     count = len(targets)
-    _, neighbours = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1, count))
-    neighbours = np.asarray(neighbours).reshape(count, -1)[:, 1:]
+    neighbours = nearest_directions(directions)
     joints = np.full((count, arm.joints.dof), np.nan)
     reasons: list[str | None] = [None] * count
     visited = np.zeros(count, dtype=bool)

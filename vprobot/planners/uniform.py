@@ -34,7 +34,6 @@ import functools
 
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
 
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
@@ -46,10 +45,8 @@ from vprobot.planners.base import Planner, PlanPlanner, check_views, register_pl
 from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view
 from vprobot.planners.ordering import fixed_plan
 from vprobot.scene import Cell
-from vprobot.views import look_at_targets, screen_reachability
+from vprobot.views import look_at_targets, nearest_directions, screen_reachability
 from vprobot.viewsphere import sphere_directions
-
-_NEIGHBOURS = 8
 
 
 def _band() -> np.ndarray:
@@ -111,9 +108,7 @@ def spread(directions: np.ndarray, count: int) -> np.ndarray:
     while len(chosen) < count:
         chosen.append(int(np.argmax(nearest)))
         nearest = np.minimum(nearest, np.linalg.norm(directions - directions[chosen[-1]], axis=1))
-    _, neighbours = cKDTree(directions).query(directions, k=min(_NEIGHBOURS + 1,
-                                                                len(directions)))
-    neighbours = np.asarray(neighbours).reshape(len(directions), -1)[:, 1:]
+    neighbours = nearest_directions(directions)
     best = _energy(directions[chosen])
     improved = True
     while improved:
