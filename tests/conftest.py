@@ -1,10 +1,12 @@
 """Shared test setup: vprobot's caches (ground truth, generated objects) go into one temporary
-folder per test session, shared by every test and by the processes they start, never into
-the user's ~/.cache. Tests that need a cache of their own set `VPROBOT_CACHE_DIR` themselves.
+folder per test run, shared by every test, both pytest-xdist workers and the processes they
+start, never into the user's ~/.cache (the caches write atomically, so the workers may fill it
+at once). Tests that need a cache of their own set `VPROBOT_CACHE_DIR` themselves.
 Expensive results that several test modules compare against are made once per session here."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,7 +19,10 @@ from vprobot.paths import CACHE_ENV_VAR
 
 @pytest.fixture(scope="session", autouse=True)
 def session_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    folder = tmp_path_factory.mktemp("vprobot-cache")
+    base = tmp_path_factory.getbasetemp()
+    # Under pytest-xdist each worker's base folder sits in the run's: one cache for the run.
+    folder = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "vprobot-cache"
+    folder.mkdir(exist_ok=True)
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv(CACHE_ENV_VAR, str(folder))
         yield folder
