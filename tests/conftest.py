@@ -6,6 +6,7 @@ Expensive results that several test modules compare against are made once per se
 
 from __future__ import annotations
 
+import fcntl
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,11 +18,16 @@ from helpers import SERIAL_EVALUATION, TINY_TRAINING, SmokeRuns
 from vprobot.paths import CACHE_ENV_VAR
 
 
+def _run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The temporary folder of the whole test run: under pytest-xdist each worker's base
+    folder sits in it."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
 @pytest.fixture(scope="session", autouse=True)
 def session_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    base = tmp_path_factory.getbasetemp()
-    # Under pytest-xdist each worker's base folder sits in the run's: one cache for the run.
-    folder = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "vprobot-cache"
+    folder = _run_folder(tmp_path_factory) / "vprobot-cache"
     folder.mkdir(exist_ok=True)
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv(CACHE_ENV_VAR, str(folder))
@@ -30,11 +36,16 @@ def session_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
 
 @pytest.fixture(scope="session")
 def serial_evaluation(session_cache: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The folder of the tables of `SERIAL_EVALUATION`, run in this process."""
+    """The folder of the tables of `SERIAL_EVALUATION`, run once per test run in a test
+    process (the first worker to need it; the other waits for it). Read only."""
     from vprobot.cli import main
 
-    folder = tmp_path_factory.mktemp("serial-evaluation")
-    assert main([*SERIAL_EVALUATION, "--out", str(folder)]) == 0
+    folder = _run_folder(tmp_path_factory) / "serial-evaluation"
+    with (folder.parent / "serial-evaluation.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        # Made whole while the lock is held: present means done.
+        if not (folder / "evaluation.md").is_file():
+            assert main([*SERIAL_EVALUATION, "--out", str(folder)]) == 0
     return folder
 
 
