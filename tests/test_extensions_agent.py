@@ -1,10 +1,11 @@
 """A reward and an encoder of a user's own, in `.py` plugins outside the package: each is one
-file that registers itself, and runs through the config and the command line (a training run),
-as docs/extending.md says. (The sensing model's toy is in tests/test_extensions.py, whose Ray
-evaluation runs it.)"""
+file that registers itself, and runs through the config and the command line (a training run,
+then its evaluation on two Ray workers), as docs/extending.md says. (The sensing model's toy is
+in tests/test_extensions.py, whose Ray evaluation runs it.)"""
 
 from __future__ import annotations
 
+import csv
 import os
 import subprocess
 import sys
@@ -101,19 +102,37 @@ def test_a_plugin_reward_is_named_by_the_config_and_paid_by_the_env(
     assert max(gains) > 0.0
 
 
-def test_a_plugin_reward_and_encoder_train_an_agent_from_the_command_line(
+def test_a_plugin_reward_and_encoder_train_an_agent_that_two_ray_workers_evaluate(
         toys: tuple[Path, Path], tmp_path: Path) -> None:
+    """Trained from the command line with both toys; then `vprobot evaluate --workers 2` of
+    that run, in a fresh process: each Ray task loads the run, whose config names the toy reward
+    and whose model holds the toy encoder, so the workers must have imported both plugins."""
+    pytest.importorskip("ray")
     from vprobot.agents.trained import load_agent
 
     run = tmp_path / "run"
-    assert main(["--plugin", str(toys[0]), "--plugin", str(toys[1]), "train", str(PROFILE),
-                 "--steps", "5", "--set", *TINY_TRAINING, "env.reward=twice_gain",
-                 "agent.encoder=maxpool_toy", "--out", str(run)]) == 0
+    given = ["--plugin", str(toys[0]), "--plugin", str(toys[1])]
+    assert main([*given, "train", str(PROFILE), "--steps", "5", "--set", *TINY_TRAINING,
+                 "env.reward=twice_gain", "agent.encoder=maxpool_toy", "--out", str(run)]) == 0
     saved = yaml.safe_load((run / "config.yaml").read_text())
     assert (saved["env"]["reward"], saved["agent"]["encoder"]) == ("twice_gain", "maxpool_toy")
     extractor = load_agent(run).model.policy.actor.features_extractor
     # TINY_TRAINING's net_arch is [16, 16]: the toy's width.
     assert type(extractor).__name__ == "MaxPool" and extractor.features_dim == 16
+
+    out = tmp_path / "evaluation"
+    evaluated = subprocess.run(
+        [sys.executable, "-m", "vprobot.cli", *given, "evaluate", "--planners", f"agent:{run}",
+         *ONE_FREE_EPISODE, "--seeds", "0", "1", "--workers", "2", "--out", str(out)],
+        capture_output=True, text=True, timeout=600,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(
+            [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])})
+    assert evaluated.returncode == 0, evaluated.stderr
+    with (out / "evaluation_episodes.csv").open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert sorted((row["episode"], row["planner"]) for row in rows) == [
+        ("0", f"agent:{run}"), ("1", f"agent:{run}")]
+    assert all(int(row["acquisitions"]) >= 1 for row in rows)
 
 
 def test_an_unknown_encoder_is_refused_where_the_agent_is_used_before_any_work(
