@@ -124,9 +124,7 @@ def test_a_plugin_reward_and_encoder_train_an_agent_that_two_ray_workers_evaluat
     evaluated = subprocess.run(
         [sys.executable, "-m", "vprobot.cli", *given, "evaluate", "--planners", f"agent:{run}",
          *ONE_FREE_EPISODE, "--seeds", "0", "1", "--workers", "2", "--out", str(out)],
-        capture_output=True, text=True, timeout=600,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join(
-            [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])})
+        capture_output=True, text=True, timeout=600)
     assert evaluated.returncode == 0, evaluated.stderr
     with (out / "evaluation_episodes.csv").open() as stream:
         rows = list(csv.DictReader(stream))
