@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -81,12 +82,43 @@ def test_readme_tour_states_the_run_time_of_each_long_command() -> None:
     assert untimed == []
 
 
-def test_readme_says_how_to_install_the_cpu_build_of_the_pinned_torch() -> None:
+def test_readme_says_how_to_install_the_cpu_build_of_the_pinned_torch_before_its_commands(
+        ) -> None:
     (pin,) = re.findall(r'"torch==([\d.]+)"', (ROOT / "pyproject.toml").read_text())
     readme = (ROOT / "README.md").read_text()
-    assert (f"`pip install torch=={pin} --index-url https://download.pytorch.org/whl/cpu`"
-            in readme)
+    install = f"`pip install torch=={pin} --index-url https://download.pytorch.org/whl/cpu`"
+    assert install in readme
     assert "CUDA build" in readme
+    # Said before the set-up commands, which would otherwise take the CUDA build.
+    assert readme.index(install) < readme.index("```bash")
+
+
+def _pins(text: str) -> dict[str, str]:
+    """`name==version` lines of a requirements text, by normalised name."""
+    return {match[0].lower().replace("_", "-"): match[1]
+            for match in re.findall(r"^([A-Za-z0-9_.-]+)==([^\s;]+)", text, re.MULTILINE)}
+
+
+def test_readme_installs_the_releases_the_suite_passed_with() -> None:
+    readme = (ROOT / "README.md").read_text()
+    setup = bash_blocks(ROOT / "README.md")[:2]
+    assert all("pip install -e " in line and "-c constraints.txt" in line for line in setup)
+    assert "newest" in readme
+    locked = _pins((ROOT / "constraints.txt").read_text())
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    wanted = [re.split(r"[\s<>=!~\[;]", requirement, maxsplit=1)[0].lower()
+              for requirement in [*declared["project"]["dependencies"],
+                                  *declared["project"]["optional-dependencies"]["test"]]]
+    assert [name for name in wanted if name not in locked] == []
+    # The exact pins of pyproject.toml are the locked releases.
+    exact = dict(re.findall(r'"([A-Za-z0-9_.-]+)==([^"]+)"', (ROOT / "pyproject.toml").read_text()))
+    assert {name: locked[name.lower()] for name in exact} == exact
+
+
+def test_ci_runs_the_readmes_test_command_and_the_newest_releases() -> None:
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert bash_blocks(ROOT / "README.md")[1].split("  #")[0].strip() in ci
+    assert 'pip install -q --upgrade -e ".[test]"' in ci  # no constraints: the newest
 
 
 def test_doc_examples_do_not_write_into_the_repositorys_results() -> None:
