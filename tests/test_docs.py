@@ -72,17 +72,23 @@ def test_no_reference_to_the_internal_spec_remains() -> None:
 
 
 README_COMMANDS = (
-    'pip install -e . && vprobot plan --out plan.json --video rollout.mp4   # main job',
-    'pip install -e ".[test]" && python -m pytest -q                        # the test suite',
+    "pip install -e . -c constraints.txt && vprobot plan --out plan.json --video rollout.mp4"
+    "  # main job",
+    'pip install -e ".[test]" -c constraints.txt && python -m pytest -q'
+    "                      # tests",
 )
 """The two set-up commands on a fresh machine, as the README states them."""
+TORCH_FIRST = ("First `pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu`"
+               " (the CUDA build otherwise, several GB); Python 3.11:")
+"""The line before them: without torch's CPU build installed first, pip takes the CUDA one."""
 
 
 def test_readme_is_short_and_opens_with_the_two_set_up_commands() -> None:
     lines = (ROOT / "README.md").read_text().splitlines()
     assert len(lines) < 200
-    opening = [line for line in lines[1:] if line.strip()][:4]
-    assert lines[0].startswith("# ") and opening == ["```bash", *README_COMMANDS, "```"]
+    opening = [line for line in lines[1:] if line.strip()][:5]
+    assert lines[0].startswith("# ")
+    assert opening == [TORCH_FIRST, "```bash", *README_COMMANDS, "```"]
 
 
 def test_ci_runs_the_readmes_test_command() -> None:
