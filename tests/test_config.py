@@ -39,7 +39,12 @@ def test_unknown_key_names_key_and_allowed_keys() -> None:
         ({"sensor": {"working_distance_m": 0.8}},
          r"sensor\.working_distance_m must lie in \(near_m, far_m\] = \(0\.3, 0\.5\], got 0\.8"),
         ({"sensor": {"acquisition_time_s": -0.1}},
-         r"sensor\.acquisition_time_s must be >= 0 s \(finite\), got -0\.1"),
+         r"sensor\.acquisition_time_s must lie in \[0, 60\] s, got -0\.1"),
+        ({"sensor": {"far_m": 20.0}}, r"0 <= near_m < far_m <= 10 m, got .* far_m=20\.0"),
+        # A name the system cannot look up (too long) is quoted cut short.
+        ({"cell": {"robot": "r" * 10_000}},
+         r"^cell\.robot: unknown robot 'r{37}\.\.\.r{38}': neither a bundled robot \(.*\) nor a "
+         r"robot folder$"),
         ({"kinematics": {"roll": "loose"}}, r"kinematics.roll must be one of \['free', 'fixed'\]"),
         ({"kinematics": {"restarts": 1.5}}, r"kinematics.restarts must be an integer"),
         ({"kinematics": {"max_step_rad": -1.0}}, r"kinematics.max_step_rad must be > 0"),

@@ -2,18 +2,21 @@
 default (README, docs/running.md), docs/README.md's Layout names every module and subpackage of
 `vprobot/`; the README's tour gives each long command's run time and says how to install torch's
 CPU build, and no example writes into the repository's own `results/`; docs/benchmarks.md
-describes every benchmark suite."""
+describes every benchmark suite; the view sphere's reach and the README's candidate count are the
+figures vprobot printed (`results/view_sphere/`, `results/export/plan.txt`)."""
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import tomllib
 from pathlib import Path
 from typing import Any
 
 from vprobot.config import Config, load_config
-from vprobot.paths import DEFAULT_CONFIG
+from vprobot.paths import DEFAULT_CONFIG, available_sensors
+from vprobot.planners.candidates import CANDIDATE_COUNT
 from vprobot.schema import read_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -140,3 +143,55 @@ def test_benchmarks_page_describes_every_suite() -> None:
     section = (ROOT / "docs" / "benchmarks.md").read_text().split("\n## Suites\n", 1)[1]
     section = section.split("\n## ", 1)[0]
     assert [name for name in suite.choices if f"- `{name}`:" not in section] == []
+
+
+VIEW_SPHERE = ROOT / "results" / "view_sphere"
+"""`vprobot cell --robot ROBOT --sensor PRESET --json` of each bundled robot and sensor preset."""
+DOC_ROBOTS = {"UR10": "ur10", "UR10 (default)": "ur10", "Panda": "panda",
+              "Franka Emika Panda": "panda", "UR5": "ur5"}
+
+
+def reached(robot: str, preset: str) -> str:
+    """The view sphere's reachable share that `vprobot cell` recorded, as the docs write it."""
+    recorded = json.loads((VIEW_SPHERE / f"{robot}_{preset}.json").read_text())
+    assert recorded["robot"] == robot
+    return f"{100 * recorded['fraction']:.1f} %"
+
+
+def table(path: Path, header: str) -> list[list[str]]:
+    """The cells of the Markdown table in `path` whose header row starts with `header`."""
+    lines = path.read_text().splitlines()
+    start = next(index for index, line in enumerate(lines) if line.startswith(header))
+    rows = []
+    for line in lines[start:]:
+        if not line.startswith("|"):
+            break
+        rows.append([cell.strip() for cell in line.strip("|").split("|")])
+    return rows
+
+
+def test_view_sphere_figures_are_those_vprobot_cell_recorded() -> None:
+    robots = table(ROOT / "docs" / "cell-and-robots.md", "| robot | joints | placement | reachable")
+    assert {DOC_ROBOTS[row[0]]: row[3] for row in robots[2:]} == {
+        robot: reached(robot, "paper") for robot in ("ur10", "panda", "ur5")}
+    presets = table(ROOT / "docs" / "sensor.md", "| robot, preset |")
+    names = [re.findall(r"`(\w+)`", cell)[0] for cell in presets[0][1:]]
+    assert sorted(names) == sorted(available_sensors())
+    assert {(DOC_ROBOTS[row[0]], name): figure for row in presets[2:]
+            for name, figure in zip(names, row[1:], strict=True)} == {
+        (robot, name): reached(robot, name) for robot in ("ur10", "panda", "ur5")
+        for name in names}
+    benchmarks = (ROOT / "docs" / "benchmarks.md").read_text()
+    (row,) = re.findall(r"^\| view sphere reachable, UR10 / Panda / UR5 .*?\| (.*?) \|", benchmarks,
+                        re.MULTILINE)
+    assert row == " / ".join(reached(robot, "paper") for robot in ("ur10", "panda", "ur5"))
+
+
+def test_readme_states_the_candidates_the_first_commands_plan_reached() -> None:
+    # results/export/plan.txt is what the README's first command printed.
+    printed = (ROOT / "results" / "export" / "plan.txt").read_text()
+    ((candidates, reachable),) = re.findall(r"candidates (\d+), (\d+) reachable", printed)
+    assert int(candidates) == CANDIDATE_COUNT
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (f"B_SCP over {candidates} candidate views, of which the UR10 reaches {reachable},"
+            in readme)

@@ -20,6 +20,9 @@ from vprobot.export.formats import FORMATS, export_plan
 from vprobot.paths import ROBOTS_DIR
 
 VIEWS = 10
+SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+"""libyaml's safe loader where PyYAML was built with it: a 3000-point message takes it 1 s, the
+pure-Python one 20 s."""
 
 
 @pytest.fixture(scope="module")
@@ -126,7 +129,7 @@ def test_urscript_moves_through_the_plans_corners_and_acquires_in_view_order(
 
 def test_ros2_yaml_is_a_joint_trajectory_whose_times_increase(document: dict[str, Any]) -> None:
     text = export_plan(document, "ros2")
-    message = yaml.safe_load(text)
+    message = yaml.load(text, Loader=SAFE_LOADER)
     assert set(message) == {"header", "joint_names", "points"}
     assert message["joint_names"] == document["robot"]["joint_names"]
     points = message["points"]
@@ -228,7 +231,6 @@ def test_a_10_view_plan_exports_every_format_with_each_acquisition(
     ("change", "message"),
     [
         (lambda d: d.update(carrier="free"), "free-flying sensor has no robot program"),
-        (lambda d: d["robot"].update(name="panda"), "the plan's robot is 'panda'"),
         (lambda d: d.pop("return"), "written before export existed"),
         (lambda d: d.update({"return": {"waypoints": None, "reason": "no_path_back"}}),
          "cycle is not closed (no_path_back)"),
@@ -337,3 +339,200 @@ def test_check_holds_on_a_panda_plan_which_gets_no_urscript(
     assert main(["export", str(path), "--format", "ros2", "--out",
                  str(tmp_path / "panda.yaml")]) == 0
     assert len(yaml.safe_load((tmp_path / "panda.yaml").read_text())["joint_names"]) == 7
+
+
+def sample_times(format_name: str, text: str) -> np.ndarray:
+    """The sample times (s) of an exported trajectory, read back by an independent parser:
+    integer nanoseconds for the ROS 2 message, floats otherwise."""
+    if format_name == "ros2":
+        return np.array([p["time_from_start"]["sec"] * 1_000_000_000
+                         + p["time_from_start"]["nanosec"]
+                         for p in yaml.load(text, Loader=SAFE_LOADER)["points"]]) * 1e-9
+    if format_name == "trajectory":
+        return np.array(json.loads(text)["times"])
+    rows = list(csv.reader(line for line in text.splitlines() if not line.startswith("#")))
+    return np.array([float(row[0]) for row in rows[1:]])
+
+
+@pytest.mark.parametrize("format_name", ["ros2", "trajectory", "csv"])
+def test_every_sampled_format_has_times_at_least_a_microsecond_apart(
+        format_name: str, document: dict[str, Any]) -> None:
+    # The plan of `plan --planner nbv --stop views:10`: the return's end and the cycle's total
+    # lie ulps apart (issue 42), and a ROS 2 controller refuses a repeated time. Those are
+    # sampled at every step; a coarse one keeps the file quick to parse.
+    times = sample_times(format_name, export_plan(document, format_name, dt=0.1))
+    # The ROS 2 message rounds each time to the nanosecond.
+    margin = 1e-6 - (1e-9 if format_name == "ros2" else 0.0)
+    assert np.diff(times).min() >= margin
+    assert times[0] == 0.0
+    assert times[-1] == pytest.approx(document["cycle_time"]["total_s"], abs=1e-9)
+
+
+INJECTED = 'shoulder_pan_joint\nend\npopup("INJECTED")\ndef x():'
+
+
+@pytest.mark.parametrize(
+    ("change", "format_name", "message"),
+    [
+        # Lines that would run as top-level URScript.
+        (lambda d: d["robot"]["joint_names"].__setitem__(0, INJECTED), "urscript",
+         "plan robot.joint_names[0] must be a name of"),
+        # A YAML key of its own, a split CSV header, a quoted YAML scalar.
+        (lambda d: d["robot"].update(name="ur10\nheader: {evil: 1}"), "ros2",
+         "plan robot.name must be a name of"),
+        (lambda d: d["robot"]["joint_names"].__setitem__(1, "elbow,joint"), "csv",
+         "plan robot.joint_names[1] must be a name of"),
+        (lambda d: d["robot"]["joint_names"].__setitem__(2, 'a", "b'), "ros2",
+         "plan robot.joint_names[2] must be a name of"),
+        # Names any format could write, but not the robot's.
+        (lambda d: d["robot"]["joint_names"].__setitem__(0, "shoulder_pan"), "urscript",
+         "are not the robot's"),
+        (lambda d: d["robot"].update(name="panda"), "trajectory", "are not the robot's"),
+    ],
+)
+def test_export_checks_the_names_against_the_robot_before_writing_them(
+        change: Any, format_name: str, message: str, document: dict[str, Any],
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    change(document)
+    out = tmp_path / f"out{FORMATS[format_name].suffix}"
+    assert main(["export", str(write(document, tmp_path)), "--format", format_name,
+                 "--out", str(out)]) == 2
+    error = capsys.readouterr().err
+    assert message in error and len(error.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_check_dt_is_bounded_and_a_plan_timed_over_the_limits_fails_at_the_coarsest(
+        document: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from vprobot.export.motion import plan_motion
+
+    # Timed at 1.5 times every limit, its cycle time restated: only the limits are wrong.
+    for key, values in document["robot"]["limits"].items():
+        document["robot"]["limits"][key] = [1.5 * value for value in values]
+    document["cycle_time"] = plan_motion(document).timed.cycle.as_dict()
+    path = write(document, tmp_path)
+    # At 10 s the divided differences average every peak away ("check holds" before).
+    with pytest.raises(SystemExit) as exit_:  # argparse's refusal
+        main(["check", str(path), "--dt", "10"])
+    assert exit_.value.code == 2
+    error = capsys.readouterr().err
+    assert "--dt" in error and "[0.0001, 0.008]" in error
+    assert main(["check", str(path), "--dt", "0.008"]) == 1
+    out = capsys.readouterr().out
+    for key in ("velocity_rad_s", "acceleration_rad_s2", "jerk_rad_s3"):
+        assert f"timed under robot.limits.{key} above the robot's" in out
+
+
+def test_a_nan_sample_fails_the_limit_check() -> None:
+    from vprobot.export.check import limit_failures
+    from vprobot.kinematics.trajectory import MotionLimits, Trajectory
+
+    times = np.linspace(0.0, 1.0, 11)
+    positions = np.zeros((11, 2))
+    positions[5, 1] = np.nan
+    samples = Trajectory(times, positions, positions, positions, ("a", "b"), ())
+    limits = MotionLimits(np.ones(2), np.ones(2), np.ones(2))
+    _, failures = limit_failures(samples, limits)
+    assert [failure.split(" limit")[0] for failure in failures] == [
+        "velocity", "acceleration", "jerk"]
+    assert all(": b nan > 1" in failure for failure in failures)
+
+
+def set_at(path: tuple[Any, ...], value: Any) -> Any:
+    """A change of the plan that sets the entry at `path` to `value`."""
+
+    def change(document: dict[str, Any]) -> None:
+        block = document
+        for key in path[:-1]:
+            block = block[key]
+        block[path[-1]] = value
+
+    return change
+
+
+@pytest.mark.parametrize(
+    ("command", "change", "field"),
+    [
+        ("export", set_at(("sensor", "acquisition_time_s"), None), "sensor.acquisition_time_s"),
+        ("export", set_at(("robot", "limits", "velocity_rad_s", 0), 0),
+         "robot.limits.velocity_rad_s"),
+        ("export", set_at(("robot", "limits", "velocity_rad_s", 0), -1.0),
+         "robot.limits.velocity_rad_s"),
+        ("export", set_at(("robot", "limits", "velocity_rad_s", 0), 1e-300),
+         "robot.limits.velocity_rad_s"),
+        ("export", set_at(("robot", "limits", "jerk_rad_s3", 3), 0), "robot.limits.jerk_rad_s3"),
+        ("export", set_at(("views", 0), 3), "views[0]"),
+        ("export", lambda d: None, "nested too deeply"),  # the file: 10^5 nested [
+        ("check", set_at(("cycle_time",), [1]), "cycle_time"),
+        ("check", set_at(("cycle_time", "total_s"), "23.1"), "cycle_time.total_s"),
+        ("check", set_at(("object", "scale"), None), "object.scale"),
+        ("render", set_at(("object", "scale"), None), "object.scale"),
+        ("check", set_at(("robot", "sensor_mount", "quaternion"), [0, 0, 0, 0]),
+         "robot.sensor_mount.quaternion"),
+    ],
+)
+def test_a_malformed_plan_field_is_one_line_naming_it(
+        command: str, change: Any, field: str, document: dict[str, Any], tmp_path: Path,
+        capsys: pytest.CaptureFixture) -> None:
+    change(document)
+    path = write(document, tmp_path)
+    if field == "nested too deeply":
+        path.write_text("[" * 100_000)
+    options = {"export": ["--format", "urscript", "--out", str(tmp_path / "x.script")],
+               "check": [], "render": ["--out", str(tmp_path / "x.gif")]}[command]
+    plan = ["--plan", str(path)] if command == "render" else [str(path)]
+    assert main([command, *plan, *options]) == 2
+    error = capsys.readouterr().err
+    assert len(error.strip().splitlines()) == 1 and "Traceback" not in error
+    assert field in error
+    if field == "nested too deeply":
+        assert str(path) in error
+
+
+def no_work(*args: Any, **kwargs: Any) -> None:
+    raise AssertionError("the work started before the value was refused")
+
+
+def test_a_sampling_step_finer_than_the_bound_is_refused_before_sampling(
+        plan: Path, tmp_path: Path, capsys: pytest.CaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.kinematics.trajectory import TimedPlan
+
+    monkeypatch.setattr(TimedPlan, "sample", no_work)
+    # 1e-7 s over a 23 s cycle: 3.5 GiB before.
+    with pytest.raises(SystemExit) as exit_:  # argparse's refusal
+        main(["export", str(plan), "--format", "csv", "--out", str(tmp_path / "x.csv"),
+              "--dt", "1e-7"])
+    assert exit_.value.code == 2
+    error = capsys.readouterr().err
+    assert "--dt" in error and ">= 0.0001 s" in error
+
+
+def test_a_path_resolution_finer_than_the_bound_is_refused_before_the_check(
+        plan: Path, tmp_path: Path, capsys: pytest.CaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    import vprobot.export.check
+
+    monkeypatch.setattr(vprobot.export.check, "check_plan", no_work)
+    # 1e-9 rad: 8.3 GiB before.
+    config = tmp_path / "fine.yaml"
+    config.write_text("kinematics:\n  path_max_joint_step_rad: 1.0e-9\n")
+    assert main(["check", "--config", str(config), str(plan)]) == 2
+    error = capsys.readouterr().err
+    assert "kinematics.path_max_joint_step_rad must be >= 0.0001 rad" in error
+    assert len(error.strip().splitlines()) == 1
+
+
+def test_ros2_joint_names_stay_strings_that_yaml_would_read_as_numbers_or_booleans(
+        document: dict[str, Any]) -> None:
+    import dataclasses
+
+    from vprobot.export.motion import plan_motion
+
+    # Plain names a robot may have, which a bare YAML scalar would turn into 1, True, None, 1.5.
+    names = ("1", "yes", "null", "1.5", "on", "joint_6")
+    motion = plan_motion(document)
+    motion = dataclasses.replace(motion, timed=dataclasses.replace(motion.timed,
+                                                                   joint_names=names))
+    message = yaml.load(FORMATS["ros2"].write(motion, 0.1), Loader=SAFE_LOADER)
+    assert message["joint_names"] == list(names)

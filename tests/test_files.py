@@ -1,7 +1,9 @@
-"""Tests of atomic output: all or nothing, and no temporaries left behind by killed writers."""
+"""Tests of output files: atomic (all or nothing, no temporaries left behind by killed writers),
+never written through a symbolic link, locks removed by their holder, errors naming the file."""
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import signal
@@ -14,7 +16,14 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.files import append_line, atomic_output, remove_stale_temporaries
+from vprobot.files import (
+    InUseError,
+    append_line,
+    atomic_output,
+    exclusive_lock,
+    remove_stale_temporaries,
+    write_text,
+)
 
 
 @pytest.fixture
@@ -144,3 +153,101 @@ def test_a_short_append_is_cut_back_and_raises(tmp_path: Path,
     assert path.read_text() == "a,b\n1,2\n"
     append_line(path, "5,6\n")
     assert path.read_text() == "a,b\n1,2\n5,6\n"
+
+
+def _outside(tmp_path: Path) -> tuple[Path, Path]:
+    """A file outside the output folder `tmp_path/out`, and that folder."""
+    outside, out = tmp_path / "precious.txt", tmp_path / "out"
+    outside.write_text("precious\n")
+    out.mkdir()
+    return outside, out
+
+
+def test_a_lock_or_an_append_through_a_symbolic_link_is_refused_naming_it(
+        tmp_path: Path) -> None:
+    """A link planted in an output folder, to a file outside or to none: the lock and the
+    append refuse it, naming it, and neither writes the file outside nor creates one."""
+    outside, out = _outside(tmp_path)
+    (out / "held.lock").symlink_to(outside)
+    (out / "rows.csv").symlink_to(outside)
+    (out / "dangling.csv").symlink_to(tmp_path / "created.txt")
+    with pytest.raises(ValueError, match=f"{out / 'held.lock'} is a symbolic link"), \
+            exclusive_lock(out / "held.lock", "out"):
+        pass
+    for link in (out / "rows.csv", out / "dangling.csv"):
+        with pytest.raises(ValueError, match=f"{link} is a symbolic link"):
+            append_line(link, "1,2\n")
+    assert outside.read_text() == "precious\n"
+    assert not (tmp_path / "created.txt").exists()
+    # Cutting a torn line, and the check before work (and of the files a library opens).
+    from vprobot.files import refuse_link, truncate_output
+
+    for link in (out / "rows.csv", out / "dangling.csv"):
+        with pytest.raises(ValueError, match=f"{link} is a symbolic link"):
+            truncate_output(link, 0)
+        with pytest.raises(ValueError, match=f"{link} is a symbolic link"):
+            refuse_link(link)
+    refuse_link(outside)
+    assert outside.read_text() == "precious\n"
+
+
+def test_an_atomic_write_replaces_a_symbolic_link_and_leaves_its_target(tmp_path: Path) -> None:
+    outside, out = _outside(tmp_path)
+    (out / "table.csv").symlink_to(outside)
+    write_text(out / "table.csv", "a,b\n")
+    assert not (out / "table.csv").is_symlink()
+    assert (out / "table.csv").read_text() == "a,b\n"
+    assert outside.read_text() == "precious\n"
+
+
+def test_the_lock_file_is_removed_when_its_holder_ends(tmp_path: Path) -> None:
+    path = tmp_path / "folder.lock"
+    with exclusive_lock(path, "the folder"):
+        assert path.read_text() == f"{os.getpid()}\n"
+    assert not path.exists()
+    with pytest.raises(RuntimeError), exclusive_lock(path, "the folder"):
+        raise RuntimeError
+    assert not path.exists()
+
+
+def test_a_lock_taken_on_a_file_its_holder_just_removed_is_taken_again(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The race of removing a lock file: B opens it while A holds it, A ends (removing it and
+    letting go), then B locks the removed file. B must take the lock anew at the path, so that
+    a third process is refused while B runs."""
+    import contextlib
+    import fcntl
+
+    path = tmp_path / "folder.lock"
+    first = contextlib.ExitStack()
+    first.enter_context(exclusive_lock(path, "the folder"))
+    real_flock = fcntl.flock
+
+    def first_ends_before_the_lock(descriptor: int, operation: int) -> None:
+        first.close()  # only the first call: closing twice does nothing
+        real_flock(descriptor, operation)
+
+    monkeypatch.setattr(fcntl, "flock", first_ends_before_the_lock)
+    with exclusive_lock(path, "the folder"):
+        monkeypatch.setattr(fcntl, "flock", real_flock)
+        assert path.read_text() == f"{os.getpid()}\n"
+        with pytest.raises(InUseError, match=f"the folder is in use by pid {os.getpid()}"), \
+                exclusive_lock(path, "the folder"):
+            pass
+    assert not path.exists()
+
+
+def test_a_failed_write_names_the_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A full disk fails a write with an OSError that names no file: the error names it."""
+    def disk_full(*args: object, **kwargs: object) -> int:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "write", disk_full)
+    with pytest.raises(OSError, match=re.escape(f"No space left on device: "
+                                                f"'{tmp_path / 'rows.csv'}'")):
+        append_line(tmp_path / "rows.csv", "1,2\n")
+    monkeypatch.setattr(Path, "write_text", disk_full)
+    with pytest.raises(OSError, match=re.escape(f"No space left on device: "
+                                                f"'{tmp_path / 'table.md'}'")):
+        write_text(tmp_path / "table.md", "# table\n")
+    assert sorted(os.listdir(tmp_path)) == ["rows.csv"]

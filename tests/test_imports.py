@@ -141,9 +141,9 @@ def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("foundations", ("vprobot", "vprobot.paths", "vprobot.schema", "vprobot.files",
                      "vprobot.outputs", "vprobot.progress", "vprobot.native_memory",
-                     "vprobot.registry", "vprobot.plugins", "vprobot.cluster", "vprobot.geometry",
-                     "vprobot.raster", "vprobot.viewsphere", "vprobot.sensing",
-                     "vprobot.rewards")),
+                     "vprobot.registry", "vprobot.plugins", "vprobot.processes",
+                     "vprobot.cluster", "vprobot.geometry", "vprobot.raster",
+                     "vprobot.viewsphere", "vprobot.sensing", "vprobot.rewards")),
     ("objects", ("vprobot.families", "vprobot.motors", "vprobot.mesh_simplify",
                  "vprobot.mesh_loading", "vprobot.generated", "vprobot.splits")),
     ("configuration", ("vprobot.config", "vprobot.robots", "vprobot.sensor_model")),

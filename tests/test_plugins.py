@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import csv
 import importlib.metadata
+import os
+import signal
+import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -103,12 +106,14 @@ def test_an_entry_point_plugin_is_imported_without_an_option(
     ("{tmp}/missing.py", "FileNotFoundError: no such file: {tmp}/missing.py"),
     ("{tmp}/broken.py", "RuntimeError: half-written"),
     ("{tmp}/csv.py", "ValueError: a module named 'csv' is already imported; rename the file"),
-], ids=["unknown-module", "missing-file", "raises", "shadows-a-module"])
+    ("{tmp}/exits.py", "SystemExit: 0"),
+], ids=["unknown-module", "missing-file", "raises", "shadows-a-module", "exits"])
 def test_a_plugin_that_fails_to_import_is_a_one_line_error_naming_it(
         plugin: str, error: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
         fresh_plugins: list[str]) -> None:
     (tmp_path / "broken.py").write_text('raise RuntimeError("half-written\\nsecond line")\n')
     (tmp_path / "csv.py").write_text("")
+    (tmp_path / "exits.py").write_text("import sys\nsys.exit(0)\n")
     plugin, error = (text.replace("{tmp}", str(tmp_path)) for text in (plugin, error))
     assert main(["--plugin", plugin, "evaluate", "--planners", "hrec"]) == 2
     assert capsys.readouterr().err == (f"vprobot: error: plugin {plugin!r} failed to import: "
@@ -145,3 +150,32 @@ def test_the_entry_points_are_read_for_a_command_not_for_the_list_of_commands(
         main(["stop", "--help"])
     capsys.readouterr()
     assert reads == ["read"]
+
+
+def _fresh_vprobot(argv: list[str], folder: Path) -> subprocess.CompletedProcess[str]:
+    """`vprobot ARGV` in a fresh process (whose registries have not been read), in `folder`."""
+    return subprocess.run([sys.executable, "-m", "vprobot.cli", *argv], capture_output=True,
+                          text=True, cwd=folder, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                          check=False, timeout=120)
+
+
+def test_a_plugin_taking_a_bundled_name_is_a_one_line_error_naming_it(tmp_path: Path) -> None:
+    """Registered before the bundled entries were read, the name was refused later, in the
+    bundled module, with a traceback that named no plugin (issue 42, P20; any registry: the
+    export formats' is the cheapest to read)."""
+    (tmp_path / "taker.py").write_text(
+        "from vprobot.export.formats.base import register_format\n"
+        "register_format('csv', '.csv', 'mine')(lambda motion, dt: '')\n")
+    ran = _fresh_vprobot(["--plugin", "./taker.py", "export", "--help"], tmp_path)
+    assert (ran.returncode, ran.stderr) == (2, (
+        "vprobot: error: plugin './taker.py' failed to import: ValueError: export format 'csv' "
+        "is already registered; give it another name\n"))
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_an_interrupt_while_a_plugin_loads_is_the_commands_interruption(
+        signum: int, tmp_path: Path) -> None:
+    """Not a KeyboardInterrupt traceback (Ctrl-C) or exit 143 (SIGTERM) (issue 42, P19)."""
+    (tmp_path / "slow.py").write_text(f"import os\nos.kill(os.getpid(), {int(signum)})\n")
+    ran = _fresh_vprobot(["--plugin", "./slow.py", "plan", "--help"], tmp_path)
+    assert (ran.returncode, ran.stderr) == (130, "vprobot: interrupted\n")

@@ -59,3 +59,33 @@ def test_an_episodes_table_against_a_summary_is_refused_in_one_line(
     assert capsys.readouterr().err == (
         f"vprobot report compare: error: {summary} has no column 'episode'; give two episodes "
         "tables or two summaries of `vprobot evaluate`\n")
+
+
+@pytest.mark.parametrize("content", [b"", ",".join(EPISODE_COLUMNS).encode() + b"\n"])
+def test_a_table_without_rows_is_refused_naming_it(content: bytes, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """An empty table (0 bytes, or a header only) would compare nothing and pass."""
+    old = _table(tmp_path / "old.csv", [_row(0, 3, 0.1)], list(EPISODE_COLUMNS))
+    empty = tmp_path / "empty.csv"
+    empty.write_bytes(content)
+    assert main(["report", "compare", str(old), str(empty)]) == 2
+    assert capsys.readouterr().err == (
+        f"vprobot report compare: error: {empty} has no rows (empty, or a header only): "
+        f"nothing to compare; give two tables of `vprobot evaluate`\n")
+
+
+def test_a_table_that_is_not_utf8_or_has_a_short_row_is_named(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    old = _table(tmp_path / "old.csv", [_row(0, 3, 0.1), _row(1, 4, 0.1)],
+                 list(EPISODE_COLUMNS))
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(old.read_bytes().replace(b"m.stl", b"\xff.stl"))
+    short = tmp_path / "short.csv"
+    header, first, second = old.read_text().splitlines()
+    short.write_text("\n".join([header, first[:30], second]) + "\n")
+    assert main(["report", "compare", str(old), str(binary)]) == 2
+    assert capsys.readouterr().err.startswith(
+        f"vprobot report compare: error: {binary} is not UTF-8 text")
+    assert main(["report", "compare", str(old), str(short)]) == 2
+    assert capsys.readouterr().err.startswith(
+        f"vprobot report compare: error: {short}, line 2: ")

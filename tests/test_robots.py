@@ -6,6 +6,8 @@ import importlib.metadata
 import json
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -97,6 +99,62 @@ def test_a_joint_without_a_child_link_is_a_user_error(tmp_path: Path,
     assert main(["robots", "import", str(urdf), "--flange", "b", "--name", "r", "--out",
                  str(tmp_path / "r")]) == 2
     assert f"joint 'j' of {urdf} names no child link" in capsys.readouterr().err
+
+
+TWO_LINKS = '<robot name="r"><link name="a"/><link name="b"/><link name="c"/>{joints}</robot>'
+
+
+def _joint(name: str, parent: str, child: str) -> str:
+    return (f'<joint name="{name}" type="revolute"><parent link="{parent}"/>'
+            f'<child link="{child}"/></joint>')
+
+
+@pytest.mark.parametrize(("joints", "flange", "message"), [
+    # a -> b -> a: the walk up from the flange would never reach a root.
+    ([("ab", "a", "b"), ("ba", "b", "a")], "b", "the joints above flange 'b' in {urdf} form a "
+                                                "loop: 'ba', 'ab'; a URDF is a tree"),
+    # The loop lies above the flange's own joint: only its joints are named.
+    ([("ac", "a", "c"), ("ab", "a", "b"), ("ba", "b", "a")], "c",
+     "the joints above flange 'c' in {urdf} form a loop: 'ab', 'ba'"),
+    ([("ab", "a", "b"), ("cb", "c", "b")], "b",
+     "link 'b' of {urdf} has two parent joints, 'ab' and 'cb'; a URDF is a tree"),
+])
+def test_a_urdf_that_is_no_tree_is_refused_naming_its_joints(
+        tmp_path: Path, joints: list[tuple[str, str, str]], flange: str, message: str) -> None:
+    urdf = tmp_path / "loop.urdf"
+    urdf.write_text(TWO_LINKS.format(joints="".join(_joint(*joint) for joint in joints)))
+    # A child process, ended after a generous minute: the walk up a loop used to run forever.
+    done = subprocess.run([sys.executable, "-m", "vprobot.cli", "robots", "import", str(urdf),
+                           "--flange", flange, "--name", "r", "--out", str(tmp_path / "r")],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and message.format(urdf=urdf) in done.stderr
+
+
+def test_a_missing_mesh_of_a_found_package_names_the_file_looked_for(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    package = tmp_path / "package"  # found, but without the UR5's meshes
+    package.mkdir()
+    copied = tmp_path / "ur5.urdf"  # away from its package, whose meshes it would find
+    shutil.copy(UR5_URDF, copied)
+    assert main(["robots", "import", str(copied), "--flange", "tool0", "--name", "x", "--out",
+                 str(tmp_path / "x"), "--package", f"example-robot-data={package}"]) == 2
+    err = capsys.readouterr().err
+    assert "not found: package 'example-robot-data' has no such file (looked at " in err
+    assert str(package / "robots/ur_description/meshes/ur5/collision/base.stl") in err
+    assert "--package" not in err.split("looked at")[1]
+
+
+@pytest.mark.parametrize(("attribute", "value"), [("velocity", "abc"), ("upper", "nan")])
+def test_a_limit_that_is_no_number_names_the_joint_attribute_and_file(
+        tmp_path: Path, capsys: pytest.CaptureFixture, attribute: str, value: str) -> None:
+    text = UR5_URDF.read_text()
+    written = f'{attribute}="{"6.28318530718" if attribute == "upper" else "3.15"}"'
+    urdf = tmp_path / "ur5.urdf"
+    urdf.write_text(text.replace(written, f'{attribute}="{value}"', 1))
+    assert main(["robots", "import", str(urdf), "--flange", "tool0", "--name", "x", "--out",
+                 str(tmp_path / "x")]) == 2
+    assert (f"joint 'shoulder_pan_joint' of {urdf}: <limit {attribute}=...> must be a finite "
+            f"number, got '{value}'") in capsys.readouterr().err
 
 
 @pytest.fixture

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+import yaml
 from helpers import make_scene
 
 import vprobot.ground_truth as gt_module
@@ -32,6 +33,7 @@ from vprobot.config import (
 from vprobot.geometry import Pose
 from vprobot.paths import SENSORS_DIR
 from vprobot.render.replay import plan_config
+from vprobot.schema import read_yaml
 from vprobot.sensor import DepthSensor
 from vprobot.sensor_model import SensorModel
 
@@ -221,6 +223,32 @@ def test_bad_sensor_model_is_a_clear_error(changes: dict, message: str) -> None:
               "working_distance_m": 0.5, **changes}
     with pytest.raises(ValueError, match=message):
         SensorModel(**values)
+
+
+@pytest.mark.parametrize(("changes", "message"), [
+    # Each used to be accepted, and the first frame took gigabytes (a million metres of baseline
+    # widen the projector's shadow grid; a far range of kilometres, the rays' samples).
+    ({"structured_light": {"baseline_m": 1e6}},
+     r"^sensor\.structured_light\.baseline_m must be in \(0, 1\] m \(finite\), got 1000000\.0$"),
+    # Within the 1 m, but 3.2 frame widths seen from the near range: the datasheet's frame is
+    # 570 mm wide at 600 mm, so two frames at 0.30 m are 2 * 0.95 * 0.30 = 0.570 m.
+    ({"structured_light": {"baseline_m": 0.9}},
+     r"^sensor\.structured_light\.baseline_m must be at most 0\.570\d m for this sensor's near_m "
+     r"and fov_deg, got 0\.9: seen from the near end of the range the projector may sit at most "
+     r"2 frame widths \(2 near_m tan\(fov_x / 2\)\) from the camera$"),
+    ({"far_m": 1e6, "working_distance_m": 1.0},
+     r"^sensor needs 0 <= near_m < far_m <= 10 m, got near_m=0\.3, far_m=1000000\.0$"),
+    ({"acquisition_time_s": 1e9},
+     r"^sensor\.acquisition_time_s must lie in \[0, 60\] s, got 1000000000\.0$"),
+])
+def test_a_preset_value_beyond_its_physical_range_is_refused_naming_the_range(
+        tmp_path: Path, changes: dict, message: str) -> None:
+    figures = read_yaml(SENSORS_DIR / "zivid2plus_mr60.yaml")
+    light = {**figures["structured_light"], **changes.get("structured_light", {})}
+    preset = tmp_path / "preset.yaml"
+    preset.write_text(yaml.safe_dump({**figures, **changes, "structured_light": light}))
+    with pytest.raises(ConfigError, match=message):
+        sensor_preset(str(preset))
 
 
 def _write(path: Path, text: str) -> Path:

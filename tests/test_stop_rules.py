@@ -4,6 +4,7 @@ per-view estimates, and the stop study."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import re
 import shutil
@@ -22,7 +23,7 @@ from vprobot.occupancy import OccupancyGrid
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, run
 from vprobot.stop_studies.study import combinations, study_row
-from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, load_estimator
+from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, EstimateTracker, load_estimator
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.rules import make_stop_rule, parse_stop, stop_names
 from vprobot.stopping.rules.estimate import EstimateStop
@@ -321,3 +322,27 @@ def test_every_frame_is_integrated_once_however_many_read_the_episodes_grid(
     acquired = [id(view.points_world) for view in result.record.views if view.acquired]
     assert len(acquired) >= 3 and result.estimates is not None
     assert sorted(integrated) == sorted(acquired)
+
+
+def test_a_stop_held_back_by_an_estimator_that_never_claimed_the_goal_says_so() -> None:
+    # `claim_limits` writes -inf where the estimate claimed the goal on no training view (the
+    # bundled structured-light estimator); with finite limits the percentile is named.
+    estimator = load_estimator()
+    assert estimator.domain is not None and estimator.domain.claimed is not None
+    features = (estimator.domain.low + estimator.domain.high) / 2.0
+    features[FEATURES.index("acquired")] = 2.0
+    column = FEATURES.index("unknown")
+    features[column] = estimator.domain.claimed[column] + 0.01
+    finite = EstimateTracker(estimator, Config()).update(features).held
+    assert finite == (f"held back from a stop: unknown above "
+                      f"{estimator.domain.claimed[column]:.4g}, the 98th percentile over the "
+                      f"training views on which it claimed the goal (space it was not shown to "
+                      f"judge)")
+    never = dataclasses.replace(estimator, domain=dataclasses.replace(
+        estimator.domain, claimed=np.where(np.isfinite(estimator.domain.claimed), -np.inf,
+                                           np.inf)))
+    tracker = EstimateTracker(never, Config())
+    held = tracker.update(features).held
+    assert held == ("held back from every stop: on none of its training views did it claim "
+                    "the goal, so nothing shows that a claim of it holds")
+    assert held in tracker.notes and "inf" not in held

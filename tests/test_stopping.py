@@ -24,7 +24,6 @@ from vprobot.episode import (
     seeded_episode,
     write_episode_list,
 )
-from vprobot.files import FOLDER_LOCK
 from vprobot.generated import family_of
 from vprobot.geometry import Pose
 from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN
@@ -291,7 +290,8 @@ def test_stop_fit_refuses_a_folder_of_rollouts_drawn_otherwise(tmp_path: Path) -
     (tmp_path / "dataset.json").write_text('{"split": 1, "episodes": 7}')
     with pytest.raises(ValueError, match="holds rollouts drawn otherwise"):
         fit_estimate(CONFIG, tmp_path, episodes=FAMILIES_DRAWN, progress=False)
-    assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset.json", FOLDER_LOCK]
+    # The lock is removed as the command ends.
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset.json"]
 
 
 @pytest.mark.parametrize("option, message", [

@@ -6,6 +6,7 @@ duration of a move against the closed-form time-optimal jerk-limited (7-segment)
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -113,9 +114,9 @@ def test_every_corner_is_reached_exactly_and_at_rest() -> None:
     for segment, corner in zip(plan.segments, corners, strict=True):
         (position,), (velocity,), (acceleration,) = plan.states(
             segment.start_s + segment.duration_s)
-        np.testing.assert_allclose(position, corner, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(velocity, 0, atol=1e-9)
-        np.testing.assert_allclose(acceleration, 0, atol=1e-9)
+        np.testing.assert_array_equal(position, corner)
+        np.testing.assert_array_equal(velocity, 0)
+        np.testing.assert_array_equal(acceleration, 0)
     trajectory = plan.sample(0.01)
     np.testing.assert_allclose(trajectory.positions[0], moves[0][0], atol=1e-9)
     np.testing.assert_allclose(trajectory.positions[-1], moves[-1][-1], atol=1e-9)
@@ -209,3 +210,48 @@ def test_bad_acquisition_time_and_sampling_step_are_named() -> None:
         timed(moves, limits, acquisition_s=-1.0)
     with pytest.raises(ValueError, match=r"sampling step must be > 0 s, got 0"):
         timed(moves, limits).sample(0)
+
+
+def test_bounds_a_few_ulps_apart_are_sampled_once() -> None:
+    from vprobot.kinematics.trajectory import SAMPLE_MERGE_S
+
+    # As in the realistic-cell B_SCP plan of issue 42 (15 s to plan, so built here): the same
+    # instant summed in another order, ulps apart; here every acquisition's start and end
+    # (1e-15 s later) and the cycle's end (two ulps of it later).
+    moves, limits = random_plan("ur10", views=3, corners=1, seed=8)
+    plan = timed(moves, limits)
+    later = 2 * np.spacing(plan.cycle.total_s)
+    plan = dataclasses.replace(
+        plan, cycle=dataclasses.replace(plan.cycle, return_s=plan.cycle.return_s + later),
+        acquisitions=tuple(dataclasses.replace(a, start_s=a.start_s + 1e-15,
+                                               end_s=a.end_s + 1e-15) for a in plan.acquisitions))
+    # The approach's last segment ends a few ulps before the first acquisition starts.
+    assert 0 < plan.acquisitions[0].start_s - plan.segments[1].end_s < 1e-14
+    assert 0 < plan.cycle.total_s - plan.segments[-1].end_s < 1e-14
+    trajectory = plan.sample(0.01)
+    assert np.diff(trajectory.times).min() >= SAMPLE_MERGE_S
+    # Each acquisition is a stretch of samples at its view's corner, starting and ending on one.
+    for (start, end, view), acquisition in zip(trajectory.acquisitions, plan.acquisitions,
+                                               strict=True):
+        assert start in trajectory.times and end in trajectory.times
+        assert abs(start - acquisition.start_s) < SAMPLE_MERGE_S
+        during = (trajectory.times >= start) & (trajectory.times <= end)
+        np.testing.assert_array_equal(trajectory.positions[during],
+                                      np.broadcast_to(moves[view][-1], (during.sum(), 6)))
+    assert trajectory.times[-1] == pytest.approx(plan.cycle.total_s, abs=SAMPLE_MERGE_S)
+    np.testing.assert_array_equal(trajectory.positions[-1], moves[-1][-1])
+
+
+def test_a_step_that_takes_too_many_samples_is_refused_before_sampling() -> None:
+    from vprobot.kinematics.trajectory import MAX_SAMPLES
+
+    moves, limits = random_plan("ur10", views=2, corners=0, seed=9)
+    with pytest.raises(ValueError, match=f"more than {MAX_SAMPLES:,}: sample it more coarsely"):
+        timed(moves, limits).sample(1e-12)  # 10^13 samples, 80 TB of times alone
+
+
+@pytest.mark.parametrize("velocity", [0.0, 1e-300])
+def test_limits_ruckig_cannot_take_are_a_value_error(velocity: float) -> None:
+    limits = MotionLimits(np.array([velocity, 1.0]), np.ones(2), np.ones(2))
+    with pytest.raises(ValueError, match=r"Ruckig found no profile .* under the path's limits"):
+        time_segment([0.0, 0.0], [1.0, 0.5], limits)

@@ -186,3 +186,113 @@ def test_commands_that_need_ray_say_how_to_install_it(monkeypatch: pytest.Monkey
     one_line_error(["evaluate", "--workers", "2", "--carriers", "free", "--planners", "hrec",
                     "--out", str(tmp_path / "out")], capsys, "needs Ray",
                    'pip install -e ".[cluster]"')
+
+
+TINY_EVALUATION = ["evaluate", "--planners", "hrec", "--carriers", "free", "--seeds", "0"]
+"""A cheap `vprobot evaluate`: one fixed planner, the free sensor, one episode."""
+
+
+@pytest.mark.parametrize("planted", ["folder.lock", "evaluation_episodes.csv"])
+def test_a_symbolic_link_in_the_output_folder_is_refused_and_its_target_kept(
+        planted: str, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """A link planted in the folder, to an episodes table outside (which rows would fit):
+    neither the lock's pid nor a row goes into it."""
+    from vprobot.evaluation import EPISODE_COLUMNS
+
+    outside, out = tmp_path / "outside.csv", tmp_path / "out"
+    outside.write_text(",".join(EPISODE_COLUMNS) + "\n")
+    out.mkdir()
+    (out / planted).symlink_to(outside)
+    one_line_error([*TINY_EVALUATION, "--out", str(out)], capsys,
+                   f"{out / planted} is a symbolic link")
+    assert outside.read_text() == ",".join(EPISODE_COLUMNS) + "\n"
+
+
+class Killed(BaseException):
+    """Stands in for SIGKILL: nothing of vprobot handles it."""
+
+
+def test_a_resume_refuses_a_mesh_changed_since_the_evaluation_began(
+        tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The settings record what the part's mesh holds, not only its path: a mesh overwritten
+    between a kill and the resume would put rows of two parts in one table."""
+    from vprobot import evaluation
+    from vprobot.paths import MOTORS_DIR
+
+    part, out = tmp_path / "part.stl", tmp_path / "out"
+    part.write_bytes(DEFAULT_MOTOR.read_bytes())
+    command = [*TINY_EVALUATION, "--motors", str(part), "--out", str(out)]
+
+    def killed(*args: Any) -> None:
+        raise Killed
+
+    monkeypatch.setattr(evaluation, "_rows", killed)  # killed as its first episode starts
+    with pytest.raises(Killed):
+        main(command)
+    monkeypatch.undo()
+    capsys.readouterr()
+    part.write_bytes((MOTORS_DIR / "test" / "motor_001.stl").read_bytes())
+    line = one_line_error(command, capsys, f"{part} changed since the evaluation in {out}",
+                          "sha256")
+    assert not (out / "evaluation_episodes.csv").exists()
+    assert "restore the file, or use another --out" in line
+
+
+@pytest.mark.parametrize("out", ["file", "unwritable"])
+def test_the_teacher_folder_is_checked_before_any_rollout(
+        out: str, tmp_path: Path, capsys: pytest.CaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from vprobot.agents import pretrain
+
+    if out == "unwritable" and UNWRITABLE is None:
+        pytest.skip("no unwritable folder on this machine")
+    folder = f"{UNWRITABLE}/teacher" if out == "unwritable" else str(tmp_path / "teacher")
+    if out == "file":
+        Path(folder).write_text("not a folder")
+    monkeypatch.setattr(pretrain, "collect", lambda *args, **kwargs: pytest.fail("rolled out"))
+    one_line_error(["teacher", "configs/agents/cpu-candidates.yaml", "--out", folder], capsys,
+                   f"--out {folder}")
+
+
+def test_a_garbage_teacher_shard_is_named(tmp_path: Path) -> None:
+    from vprobot.agents import pretrain
+
+    shard = pretrain._shard_file(tmp_path, 0, 1)
+    shard.write_bytes(b"not a shard at all")
+    with pytest.raises(ValueError, match=f"cannot read teacher shard {shard}"):
+        pretrain.collect(Config(), 1, 0, tmp_path)
+
+
+def test_a_zero_sensor_mount_names_the_key_and_value_once(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    config = tmp_path / "cell.yaml"
+    config.write_text("sensor:\n  mount_quaternion_wxyz: [0, 0, 0, 0]\n")
+    one_line_error([*REACH, "--config", str(config)], capsys, "cell.yaml",
+                   "sensor.mount_quaternion_wxyz", "(0.0, 0.0, 0.0, 0.0)")
+
+
+def test_output_into_a_closed_pipe_ends_quietly(monkeypatch: pytest.MonkeyPatch,
+                                                capsys: pytest.CaptureFixture) -> None:
+    """`vprobot objects list | head`: the reader goes away; no error line."""
+    reader, writer = os.pipe()
+    os.close(reader)
+    with open(writer, "w") as stdout:
+        monkeypatch.setattr("sys.stdout", stdout)
+        code = main(["objects", "list"])
+        monkeypatch.undo()
+    assert code == 141
+    assert capsys.readouterr().err == ""
+
+
+def test_a_short_row_in_a_rollout_table_names_the_file_and_line(tmp_path: Path) -> None:
+    from vprobot.stop_studies.dataset import COLUMNS, read_dataset
+
+    table = tmp_path / "validation.csv"
+    row = ",".join(["0", "motor_000", "motor", "nbv", "0", "1", *["0.5"] * (len(COLUMNS) - 6)])
+    table.write_text("\n".join([",".join(COLUMNS), row, row[:20], row]) + "\n")
+    with pytest.raises(ValueError, match=f"{table}, line 3: 4 cells where the header has "
+                                         f"{len(COLUMNS)} columns"):
+        read_dataset(table)
+    table.write_text("\n".join([",".join(COLUMNS), row, row.replace("nbv,0,1", "nbv,0,x")]))
+    with pytest.raises(ValueError, match=f"{table}, row 2: view is not a number"):
+        read_dataset(table)

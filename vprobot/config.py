@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import numbers
 from collections.abc import Mapping
 from pathlib import Path
@@ -26,7 +25,7 @@ from vprobot.paths import (
 from vprobot.registry import Registry
 from vprobot.rewards import REWARDS
 from vprobot.robots import load_robot
-from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, from_mapping, read_yaml
+from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, brief, from_mapping, read_yaml
 from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
 from vprobot.sensing import SENSING_MODELS, SensingModel, StructuredLight, check_sensing
 from vprobot.splits import Split, split_file
@@ -66,7 +65,7 @@ class CellConfig:
 def check_registered(name: str, registry: Registry[Any], key: str) -> None:
     """Raise ConfigError unless `registry` has an entry `name` (the message lists them)."""
     if name not in registry:
-        raise ConfigError(f"{key} must be one of {list(registry)}, got {name!r}")
+        raise ConfigError(f"{key} must be one of {list(registry)}, got {brief(name)}")
 
 
 MAX_RAYS_PER_AXIS = 4096
@@ -85,13 +84,24 @@ its rays evenly over +-tan(fov / 2), which grows without bound towards 180 deg (
 1146 at 179.9 deg): the rays then miss the object, and a plan finds no view."""
 
 
+MAX_RANGE_M = 10.0
+"""Farthest a sensor may measure (`far_m`, and so the working distance). The longest-range
+structured-light and time-of-flight cameras measure to about 5 m, and the cell is 2 m across; the
+occupancy update samples every ray half a voxel apart out to `far_m` (20,000 samples per ray at
+10 m and 1 mm voxels), so a range of kilometres would take gigabytes."""
+
+MAX_ACQUISITION_TIME_S = 60.0
+"""Longest a sensor may stand still at a view (`acquisition_time_s`). Captures take 0.1 to a few
+seconds; trajectories are sampled over the cycle time, so hours per view would take gigabytes."""
+
+
 def check_resolution(resolution: tuple[int, int], key: str) -> None:
     """Raise ConfigError unless `resolution` is two integers in 1..MAX_RAYS_PER_AXIS."""
     values = tuple(resolution)
     if len(values) != 2 or not all(isinstance(rays, numbers.Integral)
                                    and 1 <= rays <= MAX_RAYS_PER_AXIS for rays in values):
         raise ConfigError(f"{key} must lie in 1..{MAX_RAYS_PER_AXIS} rays per axis, as two "
-                          f"integers (width, height), got {resolution!r}")
+                          f"integers (width, height), got {brief(resolution)}")
 
 
 def check_sensor(resolution: tuple[int, int], fov_deg: tuple[float, float], near_m: float,
@@ -100,17 +110,17 @@ def check_sensor(resolution: tuple[int, int], fov_deg: tuple[float, float], near
 
     Raises:
         ConfigError: If the resolution is not two integers in 1..MAX_RAYS_PER_AXIS, an opening
-            angle is not in (0, MAX_FOV_DEG] degrees, the range is not 0 <= near < far
-            (finite), or the working distance is not in (near_m, far_m].
+            angle is not in (0, MAX_FOV_DEG] degrees, the range is not 0 <= near < far <=
+            MAX_RANGE_M, or the working distance is not in (near_m, far_m].
     """
     check_resolution(resolution, "sensor.resolution")
     angles = tuple(fov_deg)
     if len(angles) != 2 or not all(0.0 < angle <= MAX_FOV_DEG for angle in angles):
         raise ConfigError(f"sensor.fov_deg must be two opening angles in (0, {MAX_FOV_DEG:g}] "
-                          f"degrees, got {list(angles)}")
-    if not (math.isfinite(far_m) and 0.0 <= near_m < far_m):
-        raise ConfigError(f"sensor needs 0 <= near_m < far_m (finite), got near_m={near_m!r}, "
-                          f"far_m={far_m!r}")
+                          f"degrees, got {brief(list(angles))}")
+    if not 0.0 <= near_m < far_m <= MAX_RANGE_M:
+        raise ConfigError(f"sensor needs 0 <= near_m < far_m <= {MAX_RANGE_M:g} m, got "
+                          f"near_m={brief(near_m)}, far_m={brief(far_m)}")
     if not near_m < working_distance_m <= far_m:
         # Views look at the object's centre from this distance: outside the range the
         # sensor measures nothing of the object's near side.
@@ -154,9 +164,15 @@ class SensorConfig:
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
         check_sensing(self)
-        if not 0.0 <= self.acquisition_time_s < math.inf:
-            raise ConfigError(f"sensor.acquisition_time_s must be >= 0 s (finite), got "
-                              f"{self.acquisition_time_s!r}")
+        # The mount is normalised where it is used: a zero (or non-finite) one has no direction.
+        norm = sum(value * value for value in self.mount_quaternion_wxyz) ** 0.5
+        if not 1e-9 <= norm < float("inf"):
+            raise ConfigError(f"sensor.mount_quaternion_wxyz must be a non-zero, finite "
+                              f"quaternion (w, x, y, z), got {brief(self.mount_quaternion_wxyz)}")
+        if not 0.0 <= self.acquisition_time_s <= MAX_ACQUISITION_TIME_S:
+            raise ConfigError(f"sensor.acquisition_time_s must lie in [0, "
+                              f"{MAX_ACQUISITION_TIME_S:g}] s, got "
+                              f"{brief(self.acquisition_time_s)}")
 
     @property
     def sensing_model(self) -> SensingModel:
@@ -178,7 +194,7 @@ def _preset_mapping(name: Any, key: str) -> dict[str, Any]:
                                       for preset in presets}, "sensor preset", "YAML file")
     except (ValueError, TypeError):
         raise ConfigError(f"{key} must name a sensor preset, one of {presets}, or a preset's "
-                          f"YAML file, got {name!r}") from None
+                          f"YAML file, got {brief(name)}") from None
     data = read_yaml(path) or {}
     if not isinstance(data, Mapping) or "preset" in data:
         raise ConfigError(f"{path}: a sensor preset must be a mapping of sensor keys (no "
@@ -223,6 +239,12 @@ def with_sensor(config: Config, name: str) -> Config:
     """
     mount = {key: getattr(config.sensor, key) for key in SENSOR_MOUNT_KEYS}
     return dataclasses.replace(config, sensor=dataclasses.replace(sensor_preset(name), **mount))
+
+
+MIN_PATH_STEP_RAD = 1e-4
+"""Finest resolution of the paths' collision checks (`path_max_joint_step_rad`): a tenth of a
+millimetre at a metre from the joint. A move is checked at (its travel / the step)
+configurations, all held at once: at 1e-9 rad a 1 rad move takes 48 GB."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -270,13 +292,15 @@ class KinematicsConfig:
             "orientation_tolerance_deg": self.orientation_tolerance_deg,
             "max_iterations": self.max_iterations,
             "max_step_rad": self.max_step_rad,
-            "path_max_joint_step_rad": self.path_max_joint_step_rad,
             "path_planning_checks": self.path_planning_checks,
             "path_planning_time_s": self.path_planning_time_s,
         }
         for name, value in positive.items():
             if not value > 0:
                 raise ConfigError(f"kinematics.{name} must be > 0, got {value}")
+        if not self.path_max_joint_step_rad >= MIN_PATH_STEP_RAD:
+            raise ConfigError(f"kinematics.path_max_joint_step_rad must be >= "
+                              f"{MIN_PATH_STEP_RAD:g} rad, got {self.path_max_joint_step_rad:g}")
         if self.restarts < 0 or self.damping < 0:
             raise ConfigError(
                 f"kinematics.restarts and damping must be >= 0, got {self.restarts}, "
@@ -396,7 +420,7 @@ class EnvConfig:
             except ValueError as error:
                 raise ConfigError(str(error)) from None
         if self.motors != "mesh" and self.mesh is not None:
-            raise ConfigError(f"env.mesh is set ({self.mesh!r}) but env.motors is "
+            raise ConfigError(f"env.mesh is set ({brief(self.mesh)}) but env.motors is "
                               f"{self.motors!r}, which would ignore it; set env.motors to 'mesh' "
                               f"or drop env.mesh")
         if self.resolution is not None:
@@ -537,12 +561,12 @@ class AgentConfig:
         unknown = [name for name in self.test_lists or () if name not in BUNDLED_EPISODE_LISTS]
         if unknown:
             raise ConfigError(f"agent.test_lists must name bundled episode lists "
-                              f"({', '.join(BUNDLED_EPISODE_LISTS)}), got {unknown[0]!r}")
+                              f"({', '.join(BUNDLED_EPISODE_LISTS)}), got {brief(unknown[0])}")
         if self.eval_episodes is not None and self.eval_episodes < 1:
             raise ConfigError(f"agent.eval_episodes must be >= 1 (or null for all), got "
                               f"{self.eval_episodes}")
         if min(self.net_arch) < 1:
-            raise ConfigError(f"agent.net_arch must be positive widths, got {self.net_arch}")
+            raise ConfigError(f"agent.net_arch must be positive widths, got {brief(self.net_arch)}")
         if self.learning_starts < 0:
             raise ConfigError(f"agent.learning_starts must be >= 0, got {self.learning_starts}")
         if not self.learning_rate > 0 or not self.encoder_scale > 0:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import functools
+import hashlib
 import itertools
 import json
 import statistics
@@ -53,7 +54,16 @@ from vprobot.episode import (
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
-from vprobot.files import append_line, csv_text, folder_lock, save_figure, write_text
+from vprobot.files import (
+    append_line,
+    csv_text,
+    folder_lock,
+    refuse_link,
+    save_figure,
+    truncate_output,
+    write_text,
+)
+from vprobot.generated import is_generated
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
@@ -340,15 +350,15 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     named in one warning (a cut last line is the expected end of a kill: silently).
 
     Raises:
-        ValueError: If the file is not an episodes table of this version.
+        ValueError: If the file is not an episodes table of this version (`LinkError`: or a
+            symbolic link that it would cut).
     """
     if not path.is_file():
         return []
     data = path.read_bytes()
     complete = data[: data.rfind(b"\n") + 1]
     if len(complete) != len(data):
-        with path.open("r+b") as stream:
-            stream.truncate(len(complete))
+        truncate_output(path, len(complete))
     # Bytes that are not UTF-8 (a damaged row) decode to U+FFFD, and that row is dropped.
     lines = complete.decode(errors="replace").splitlines()
     if not lines:
@@ -423,25 +433,49 @@ def _start_episode_list(path: Path, specs: Sequence[EpisodeSpec]) -> None:
                          f"--out, or --episodes {path} to resume that one")
 
 
-def _settings(config: Config, estimator: str | Path | None) -> dict[str, Any]:
+CONTENT = "sha256 of "
+"""The settings' key of a file's content hash, before the file's path."""
+
+
+def _sha256(path: Path) -> str | None:
+    """The sha256 of a file's bytes; None if there is no such file (an estimator that no stop
+    rule reads need not exist)."""
+    try:
+        with path.open("rb") as stream:
+            return hashlib.file_digest(stream, "sha256").hexdigest()
+    except FileNotFoundError:
+        return None
+
+
+def _settings(config: Config, specs: Sequence[EpisodeSpec],
+              estimator: str | Path | None) -> dict[str, Any]:
     """What an evaluation's rows depend on besides its episodes, planners and carriers, as
-    JSON data: the config and the estimator file."""
+    JSON data: the config, the estimator file and the content of it and of the mesh files
+    (a file overwritten between a kill and the resume would mix two parts in one table; a
+    generated object's content is named by its name)."""
+    files = [spec.motor_path for spec in specs if not is_generated(spec.motor)]
+    if estimator is not None:
+        files.append(Path(estimator))
     return {"config": config_document(config),
-            "estimator": None if estimator is None else str(Path(estimator).resolve())}
+            "estimator": None if estimator is None else str(Path(estimator).resolve()),
+            "sha256": {str(file.resolve()): _sha256(file) for file in dict.fromkeys(files)}}
 
 
 def _flat_settings(settings: dict[str, Any]) -> dict[str, Any]:
-    """Settings by `section.key` (and `estimator`)."""
+    """Settings by `section.key` (and `estimator`, and `CONTENT` + a file's path)."""
     return {"estimator": settings.get("estimator"),
             **{f"{section}.{key}": value for section, values in settings["config"].items()
-               for key, value in values.items()}}
+               for key, value in values.items()},
+            **{f"{CONTENT}{name}": digest
+               for name, digest in settings.get("sha256", {}).items()}}
 
 
 def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None:
     """Record an evaluation's settings, or check that a resumed evaluation ran with the same.
 
     Raises:
-        ValueError: If the folder holds an evaluation of other settings.
+        ValueError: If the folder holds an evaluation of other settings, or a file whose
+            content changed since.
     """
     if not path.exists():
         if resumed:
@@ -450,18 +484,27 @@ def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None
                           stacklevel=3)
         write_text(path, json.dumps(settings, indent=1) + "\n")
         return
-    recorded, current = _flat_settings(json.loads(path.read_text())), _flat_settings(settings)
+    document = json.loads(path.read_text())
+    recorded, current = _flat_settings(document), _flat_settings(settings)
     # A setting added to vprobot after the folder was made left its rows as they were if it is
-    # at its default.
+    # at its default; the contents of a folder made before they were recorded go unchecked.
     defaults = _flat_settings({"config": config_document(Config())})
     recorded = {**{key: defaults[key] for key in current
-                   if key not in recorded and key in defaults}, **recorded}
+                   if key not in recorded and key in defaults},
+                **{key: current[key] for key in current
+                   if key.startswith(CONTENT) and "sha256" not in document}, **recorded}
     changed = [key for key in {**recorded, **current} if recorded.get(key) != current.get(key)]
-    if changed:
-        key = changed[0]
-        raise ValueError(f"{path.parent} holds an evaluation of other settings ({key} "
-                         f"{recorded.get(key)!r} there, {current.get(key)!r} now; see {path}); "
-                         f"resume it with those settings, or use another --out")
+    if not changed:
+        return
+    key = changed[0]
+    if key.startswith(CONTENT) and key in recorded and key in current:
+        raise ValueError(f"{key.removeprefix(CONTENT)} changed since the evaluation in "
+                         f"{path.parent} began (sha256 {str(recorded[key])[:12]}... there, "
+                         f"{str(current[key])[:12]}... now; see {path}): its rows would mix "
+                         f"the two; restore the file, or use another --out")
+    raise ValueError(f"{path.parent} holds an evaluation of other settings ({key} "
+                     f"{recorded.get(key)!r} there, {current.get(key)!r} now; see {path}); "
+                     f"resume it with those settings, or use another --out")
 
 
 def plot_coverage_curves(table: Sequence[dict[str, Any]], config: Config, path: Path,
@@ -618,8 +661,9 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
     rerun into the same folder skips the episodes already there (a damaged row is dropped and
     its episode run again). On Ctrl-C (or SIGTERM via the CLI) the tables and the plot of the
     finished episodes are written before the interrupt goes on. The folder is locked
-    (`folder.lock`) while this runs, and records the settings (`evaluation_settings.json`)
-    that a rerun must share. A planner, carrier or stop rule given twice runs once.
+    (`folder.lock`) while this runs, and records the settings (`evaluation_settings.json`,
+    with the sha256 of the mesh and estimator files) that a rerun must share. A planner,
+    carrier or stop rule given twice runs once.
 
     Args:
         config: The configuration.
@@ -675,11 +719,14 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
 
     # Two evaluations appending to one table would both run its missing episodes.
     with folder_lock(out, str(out)):
+        # Before any episode: the rows would be appended through a link into a file outside.
+        refuse_link(rows_path)
         # Read first: a folder holding an older version's table is refused before anything is
         # written into it.
         rows = recorded()
         _start_episode_list(out / "episodes.json", specs)
-        _start_settings(out / SETTINGS_NAME, _settings(config, estimator), bool(rows))
+        _start_settings(out / SETTINGS_NAME, _settings(config, specs, estimator),
+                        bool(rows))
         done = {(row["episode"], row["carrier"], row["planner"]) for row in rows}
         if done and progress:
             print(f"resuming: {len(done)} of {len(wanted)} episodes already in {rows_path}")

@@ -43,6 +43,69 @@ def _is_alive(pid: int) -> bool:
     return True
 
 
+class LinkError(ValueError):
+    """A file vprobot would write into an output folder is a symbolic link (a `ValueError`: a
+    user error, exit 2)."""
+
+
+@contextlib.contextmanager
+def naming(path: Path) -> Iterator[None]:
+    """Give an OSError of the block that names no file (a write's: a full disk) `path`'s name,
+    so that the one-line error says which file could not be written."""
+    try:
+        yield
+    except OSError as error:
+        if error.filename is None and error.errno is not None:
+            error.filename = str(path)
+        raise
+
+
+def _link_error(path: Path) -> LinkError:
+    return LinkError(f"{path} is a symbolic link (to {os.readlink(path)!r}); vprobot writes no "
+                     f"file of an output folder through a link: remove it")
+
+
+def refuse_link(path: Path) -> None:
+    """Refuse a symbolic link at `path`, a file of an output folder to be written: before the
+    work whose results go into it, or where a library opens it (stable-baselines3's monitors).
+    vprobot's own writes refuse one as they open the file (`open_output`).
+
+    Raises:
+        LinkError: If `path` is a symbolic link.
+    """
+    if os.path.islink(path):
+        raise _link_error(path)
+
+
+def open_output(path: Path, flags: int) -> int:
+    """`os.open` a file that vprobot writes into an output folder (created with mode 0o644 when
+    `flags` has O_CREAT), refusing a symbolic link: one planted there would have the write (an
+    append, a lock's pid, a cut) land in a file outside the folder.
+
+    Raises:
+        LinkError: If `path` is a symbolic link (dangling or not).
+        OSError: If it cannot be opened.
+    """
+    try:
+        # O_NOFOLLOW is POSIX; where it is missing (Windows) links need privileges to be made.
+        return os.open(path, flags | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    except OSError as error:
+        if error.errno == errno.ELOOP and os.path.islink(path):
+            raise _link_error(path) from None
+        raise
+
+
+def truncate_output(path: Path, length: int) -> None:
+    """Cut a file of an output folder back to its first `length` bytes (a line a kill left cut
+    short), refusing a symbolic link (`open_output`)."""
+    descriptor = open_output(path, os.O_WRONLY)
+    try:
+        with naming(path):
+            os.ftruncate(descriptor, length)
+    finally:
+        os.close(descriptor)
+
+
 def remove_stale_temporaries(path: Path) -> list[Path]:
     """Delete temporaries that writers of `path` left when killed (their process is gone).
 
@@ -85,9 +148,11 @@ def atomic_output(path: Path) -> Iterator[Path]:
                                          suffix=path.suffix)
     try:
         os.close(handle)
-        yield Path(temporary)
-        os.chmod(temporary, _new_file_mode())
-        os.replace(temporary, path)
+        # os.replace renames over `path`: a symbolic link there is replaced, never followed.
+        with naming(path):
+            yield Path(temporary)
+            os.chmod(temporary, _new_file_mode())
+            os.replace(temporary, path)
     except BaseException:
         # BaseException: KeyboardInterrupt and SystemExit must not leave the temporary either.
         Path(temporary).unlink(missing_ok=True)
@@ -102,20 +167,23 @@ def append_line(path: Path, text: str) -> None:
     length the file had before it.
 
     Raises:
-        OSError: If the write fails or is short (a full disk): the file is as it was.
+        LinkError: If `path` is a symbolic link.
+        OSError: If the write fails or is short (a full disk), naming `path`: the file is as
+            it was.
     """
     data = text.encode()
-    descriptor = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    descriptor = open_output(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT)
     try:
-        start = os.lseek(descriptor, 0, os.SEEK_END)
-        written = os.write(descriptor, data)
-        if written != len(data):
-            # A cut line would glue the next append onto it; the next write would most likely
-            # fail anyway (a full disk writes what fits, then nothing).
-            os.ftruncate(descriptor, start)
-            raise OSError(errno.ENOSPC, f"only {written} of {len(data)} bytes could be "
-                          f"appended (disk full?); the file is left as it was", str(path))
-        os.fsync(descriptor)
+        with naming(path):
+            start = os.lseek(descriptor, 0, os.SEEK_END)
+            written = os.write(descriptor, data)
+            if written != len(data):
+                # A cut line would glue the next append onto it; the next write would most
+                # likely fail anyway (a full disk writes what fits, then nothing).
+                os.ftruncate(descriptor, start)
+                raise OSError(errno.ENOSPC, f"only {written} of {len(data)} bytes could be "
+                              f"appended (disk full?); the file is left as it was", str(path))
+            os.fsync(descriptor)
     finally:
         os.close(descriptor)
 
@@ -151,6 +219,29 @@ def read_text(path: Path) -> str:
                          f"a damaged one") from None
 
 
+def read_table(path: Path) -> tuple[list[str], list[dict[str, str]]]:
+    """The columns (the header) and the rows of a CSV table vprobot reads; blank lines are
+    skipped.
+
+    Raises:
+        OSError: If it cannot be read.
+        ValueError: If it is not UTF-8 text, or a row's cells are not one per column (a row
+            cut short or glued onto another); the message names the file and the line.
+    """
+    reader = csv.reader(io.StringIO(read_text(path), newline=""))
+    columns = next(reader, [])
+    rows = []
+    for cells in reader:
+        if not cells:
+            continue
+        if len(cells) != len(columns):
+            raise ValueError(f"{path}, line {reader.line_num}: {len(cells)} cells where the "
+                             f"header has {len(columns)} columns: a damaged table (a row cut "
+                             f"short?)")
+        rows.append(dict(zip(columns, cells, strict=True)))
+    return columns, rows
+
+
 def write_text(path: Path, text: str) -> Path:
     """Write `text` to `path` atomically (the old file, or none, until it is complete)."""
     with atomic_output(path) as temporary:
@@ -174,13 +265,24 @@ class InUseError(ValueError):
     """Another live process holds the lock (a `ValueError`: a user error, exit 2)."""
 
 
+def _names(path: Path, descriptor: int) -> bool:
+    """Whether `path` is (still) the file open as `descriptor`."""
+    try:
+        named = os.stat(path, follow_symlinks=False)
+    except FileNotFoundError:
+        return False
+    held = os.fstat(descriptor)
+    return (named.st_dev, named.st_ino) == (held.st_dev, held.st_ino)
+
+
 @contextlib.contextmanager
 def exclusive_lock(path: Path, what: str) -> Iterator[None]:
     """Hold an exclusive lock on the file `path` (created if missing) for the block.
 
     The lock is flock(2) (POSIX): the kernel drops it when its holder ends, however it ends
     (kill -9 included), so a crash never leaves a stale lock. The file keeps the holder's pid,
-    for the refusal to name it.
+    for the refusal to name it, and is removed when the block ends (a kill -9 leaves it, with
+    a pid no process has, and the next holder takes it over).
 
     Args:
         path: The lock file.
@@ -188,28 +290,41 @@ def exclusive_lock(path: Path, what: str) -> Iterator[None]:
 
     Raises:
         InUseError: At once, if another process holds the lock.
+        LinkError: If `path` is a symbolic link.
     """
     import fcntl  # POSIX only; imported here so that the module still imports elsewhere
 
-    descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
+    while True:
+        descriptor = open_output(path, os.O_RDWR | os.O_CREAT)
         try:
             fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             holder = os.pread(descriptor, 32, 0).decode(errors="replace").strip()
+            os.close(descriptor)
             by = f"pid {holder}" if holder.isdigit() else "another process"
             raise InUseError(f"{what} is in use by {by}; wait for it to end, or stop it "
                              f"first") from None
+        # The holder before may have removed the file between our open and our lock (below):
+        # a lock on a removed file guards nothing, so take the one now at `path`.
+        if _names(path, descriptor):
+            break
+        os.close(descriptor)
+    try:
         os.ftruncate(descriptor, 0)
         os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)
         yield
     finally:
-        # Closing the descriptor releases the lock.
+        # Removed while still locked, so that no other process holds it; one that opened it
+        # before and locks it after finds it gone (above). Housekeeping: a failure must not
+        # hide the block's error. Closing releases the lock.
+        with contextlib.suppress(OSError):
+            if _names(path, descriptor):
+                os.unlink(path)
         os.close(descriptor)
 
 
 FOLDER_LOCK = "folder.lock"
-"""The lock file `folder_lock` keeps in an output folder."""
+"""The lock file `folder_lock` keeps in an output folder while it holds it."""
 
 
 @contextlib.contextmanager

@@ -11,6 +11,8 @@ from collections.abc import Mapping
 from importlib.resources import files
 from pathlib import Path
 
+from vprobot.schema import brief
+
 PACKAGE_DIR = Path(str(files("vprobot")))
 ASSETS_DIR = PACKAGE_DIR / "assets"
 ROBOTS_DIR = ASSETS_DIR / "robots"
@@ -77,9 +79,12 @@ def bundled_or_path(value: str | Path, bundled: Mapping[str, Path], what: str,
     if str(value) in bundled and not names_a_path(str(value)):
         return bundled[str(value)]
     path = Path(value).expanduser()
-    if path.is_dir() if kind.endswith("folder") else path.is_file():
-        return path
-    raise ValueError(f"unknown {what} {str(value)!r}: neither a bundled {what} "
+    try:
+        if path.is_dir() if kind.endswith("folder") else path.is_file():
+            return path
+    except OSError:
+        pass  # a name the system cannot look up (too long, say) is no path either
+    raise ValueError(f"unknown {what} {brief(str(value))}: neither a bundled {what} "
                      f"({', '.join(bundled)}) nor a {kind}")
 
 

@@ -21,6 +21,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from vprobot.registry import bundled_entries_first
+
 ENTRY_POINT_GROUP = "vprobot.plugins"
 """The entry-point group whose modules every `vprobot` command imports."""
 
@@ -66,15 +68,17 @@ def load(plugins: Sequence[str]) -> None:
     (imported as a module named after the file).
 
     Raises:
-        ValueError: Naming the first plugin that fails to import and its error.
+        ValueError: Naming the first plugin that fails to import and its error: whatever its
+            code raised, `sys.exit` included, or a name it registers that is taken.
     """
     for plugin in plugins:
         key = str(Path(plugin).resolve()) if plugin.endswith(".py") else plugin
         if key in _loaded:
             continue
         try:
-            _import(key)
-        except Exception as error:  # whatever the plugin's code raised
+            with bundled_entries_first():
+                _import(key)
+        except (Exception, SystemExit) as error:  # whatever the plugin's code raised
             message = str(error).splitlines()[0] if str(error) else ""
             raise ValueError(f"plugin {plugin!r} failed to import: {type(error).__name__}"
                              f"{': ' if message else ''}{message}") from None

@@ -9,6 +9,7 @@ plugin (`vprobot.plugins`), registered by being imported.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import pkgutil
 import re
@@ -27,6 +28,10 @@ class _Named(Protocol):
 
 
 N = TypeVar("N", bound=_Named)
+
+
+_REGISTRIES: list[Registry[Any]] = []
+"""Every registry made, for `bundled_entries_first`."""
 
 
 class UnknownNameError(KeyError, ValueError):
@@ -70,6 +75,7 @@ class Registry(Mapping[str, T], Generic[T]):
         self.package = package
         self._entries: dict[str, T] = {}
         self._discovered = package is None
+        _REGISTRIES.append(self)
 
     def _discover(self) -> None:
         """Import the modules of `package` once, which register the bundled entries."""
@@ -110,7 +116,7 @@ class Registry(Mapping[str, T], Generic[T]):
         if value is ...:
             return lambda decorated: self.register(name, decorated)
         if name in self._entries:
-            raise ValueError(f"{self.kind} {name!r} is already registered")
+            raise ValueError(f"{self.kind} {name!r} is already registered; give it another name")
         self._entries[name] = value
         return value
 
@@ -153,3 +159,19 @@ class Registry(Mapping[str, T], Generic[T]):
 
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}: {', '.join(self._sorted)})"
+
+
+@contextlib.contextmanager
+def bundled_entries_first() -> Iterator[None]:
+    """Around the import of entries from outside the bundled packages (a plugin's): at its end,
+    each registry it added to reads its bundled entries, so that a bundled name it took is
+    refused now, while its import is the one running, rather than later, in a bundled module.
+
+    Raises:
+        ValueError: If a bundled entry has a name registered in the block.
+    """
+    sizes = {id(registry): len(registry._entries) for registry in _REGISTRIES}
+    yield
+    for registry in list(_REGISTRIES):
+        if len(registry._entries) != sizes.get(id(registry), 0):
+            registry._discover()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import reprlib
 import types
 import typing
 from collections.abc import Mapping
@@ -28,6 +29,62 @@ class ConfigError(ValueError):
     """A configuration file or mapping does not match the schema."""
 
 
+BRIEF_CHARS = 80
+"""The most characters of a value a message quotes (`brief`)."""
+
+_BRIEF_REPR = reprlib.Repr()
+# Nested lists are cut level by level while the text is built: a value with millions of items
+# is never formatted whole.
+_BRIEF_REPR.maxlevel = 3
+_BRIEF_REPR.maxlist = _BRIEF_REPR.maxtuple = _BRIEF_REPR.maxdict = _BRIEF_REPR.maxset = 6
+_BRIEF_REPR.maxstring = _BRIEF_REPR.maxother = _BRIEF_REPR.maxlong = BRIEF_CHARS
+
+
+def brief(value: Any, limit: int = BRIEF_CHARS) -> str:
+    """`repr(value)` for a message, at most `limit` characters ("..." where it is cut): every
+    message that quotes a value the user gave quotes it through here."""
+    text = _BRIEF_REPR.repr(value)
+    return text if len(text) <= limit else f"{text[:limit - 3]}..."
+
+
+ALIAS_VALUES_LIMIT = 10_000
+"""The most values YAML aliases may repeat in one document. An alias repeats its anchor's whole
+value, and an alias of an alias multiplies: nine levels of nine aliases make 9^9 values (an
+"alias bomb") from a few hundred bytes, which no check could walk or quote. vprobot's own files
+use none; a merge key (`<<: *defaults`) repeats a few."""
+
+
+def _expanded_values(root: yaml.Node, source: str) -> tuple[int, int]:
+    """How many values the document `root` holds with every alias written out, and how many
+    it holds as written (each anchored node once).
+
+    Raises:
+        ConfigError: If an alias lies inside its own anchor (endless repetition), naming
+            `source` and the anchor's line.
+    """
+    sizes: dict[int, int] = {}
+    open_nodes: set[int] = set()
+
+    def size(node: yaml.Node) -> int:
+        if id(node) in sizes:
+            return sizes[id(node)]
+        if id(node) in open_nodes:
+            raise ConfigError(f"{source}: an alias lies inside its own anchor (line "
+                              f"{node.start_mark.line + 1}), which would repeat it endlessly")
+        open_nodes.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            total = 1 + sum(size(key) + size(value) for key, value in node.value)
+        elif isinstance(node, yaml.SequenceNode):
+            total = 1 + sum(size(item) for item in node.value)
+        else:
+            total = 1
+        open_nodes.discard(id(node))
+        sizes[id(node)] = total
+        return total
+
+    return size(root), len(sizes)
+
+
 class _UniqueKeyLoader(yaml.SafeLoader):
     """YAML's safe loader, refusing a key given twice in one mapping (which YAML forbids, and
     PyYAML would read as the last one, silently dropping the first)."""
@@ -41,7 +98,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
             try:
                 if key in lines:
                     raise yaml.constructor.ConstructorError(
-                        None, None, f"key {key!r} is given twice (first on line {lines[key]})",
+                        None, None, f"key {brief(key)} is given twice (first on line {lines[key]})",
                         key_node.start_mark)
                 lines[key] = key_node.start_mark.line + 1
             except TypeError:
@@ -53,16 +110,31 @@ def parse_yaml(text: str, source: str) -> Any:
     """The YAML document in `text`; `source` (a file, an option) names it in errors.
 
     Raises:
-        ConfigError: If the text is not valid YAML or gives a key twice in one mapping; the
-            message names the source and the line.
+        ConfigError: If the text is not valid YAML, gives a key twice in one mapping, nests
+            too deeply, or its aliases repeat more than `ALIAS_VALUES_LIMIT` values (or
+            themselves); the message names the source (and the line where known).
     """
+    loader = _UniqueKeyLoader(text)
     try:
-        return yaml.load(text, Loader=_UniqueKeyLoader)
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        expanded, written = _expanded_values(node, source)
+        if expanded - written > ALIAS_VALUES_LIMIT:
+            raise ConfigError(f"{source}: its YAML aliases repeat {expanded - written:,} "
+                              f"values; vprobot reads at most {ALIAS_VALUES_LIMIT:,} repeated by "
+                              f"aliases (an alias of an alias multiplies them)")
+        return loader.construct_document(node)
     except yaml.YAMLError as error:
         where = getattr(error, "problem_mark", None)
         line = f" (line {where.line + 1})" if where is not None else ""
         problem = getattr(error, "problem", None) or type(error).__name__
         raise ConfigError(f"{source}: not valid YAML{line}: {problem}") from None
+    except RecursionError:
+        # PyYAML composes nested collections recursively.
+        raise ConfigError(f"{source}: not valid YAML: nested too deeply") from None
+    finally:
+        loader.dispose()
 
 
 def read_yaml(path: str | Path) -> Any:
@@ -89,21 +161,22 @@ def _convert(value: Any, annotation: Any, key: str) -> Any:
     origin = typing.get_origin(annotation)
     if isinstance(annotation, type) and dataclasses.is_dataclass(annotation):
         if not isinstance(value, Mapping):
-            raise ConfigError(f"{key} must be a mapping, got {value!r}")
+            raise ConfigError(f"{key} must be a mapping, got {brief(value)}")
         return from_mapping(annotation, value, key)
     if origin is Literal:
         allowed = typing.get_args(annotation)
         if value not in allowed:
-            raise ConfigError(f"{key} must be one of {list(allowed)}, got {value!r}")
+            raise ConfigError(f"{key} must be one of {list(allowed)}, got {brief(value)}")
         return value
     if origin is tuple:
         item_types = typing.get_args(annotation)
         if len(item_types) == 2 and item_types[1] is Ellipsis:
             if not isinstance(value, list | tuple) or not value:
-                raise ConfigError(f"{key} must be a non-empty list, got {value!r}")
+                raise ConfigError(f"{key} must be a non-empty list, got {brief(value)}")
             item_types = (item_types[0],) * len(value)
         if not isinstance(value, list | tuple) or len(value) != len(item_types):
-            raise ConfigError(f"{key} must be a list of {len(item_types)} values, got {value!r}")
+            raise ConfigError(f"{key} must be a list of {len(item_types)} values, got "
+                              f"{brief(value)}")
         return tuple(
             _convert(item, item_type, f"{key}[{index}]")
             for index, (item, item_type) in enumerate(zip(value, item_types, strict=True))
@@ -115,21 +188,21 @@ def _convert(value: Any, annotation: Any, key: str) -> Any:
         return _convert(value, inner, key)
     if annotation is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"{key} must be a number, got {value!r}")
+            raise ConfigError(f"{key} must be a number, got {brief(value)}")
         if not math.isfinite(value):
-            raise ConfigError(f"{key} must be finite, got {value!r}")
+            raise ConfigError(f"{key} must be finite, got {brief(value)}")
         return float(value)
     if annotation is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{key} must be an integer, got {value!r}")
+            raise ConfigError(f"{key} must be an integer, got {brief(value)}")
         return value
     if annotation is bool:
         if not isinstance(value, bool):
-            raise ConfigError(f"{key} must be true or false, got {value!r}")
+            raise ConfigError(f"{key} must be true or false, got {brief(value)}")
         return value
     if annotation is str:
         if not isinstance(value, str):
-            raise ConfigError(f"{key} must be a string, got {value!r}")
+            raise ConfigError(f"{key} must be a string, got {brief(value)}")
         return value
     raise TypeError(f"unsupported annotation {annotation!r} for {key}")
 
@@ -155,7 +228,7 @@ def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
     if unknown:
         where = f"section '{key}'" if key else "the top level"
         raise ConfigError(
-            f"unknown key {unknown[0]!r} in {where}; allowed keys: {', '.join(sorted(fields))}"
+            f"unknown key {brief(unknown[0])} in {where}; allowed keys: {', '.join(sorted(fields))}"
         )
     prefix = f"{key}." if key else ""
     values = {name: _convert(resolvers[name](value, prefix + name), hints[name], prefix + name)

@@ -20,7 +20,14 @@ from vprobot.agents.runs import best_evaluation, current_names, evaluation_score
 from vprobot.config import Selection
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.files import append_line, atomic_output, csv_text, read_text, write_text
+from vprobot.files import (
+    append_line,
+    atomic_output,
+    csv_text,
+    read_text,
+    truncate_output,
+    write_text,
+)
 
 EVALUATION_COLUMNS = ("step", "wall_s", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"
@@ -42,15 +49,18 @@ def count_lines(path: Path) -> int:
 
 
 def truncate_lines(path: Path, lines: int) -> None:
-    """Keep the first `lines` lines of a log (what a checkpoint had seen)."""
+    """Keep the first `lines` lines of a log (what a checkpoint had seen).
+
+    Raises:
+        LinkError: If the log is a symbolic link.
+    """
     if not path.is_file():
         return
     data = path.read_bytes()
     end = 0
     for _ in range(lines):
         end = data.index(b"\n", end) + 1
-    with path.open("r+b") as stream:
-        stream.truncate(end)
+    truncate_output(path, end)
 
 
 def grid_step(steps: int, frequency: int) -> int:

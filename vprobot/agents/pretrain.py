@@ -20,8 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +34,7 @@ from vprobot.agents.teacher import CandidateTeacher
 from vprobot.config import Config, ConfigError, config_document
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.files import atomic_output, folder_lock, read_text, write_text
+from vprobot.processes import worker_pool
 
 PRETRAIN_RANK = 1_000
 EPSILON = 0.2
@@ -133,6 +133,28 @@ def _save_shard(config: Config, seed: int, shard: int, sizes: list[int], folder:
     return path
 
 
+def _read_shard(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of a shard `_save_shard` wrote.
+
+    Raises:
+        ValueError: If it is not one (damaged, or another file), naming it.
+    """
+    try:
+        # Our own handle: np.load leaks the one it opens when the zip directory is corrupt.
+        with path.open("rb") as stream, np.load(stream, allow_pickle=False) as shard:
+            arrays = {key: shard[key] for key in shard.files}
+    # An empty or cut file is an EOFError or a BadZipFile, a file of other bytes a ValueError
+    # (numpy takes it for pickled data); a .npy instead of an .npz is no context manager.
+    except (OSError, EOFError, zipfile.BadZipFile, ValueError, AttributeError,
+            TypeError) as error:
+        raise ValueError(f"cannot read teacher shard {path}: {error}; remove it, and "
+                         f"`vprobot teacher` rolls it out again") from None
+    if _VALUES_KEY not in arrays:
+        raise ValueError(f"{path} is not a teacher shard (it has no {_VALUES_KEY!r} array); "
+                         f"remove it, and `vprobot teacher` rolls it out again")
+    return arrays
+
+
 def _open_folder(config: Config, seed: int, folder: Path) -> None:
     """Write the folder's `teacher.json`, or check that it was made for this teacher.
 
@@ -176,10 +198,7 @@ def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int
             _open_folder(config, seed, folder)
             _roll_out([shard for shard, file in enumerate(files) if not file.is_file()],
                       sizes, config, seed, folder, workers, progress)
-    shards = []
-    for file in files:
-        with np.load(file) as shard:
-            shards.append({key: shard[key] for key in shard.files})
+    shards = [_read_shard(file) for file in files]
     return TeacherStates({key: np.concatenate([shard[key] for shard in shards])
                           for key in shards[0] if key != _VALUES_KEY},
                          np.concatenate([shard[_VALUES_KEY] for shard in shards]))
@@ -188,22 +207,20 @@ def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int
 def _roll_out(missing: list[int], sizes: list[int], config: Config, seed: int, folder: Path,
               workers: int, progress: bool) -> None:
     """Roll out and save the missing shards, in `workers` processes."""
-    bar = tqdm(total=len(sizes), initial=len(sizes) - len(missing),
-               desc=f"teacher shards ({SHARD_EPISODES} episodes)", disable=not progress)
-    if workers == 1 or len(missing) < 2:
-        for shard in missing:
-            _save_shard(config, seed, shard, sizes, folder)
-            bar.update()
-    else:
-        # Spawned: MuJoCo's and torch's threads do not survive a fork.
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(workers, len(missing)), mp_context=context) as pool:
-            futures = [pool.submit(_save_shard, config, seed, shard, sizes, folder)
-                       for shard in missing]
-            for future in futures:
-                future.result()
+    # Closed on an interrupt too, so that the command's "interrupted" starts a line of its own.
+    with tqdm(total=len(sizes), initial=len(sizes) - len(missing),
+              desc=f"teacher shards ({SHARD_EPISODES} episodes)", disable=not progress) as bar:
+        if workers == 1 or len(missing) < 2:
+            for shard in missing:
+                _save_shard(config, seed, shard, sizes, folder)
                 bar.update()
-    bar.close()
+        else:
+            with worker_pool(min(workers, len(missing))) as pool:
+                futures = [pool.submit(_save_shard, config, seed, shard, sizes, folder)
+                           for shard in missing]
+                for future in futures:
+                    future.result()
+                    bar.update()
 
 
 def teacher_folder(config: Config, run_dir: Path) -> Path:

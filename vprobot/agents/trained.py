@@ -1,9 +1,21 @@
-"""Loading a trained agent: the bundled one, a run directory or a checkpoint file."""
+"""Loading a trained agent: the bundled one, a run directory or a checkpoint file.
+
+A stable-baselines3 model file is a zip whose `data` entry holds the model's settings as JSON,
+some of them (the policy class, the spaces, the schedules) as cloudpickled objects, which run
+code when unpickled: a model file from someone else could run anything. So `load_agent` never
+unpickles them: it builds the model the run's `config.yaml` builds (`build_model`) and hands
+stable-baselines3 that model's values in their place (its `custom_objects`, which it takes
+instead of unpickling); the weights are read with torch's `weights_only` loader
+(docs/security.md).
+"""
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import json
+import re
+import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -14,7 +26,9 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 
 from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.encoders import check_encoder
+from vprobot.agents.models import build_model
 from vprobot.config import Config, ConfigError, SensorConfig, from_mapping, read_yaml
+from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
 from vprobot.paths import AGENTS_DIR, names_a_path
 from vprobot.sensor_model import SensorModel
@@ -166,13 +180,74 @@ def _load(model_file: Path, modified: int, shown: Path) -> TrainedAgent:
     # `shown` is the file as the user named it, for the messages.
     config = _run_config(model_file, shown)
     try:
-        model = ALGORITHMS[config.agent.algorithm].load(model_file, device="cpu")
-    except Exception as error:  # a corrupt zip raises anything from zipfile to pickle
-        raise ValueError(f"agent {shown} cannot be loaded as a {config.agent.algorithm} "
-                         f"model ({type(error).__name__}: {error})") from None
-    expected, found = _shapes(observation_space(config)), _shapes(model.observation_space)
-    if expected != found:
+        settings = _settings(model_file)
+    except Exception as error:  # a corrupt zip raises anything from zipfile to json
+        raise _unloadable(shown, config, error) from None
+    replacements = _unpickled(settings, config, shown)
+    try:
+        model = ALGORITHMS[config.agent.algorithm].load(model_file, device="cpu",
+                                                        custom_objects=replacements)
+    except Exception as error:  # a corrupt zip raises anything from zipfile to torch
+        raise _unloadable(shown, config, error) from None
+    trained_on = _recorded_shapes(settings.get("observation_space"))
+    expected = _shapes(observation_space(config))
+    if trained_on is not None and expected != trained_on:
         raise ValueError(f"agent {shown}: its run's config.yaml gives observations of shape "
-                         f"{expected}, but the model was trained on {found}; use the model with "
-                         f"the config.yaml of its own run")
+                         f"{expected}, but the model was trained on {trained_on}; use the "
+                         f"model with the config.yaml of its own run")
     return TrainedAgent(model, config, model_file)
+
+
+def _unloadable(shown: Path, config: Config, error: Exception) -> ValueError:
+    return ValueError(f"agent {shown} cannot be loaded as a {config.agent.algorithm} model "
+                      f"({type(error).__name__}: {error})")
+
+
+class _Spaces(gym.Env):
+    """An env with a run's spaces and nothing else: what a model is built against."""
+
+    def __init__(self, config: Config):
+        self.observation_space = observation_space(config)
+        self.action_space = ActionMapping(config.env, config.sensor.working_distance_m).space
+
+
+def _settings(model_file: Path) -> dict[str, Any]:
+    """The JSON settings (`data`) of a stable-baselines3 model file, nothing unpickled."""
+    with zipfile.ZipFile(model_file) as archive:
+        settings = json.loads(archive.read("data"))
+    if not isinstance(settings, dict):
+        raise TypeError(f"its data is a {type(settings).__name__}, not an object")
+    return settings
+
+
+def _unpickled(settings: Mapping[str, Any], config: Config, shown: Path) -> dict[str, Any]:
+    """What replaces each pickled setting: the value of the model the run's config builds.
+
+    Raises:
+        ValueError: For a pickled setting such a model does not have, naming it.
+    """
+    pickled = [key for key, value in settings.items()
+               if isinstance(value, dict) and ":serialized:" in value]
+    built = vars(build_model(config, _Spaces(config), 0, "cpu"))
+    unknown = [key for key in pickled if key not in built]
+    if unknown:
+        raise ValueError(f"agent {shown}: its model file holds pickled settings a "
+                         f"{config.agent.algorithm} model of its run does not have "
+                         f"({', '.join(unknown)[:200]}); vprobot does not unpickle them, since "
+                         f"that runs code (docs/security.md)")
+    return {key: built[key] for key in pickled}
+
+
+def _recorded_shapes(space: Any) -> Any:
+    """The observation shape a model file's settings record in readable JSON beside the pickled
+    space (a tuple, or a dict of them for a Dict space); None if they do not."""
+    if not isinstance(space, dict):
+        return None
+    if isinstance(space.get("_shape"), list):
+        return tuple(space["_shape"])
+    # A Dict space's JSON holds its spaces as their repr: "{'mask': Box(0.0, 1.0, (128,), ...".
+    if isinstance(space.get("spaces"), str):
+        shapes = re.findall(r"'(\w+)': Box\([^()]*\((\d+(?:, \d+)*),?\)", space["spaces"])
+        if shapes:
+            return {key: tuple(int(size) for size in sizes.split(", ")) for key, sizes in shapes}
+    return None

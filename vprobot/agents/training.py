@@ -32,8 +32,6 @@ import gymnasium as gym
 import numpy as np
 import torch
 import yaml
-from stable_baselines3 import PPO, SAC
-from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import CallbackList
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.monitor import Monitor
@@ -48,18 +46,20 @@ from vprobot.agents.callbacks import (
     truncate_lines,
     upgrade_evaluations,
 )
-from vprobot.agents.candidate_q import CandidateDQN, check_candidate_spaces
+from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.curves import NoEpisodesError, plot_curves
-from vprobot.agents.encoders import ENCODERS, check_encoder
+from vprobot.agents.encoders import check_encoder
 from vprobot.agents.evaluation import evaluation_env
-from vprobot.agents.extractors import split_space
+
+# LinearSchedule too: the checkpoints of runs made before it moved pickle it by this module's
+# name, and resuming one (stable-baselines3's load) unpickles it.
+from vprobot.agents.models import LinearSchedule, build_model, check_spaces  # noqa: F401
 from vprobot.agents.pretrain import pretrain
 from vprobot.agents.runs import RESULT_FILE, best_validation
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import check_teacher_reward
 from vprobot.agents.trained import ALGORITHMS, load_run_config
 from vprobot.config import (
-    AgentConfig,
     Config,
     ConfigError,
     config_document,
@@ -73,7 +73,7 @@ from vprobot.env.observations import observation_space
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list, validation_episodes
 from vprobot.evaluation import evaluate
-from vprobot.files import atomic_output, exclusive_lock, write_text
+from vprobot.files import atomic_output, exclusive_lock, refuse_link, write_text
 from vprobot.fit import check_fits
 from vprobot.generated import is_generated
 from vprobot.kinematics import TRAVEL_COSTS
@@ -89,16 +89,6 @@ MESH_SCALE_KEY = "env.mesh_scale"
 """How a training config sets the scale of its mesh file, for the hints of unit mistakes."""
 MEMORY_LIMIT_BYTES = 8 * 1024**3
 """No profile may need more than this for its buffer (issue: 8 GB)."""
-
-
-class LinearSchedule:
-    """Learning rate decaying linearly from `initial` to 0 over the run (paper Table 4)."""
-
-    def __init__(self, initial: float):
-        self.initial = initial
-
-    def __call__(self, progress_remaining: float) -> float:
-        return self.initial * progress_remaining
 
 
 def _space_bytes(space: Any) -> int:
@@ -185,66 +175,6 @@ def make_vec_env(config: Config, seed: int, starts: Sequence[int],
                     None if monitor_dir is None else monitor_dir / monitor_file(rank))
         for rank, start in enumerate(starts)]
     return DummyVecEnv(factories) if len(factories) == 1 else SubprocVecEnv(factories)
-
-
-def check_spaces(agent: AgentConfig, observation_space: gym.Space,
-                 action_space: gym.Space) -> None:
-    """Raise ConfigError unless the algorithm can act in an env of these spaces: DQN in one
-    that chooses among candidate views, SAC and PPO in one with a continuous action and a
-    point-cloud state."""
-    if agent.algorithm == "dqn":
-        check_candidate_spaces(observation_space, action_space)
-        return
-    try:
-        split_space(observation_space)
-        continuous = isinstance(action_space, gym.spaces.Box)
-    except ValueError:
-        continuous = False
-    if not continuous:
-        raise ConfigError(f"agent.algorithm {agent.algorithm} needs a continuous action and a "
-                          f"point-cloud state, got action space {action_space} and observation "
-                          f"space {observation_space}; an env choosing among candidate views "
-                          f"(env.action: A_view) needs agent.algorithm dqn with agent.encoder "
-                          f"candidates")
-
-
-def build_model(config: Config, env: gym.Env | VecEnv, seed: int, device: str) -> BaseAlgorithm:
-    """A fresh model: SAC or PPO with the profile's encoder (its features extractor) and
-    regression MLP, or DQN with the encoder's policy (`candidates`: `vprobot.agents.candidate_q`).
-
-    Raises:
-        ConfigError: If the encoder is not registered or does not serve the algorithm
-            (`check_encoder`), or the algorithm cannot act in the env's spaces (`check_spaces`).
-    """
-    agent = config.agent
-    check_encoder(agent)
-    check_spaces(agent, env.observation_space, env.action_space)
-    rate: Any = (LinearSchedule(agent.learning_rate) if agent.learning_rate_schedule == "linear"
-                 else agent.learning_rate)
-    encoder = ENCODERS[agent.encoder]
-    if agent.algorithm == "dqn":
-        return CandidateDQN(encoder.network, env, learning_rate=rate, gamma=agent.gamma,
-                            batch_size=agent.batch_size, buffer_size=agent.buffer_size,
-                            learning_starts=agent.learning_starts, train_freq=agent.train_freq,
-                            gradient_steps=agent.gradient_steps,
-                            target_update_interval=agent.target_update_interval,
-                            exploration_fraction=agent.exploration_fraction,
-                            exploration_initial_eps=agent.exploration_initial_eps,
-                            exploration_final_eps=agent.exploration_final_eps,
-                            policy_kwargs=encoder.settings(agent), seed=seed, device=device)
-    policy = "MultiInputPolicy" if config.env.robot_state else "MlpPolicy"
-    policy_kwargs = {"features_extractor_class": encoder.network,
-                     "features_extractor_kwargs": encoder.settings(agent),
-                     "net_arch": list(agent.net_arch)}
-    if agent.algorithm == "sac":
-        return SAC(policy, env, learning_rate=rate, gamma=agent.gamma,
-                   batch_size=agent.batch_size, buffer_size=agent.buffer_size,
-                   learning_starts=agent.learning_starts, train_freq=agent.train_freq,
-                   gradient_steps=agent.gradient_steps, policy_kwargs=policy_kwargs,
-                   seed=seed, device=device)
-    return PPO(policy, env, learning_rate=rate, gamma=agent.gamma, n_steps=agent.n_steps,
-               batch_size=agent.batch_size, n_epochs=agent.n_epochs,
-               policy_kwargs=policy_kwargs, seed=seed, device=device)
 
 
 def _commit() -> str:
@@ -371,6 +301,8 @@ def _train_locked(config: Config, run_dir: Path, seed: int, resume: bool, device
     # Every env's monitor: a resumed run cuts each back to its checkpoint.
     logs = [*(run_dir / monitor_file(rank) for rank in range(agent.n_envs)),
             run_dir / "evaluations.csv"]
+    for log in logs:
+        refuse_link(log)  # the monitors open their files themselves
     checkpoint = read_checkpoint(run_dir) if resume else None
     starts = [0] * agent.n_envs
     if checkpoint is not None:

@@ -14,7 +14,6 @@ plans on the modest part (`vprobot render --plan` does the same replay).
 from __future__ import annotations
 
 import json
-import os
 import statistics
 import subprocess
 import sys
@@ -30,6 +29,7 @@ from tqdm import tqdm
 from vprobot.config import Config
 from vprobot.ground_truth import CACHE_ENV_VAR
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.processes import child_environment
 
 DENSITIES = {"dense": 4, "modest": 2}
 """Loop subdivisions of the default motor per part density."""
@@ -51,7 +51,8 @@ _CHILD = ("import resource, sys\n"
           "code = main(sys.argv[1:])\n"
           "print('peak_kib', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n"
           "sys.exit(code)\n")
-"""`vprobot plan` in a child that reports its own peak resident set (KiB on Linux)."""
+"""`vprobot plan` in a child (that ends with this process) that reports its own peak resident
+set (KiB on Linux)."""
 
 
 def _plan(mesh: Path, out: Path, cache: Path, options: Sequence[str] = ()) -> dict[str, Any]:
@@ -59,7 +60,7 @@ def _plan(mesh: Path, out: Path, cache: Path, options: Sequence[str] = ()) -> di
     start = time.perf_counter()
     child = subprocess.run([sys.executable, "-c", _CHILD, "plan", "--mesh", str(mesh), "--out",
                             str(out), *options], check=True, capture_output=True, text=True,
-                           env={**os.environ, CACHE_ENV_VAR: str(cache)})
+                           env={**child_environment(), CACHE_ENV_VAR: str(cache)})
     wall = time.perf_counter() - start
     peak_kib = int(child.stderr.rsplit("peak_kib", 1)[1].split()[0])
     document = json.loads(out.read_text())

@@ -10,12 +10,14 @@ functions are the only ones in vprobot without a comment of their own.
 Exit codes: 0 success; 1 only where a command documents it (`reach`: the view is unreachable;
 `check`: the replay fails; `report compare`, `report check`: a cell moved);
 2 a user error (bad option, config, mesh, plan or output path), reported as one line on stderr;
-130 interrupted (Ctrl-C or SIGTERM; `evaluate` keeps the episodes it finished).
+130 interrupted (Ctrl-C or SIGTERM; `evaluate` keeps the episodes it finished); 141 the reader
+of the output went away (`| head`), which ends the command quietly.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import threading
@@ -23,11 +25,13 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from vprobot import plugins
+from vprobot import plugins, processes
 from vprobot.cli import benchmark, cell, export, objects, planning, report, stop, training
 from vprobot.cli.common import Commands, Parser
 
 INTERRUPTED = 130
+BROKEN_PIPE = 141
+"""A shell's status of a command that SIGPIPE ended (128 + 13): its reader closed the pipe."""
 COMMANDS: tuple[Callable[[Commands], None], ...] = (
     cell.add_reach, cell.add_cell, planning.add_plan, planning.add_render, export.add_export,
     export.add_check, planning.add_evaluate, training.add_train, training.add_teacher,
@@ -69,26 +73,33 @@ def _interrupt(signum: int, frame: object) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    try:  # before the parser, which checks names against the registries
-        plugins.load_requested(argv)
-    except ValueError as error:
-        print(f"vprobot: error: {error}", file=sys.stderr)
-        return 2
-    args = build_parser().parse_args(argv)
-    args.argv = argv
     in_main_thread = threading.current_thread() is threading.main_thread()
+    # First: a SIGTERM while the plugins are imported is an interrupt too.
     previous = signal.signal(signal.SIGTERM, _interrupt) if in_main_thread else None
+    prog = "vprobot"  # the command's own name once the parser has it
     try:
+        processes.end_with_environment()
+        plugins.load_requested(argv)  # before the parser, which checks names against registries
+        args = build_parser().parse_args(argv)
+        args.argv = argv
+        prog = args.prog
         with warnings.catch_warnings():
-            warnings.showwarning = _warning_printer(args.prog)
-            return args.handler(args)
+            warnings.showwarning = _warning_printer(prog)
+            code: int = args.handler(args)
+        sys.stdout.flush()  # here, so that a reader gone (`| head`) is met below, not at exit
+        return code
+    except BrokenPipeError:
+        # The reader of the output is gone (`vprobot objects list | head`): stop quietly, as
+        # other tools do; stdout goes to devnull, so that Python's flush at exit finds no pipe.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return BROKEN_PIPE
     except (ValueError, OSError) as error:
         # ConfigError is a ValueError; OSError covers unreadable inputs and full disks.
         text = str(error).splitlines()[0] if str(error) else type(error).__name__
-        print(f"{args.prog}: error: {text}", file=sys.stderr)
+        print(f"{prog}: error: {text}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"{args.prog}: interrupted", file=sys.stderr)
+        print(f"{prog}: interrupted", file=sys.stderr)
         return INTERRUPTED
     finally:
         if in_main_thread:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from vprobot.cli.common import POSITIVE_FLOAT, Commands, LateHelp, add, config_of
-from vprobot.export import CHECK_DT_S, EXPORT_DT_S
+from vprobot.cli.common import Commands, LateHelp, add, config_of, number
+from vprobot.export import CHECK_DT_S, CHECK_MAX_DT_S, EXPORT_DT_S, MIN_DT_S
 from vprobot.outputs import check_output_file
 
 
@@ -18,8 +18,9 @@ def add_export(commands: Commands) -> None:
     export.add_argument("--format", required=True, type=_format_name,
                         help=LateHelp(_formats_help))
     export.add_argument("--out", required=True, help="file to write, with the format's suffix")
-    export.add_argument("--dt", type=POSITIVE_FLOAT, default=EXPORT_DT_S,
-                        help=f"sampling step of the trajectory (s; default {EXPORT_DT_S})")
+    export.add_argument("--dt", type=number(float, MIN_DT_S, False, f"a step >= {MIN_DT_S:g} s"),
+                        default=EXPORT_DT_S, help=f"sampling step of the trajectory (s; at least "
+                        f"{MIN_DT_S:g}, default {EXPORT_DT_S})")
 
 
 def _format_name(text: str) -> str:
@@ -44,20 +45,22 @@ def add_check(commands: Commands) -> None:
                 "collisions, joint, velocity, acceleration and jerk limits, sensor poses; exit 1 "
                 "when one fails.")
     check.add_argument("plan", help="plan JSON of `vprobot plan --out` (docs/plan-format.md)")
-    check.add_argument("--dt", type=POSITIVE_FLOAT, default=CHECK_DT_S,
-                       help=f"replay step (s; default {CHECK_DT_S})")
+    check.add_argument("--dt", type=number(float, MIN_DT_S, False, f"a step in [{MIN_DT_S:g}, "
+                                           f"{CHECK_MAX_DT_S:g}] s", high=CHECK_MAX_DT_S),
+                       default=CHECK_DT_S, help=f"replay step (s; {MIN_DT_S:g} to "
+                       f"{CHECK_MAX_DT_S:g}, default {CHECK_DT_S}: coarser samples can average "
+                       f"a peak over the limits away)")
 
 
 def command_export(args: argparse.Namespace) -> int:
     """Write a plan's motion as a trajectory, a CSV, a URScript program or a ROS 2 message."""
-    from vprobot.export.formats import FORMATS, export_plan
+    from vprobot.export.formats import FORMATS, export_plan_file
     from vprobot.files import write_text
-    from vprobot.render.replay import read_plan
 
     check_output_file(args.out, "--out", (FORMATS[args.format].suffix,))
     if Path(args.out).resolve() == Path(args.plan).resolve():
         raise ValueError(f"--out {args.out} is the plan itself; give another file")
-    text = export_plan(read_plan(args.plan), args.format, args.dt)
+    text = export_plan_file(args.plan, args.format, args.dt)
     print(f"wrote {write_text(Path(args.out), text)}")
     return 0
 

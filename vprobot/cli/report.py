@@ -125,7 +125,8 @@ def command_check(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory(prefix="check-results-") as temporary:
         out = Path(temporary) / "regenerated"
         try:
-            regenerate(args.folder, out, args.episodes, args.planners, args.carriers)
+            regenerate(args.folder, out, args.episodes, args.planners, args.carriers,
+                       scratch=Path(temporary))
         except subprocess.CalledProcessError as error:
             raise ValueError(f"the regeneration's `vprobot evaluate` exited with "
                              f"{error.returncode} (its message is above)") from None

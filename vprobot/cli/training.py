@@ -143,6 +143,7 @@ def command_teacher(args: argparse.Namespace) -> int:
     if folder is None:
         raise ValueError("give --out FOLDER, or a profile with agent.teacher_dir (the folder "
                          "its runs read the teacher's states from)")
+    check_output_folder(folder, "--out" if args.out else "agent.teacher_dir")
     if config.agent.pretrain_episodes < 1:
         raise ValueError(f"{args.profile} has no teacher: its agent.pretrain_episodes is "
                          f"{config.agent.pretrain_episodes}")

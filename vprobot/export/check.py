@@ -8,19 +8,21 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from vprobot.config import Config
 from vprobot.export import CHECK_DT_S
-from vprobot.export.motion import PlanMotion, plan_motion
+from vprobot.export.motion import PlanMotion, plan_motion, require_robot
 from vprobot.geometry import quat_to_matrix, rotation_angle
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
 from vprobot.kinematics.motion_planner import densify
 from vprobot.kinematics.trajectory import MotionLimits, Trajectory
-from vprobot.render.replay import plan_object, read_plan
+from vprobot.render.replay import plan_number, plan_object, read_plan
 from vprobot.scene import Cell
+from vprobot.schema import brief
 
 POSITION_TOLERANCE_M = 1e-4
 """Largest distance of the replayed sensor from the plan's view at an acquisition (0.1 mm)."""
@@ -89,7 +91,9 @@ def divided_differences(times: np.ndarray, values: np.ndarray, order: int) -> np
 def rounding_bound(positions: np.ndarray, step: float, order: int) -> float:
     """How far floating-point rounding of the positions (a few ulps) can move an `order`-th
     divided difference over samples at least `step` apart."""
-    return 2.0**order * 16 * np.finfo(float).eps * (np.abs(positions).max() + 1.0) / step**order
+    # Finite positions only: a NaN one is a failure of its own samples, not of every sample.
+    largest = np.abs(positions[np.isfinite(positions)]).max(initial=0.0)
+    return 2.0**order * 16 * np.finfo(float).eps * (largest + 1.0) / step**order
 
 
 def limit_failures(samples: Trajectory, limits: MotionLimits
@@ -104,7 +108,7 @@ def limit_failures(samples: Trajectory, limits: MotionLimits
         estimate = np.abs(divided_differences(samples.times, samples.positions, order))
         allowed = limit * (1 + LIMIT_SLACK) + rounding_bound(samples.positions, step, order)
         shares[name] = float((estimate / limit).max())
-        over = np.argwhere(estimate > allowed)
+        over = np.argwhere(~(estimate <= allowed))  # NaN fails too
         if len(over):
             row, joint = over[0]
             failures.append(
@@ -112,6 +116,36 @@ def limit_failures(samples: Trajectory, limits: MotionLimits
                 f"{samples.joint_names[joint]} {estimate[row, joint]:.4g} > "
                 f"{limit[joint]:.4g} ({len(over)} samples x joints over)")
     return shares, failures
+
+
+def declared_limit_failures(declared: MotionLimits, robot: MotionLimits,
+                            joint_names: tuple[str, ...]) -> list[str]:
+    """A line per limit the plan was timed under (`robot.limits`) above the robot's: the time
+    law holds the plan's limits exactly, so this finds a plan timed beyond the robot's at any
+    replay step, where divided differences over coarse samples average a short peak away."""
+    failures = []
+    for name, key, plan, own in zip(
+            DERIVATIVES, ("velocity_rad_s", "acceleration_rad_s2", "jerk_rad_s3"),
+            (declared.velocity, declared.acceleration, declared.jerk),
+            (robot.velocity, robot.acceleration, robot.jerk), strict=True):
+        over = np.flatnonzero(plan > own * (1 + LIMIT_SLACK))
+        if len(over):
+            joint = over[0]
+            failures.append(f"{name} limit: the plan was timed under robot.limits.{key} above "
+                            f"the robot's: {joint_names[joint]} {plan[joint]:.4g} > "
+                            f"{own[joint]:.4g} ({len(over)} joints over)")
+    return failures
+
+
+def _stated_cycle_s(document: dict[str, Any]) -> float | None:
+    """The plan's `cycle_time.total_s`, None when the plan states no cycle time."""
+    cycle = document.get("cycle_time")
+    if cycle is None:
+        return None
+    if not isinstance(cycle, dict) or "total_s" not in cycle:
+        raise ValueError(f"plan cycle_time must be null or an object with total_s, got "
+                         f"{brief(cycle)}")
+    return plan_number(cycle["total_s"], "cycle_time.total_s")
 
 
 def _cell(config: Config, document: dict, plan_path: Path) -> tuple[Cell, np.ndarray]:
@@ -159,9 +193,10 @@ def check_plan(config: Config, plan_path: str | Path, dt: float = CHECK_DT_S) ->
     acquisition) and along every move's segments at the path planner's resolution: no
     collision; at every sample: within the joint limits; velocity, acceleration and jerk by
     divided differences of the sampled positions within the robot's limits (its `robot.yaml`,
-    not the plan's copy); at each acquisition the sensor (forward kinematics of the replayed
-    configuration) within 0.1 mm / 0.01 deg of the plan's view, and the cycle time the plan
-    states.
+    not the plan's copy), and the limits the plan was timed under within them too; the plan's
+    robot and joint names the robot's; at each acquisition the sensor (forward kinematics of
+    the replayed configuration) within 0.1 mm / 0.01 deg of the plan's view, and the cycle
+    time the plan states.
 
     Args:
         config: Settings the plan does not fix (the path resolution).
@@ -169,28 +204,31 @@ def check_plan(config: Config, plan_path: str | Path, dt: float = CHECK_DT_S) ->
         dt: The replay step (s).
 
     Raises:
-        ValueError: For an unreadable plan, one without a robot cycle (`plan_motion`), a
-            missing mesh or robot, or a step that is not > 0.
+        ValueError: For an unreadable plan, one without a robot cycle (`plan_motion`), one
+            whose robot or joint names are not its robot's, a malformed `cycle_time`, a
+            missing mesh or robot, or a step that is not > 0 or takes more than
+            `vprobot.kinematics.trajectory.MAX_SAMPLES` samples.
     """
     plan_path = Path(plan_path)
     document = read_plan(plan_path)
     motion = plan_motion(document)
+    stated = _stated_cycle_s(document)
     samples = motion.timed.sample(dt)
     cell, rotation = _cell(config, document, plan_path)
-    if tuple(cell.joints.names) != motion.joint_names:
-        raise ValueError(f"plan's joint names {list(motion.joint_names)} are not the robot's "
-                         f"{list(cell.joints.names)}")
+    require_robot(motion, cell.robot.name, cell.joints.names)
     dense, failures = _collision_failures(cell, rotation, motion, samples,
                                           cell.config.kinematics.path_max_joint_step_rad)
     joints = cell.joints
-    outside = np.argwhere((samples.positions < joints.lower - 1e-9)
-                          | (samples.positions > joints.upper + 1e-9))
+    outside = np.argwhere(~((samples.positions >= joints.lower - 1e-9)
+                            & (samples.positions <= joints.upper + 1e-9)))  # NaN fails too
     if len(outside):
         row, joint = outside[0]
         failures.append(f"joint limit exceeded at t={samples.times[row]:.4f} s (sample {row}): "
                         f"{joints.names[joint]} {samples.positions[row, joint]:.4f} outside "
                         f"{joints.lower[joint]:.4f} .. {joints.upper[joint]:.4f} rad")
-    shares, exceeded = limit_failures(samples, MotionLimits.of(cell.robot))
+    robot_limits = MotionLimits.of(cell.robot)
+    failures += declared_limit_failures(motion.limits, robot_limits, motion.joint_names)
+    shares, exceeded = limit_failures(samples, robot_limits)
     failures += exceeded
     position_mm, angle_deg = 0.0, 0.0
     forward = ForwardKinematics(cell)
@@ -201,12 +239,11 @@ def check_plan(config: Config, plan_path: str | Path, dt: float = CHECK_DT_S) ->
             distance = float(np.linalg.norm(pose.position - stop.position)) * 1e3
             angle = math.degrees(rotation_angle(pose.rotation, quat_to_matrix(stop.quaternion)))
             position_mm, angle_deg = max(position_mm, distance), max(angle_deg, angle)
-            if distance > POSITION_TOLERANCE_M * 1e3 or angle > ANGLE_TOLERANCE_DEG:
+            if not (distance <= POSITION_TOLERANCE_M * 1e3 and angle <= ANGLE_TOLERANCE_DEG):
                 failures.append(f"sensor pose at view {stop.view} (t={acquisition.start_s:.4f}"
                                 f" s) is {distance:.4f} mm / {angle:.4f} deg from the plan's")
                 break
-    stated = (document.get("cycle_time") or {}).get("total_s")
-    if stated is None or abs(stated - motion.timed.cycle.total_s) > 1e-6:
+    if stated is None or not abs(stated - motion.timed.cycle.total_s) <= 1e-6:
         failures.append(f"cycle time {motion.timed.cycle.total_s:.6f} s replayed, the plan "
                         f"states {stated}")
     return PlanCheck(len(samples.times), dt, motion.timed.cycle.total_s, dense, shares,

@@ -33,6 +33,14 @@ from vprobot.robots.description import RobotDescription
 JOIN_TOLERANCE_RAD = 1e-9
 """Largest gap between a move's end and the next move's start (and between the return's end and
 the approach's start, home)."""
+SAMPLE_MERGE_S = 1e-6
+"""Corners and acquisition bounds closer in time than this are one instant, sampled once. The
+same instant summed in another order (the return's end, and the cycle's total of its parts)
+differs by a few ulps, and a controller rejects a trajectory whose times do not strictly
+increase (ros2_control's joint_trajectory_controller)."""
+MAX_SAMPLES = 1_000_000
+"""Most samples of a sampled trajectory (a 2.2-hour cycle at 125 Hz): more would take gigabytes,
+in the arrays and more so in an exported file."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,6 +69,7 @@ class Segment:
     Attributes:
         start_s: When it starts, from the start of the cycle.
         start: Its first configuration (rad).
+        end: Its last configuration, the corner it stops at (rad).
         direction: Unit step along the segment (largest component 1), rad per unit of `length`.
         length: Travel of the leading joint, max_i |b_i - a_i| (rad).
         profile: Ruckig's one-degree-of-freedom profile of the travel s(t), 0 to `length`.
@@ -68,6 +77,7 @@ class Segment:
 
     start_s: float
     start: np.ndarray
+    end: np.ndarray
     direction: np.ndarray
     length: float
     profile: ruckig.Trajectory
@@ -76,15 +86,25 @@ class Segment:
     def duration_s(self) -> float:
         return float(self.profile.duration)
 
-    def states(self, local: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Positions, velocities and accelerations (k, dof) at times `local` (k,) after the
-        segment's start; at rest at its end from then on."""
-        local = np.clip(local, 0.0, self.duration_s)
+    @property
+    def end_s(self) -> float:
+        """When it ends, from the start of the cycle."""
+        return self.start_s + self.duration_s
+
+    def states(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities and accelerations (k, dof) at `times` (k,) from the start of
+        the cycle, none before the segment's start; at rest at its end from `end_s` on."""
+        local = np.clip(times - self.start_s, 0.0, self.duration_s)
         profile = np.array([self.profile.at_time(t) for t in local]).reshape(len(local), 3)
-        # Rest to rest: exactly still once the profile is done.
-        profile[local >= self.duration_s] = [self.length, 0.0, 0.0]
+        # Rest to rest: exactly still, and exactly at the corner, once the profile is done
+        # (from `end_s`, the very time the plan's bounds hold: `times - start_s` may round
+        # below the duration there).
+        done = times >= self.end_s
+        profile[done] = [self.length, 0.0, 0.0]
         s, ds, dds = (profile[:, [column]] for column in range(3))
-        return self.start + s * self.direction, ds * self.direction, dds * self.direction
+        positions = self.start + s * self.direction
+        positions[done] = self.end
+        return positions, ds * self.direction, dds * self.direction
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,13 +140,14 @@ class Trajectory:
     """A timed trajectory sampled for export: states at increasing times.
 
     Attributes:
-        times: (n,) seconds from the start of the cycle, strictly increasing; every corner and
-            every start and end of an acquisition is among them.
+        times: (n,) seconds from the start of the cycle, strictly increasing, consecutive ones
+            at least min(dt / 2, `SAMPLE_MERGE_S`) apart; every corner and every start and end
+            of an acquisition is among them (within `SAMPLE_MERGE_S`).
         positions: (n, dof) joint positions (rad).
         velocities: (n, dof) joint velocities (rad/s).
         accelerations: (n, dof) joint accelerations (rad/s^2).
         joint_names: The joints, in column order.
-        acquisitions: (start_s, end_s, view index) of each stop to acquire.
+        acquisitions: (start_s, end_s, view index) of each stop to acquire, at sample times.
     """
 
     times: np.ndarray
@@ -178,30 +199,54 @@ class TimedPlan:
             mine = owner == index
             if mine.any():
                 positions[mine], velocities[mine], accelerations[mine] = segment.states(
-                    times[mine] - segment.start_s)
+                    times[mine])
         return positions, velocities, accelerations
 
     def sample(self, dt: float) -> Trajectory:
         """The trajectory at every multiple of `dt` and at every corner and acquisition bound.
 
         Grid times closer than dt / 2 to such a bound are left out, so that no step is shorter
-        than dt / 2 and finite differences of the samples stay well conditioned.
+        than dt / 2 and finite differences of the samples stay well conditioned; bounds less
+        than `SAMPLE_MERGE_S` apart are one instant, sampled once (`distinct_times`).
 
         Raises:
-            ValueError: If `dt` is not positive or the plan has no motion.
+            ValueError: If `dt` is not positive, the trajectory would take more than
+                `MAX_SAMPLES` samples, or the plan has no motion.
         """
         if not dt > 0:
             raise ValueError(f"the sampling step must be > 0 s, got {dt!r}")
-        bounds = np.unique([0.0, self.duration_s,
-                            *(s.start_s for s in self.segments),
-                            *(s.start_s + s.duration_s for s in self.segments),
-                            *(t for a in self.acquisitions for t in (a.start_s, a.end_s))])
+        count = self.duration_s / dt
+        if count > MAX_SAMPLES:  # before any allocation
+            raise ValueError(f"sampling the {self.duration_s:.6g} s cycle every {dt:g} s takes "
+                             f"{count:.3g} samples, more than {MAX_SAMPLES:,}: sample it more "
+                             f"coarsely")
+        bounds = distinct_times(np.unique([
+            0.0, self.duration_s, *(s.start_s for s in self.segments),
+            *(s.end_s for s in self.segments),
+            *(t for a in self.acquisitions for t in (a.start_s, a.end_s))]))
         grid = np.arange(0.0, self.duration_s, dt)
         nearest = np.abs(grid[:, None] - bounds[None, :]).min(axis=1)
         times = np.union1d(grid[nearest >= dt / 2], bounds)
         positions, velocities, accelerations = self.states(times)
+
+        def instant(time_s: float) -> float:
+            """The bound sampled for `time_s`: the first one kept at or after it."""
+            return float(bounds[np.searchsorted(bounds, time_s)])
+
         return Trajectory(times, positions, velocities, accelerations, self.joint_names,
-                          tuple((a.start_s, a.end_s, a.view) for a in self.acquisitions))
+                          tuple((instant(a.start_s), instant(a.end_s), a.view)
+                                for a in self.acquisitions))
+
+
+def distinct_times(times: np.ndarray) -> np.ndarray:
+    """Sorted `times` without those closer than `SAMPLE_MERGE_S` before the next one kept. The
+    latest of an instant's times is kept: past a segment's end the robot is exactly at rest at
+    its corner, and the cycle ends at its total."""
+    kept = [float(times[-1])]
+    for time_s in times[-2::-1]:
+        if kept[-1] - time_s >= SAMPLE_MERGE_S:
+            kept.append(float(time_s))
+    return np.array(kept[::-1])
 
 
 def time_segment(start: npt.ArrayLike, end: npt.ArrayLike, limits: MotionLimits,
@@ -225,11 +270,17 @@ def time_segment(start: npt.ArrayLike, end: npt.ArrayLike, limits: MotionLimits,
     request.max_acceleration = [float(np.min(limits.acceleration[moving] / share))]
     request.max_jerk = [float(np.min(limits.jerk[moving] / share))]
     profile = ruckig.Trajectory(1)
-    result = otg.calculate(request, profile)
-    if result != ruckig.Result.Working:
+    try:
+        result = otg.calculate(request, profile)
+        failure = None if result == ruckig.Result.Working else result.name
+    except ruckig.RuckigError as error:  # raised, not returned, for limits it cannot take
+        failure = str(error).strip().splitlines()[0]
+    if failure is not None:
         raise ValueError(f"Ruckig found no profile for the segment {start.tolist()} -> "
-                         f"{end.tolist()} ({result.name})")
-    return Segment(start_s, start, direction, length, profile)
+                         f"{end.tolist()} under the path's limits v={request.max_velocity[0]:g}, "
+                         f"a={request.max_acceleration[0]:g}, j={request.max_jerk[0]:g} "
+                         f"({failure})")
+    return Segment(start_s, start, end, direction, length, profile)
 
 
 def time_plan(moves: Sequence[npt.ArrayLike], limits: MotionLimits, acquisition_time_s: float,
@@ -276,7 +327,7 @@ def time_plan(moves: Sequence[npt.ArrayLike], limits: MotionLimits, acquisition_
             segment = time_segment(start, end, limits, clock)
             if segment is not None:
                 segments.append(segment)
-                clock += segment.duration_s
+                clock = segment.end_s
         durations.append(clock - started)
         if index < len(paths) - 1:
             acquisitions.append(Acquisition(clock, clock + acquisition_time_s, index, path[-1]))

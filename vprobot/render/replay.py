@@ -10,6 +10,7 @@ trusted; unreachable views become records in which the robot stays. A free-flyin
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -22,10 +23,16 @@ from vprobot.geometry import Pose, quat_to_matrix, rotation_about_y, rotation_ab
 from vprobot.kinematics import SensorTarget
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR
+from vprobot.schema import brief
 
 BASE_ROTATION_TOLERANCE = 1e-6
 """How far the plan's robot base may deviate from a yaw about the world z axis followed by a
 tilt about the base's y axis (the only base rotations the cell composes)."""
+
+
+QUATERNION_NORM_MIN = 1e-9
+"""Smallest norm of a quaternion the plan may give: a zero one is no rotation at all (its
+normalisation divides by zero, and NaN poses would compare as within every tolerance)."""
 
 
 def _field(block: Any, key: str, where: str) -> Any:
@@ -34,12 +41,42 @@ def _field(block: Any, key: str, where: str) -> Any:
     return block[key]
 
 
+def plan_array(value: Any, where: str, shape: tuple[int, ...]) -> np.ndarray:
+    """`value` as an array of finite floats of `shape` (-1: any length), or a ValueError
+    naming the plan's field `where`."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        array = np.zeros(0)
+    if (array.ndim != len(shape)
+            or any(n not in (-1, m) for n, m in zip(shape, array.shape, strict=True))
+            or not np.all(np.isfinite(array))):
+        wanted = " x ".join("m" if n == -1 else str(n) for n in shape)
+        raise ValueError(f"plan {where} must be {wanted} finite numbers, got {brief(value)}")
+    return array
+
+
 def _vector(block: Any, key: str, size: int, where: str) -> np.ndarray:
-    value = np.asarray(_field(block, key, where), dtype=float)
-    if value.shape != (size,) or not np.all(np.isfinite(value)):
-        raise ValueError(f"plan {where}.{key} must be {size} finite numbers, got "
-                         f"{_field(block, key, where)!r}")
+    return plan_array(_field(block, key, where), f"{where}.{key}", (size,))
+
+
+def plan_quaternion(block: Any, key: str, where: str) -> np.ndarray:
+    """The quaternion (w, x, y, z) `where`.`key`: four finite numbers, not all zero."""
+    value = _vector(block, key, 4, where)
+    if not np.linalg.norm(value) >= QUATERNION_NORM_MIN:
+        raise ValueError(f"plan {where}.{key} must be a non-zero quaternion (w, x, y, z), got "
+                         f"{value.tolist()}")
     return value
+
+
+def plan_number(value: Any, where: str, positive: bool = False) -> float:
+    """`value` as a finite number >= 0 (> 0 when `positive`), or a ValueError naming the plan's
+    field `where`."""
+    if (isinstance(value, bool) or not isinstance(value, int | float)
+            or not (0 < value if positive else 0 <= value) or not math.isfinite(value)):
+        raise ValueError(f"plan {where} must be a finite number {'>' if positive else '>='} 0, "
+                         f"got {brief(value)}")
+    return float(value)
 
 
 def read_plan(path: str | Path) -> dict[str, Any]:
@@ -55,6 +92,9 @@ def read_plan(path: str | Path) -> dict[str, Any]:
         document = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
         raise ValueError(f"cannot read plan {path}: {error}") from error
+    except RecursionError:
+        # json decodes nested arrays and objects recursively.
+        raise ValueError(f"cannot read plan {path}: nested too deeply") from None
     if not isinstance(document, dict) or not isinstance(document.get("views"), list):
         raise ValueError(f"{path} is not a plan: expected an object with a 'views' list")
     if document.get("object") is None:
@@ -76,8 +116,9 @@ def _locate(recorded: str, plan_path: Path, what: str, found: Callable[[Path], b
     raise ValueError(f"plan's {what} {recorded} not found (also looked beside the plan{among})")
 
 
-def _robot(block: Any, plan_path: Path) -> str:
-    """The robot of the plan: a bundled robot's name, else the recorded robot folder."""
+def plan_robot(block: Any, plan_path: Path) -> str:
+    """The robot of the plan's `robot` block: a bundled robot's name, else the recorded robot
+    folder (as `cell.robot` takes them)."""
     folder = block.get("folder")
     if folder is None:
         return str(_field(block, "name", "robot"))
@@ -106,14 +147,15 @@ def plan_config(config: Config, document: dict[str, Any], object_center: np.ndar
     """`config` with the cell and sensor the plan at `plan_path` was made for."""
     robot = _field(document, "robot", "")
     mount = _field(robot, "sensor_mount", "robot")
-    yaw_deg, tilt_deg = _base_yaw_tilt_deg(_vector(robot, "base_quaternion", 4, "robot"))
-    config = replace(config, "cell", robot=_robot(robot, plan_path),
+    yaw_deg, tilt_deg = _base_yaw_tilt_deg(plan_quaternion(robot, "base_quaternion", "robot"))
+    config = replace(config, "cell", robot=plan_robot(robot, plan_path),
                      robot_base_position_m=tuple(_vector(robot, "base_position", 3, "robot")),
                      robot_base_yaw_deg=yaw_deg, robot_base_tilt_deg=tilt_deg,
                      object_center_m=tuple(float(x) for x in object_center))
     sensor: dict[str, Any] = {
         "mount_position_m": tuple(_vector(mount, "position", 3, "robot.sensor_mount")),
-        "mount_quaternion_wxyz": tuple(_vector(mount, "quaternion", 4, "robot.sensor_mount")),
+        "mount_quaternion_wxyz": tuple(plan_quaternion(mount, "quaternion",
+                                                       "robot.sensor_mount")),
     }
     block = document.get("sensor")
     if block is not None:
@@ -145,8 +187,9 @@ def plan_object(config: Config, document: dict[str, Any], plan_path: Path
     block = document["object"]
     mesh_path = _locate(str(_field(block, "mesh", "object")), plan_path, "object mesh",
                         Path.is_file, MOTORS_DIR)
-    rotation = quat_to_matrix(_vector(block, "quaternion", 4, "object"))
-    mesh = load_mesh(mesh_path, float(block.get("scale", 1.0)))
+    rotation = quat_to_matrix(plan_quaternion(block, "quaternion", "object"))
+    mesh = load_mesh(mesh_path, plan_number(block.get("scale", 1.0), "object.scale",
+                                            positive=True))
     # The block places the file's vertices; the cell places the centred mesh (see
     # MotorScene.object_block), so the centre is the file origin moved by the centring offset.
     center = _vector(block, "position", 3, "object") + rotation @ mesh.offset
@@ -181,7 +224,7 @@ def episode_from_plan(config: Config, plan_path: str | Path,
     for index, view in enumerate(document["views"]):
         where = f"views[{index}]"
         pose = Pose.from_quat(_vector(view, "position", 3, where),
-                              _vector(view, "quaternion", 4, where))
+                              plan_quaternion(view, "quaternion", where))
         if carrier == "free":
             episode.request(ViewRequest(SensorTarget(pose, roll_free=False)))
         elif _field(view, "reachable", where) and view.get("joints") is not None:

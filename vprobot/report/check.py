@@ -27,6 +27,7 @@ import yaml
 
 from vprobot.evaluation import EPISODES_NAME, SETTINGS_NAME
 from vprobot.paths import PACKAGE_DIR
+from vprobot.processes import child_environment
 from vprobot.report.compare import EPISODE_KEY, SUMMARY_KEY, moved_cells, read_rows
 
 NEEDED = ("episodes.json", "evaluation.csv", EPISODES_NAME)
@@ -46,8 +47,9 @@ def episode_count(folder: Path) -> int:
 
 def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
                planners: Sequence[str] | None = None,
-               carriers: Sequence[str] | None = None) -> None:
-    """Run `vprobot evaluate` for (a subset of) a committed evaluation folder into `out`.
+               carriers: Sequence[str] | None = None, scratch: Path | None = None) -> None:
+    """Run `vprobot evaluate` for (a subset of) a committed evaluation folder into `out`, in a
+    child that ends with this process (`vprobot.processes`).
 
     Args:
         folder: The committed folder (`episodes.json`, `evaluation.csv`).
@@ -55,6 +57,8 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
         episodes: Indices into the folder's episode list; None: all of them.
         planners: Planners to run; None: those of the committed table.
         carriers: Carriers to run; None: those of the committed table.
+        scratch: A temporary folder holding `out`, which the child removes if this process
+            ends before it (killed).
 
     Raises:
         subprocess.CalledProcessError: If the evaluation fails.
@@ -68,7 +72,7 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
     out.mkdir(parents=True)
     (out / "list.json").write_text(json.dumps(episode_list))
     (out / "config.yaml").write_text(yaml.safe_dump(recorded_config(folder)))
-    env = dict(os.environ)
+    env = child_environment(scratch)
     if platform.machine().lower() in ("x86_64", "amd64"):
         env.setdefault("OPENBLAS_CORETYPE", "Haswell")
     # An empty cache: ground truth and generated objects are built by this code, as in a clone.

@@ -8,10 +8,11 @@ timing columns left out (they vary from run to run).
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Sequence
 from pathlib import Path
+
+from vprobot.files import read_table
 
 TIMING = {"plan_s", "plan_ms_per_view", "episode_s"}
 """Columns of wall-clock time, not of behaviour."""
@@ -22,9 +23,13 @@ SUMMARY_KEY = ("planner", "carrier")
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
-    """The rows of a CSV table."""
-    with path.open(newline="") as stream:
-        return list(csv.DictReader(stream))
+    """The rows of a CSV table (`vprobot.files.read_table`).
+
+    Raises:
+        OSError: If it cannot be read.
+        ValueError: If it is not UTF-8 text or a row is damaged.
+    """
+    return read_table(path)[1]
 
 
 def moved_cells(old: Sequence[dict[str, str]], new: Sequence[dict[str, str]],
@@ -68,16 +73,21 @@ def compare_tables(old: Path, new: Path) -> tuple[list[str], int, int]:
         The moved cells (`moved_cells`), the rows of `new` and the cells compared.
 
     Raises:
-        ValueError: If a table lacks a column that names the rows of `new` (one is an
-            episodes table and the other a summary, or neither is an evaluation table).
+        ValueError: If a table has no rows (nothing would be compared), is damaged, or lacks a
+            column that names the rows of `new` (one is an episodes table and the other a
+            summary, or neither is an evaluation table).
         OSError: If a table cannot be read.
     """
     tables = [read_rows(old), read_rows(new)]
+    for path, rows in zip((old, new), tables, strict=True):
+        if not rows:
+            raise ValueError(f"{path} has no rows (empty, or a header only): nothing to "
+                             f"compare; give two tables of `vprobot evaluate`")
     # An episodes table has a row per episode, planner and carrier; a summary per planner and
     # carrier.
-    key = EPISODE_KEY if tables[1] and "episode" in tables[1][0] else SUMMARY_KEY
+    key = EPISODE_KEY if "episode" in tables[1][0] else SUMMARY_KEY
     for path, rows in zip((old, new), tables, strict=True):
-        missing = [name for name in key if rows and name not in rows[0]]
+        missing = [name for name in key if name not in rows[0]]
         if missing:
             raise ValueError(f"{path} has no column {missing[0]!r}; give two episodes tables "
                              "or two summaries of `vprobot evaluate`")

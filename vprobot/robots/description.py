@@ -21,7 +21,7 @@ import numpy as np
 import yaml
 
 from vprobot.paths import DESCRIPTION_FILE
-from vprobot.schema import ConfigError, Vec3, from_mapping, read_yaml
+from vprobot.schema import ConfigError, Vec3, brief, from_mapping, read_yaml
 
 SCENE_FILE = "scene.xml"
 SUPPORTED_DOF = (6, 7)
@@ -211,11 +211,11 @@ class RobotDescription:
                              f"{self.base!r} to {self.flange!r} has {len(joints)}: {names}")
         for key in ("pan_joint", "roll_joint"):
             if getattr(self, key) not in names:
-                raise ValueError(f"{where}: {key} {getattr(self, key)!r} is not a joint of the "
-                                 f"chain {names}")
+                raise ValueError(f"{where}: {key} {brief(getattr(self, key))} is not a joint "
+                                 f"of the chain {names}")
         if names[0] != self.pan_joint:
             raise ValueError(f"{where}: pan_joint must be the first joint of the chain "
-                             f"({names[0]!r}), got {self.pan_joint!r}")
+                             f"({names[0]!r}), got {brief(self.pan_joint)}")
         sensor = self._named(model, mujoco.mjtObj.mjOBJ_BODY, SENSOR_BODY, "sensor body")
         if not hangs_below(model, sensor, self._body_id(model, "flange")):
             raise ValueError(f"{where}: {SENSOR_BODY!r} must hang below the flange "
@@ -241,7 +241,7 @@ class RobotDescription:
     def _named(self, model: mujoco.MjModel, kind: mujoco.mjtObj, name: str, piece: str) -> int:
         index = mujoco.mj_name2id(model, kind, name)
         if index < 0:
-            raise ValueError(f"robot {self.name}: {piece} {name!r} is not in {self.model} "
+            raise ValueError(f"robot {self.name}: {piece} {brief(name)} is not in {self.model} "
                              f"({self.folder})")
         return index
 

@@ -7,6 +7,7 @@ One converter serves the bundled robots (`scripts/convert_robots.py`) and users'
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import shutil
 import uuid
@@ -34,7 +35,7 @@ from vprobot.robots.description import (
     RobotDescription,
 )
 from vprobot.scene import Cell
-from vprobot.schema import Vec3
+from vprobot.schema import Vec3, brief
 
 CONVERSION_STEPS = """\
 1. The chain from the URDF's root to the flange link is found. The base is the parent link of
@@ -106,6 +107,45 @@ def _end_link(joint: ET.Element, end: str, urdf: Path) -> str:
     return link
 
 
+def _number(joint: ET.Element, attribute: str, default: float, urdf: Path) -> float:
+    """A finite number of a joint's `<limit>` attribute (`default` where it is not given).
+
+    Raises:
+        ValueError: If it is not a finite number; the message names the joint, the attribute
+            and the file.
+    """
+    limit = joint.find("limit")
+    text = None if limit is None else limit.get(attribute)
+    if text is None:
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise ValueError(f"joint {brief(joint.get('name'))} of {urdf}: <limit {attribute}=...> "
+                         f"must be a finite number, got {brief(text)}")
+    return value
+
+
+def _parent_joints(joints: Sequence[ET.Element], urdf: Path) -> dict[str, ET.Element]:
+    """The joint above each child link.
+
+    Raises:
+        ValueError: If a link is the child of two joints (a URDF is a tree); the message names
+            the link and both joints.
+    """
+    parent_joint: dict[str, ET.Element] = {}
+    for joint in joints:
+        child = _end_link(joint, "child", urdf)
+        if child in parent_joint:
+            raise ValueError(f"link {brief(child)} of {urdf} has two parent joints, "
+                             f"{brief(parent_joint[child].get('name'))} and "
+                             f"{brief(joint.get('name'))}; a URDF is a tree")
+        parent_joint[child] = joint
+    return parent_joint
+
+
 class UrdfChain:
     """The serial chain of a URDF from its root to the flange link.
 
@@ -114,9 +154,10 @@ class UrdfChain:
         flange: Name of the flange link.
 
     Raises:
-        ValueError: If the file is not a URDF, the flange is not one of its links, or the chain
-            holds a joint that is neither revolute, continuous nor fixed, or has not 6 or 7
-            revolute joints.
+        ValueError: If the file is not a URDF, the flange is not one of its links, a link has
+            two parent joints, the joints above the flange form a loop, or the chain holds a
+            joint that is neither revolute, continuous nor fixed, or has not 6 or 7 revolute
+            joints.
     """
 
     def __init__(self, urdf: Path, flange: str):
@@ -132,11 +173,17 @@ class UrdfChain:
         if flange not in links:
             raise ValueError(f"flange link {flange!r} is not in {urdf}; its links: "
                              f"{', '.join(map(str, links))}")
-        parent_joint = {_end_link(joint, "child", urdf): joint for joint in root.findall("joint")}
+        parent_joint = _parent_joints(root.findall("joint"), urdf)
         chain: list[ET.Element] = []
         link = flange
         while link in parent_joint:
             joint = parent_joint[link]
+            if any(joint is above for above in chain):
+                # Each link has one parent here, so the walk came back to where the loop closes.
+                loop = chain[:chain.index(joint) + 1]
+                raise ValueError(f"the joints above flange {brief(flange)} in {urdf} form a "
+                                 f"loop: {', '.join(brief(item.get('name')) for item in loop)}; "
+                                 f"a URDF is a tree")
             chain.insert(0, joint)
             link = _end_link(joint, "parent", urdf)
         movable = [joint for joint in chain if joint.get("type") != "fixed"]
@@ -164,25 +211,24 @@ class UrdfChain:
         """Lower and upper limits of the revolute joints (continuous ones: +-2 pi)."""
         lower, upper = [], []
         for joint in self.revolute:
-            limit = joint.find("limit")
-            if joint.get("type") == "continuous" or limit is None:
+            if joint.get("type") == "continuous":
                 lower.append(-2.0 * np.pi)
                 upper.append(2.0 * np.pi)
             else:
-                lower.append(float(limit.get("lower", -2.0 * np.pi)))
-                upper.append(float(limit.get("upper", 2.0 * np.pi)))
+                lower.append(_number(joint, "lower", -2.0 * np.pi, self.urdf))
+                upper.append(_number(joint, "upper", 2.0 * np.pi, self.urdf))
         return np.array(lower), np.array(upper)
 
     def velocity_limits(self) -> list[float]:
         """The URDF's joint velocity limits (rad/s).
 
         Raises:
-            ValueError: If a revolute joint has no positive velocity limit.
+            ValueError: If a revolute joint has no positive velocity limit, or one that is not
+                a finite number.
         """
         limits = []
         for joint in self.revolute:
-            limit = joint.find("limit")
-            value = float(limit.get("velocity", 0.0)) if limit is not None else 0.0
+            value = _number(joint, "velocity", 0.0, self.urdf)
             if not value > 0:
                 raise ValueError(f"joint {joint.get('name')!r} of {self.urdf} has no velocity "
                                  f"limit (<limit velocity=...>), which the travel cost "
@@ -200,21 +246,24 @@ def resolve_mesh_path(filename: str, urdf: Path,
     are taken relative to the URDF's folder.
 
     Raises:
-        ValueError: If the file cannot be found; the message names the reference.
+        ValueError: If the file cannot be found; the message names the reference, and the
+            files looked for where the package was found.
     """
     if filename.startswith("package://"):
         package, _, rest = filename[len("package://"):].partition("/")
-        candidates = []
+        folders = []
         if package_paths and package in package_paths:
-            candidates.append(Path(package_paths[package]) / rest)
+            folders.append(Path(package_paths[package]))
         for root in filter(None, os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)):
-            candidates.append(Path(root) / package / rest)
-        for folder in urdf.resolve().parents:
-            if folder.name == package:
-                candidates.append(folder / rest)
-        for candidate in candidates:
-            if candidate.is_file():
-                return candidate
+            folders.append(Path(root) / package)
+        folders += [folder for folder in urdf.resolve().parents if folder.name == package]
+        for folder in folders:
+            if (folder / rest).is_file():
+                return folder / rest
+        found = [str(folder / rest) for folder in folders if folder.is_dir()]
+        if found:
+            raise ValueError(f"mesh {filename} of {urdf} not found: package {package!r} has no "
+                             f"such file (looked at {', '.join(found)})")
         raise ValueError(f"mesh {filename} of {urdf}: package {package!r} not found; pass "
                          f"--package {package}=FOLDER or set ROS_PACKAGE_PATH")
     path = Path(filename.removeprefix("file://"))

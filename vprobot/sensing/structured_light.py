@@ -30,6 +30,16 @@ from vprobot.sensing.base import SENSING_MODELS, CameraHits, SensingModel
 if TYPE_CHECKING:
     from vprobot.config import SensorConfig
 
+MAX_BASELINE_M = 1.0
+"""Longest camera-to-projector baseline. Structured-light devices are built with 0.05 to 0.6 m."""
+
+MAX_NEAR_DISPARITY_FRAMES = 2.0
+"""The most frame widths the baseline may shift the projector's view of a point at the near
+end of the range (baseline / near over the frame's 2 tan(fov_x / 2)). The projector lights what
+the camera sees, so in real devices the shift stays under one frame (PhoXi M 0.84, Zivid 2+
+MR60 0.53). The projector's shadow test scan converts a grid that spans this shift: with no
+bound, a preset's baseline of a million metres took 24 GB before the kernel ended vprobot."""
+
 
 @SENSING_MODELS.register_named
 @dataclasses.dataclass(frozen=True)
@@ -66,7 +76,8 @@ class StructuredLight(SensingModel):
     def __post_init__(self) -> None:
         key = "sensor.structured_light"
         checks = {
-            "baseline_m": (self.baseline_m > 0.0, "> 0"),
+            "baseline_m": (0.0 < self.baseline_m <= MAX_BASELINE_M,
+                           f"in (0, {MAX_BASELINE_M:g}] m"),
             "max_incidence_deg": (0.0 < self.max_incidence_deg <= 90.0, "in (0, 90]"),
             "projector_max_incidence_deg": (0.0 < self.projector_max_incidence_deg <= 90.0,
                                             "in (0, 90]"),
@@ -112,13 +123,24 @@ class StructuredLight(SensingModel):
         """The sensor's `structured_light` figures.
 
         Raises:
-            ConfigError: If the sensor gives none.
+            ConfigError: If the sensor gives none, or its baseline shifts the projector's view
+                of a point at the near end of the range by more than
+                `MAX_NEAR_DISPARITY_FRAMES` frame widths.
         """
-        if sensor.structured_light is None:
+        figures = sensor.structured_light
+        if figures is None:
             raise ConfigError("sensor.sensing structured_light needs the sensor's "
                               "structured_light figures, which this sensor does not give "
                               "(`vprobot sensors` lists the presets that have them)")
-        return sensor.structured_light
+        frame = 2.0 * math.tan(math.radians(sensor.fov_deg[0]) / 2.0)
+        longest = MAX_NEAR_DISPARITY_FRAMES * frame * sensor.near_m
+        if figures.baseline_m > longest:
+            raise ConfigError(
+                f"sensor.structured_light.baseline_m must be at most {longest:.4g} m for this "
+                f"sensor's near_m and fov_deg, got {figures.baseline_m:g}: seen from the near end "
+                f"of the range the projector may sit at most {MAX_NEAR_DISPARITY_FRAMES:g} frame "
+                f"widths (2 near_m tan(fov_x / 2)) from the camera")
+        return figures
 
     def deterministic(self) -> StructuredLight:
         return self.limits_only()

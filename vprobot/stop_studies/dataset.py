@@ -13,7 +13,6 @@ were drawn, so that rollouts of other settings are never taken for these.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import itertools
 import json
@@ -35,7 +34,14 @@ from vprobot.episode import (
     seeded_episode,
 )
 from vprobot.episode.specs import bundled_episode_list, motor_name
-from vprobot.files import append_line, csv_text, write_text
+from vprobot.files import (
+    append_line,
+    csv_text,
+    read_table,
+    refuse_link,
+    truncate_output,
+    write_text,
+)
 from vprobot.generated import family_of
 from vprobot.occupancy import EpisodeGrid, GridSettings
 from vprobot.planners.runner import make_planner, run_episode
@@ -195,7 +201,8 @@ def finished_episodes(path: Path) -> set[int]:
     with the other rows of its episode, so that appending goes on cleanly.
 
     Raises:
-        ValueError: If the file is not a table of `COLUMNS`.
+        ValueError: If the file is not a table of `COLUMNS` (`LinkError`: or a symbolic link
+            that it would cut).
     """
     if not path.is_file():
         return set()
@@ -215,8 +222,7 @@ def finished_episodes(path: Path) -> set[int]:
             episodes.pop()
     kept = sum(len(line) for line in lines[:1 + len(episodes)])
     if kept < len(data):
-        with path.open("r+b") as stream:
-            stream.truncate(kept)
+        truncate_output(path, kept)
     return set(episodes)
 
 
@@ -229,8 +235,9 @@ def collect(config: Config, jobs: Sequence[tuple[EpisodeSpec, str]], path: Path,
         The episodes run.
 
     Raises:
-        ValueError: If `path` is not a table of `COLUMNS`.
+        ValueError: If `path` is not a table of `COLUMNS` (`LinkError`: or a symbolic link).
     """
+    refuse_link(path)  # before any rollout: they would be appended into a file outside
     done = finished_episodes(path)
     missing = [number for number in range(len(jobs)) if number not in done]
     try:
@@ -253,21 +260,26 @@ def read_dataset(path: str | Path) -> Dataset:
     """Read a table written from `collect`'s rows.
 
     Raises:
-        ValueError: If the file is missing or its columns are not `COLUMNS`.
+        ValueError: If the file is missing, its columns are not `COLUMNS`, or a row is damaged
+            (cells missing, or a value that does not parse), naming the file and the row.
     """
+    path = Path(path)
     try:
-        with Path(path).open(newline="") as stream:
-            reader = csv.DictReader(stream)
-            if tuple(reader.fieldnames or ()) != COLUMNS:
-                raise ValueError(f"{path} is not a coverage-estimate dataset (its columns "
-                                 f"differ from {', '.join(COLUMNS)})")
-            rows = list(reader)
+        columns, rows = read_table(path)
     except OSError as error:
         raise ValueError(f"cannot read dataset {path}: {error}") from None
-    return Dataset(
-        features=np.array([[float(row[name]) for name in FEATURES] for row in rows]
-                          ).reshape(len(rows), len(FEATURES)),
-        coverage=np.array([float(row["coverage"]) for row in rows]),
-        views=np.array([int(row["view"]) for row in rows]),
-        planners=np.array([row["planner"] for row in rows]),
-        families=np.array([row["family"] for row in rows]))
+    if tuple(columns) != COLUMNS:
+        raise ValueError(f"{path} is not a coverage-estimate dataset (its columns differ from "
+                         f"{', '.join(COLUMNS)})")
+    numeric = (*FEATURES, "coverage", "view")
+    table = np.empty((len(rows), len(numeric)))
+    for number, row in enumerate(rows, start=1):
+        for column, name in enumerate(numeric):
+            try:
+                table[number - 1, column] = float(row[name])
+            except ValueError:
+                raise ValueError(f"{path}, row {number}: {name} is not a number") from None
+    return Dataset(features=table[:, :len(FEATURES)], coverage=table[:, -2],
+                   views=table[:, -1].astype(int),
+                   planners=np.array([row["planner"] for row in rows]),
+                   families=np.array([row["family"] for row in rows]))

@@ -605,6 +605,10 @@ class EstimateTracker:
         column = domain.unexplored(x) if domain is not None else None
         if domain is None or domain.claimed is None or column is None:
             return None
+        if domain.claimed[column] == -np.inf:
+            # No percentile exists: `claim_limits` found no training view to take it over.
+            return ("held back from every stop: on none of its training views did it claim the "
+                    "goal, so nothing shows that a claim of it holds")
         return (f"held back from a stop: {self.estimator.features[column]} above "
                 f"{domain.claimed[column]:.4g}, the {100 * CLAIM_QUANTILE:g}th percentile over "
                 f"the training views on which it claimed the goal (space it was not shown to "

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
+from vprobot.config import load_config, replace
 from vprobot.export import EXPORT_DT_S
-from vprobot.export.motion import PlanMotion, plan_motion
+from vprobot.export.motion import PlanMotion, plan_motion, require_robot
 from vprobot.registry import Registry
+from vprobot.render.replay import plan_robot, read_plan
+from vprobot.scene import Cell
 
 Writer = Callable[[PlanMotion, float], str]
 """A format's writer: the plan's motion and the sampling step (s) -> the file's text."""
@@ -58,3 +62,20 @@ def export_plan(document: dict[str, Any], format_name: str, dt: float = EXPORT_D
             (`plan_motion`), a non-UR robot asked for URScript, or a step that is not > 0.
     """
     return FORMATS[format_name].write(plan_motion(document), dt)
+
+
+def export_plan_file(plan_path: str | Path, format_name: str, dt: float = EXPORT_DT_S) -> str:
+    """The text of the motion of the plan at `plan_path` in one format, once its robot and
+    joint names are found to be those of the robot it names (its bundled model or robot
+    folder), as `vprobot check` finds them.
+
+    Raises:
+        ValueError: As `export_plan`, and for an unreadable plan, an unknown robot or names
+            that are not the robot's.
+    """
+    document = read_plan(plan_path)
+    motion = plan_motion(document)
+    robot = plan_robot(document["robot"], Path(plan_path))
+    cell = Cell(replace(load_config(None), "cell", robot=robot))
+    require_robot(motion, cell.robot.name, cell.joints.names)
+    return FORMATS[format_name].write(motion, dt)

@@ -9,12 +9,21 @@ pose at each, are comments above the point where the robot stops to acquire.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import yaml
 
 from vprobot.export.formats.base import register_format
 from vprobot.export.motion import PlanMotion
 
 NANOSECONDS = 1_000_000_000
+
+
+def _names(names: tuple[str, ...]) -> str:
+    """The names as a YAML flow sequence on one line, written by YAML's dumper, which quotes a
+    scalar that needs it."""
+    return yaml.safe_dump(list(names), default_flow_style=True, width=math.inf).strip()
 
 
 def _list(values: np.ndarray) -> str:
@@ -34,7 +43,7 @@ def joint_trajectory_yaml(motion: PlanMotion, dt: float) -> str:
     lines = [f"# vprobot inspection trajectory for the {motion.robot}: "
              f"{len(motion.stops)} acquisitions, cycle time {motion.timed.cycle.total_s:.3f} s",
              "header:", "  stamp: {sec: 0, nanosec: 0}", "  frame_id: ''",
-             f"joint_names: [{', '.join(samples.joint_names)}]", "points:"]
+             f"joint_names: {_names(samples.joint_names)}", "points:"]
     for time_s, q, qd, qdd in zip(samples.times, samples.positions, samples.velocities,
                                   samples.accelerations, strict=True):
         if time_s in starts:
