@@ -6,6 +6,11 @@ Expensive results that several test modules compare against are made once per se
 
 from __future__ import annotations
 
+# isort: off
+# First, before helpers import numpy: vprobot pins the arithmetic kernels as it loads
+# (vprobot/kernels.py), which numpy's OpenBLAS reads only when it loads.
+import vprobot  # noqa: F401
+# isort: on
 import fcntl
 import os
 from collections.abc import Iterator

@@ -52,10 +52,11 @@ def make_scene(mesh: trimesh.Trimesh, boxes: tuple = (), mesh_boxes: tuple = ()
     return scene, data
 
 
-# How far a coverage may move between CPUs: the same views' coverage differs by up to 3 of the
-# 2048 GT points (0.15 pp) between BLAS kernels and numpy SIMD paths (results/cpu_spread/:
-# last-bit differences in the GT's sensed points move points across the voxel and ε
-# boundaries). A test comparing a coverage with a threshold keeps this margin.
+# How far a coverage may move between CPUs whose BLAS kernels vprobot does not pin (no AVX2,
+# vprobot/kernels.py): the same views' coverage differs by up to 3 of the 2048 GT points
+# (0.15 pp) between OpenBLAS's kernels (results/cpu_spread/: last-bit differences in the GT's
+# sensed points move points across the voxel and ε boundaries). A test comparing a coverage
+# with a threshold keeps this margin.
 COVERAGE_CPU_MARGIN = 5 / 2048
 
 

@@ -139,8 +139,9 @@ def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
 
 
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("foundations", ("vprobot", "vprobot.paths", "vprobot.schema", "vprobot.files",
-                     "vprobot.outputs", "vprobot.progress", "vprobot.native_memory",
+    ("foundations", ("vprobot", "vprobot.kernels", "vprobot.paths", "vprobot.schema",
+                     "vprobot.files", "vprobot.outputs", "vprobot.progress",
+                     "vprobot.native_memory",
                      "vprobot.registry", "vprobot.plugins", "vprobot.processes",
                      "vprobot.cluster", "vprobot.geometry", "vprobot.raster",
                      "vprobot.viewsphere", "vprobot.sensing", "vprobot.rewards")),

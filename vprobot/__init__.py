@@ -2,10 +2,14 @@
 
 import os
 
+from vprobot import kernels
+
 # Offscreen rendering must work headless; MuJoCo reads this when it is first imported.
 os.environ.setdefault("MUJOCO_GL", "egl")
+# Before numpy loads: the same arithmetic on every CPU with AVX2 (vprobot/kernels.py).
+kernels.pin()
 
-import gymnasium
+import gymnasium  # noqa: E402 (after the kernels are pinned)
 
 __version__ = "0.1.0"
 
