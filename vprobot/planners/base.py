@@ -75,7 +75,8 @@ class Planner(abc.ABC):
         candidates: The candidate views a model-based planner chose from in its last episode.
         stop_reason: Why the planner stopped itself in its last episode (None when it did not:
             the runner stopped it, or a fixed plan ran out).
-        proof: What an exact planner proved of its last episode's plan; None for the others.
+        proof: What an exact planner proved of its last episode's plan; None for the others,
+            and where a wall-clock safety net cut its solves short.
     """
 
     name: ClassVar[str]

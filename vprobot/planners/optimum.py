@@ -17,14 +17,18 @@ pairs and triples (`fewest_views`), which also proves when 4 are needed. Greedy'
 (B_SCP's picks), made smaller where one candidate stands in for two of its views (`swap_down`),
 is the incumbent: the program is bounded by it (no more views, or no fewer points) and is only
 taken when it does better, so the optimum never needs more views than B_SCP.
-HiGHS stops at `time_limit_s` (after its root relaxation, which it does not interrupt); the
-planner then keeps the best solution found and records the proven gap.
+HiGHS stops after `node_limit` branch-and-bound nodes (a count of work, so the plan and its
+proof are the same on every machine and under any load); the planner then keeps the best
+solution found and records the proven gap. `time_limit_s` is a wall-clock safety net only, for a
+much slower machine: a plan it cuts short states no proof (`OptimumPlanner.proof` is None, with a
+warning), since what it would prove depends on the clock.
 
 The visibility is predicted, so the chosen views are confirmed by simulated acquisitions as B_SCP
 confirms its picks: the program is solved again on the rows measured so far until every view it
-chooses was measured before the solve (its answer then holds for what the views measure) or the
-time is up. The views are ordered for the least cycle time (`ordering.cycle_order`); when the
-executed plan falls short of the goal, the planner adds B_SCP's next view as B_SCP does.
+chooses was measured before the solve (its answer then holds for what the views measure), at
+most `SOLVE_ROUNDS` times. The views are ordered for the least cycle time
+(`ordering.cycle_order`); when the executed plan falls short of the goal, the planner adds
+B_SCP's next view as B_SCP does.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ import dataclasses
 import itertools
 import math
 import time
+import warnings
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -50,20 +55,23 @@ from vprobot.planners.greedy import cover_input, greedy_cover
 from vprobot.planners.ordering import cycle_order
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
-TIME_LIMIT_S = 60.0
-"""The optimum's solver time per episode (all solves of the confirmation rounds together)."""
+NODE_LIMIT = 100
+"""HiGHS's branch-and-bound nodes per solve at most: the optimum's work limit, counted, so that
+its plans and proofs do not depend on the machine or its load. HiGHS's root (presolve, cuts,
+heuristics) runs to its end before it, and is the most of the work on the valve bodies."""
+TIME_LIMIT_S = 1200.0
+"""Wall-clock safety net per episode (all solves of the confirmation rounds together), far above
+what `NODE_LIMIT` and `SOLVE_ROUNDS` take here; a plan it cuts short states no proof."""
 TRIPLE_CHUNK = 20_000
 """Triples counted exactly at once (memory: this many rows of bits, one per point)."""
 TRIPLE_LIMIT = 5_000_000
 """Triples counted exactly per program at most (some seconds); the test motors leave under
 half a million open."""
-MIN_SOLVE_S = 1.0
-"""No solve starts with less time left: HiGHS proves nothing in less."""
 SOLVE_ROUNDS = 50
 """Solves per episode at most: each round confirms the views the last solve chose (about a
 second each on a motor). The test motors settle in 1 to 12 rounds, but on two of them every
 round finds another triple whose predicted rows reach the goal and whose measured rows do not,
-until the time limit."""
+until this limit."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,6 +88,8 @@ class Cover:
             was solved for).
         proven: Whether the picks meet the bound (optimal).
         seconds: Time spent reducing and solving.
+        timed_out: Whether a solve stopped at the wall-clock `time_limit_s` (the safety net)
+            rather than at its end or its node limit.
     """
 
     picks: tuple[int, ...]
@@ -89,6 +99,22 @@ class Cover:
     points_bound: int | None
     proven: bool
     seconds: float
+    timed_out: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class Solved:
+    """What one HiGHS solve of the reduced program found.
+
+    Attributes:
+        picks: The rows found (original indices; None when none were found or none exist).
+        bound: The proven bound on the objective (views, or points).
+        timed_out: Whether HiGHS stopped at its wall-clock time limit.
+    """
+
+    picks: list[int] | None
+    bound: int
+    timed_out: bool = False
 
 
 @dataclasses.dataclass(frozen=True)
@@ -139,7 +165,7 @@ def _merge_columns(matrix: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray,
 
 def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
                 goal: float | None = None, time_limit_s: float = TIME_LIMIT_S,
-                incumbent: Sequence[int] = ()) -> Cover:
+                incumbent: Sequence[int] = (), node_limit: int = NODE_LIMIT) -> Cover:
     """The fewest rows of `visibility` that reach the goal, or without a goal the most points
     `count` rows add; never worse than greedy (`greedy_cover`) or `incumbent`.
 
@@ -148,9 +174,10 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         covered: Points covered already (points,); they count towards the goal.
         count: Most rows. With a goal that no `count` rows reach, the most points instead.
         goal: Fraction of all points to cover; None: the most points with `count` rows.
-        time_limit_s: The solver's time limit (all solves together).
+        time_limit_s: The solver's wall-clock safety net (all solves together).
         incumbent: A known solution (e.g. one confirmed by acquisitions) that bounds the
             program.
+        node_limit: HiGHS's branch-and-bound nodes per solve at most.
 
     Raises:
         ValueError: If the shapes disagree, count < 0, or the goal lies outside (0, 1].
@@ -165,6 +192,8 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
     def points(picks: Sequence[int]) -> int:
         return int((visibility[list(picks)].any(axis=0) & ~covered).sum()) if picks else 0
 
+    timed_out = False
+
     def result(picks: Sequence[int], views_bound: int | None = None,
                points_bound: int | None = None) -> Cover:
         picks = tuple(sorted(int(pick) for pick in picks))
@@ -173,7 +202,7 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         proven = ((views_bound is not None and reached and views_bound >= len(picks))
                   or (points_bound is not None and points_bound <= added))
         return Cover(picks, added, reached, views_bound, points_bound, proven,
-                     time.perf_counter() - start)
+                     time.perf_counter() - start, timed_out)
 
     # Greedy's solution, or a better one given, bounds the program: HiGHS's own incumbents can
     # trail greedy's for a long time.
@@ -191,18 +220,22 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
             return result(reaching, views_bound=lowest)
         if fewest is not None and len(fewest) <= count:
             return result(fewest, views_bound=lowest)
-        picks, bound = _solve(reduced, cap, needed, time_limit_s, lowest)
-        if picks is not None and (reaching is None or len(picks) < len(reaching)):
-            return result(picks, views_bound=bound)
+        solved = _solve(reduced, cap, needed, node_limit, time_limit_s, lowest)
+        timed_out = solved.timed_out
+        if solved.picks is not None and (reaching is None or len(solved.picks) < len(reaching)):
+            return result(solved.picks, views_bound=solved.bound)
         if reaching is not None:
-            return result(reaching, views_bound=bound)
-        # No `count` rows reach the goal (proven, or none found in time): the most points.
+            return result(reaching, views_bound=solved.bound)
+        # No `count` rows reach the goal (proven, or none found within the limits): the most
+        # points.
         time_limit_s -= time.perf_counter() - start
     fallback = incumbent if len(incumbent) <= count else ()
     floor = points(fallback)
-    picks, bound = _solve(reduced, count, None, max(time_limit_s, 0.0), floor)
-    best = picks if picks is not None and points(picks) > floor else fallback
-    return result(best, points_bound=bound)
+    solved = _solve(reduced, count, None, node_limit, max(time_limit_s, 0.0), floor)
+    timed_out = timed_out or solved.timed_out
+    best = (solved.picks if solved.picks is not None and points(solved.picks) > floor
+            else fallback)
+    return result(best, points_bound=solved.bound)
 
 
 def swap_down(visibility: np.ndarray, covered: np.ndarray, needed: int,
@@ -293,17 +326,16 @@ def fewest_views(reduced: Reduced, needed: int) -> tuple[list[int] | None, int]:
     return (None, 4) if found is None else (reduced.rows[found].tolist(), 3)
 
 
-def _solve(reduced: Reduced, count: int, needed: int | None, time_limit_s: float,
-           floor: int = 0) -> tuple[list[int] | None, int]:
-    """Solve the reduced program: with `needed`, the fewest rows (at most `count`, at least
-    `floor`, a proven bound) adding that many points; else the most points (at least `floor`)
-    with `count` rows. Returns the rows found (original indices; None when none were found in
-    time or none exist) and the proven bound on the objective (views, or points)."""
+def _solve(reduced: Reduced, count: int, needed: int | None, node_limit: int,
+           time_limit_s: float, floor: int = 0) -> Solved:
+    """Solve the reduced program within `node_limit` nodes (and the safety net `time_limit_s`):
+    with `needed`, the fewest rows (at most `count`, at least `floor`, a proven bound) adding
+    that many points; else the most points (at least `floor`) with `count` rows."""
     rows, weights = len(reduced.rows), reduced.weights
     if needed == 0:
-        return [], 0
+        return Solved([], 0)
     if count == 0 or rows == 0:
-        return (None, count + 1) if needed is not None else ([], 0)
+        return Solved(None, count + 1) if needed is not None else Solved([], 0)
     # Variables: x (rows) then y (merged points); y_c <= w_c * (the x_j seeing column c).
     links = sparse.hstack([sparse.csr_array(reduced.matrix.T * -weights[:, None]),
                            sparse.eye_array(len(weights))])
@@ -316,16 +348,21 @@ def _solve(reduced: Reduced, count: int, needed: int | None, time_limit_s: float
     found = optimize.milp(taken if needed is not None else -gained, integrality=taken,
                           bounds=optimize.Bounds(0.0, np.concatenate([np.ones(rows), weights])),
                           constraints=constraints,
-                          options={"time_limit": max(time_limit_s, 1e-3)})
+                          options={"node_limit": node_limit,
+                                   "time_limit": max(time_limit_s, 1e-3)})
     picks = None if found.x is None else reduced.rows[found.x[:rows] > 0.5].tolist()
     if found.status == 2:  # infeasible: no `count` rows add `needed` (or `floor`) points
-        return None, count + 1 if needed is not None else floor
+        return Solved(None, count + 1 if needed is not None else floor)
+    # Status 1 is HiGHS's time (or iteration) limit; its node limit is status 4.
+    timed_out = found.status == 1
     dual = found.fun if found.status == 0 else found.mip_dual_bound
     proved = dual if dual is not None and np.isfinite(dual) else None
     if needed is not None:
-        # Without a bound in time, the one given holds.
-        return picks, max(math.ceil(proved - 1e-6) if proved is not None else 0, floor)
-    return picks, math.floor(-proved + 1e-6) if proved is not None else round(weights.sum())
+        # Without a bound within the limits, the one given holds.
+        return Solved(picks, max(math.ceil(proved - 1e-6) if proved is not None else 0, floor),
+                      timed_out)
+    return Solved(picks, math.floor(-proved + 1e-6) if proved is not None
+                  else round(weights.sum()), timed_out)
 
 
 @register_planner
@@ -339,19 +376,21 @@ class OptimumPlanner(SetCoverPlanner):
         max_views: View budget when planning to the goal.
         candidate_count: Candidate positions on the view sphere.
         resolution: Grid of the visibility renderer.
-        time_limit_s: Solver time per episode.
+        node_limit: HiGHS's branch-and-bound nodes per solve (the work limit).
+        time_limit_s: Wall-clock safety net per episode.
 
     Attributes:
         picks: The plan's candidates (before ordering for cycle time).
         gains: GT points each pick adds after the ones before it (measured).
         greedy_picks: B_SCP's picks on the same candidates, the incumbent.
         proof: Whether the plan is proven optimal on the measured rows of its views, the last
-            solve's bound and the views above it (`Proof`).
+            solve's bound and the views above it (`Proof`); None when the safety net
+            `time_limit_s` cut the solves short.
         solve_seconds: Time spent in the solver (all rounds).
         rounds: Solves run.
 
     Raises:
-        ValueError: As `SetCoverPlanner`, or if time_limit_s is not positive.
+        ValueError: As `SetCoverPlanner`, or if node_limit or time_limit_s is not positive.
     """
 
     name = "optimum"
@@ -360,10 +399,13 @@ class OptimumPlanner(SetCoverPlanner):
     def __init__(self, views: int | None = None, goal: float = 0.9, max_views: int = 10,
                  candidate_count: int = CANDIDATE_COUNT,
                  resolution: tuple[int, int] = DEFAULT_RESOLUTION,
-                 time_limit_s: float = TIME_LIMIT_S):
+                 node_limit: int = NODE_LIMIT, time_limit_s: float = TIME_LIMIT_S):
         super().__init__(views, goal, max_views, candidate_count, resolution)
+        if not node_limit > 0:
+            raise ValueError(f"node_limit must be > 0, got {node_limit}")
         if not time_limit_s > 0.0:
             raise ValueError(f"time_limit_s must be > 0 s, got {time_limit_s}")
+        self.node_limit = node_limit
         self.time_limit_s = time_limit_s
         self.greedy_picks: list[int] = []
         self.solve_seconds = 0.0
@@ -395,13 +437,14 @@ class OptimumPlanner(SetCoverPlanner):
                            measured: set[int]) -> list[int]:
         """The best confirmed solution: solve on the rows known so far (greedy's picks the
         incumbent), confirm the chosen rows, again until a solve chooses only rows measured
-        before it, or the rounds or the time run out. Records the proof and the gap."""
+        before it, or the rounds run out. Records the proof and the gap, or None when the
+        safety net `time_limit_s` cut the rounds short (the proof would depend on the clock)."""
         best = list(self.greedy_picks)
         deadline = time.perf_counter() + self.time_limit_s
         self.solve_seconds, self.rounds = 0.0, 0
         while True:
             cover = solve_cover(known(), covered, count, goal,
-                                max(deadline - time.perf_counter(), 0.0), best)
+                                max(deadline - time.perf_counter(), 0.0), best, self.node_limit)
             self.solve_seconds += cover.seconds
             self.rounds += 1
             fresh = [index for index in cover.picks if index not in measured]
@@ -409,9 +452,17 @@ class OptimumPlanner(SetCoverPlanner):
                 confirm(index)
             if _better(known(), covered, count, goal, cover.picks, best):
                 best = list(cover.picks)
-            if (not fresh or self.rounds >= SOLVE_ROUNDS
-                    or time.perf_counter() >= deadline - MIN_SOLVE_S):
+            # Cut when HiGHS stopped at the clock, or another round was due past it.
+            timed_out = cover.timed_out or (bool(fresh) and self.rounds < SOLVE_ROUNDS
+                                            and time.perf_counter() >= deadline)
+            if not fresh or self.rounds >= SOLVE_ROUNDS or timed_out:
                 break
+        if timed_out:
+            warnings.warn(f"optimum: the {self.time_limit_s:g} s safety net cut the solves "
+                          f"short after {self.rounds} round(s); the plan states no proof",
+                          stacklevel=2)
+            self.proof = None
+            return best
         # A proof on rows that include none confirmed since holds for `best` (no worse than
         # the cover on those rows).
         self.proof = Proof(
