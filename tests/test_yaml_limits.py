@@ -86,3 +86,10 @@ def test_a_recursive_alias_and_deep_nesting_are_errors_naming_the_file(tmp_path:
     deep.write_text("sensor: " + "[" * 10_000)
     with pytest.raises(ConfigError, match=r"deep\.yaml: not valid YAML: nested too deeply"):
         load_config(deep)
+
+
+def test_a_character_yaml_refuses_is_an_error_naming_the_source() -> None:
+    # PyYAML's reader refuses it as the loader is made, before any node is read (found by
+    # tests/test_fuzz.py once the loader was made outside the error handling).
+    with pytest.raises(ConfigError, match=r"^x\.yaml: not valid YAML: special characters"):
+        parse_yaml("\x1f", "x.yaml")

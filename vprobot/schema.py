@@ -106,6 +106,14 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep)
 
 
+def _invalid(error: yaml.YAMLError, source: str) -> ConfigError:
+    """PyYAML's error as one line naming the source (and the line where known)."""
+    where = getattr(error, "problem_mark", None)
+    line = f" (line {where.line + 1})" if where is not None else ""
+    problem = getattr(error, "problem", None) or getattr(error, "reason", None)
+    return ConfigError(f"{source}: not valid YAML{line}: {problem or type(error).__name__}")
+
+
 def parse_yaml(text: str, source: str) -> Any:
     """The YAML document in `text`; `source` (a file, an option) names it in errors.
 
@@ -114,7 +122,11 @@ def parse_yaml(text: str, source: str) -> Any:
             too deeply, or its aliases repeat more than `ALIAS_VALUES_LIMIT` values (or
             themselves); the message names the source (and the line where known).
     """
-    loader = _UniqueKeyLoader(text)
+    try:
+        # The reader refuses non-printable characters as it is made.
+        loader = _UniqueKeyLoader(text)
+    except yaml.YAMLError as error:
+        raise _invalid(error, source) from None
     try:
         node = loader.get_single_node()
         if node is None:
@@ -126,10 +138,7 @@ def parse_yaml(text: str, source: str) -> Any:
                               f"aliases (an alias of an alias multiplies them)")
         return loader.construct_document(node)
     except yaml.YAMLError as error:
-        where = getattr(error, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else ""
-        problem = getattr(error, "problem", None) or type(error).__name__
-        raise ConfigError(f"{source}: not valid YAML{line}: {problem}") from None
+        raise _invalid(error, source) from None
     except RecursionError:
         # PyYAML composes nested collections recursively.
         raise ConfigError(f"{source}: not valid YAML: nested too deeply") from None
