@@ -177,5 +177,11 @@ def test_an_interrupt_while_a_plugin_loads_is_the_commands_interruption(
         signum: int, tmp_path: Path) -> None:
     """Not a KeyboardInterrupt traceback (Ctrl-C) or exit 143 (SIGTERM) (issue 42, P19)."""
     (tmp_path / "slow.py").write_text(f"import os\nos.kill(os.getpid(), {int(signum)})\n")
-    ran = _fresh_vprobot(["--plugin", "./slow.py", "plan", "--help"], tmp_path)
+    # As from a terminal: a test run started in the background (CI's) ignores SIGINT, and a
+    # child inherits that, so Python would install no Ctrl-C handler and the signal would be lost.
+    ran = subprocess.run(
+        [sys.executable, "-m", "vprobot.cli", "--plugin", "./slow.py", "plan", "--help"],
+        capture_output=True, text=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
+        check=False, timeout=120,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert (ran.returncode, ran.stderr) == (130, "vprobot: interrupted\n")
