@@ -50,7 +50,7 @@ def add_report(commands: Commands) -> None:
                          "its rows must be in OLD")
     check = add(reports, "check", command_check,
                 "Run a committed evaluation folder's command again (its episode list, recorded "
-                "config and estimator, an empty cache, OpenBLAS's Haswell kernels) and compare "
+                "config and estimator, an empty cache) and compare "
                 "the tables cell by cell: print each cell that differs; exit 1 if any does.",
                 config=False)
     check.add_argument("folder", type=Path, help="a committed evaluation folder, e.g. "

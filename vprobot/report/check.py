@@ -6,17 +6,14 @@ carriers of its table and its recorded config, into a given folder and with an e
 fresh clone has), then compares every episode row cell by cell (`compare.moved_cells`: timing
 columns left out) and, for a full regeneration, the summary table `evaluation.csv` too.
 
-The committed tables were made with OpenBLAS's Haswell kernels; on an x86-64 CPU with AVX-512
-OpenBLAS picks other kernels whose rounding moves a few borderline ground-truth points (up to
-about 0.5 pp of a mean). The regeneration therefore runs with `OPENBLAS_CORETYPE=Haswell`
-unless the variable is set already (in a child process: OpenBLAS reads it when it loads).
+The committed tables were made with OpenBLAS's Haswell kernels, which vprobot pins on every
+x86-64 CPU with AVX2 (`vprobot.kernels`), the child included.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import platform
 import subprocess
 import sys
 from collections.abc import Sequence
@@ -73,8 +70,6 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
     (out / "list.json").write_text(json.dumps(episode_list))
     (out / "config.yaml").write_text(yaml.safe_dump(recorded_config(folder)))
     env = child_environment(scratch)
-    if platform.machine().lower() in ("x86_64", "amd64"):
-        env.setdefault("OPENBLAS_CORETYPE", "Haswell")
     # An empty cache: ground truth and generated objects are built by this code, as in a clone.
     env["VPROBOT_CACHE_DIR"] = str(out / "cache")
     root = PACKAGE_DIR.parent
