@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
+from vprobot.geometry import is_rotation_quaternion
 from vprobot.paths import (
     BUNDLED_EPISODE_LISTS,
     DEFAULT_CONFIG,
@@ -164,9 +165,7 @@ class SensorConfig:
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
         check_sensing(self)
-        # The mount is normalised where it is used: a zero (or non-finite) one has no direction.
-        norm = sum(value * value for value in self.mount_quaternion_wxyz) ** 0.5
-        if not 1e-9 <= norm < float("inf"):
+        if not is_rotation_quaternion(self.mount_quaternion_wxyz):
             raise ConfigError(f"sensor.mount_quaternion_wxyz must be a non-zero, finite "
                               f"quaternion (w, x, y, z), got {brief(self.mount_quaternion_wxyz)}")
         if not 0.0 <= self.acquisition_time_s <= MAX_ACQUISITION_TIME_S:

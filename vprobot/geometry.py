@@ -20,11 +20,24 @@ def as_vector(value: npt.ArrayLike, size: int, name: str) -> np.ndarray:
     return array
 
 
+QUATERNION_NORM_MIN = 1e-9
+"""Smallest norm of a quaternion that gives a rotation: one is normalised before use, and a zero
+one has no direction (its normalisation divides by zero, and NaN poses compare as within every
+tolerance)."""
+
+
+def is_rotation_quaternion(quat_wxyz: npt.ArrayLike) -> bool:
+    """Whether four numbers are a quaternion that gives a rotation: finite, of norm at least
+    `QUATERNION_NORM_MIN`."""
+    norm = float(np.linalg.norm(np.asarray(quat_wxyz, dtype=float)))
+    return QUATERNION_NORM_MIN <= norm < np.inf
+
+
 def quat_to_matrix(quat_wxyz: npt.ArrayLike) -> np.ndarray:
     """Rotation matrix of a (normalised) w, x, y, z quaternion."""
     quat = as_vector(quat_wxyz, 4, "quaternion")
     norm = np.linalg.norm(quat)
-    if norm < 1e-9:
+    if norm < QUATERNION_NORM_MIN:
         raise ValueError("quaternion must be non-zero")
     matrix = np.empty(9)
     mujoco.mju_quat2Mat(matrix, quat / norm)

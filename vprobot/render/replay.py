@@ -19,7 +19,13 @@ import numpy as np
 
 from vprobot.config import Config, replace
 from vprobot.episode import CARRIERS, Episode, EpisodeRecord, MotorScene, ViewRequest
-from vprobot.geometry import Pose, quat_to_matrix, rotation_about_y, rotation_about_z
+from vprobot.geometry import (
+    Pose,
+    is_rotation_quaternion,
+    quat_to_matrix,
+    rotation_about_y,
+    rotation_about_z,
+)
 from vprobot.kinematics import SensorTarget
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR
@@ -28,11 +34,6 @@ from vprobot.schema import brief
 BASE_ROTATION_TOLERANCE = 1e-6
 """How far the plan's robot base may deviate from a yaw about the world z axis followed by a
 tilt about the base's y axis (the only base rotations the cell composes)."""
-
-
-QUATERNION_NORM_MIN = 1e-9
-"""Smallest norm of a quaternion the plan may give: a zero one is no rotation at all (its
-normalisation divides by zero, and NaN poses would compare as within every tolerance)."""
 
 
 def _field(block: Any, key: str, where: str) -> Any:
@@ -63,7 +64,7 @@ def _vector(block: Any, key: str, size: int, where: str) -> np.ndarray:
 def plan_quaternion(block: Any, key: str, where: str) -> np.ndarray:
     """The quaternion (w, x, y, z) `where`.`key`: four finite numbers, not all zero."""
     value = _vector(block, key, 4, where)
-    if not np.linalg.norm(value) >= QUATERNION_NORM_MIN:
+    if not is_rotation_quaternion(value):
         raise ValueError(f"plan {where}.{key} must be a non-zero quaternion (w, x, y, z), got "
                          f"{value.tolist()}")
     return value
