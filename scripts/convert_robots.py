@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib.metadata
+import math
 from pathlib import Path
 
 from vprobot.robots.description import ASSUMED_LIMIT_SOURCES
@@ -66,16 +67,25 @@ class BundledRobot:
     base_yaw_deg: float = 0.0
     base_tilt_deg: float = 0.0
     license_text: str | None = None
+    velocity_limits_rad_s: tuple[float, ...] | None = None
     acceleration_limits_rad_s2: tuple[float, ...] | None = None
     jerk_limits_rad_s3: tuple[float, ...] | None = None
     limit_sources: dict[str, str] | None = None
 
 
-UR_LIMIT_SOURCES = {
-    "velocity_limits_rad_s": "The URDF's joint velocity limits (example-robot-data's "
-                             "ur_description).",
-    **ASSUMED_LIMIT_SOURCES,
-}
+UR_MANUALS = ("Universal Robots' maximum joint speeds ({manual}, technical specifications; the "
+              "same in Universal Robots' ROS 2 description, Universal_Robots_ROS2_Description "
+              "config/{name}/joint_limits.yaml): {speeds}. The URDF's are higher.")
+UR10_VELOCITY_LIMITS = tuple(math.radians(speed) for speed in (120, 120, 180, 180, 180, 180))
+UR5_VELOCITY_LIMITS = (math.radians(180),) * 6
+
+
+def ur_limit_sources(name: str, manual: str, speeds: str) -> dict[str, str]:
+    """Where a UR's limits come from: the maker's speeds, the labelled assumptions."""
+    return {"velocity_limits_rad_s": UR_MANUALS.format(manual=manual, name=name, speeds=speeds),
+            **ASSUMED_LIMIT_SOURCES}
+
+
 FRANKA_LIMITS = ("Franka's published limits for the Panda (Franka Control Interface docs, "
                  "'Robot and interface specifications', Limits for Panda; libfranka "
                  "rate_limiting.h kMaxJoint{Velocity,Acceleration,Jerk}): ")
@@ -91,15 +101,24 @@ PANDA_LIMIT_SOURCES = {
 ROBOTS = {
     "ur5": BundledRobot("Universal Robots UR5", "ur_description", "urdf/ur5_robot.urdf", "tool0",
                         (0.0, -1.9, 1.9, -1.57, -1.57, 0.0), (0.0, 0.0, 0.5),
-                        license_text=UR_LICENSE, limit_sources=UR_LIMIT_SOURCES),
+                        license_text=UR_LICENSE, velocity_limits_rad_s=UR5_VELOCITY_LIMITS,
+                        limit_sources=ur_limit_sources(
+                            "ur5", "UR5/CB3 User Manual",
+                            "180 deg/s (pi rad/s) for every joint")),
     "ur10": BundledRobot("Universal Robots UR10", "ur_description", "urdf/ur10_robot.urdf",
                          "tool0", (0.0, -1.9, 1.9, -1.57, -1.57, 0.0), (0.0, 0.0, 0.5),
-                         license_text=UR_LICENSE, limit_sources=UR_LIMIT_SOURCES),
+                         license_text=UR_LICENSE, velocity_limits_rad_s=UR10_VELOCITY_LIMITS,
+                         limit_sources=ur_limit_sources(
+                             "ur10", "UR10/CB3 User Manual",
+                             "120 deg/s (2.0944 rad/s) for base and shoulder, 180 deg/s (pi "
+                             "rad/s) for elbow and wrists")),
     # The Panda's 0.855 m reach cannot wrap the far side of the view sphere from the floor
     # (at most 69 % of it from any base position tried); hanging from the ceiling above the
     # motor, it reaches all round except the lowest band and the cap right under its base.
+    # Joint 6 at 0.7 rad, not less, keeps the sensor housing 16 mm clear of link 5 at home (at
+    # 0.43 it lay 13 mm inside; a flange spacer that clears it costs a third of the reach).
     "panda": BundledRobot("Franka Emika Panda", "panda_description", "urdf/panda.urdf",
-                          "panda_link8", (-0.68, 1.57, -1.6, -1.27, -0.49, 0.43, 0.08),
+                          "panda_link8", (-0.68, 1.57, -1.6, -1.27, -0.49, 0.7, 0.08),
                           (0.5, 0.0, 1.25), base_tilt_deg=180.0,
                           acceleration_limits_rad_s2=(15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0),
                           jerk_limits_rad_s3=(7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0,
@@ -132,6 +151,7 @@ def convert(name: str, source: Path) -> None:
         home=robot.home, base_position_m=robot.base_position_m, base_yaw_deg=robot.base_yaw_deg,
         base_tilt_deg=robot.base_tilt_deg,
         package_paths={"example-robot-data": source.parent}, overwrite=True,
+        velocity_limits_rad_s=robot.velocity_limits_rad_s,
         acceleration_limits_rad_s2=robot.acceleration_limits_rad_s2,
         jerk_limits_rad_s3=robot.jerk_limits_rad_s3, limit_sources=robot.limit_sources)
 

@@ -66,7 +66,7 @@ def test_interleaved_episodes_do_not_share_state(scene: MotorScene) -> None:
         for episode, own in zip(together, requests, strict=True):
             episode.request(own[step])
             # FK and collision checks of the other episode's arm in between.
-            scene.arm.reach(own[-1].target, scene.cell.joints.home)
+            scene.arm.reach(own[-1].target, scene.cell.joints.start)
     assert [_trace(episode) for episode in together] == alone
 
 
@@ -90,7 +90,7 @@ def test_free_carrier_acquires_exactly_at_every_request(scene: MotorScene) -> No
     assert second.travel.cartesian == pytest.approx(np.linalg.norm(
         second.sensor_pose.position - first.sensor_pose.position))
     with pytest.raises(ValueError, match="robot carrier"):
-        episode.replay(scene.cell.joints.home)
+        episode.replay(scene.cell.joints.start)
 
 
 def test_record_reports_the_first_covering_view(scene: MotorScene) -> None:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from scipy.spatial.transform import Rotation
 
 from vprobot.cli import main
 from vprobot.export.formats import FORMATS, export_plan
@@ -78,8 +79,59 @@ def test_the_plan_records_each_move_the_return_and_the_cycle_time(
         VIEWS * document["sensor"]["acquisition_time_s"])
 
 
-URSCRIPT_LINE = re.compile(r"^\s*(?:movej\(\[([^\]]*)\], a=([^,]+), v=([^)]+)\)"
-                           r"|trigger_acquisition\((\d+)\)|sleep\(([^)]+)\))")
+URSCRIPT_STATEMENTS = {
+    # The body of `inspection()`: statements indented by two spaces (a helper's body is deeper).
+    "move": re.compile(r"  movej\(\[([^\]]*)\], a=(\S+) \* speed_scale \* speed_scale, "
+                       r"v=(\S+) \* speed_scale\)(?:  #.*)?"),
+    "trigger": re.compile(r"  set_standard_digital_out\((\d+), True\)"),
+    "release": re.compile(r"  set_standard_digital_out\((\d+), False\)"),
+    "sleep": re.compile(r"  sleep\(([^)]+)\)"),
+    "wait": re.compile(r"  wait_for_frame\((\d+)\)"),
+    "view": re.compile(r"  # view (\d+) \(acquisition .*: sensor p\[([^\]]*)\] "
+                       r"in the base frame.*"),
+}
+
+
+def parse_urscript(program: str, trigger_script: str | None = None) -> list[tuple[Any, ...]]:
+    """The program's moves, triggers, waits and pose comments in order, read by regexes: every
+    `movej` of the program must be one of the speed-scaled moves."""
+    events: list[tuple[Any, ...]] = []
+    for line in program.splitlines():
+        if trigger_script is not None and line == f"  {trigger_script}":
+            events.append(("script",))
+            continue
+        for kind, pattern in URSCRIPT_STATEMENTS.items():
+            match = pattern.fullmatch(line)
+            if match is not None:
+                events.append((kind, *match.groups()))
+                break
+        else:
+            assert "movej(" not in line, line
+    return events
+
+
+def floats(text: str) -> np.ndarray:
+    return np.array([float(x) for x in text.split(",")])
+
+
+def expected_urscript(document: dict[str, Any]) -> list[tuple[str, Any]]:
+    """What the program must do, from the plan: the move to the start, every corner of every
+    move, and at each view its pose comment, the trigger and the wait, by the plan's I/O."""
+    program = document["cell"]["program"]
+    acquire: list[tuple[str, Any]] = []
+    if program["trigger_output"] is not None:
+        output = str(program["trigger_output"])
+        acquire += [("trigger", output), ("sleep", None), ("release", output)]
+    else:
+        acquire.append(("script", None))
+    done = program["done_input"] is not None
+    expected: list[tuple[str, Any]] = [("move", np.array(document["start_joints"]))]
+    for corners, acquired in moves_of(document):
+        expected += [("move", corner) for corner in corners]
+        if acquired is not None:
+            expected += [("view", acquired), *acquire,
+                         ("wait", acquired) if done else ("sleep", None)]
+    return expected
 
 
 def test_urscript_moves_through_the_plans_corners_and_acquires_in_view_order(
@@ -89,49 +141,155 @@ def test_urscript_moves_through_the_plans_corners_and_acquires_in_view_order(
     start, end = np.array(view["waypoints"][0]), np.array(view["waypoints"][-1])
     view["waypoints"].insert(1, ((start + end) / 2).tolist())
     document["cycle_time"] = None  # no longer the plan's
-    program = export_plan(document, "urscript")
-    assert "def inspection():" in program and program.rstrip().endswith("end")
-    parsed: list[tuple[str, Any]] = []
+    events = parse_urscript(export_plan(document, "urscript"))
+    expected = expected_urscript(document)
+    assert [event[0] for event in events] == [kind for kind, _ in expected]
     duration = 0.0
     limits = robot_limits("ur10")
     position = np.array(document["start_joints"])
-    for line in program.splitlines():
-        match = URSCRIPT_LINE.match(line)
-        if match is None:
-            continue
-        q, a, v, view_index, sleep = match.groups()
-        if q is not None:
-            target, a, v = np.array([float(x) for x in q.split(",")]), float(a), float(v)
+    for event, (kind, wanted) in zip(events[1:], expected[1:], strict=True):
+        if kind == "move":
+            target, a, v = floats(event[1]), float(event[2]), float(event[3])
+            assert np.array_equal(target, wanted)
             step = np.abs(target - position)
             share = step / step.max()
             # a and v are the leading joint's; every joint moves at its share of them.
             assert np.all(share * a <= limits["acceleration"] * (1 + 1e-12))
             assert np.all(share * v <= limits["velocity"] * (1 + 1e-12))
             duration += step.max() / v + v / a  # the trapezoid's duration
-            parsed.append(("move", target))
             position = target
-        elif view_index is not None:
-            parsed.append(("acquire", int(view_index)))
-        else:
-            duration += float(sleep)
-    expected: list[tuple[str, Any]] = []
-    for corners, acquired in moves_of(document):
-        expected += [("move", corner) for corner in corners]
-        if acquired is not None:
-            expected.append(("acquire", acquired))
-    assert [kind for kind, _ in parsed] == [kind for kind, _ in expected]
-    for (kind, got), (_, wanted) in zip(parsed, expected, strict=True):
-        assert np.array_equal(got, wanted) if kind == "move" else got == wanted
-    # The midpoint adds no travel, only a stop: the program runs the plan's clock.
+        elif kind == "sleep":
+            duration += float(event[1])
+        elif wanted is not None:
+            assert event[1] == str(wanted)
+    # The midpoint adds no travel, only a stop: the program runs the plan's clock (the trigger
+    # pulse is part of the acquisition time).
     assert duration == pytest.approx(json.loads(export_plan(document, "trajectory"))
                                      ["cycle_time"]["total_s"], rel=1e-9)
 
 
-def test_ros2_yaml_is_a_joint_trajectory_whose_times_increase(document: dict[str, Any]) -> None:
+def rotation_of(quaternion_wxyz: list[float]) -> Rotation:
+    w, x, y, z = quaternion_wxyz
+    return Rotation.from_quat([x, y, z, w])
+
+
+def test_urscript_is_a_program_that_sets_tcp_and_payload_and_states_poses_in_the_ur_base(
+        document: dict[str, Any]) -> None:
+    # A base turned and tilted, so the base transform is not a sign flip of x and y.
+    document["robot"]["base_position"] = [0.2, -0.1, 0.8]
+    base = Rotation.from_euler("zy", [0.7, 0.1])
+    x, y, z, w = base.as_quat()
+    document["robot"]["base_quaternion"] = [w, x, y, z]
+    program = export_plan(document, "urscript")
+    lines = program.splitlines()
+    # A global speed scale, the function defined and then called; a scale outside (0, 1] stops.
+    assert lines.index("speed_scale = 1.0") < lines.index("def inspection():")
+    assert lines[-2:] == ["end", "inspection()"]
+    check = lines.index("  if speed_scale <= 0 or speed_scale > 1:")
+    assert lines[check + 1].lstrip().startswith("popup(") and lines[check + 2] == "    halt"
+    # The TCP is the sensor mount on the flange, its rotation as a rotation vector.
+    mount = document["robot"]["sensor_mount"]
+    tcp = re.search(r"^  set_tcp\(p\[([^\]]*)\]\)$", program, re.MULTILINE)
+    assert tcp is not None
+    assert np.allclose(floats(tcp.group(1)), [*mount["position"], *rotation_of(
+        mount["quaternion"]).as_rotvec()], atol=1e-12)
+    # The payload: the cell's mass at the housing's centre, in the flange frame.
+    payload = re.search(r"^  set_payload\(([^,]+), \[([^\]]*)\]\)", program, re.MULTILINE)
+    assert payload is not None
+    assert float(payload.group(1)) == document["cell"]["payload_kg"]
+    housing = document["cell"]["housing"]["position_m"]
+    assert np.allclose(floats(payload.group(2)), np.array(mount["position"]) + rotation_of(
+        mount["quaternion"]).apply(housing), atol=1e-12)
+    assert "estimate" in program.split("set_payload(")[1].splitlines()[0]
+    # The first move goes to the start pose, slowly: at most 0.3 rad/s and 0.5 rad/s^2.
+    events = parse_urscript(program)
+    assert events[0][0] == "move" and np.array_equal(floats(events[0][1]),
+                                                     document["start_joints"])
+    assert float(events[0][2]) <= 0.5 and float(events[0][3]) <= 0.3
+    first = next(index for index, line in enumerate(lines) if "movej(" in line)
+    assert "not collision-checked" in lines[first - 1]
+    # Each view's pose comment: the plan's world pose in UR's base frame, ROS base_link turned
+    # 180 deg about z.
+    ur_base_rotation = base * Rotation.from_euler("z", np.pi)
+    ur_base_position = np.array(document["robot"]["base_position"])
+    poses = [event for event in events if event[0] == "view"]
+    assert [int(index) for _, index, _ in poses] == list(range(VIEWS))
+    for _, index, text in poses:
+        view = document["views"][int(index)]
+        pose = floats(text)
+        position = ur_base_rotation.inv().apply(np.array(view["position"]) - ur_base_position)
+        rotation = ur_base_rotation.inv() * rotation_of(view["quaternion"])
+        assert np.allclose(pose[:3], position, atol=1e-12)
+        assert (Rotation.from_rotvec(pose[3:]).inv() * rotation).magnitude() < 1e-9
+        assert np.linalg.norm(pose[3:]) <= np.pi + 1e-12
+
+
+@pytest.mark.parametrize(
+    "program",
+    [{"trigger_output": 5, "done_input": 3, "done_timeout_s": 2.5},
+     {"trigger_output": None, "trigger_script": "phoxi_trigger(1)", "done_input": None}],
+)
+def test_urscript_triggers_and_waits_as_the_cell_says(program: dict[str, Any],
+                                                      document: dict[str, Any]) -> None:
+    document["cell"]["program"].update(program)
+    text = export_plan(document, "urscript")
+    events = parse_urscript(text, program.get("trigger_script"))
+    expected = expected_urscript(document)
+    assert [event[0] for event in events] == [kind for kind, _ in expected]
+    for event, (kind, wanted) in zip(events, expected, strict=True):
+        if kind in ("trigger", "release", "wait", "view"):
+            assert event[1] == str(wanted)
+    if program["done_input"] is not None:
+        # The wait reads the done input and stops the program after the timeout.
+        body = text.split("  def wait_for_frame(view):\n")[1].split("\n  end\n")[0]
+        assert "while not get_standard_digital_in(3):" in body
+        assert "if waited >= 2.5:" in body and "popup(" in body and "halt" in body
+    else:
+        acquisition_time = document["sensor"]["acquisition_time_s"]
+        assert [float(event[1]) for event in events if event[0] == "sleep"] == [
+            acquisition_time] * VIEWS
+
+
+def test_urscript_of_a_plan_without_a_cell_block_takes_the_defaults_and_says_so(
+        document: dict[str, Any]) -> None:
+    del document["cell"]
+    program = export_plan(document, "urscript")
+    assert "DEFAULTS: the plan has no cell block" in program
+    # The sensor of the plans before the cell block: 0.8 kg, its housing centred 0.04 m behind
+    # the sensor frame, 0.09 m out on the flange's z axis.
+    payload = re.search(r"^  set_payload\(([^,]+), \[([^\]]*)\]\)", program, re.MULTILINE)
+    assert payload is not None and float(payload.group(1)) == 0.8
+    assert np.allclose(floats(payload.group(2)), [0.0, 0.0, 0.05], atol=1e-12)
+    assert program.count("  set_standard_digital_out(0, True)") == VIEWS
+
+
+GOAL_FIELDS = ("trajectory", "multi_dof_trajectory", "path_tolerance",
+               "component_path_tolerance", "goal_tolerance", "component_goal_tolerance",
+               "goal_time_tolerance")
+"""The fields of control_msgs/action/FollowJointTrajectory's goal (control_msgs, Humble and
+later), in order: the message YAML `ros2 action send_goal` reads may hold only these."""
+JOINT_TOLERANCE_FIELDS = ("name", "position", "velocity", "acceleration")
+"""control_msgs/msg/JointTolerance."""
+
+
+def test_ros2_yaml_is_a_follow_joint_trajectory_goal_whose_times_increase(
+        document: dict[str, Any]) -> None:
+    document["cell"]["program"].update(path_tolerance_rad=0.03, goal_tolerance_rad=0.002,
+                                       goal_time_tolerance_s=1.25)
     text = export_plan(document, "ros2")
-    message = yaml.load(text, Loader=SAFE_LOADER)
+    goal = yaml.load(text, Loader=SAFE_LOADER)
+    assert set(goal) == {"trajectory", "path_tolerance", "goal_tolerance", "goal_time_tolerance"}
+    assert set(goal) <= set(GOAL_FIELDS)
+    names = document["robot"]["joint_names"]
+    for key, position in (("path_tolerance", 0.03), ("goal_tolerance", 0.002)):
+        assert [tuple(entry) for entry in goal[key]] == [JOINT_TOLERANCE_FIELDS] * len(names)
+        assert [entry["name"] for entry in goal[key]] == names
+        assert all(entry["position"] == position and entry["velocity"] == 0.0
+                   and entry["acceleration"] == 0.0 for entry in goal[key])
+    assert goal["goal_time_tolerance"] == {"sec": 1, "nanosec": 250_000_000}
+    message = goal["trajectory"]
     assert set(message) == {"header", "joint_names", "points"}
-    assert message["joint_names"] == document["robot"]["joint_names"]
+    assert message["joint_names"] == names
     points = message["points"]
     for point in points:
         assert set(point) == {"positions", "velocities", "accelerations", "time_from_start"}
@@ -147,7 +305,7 @@ def test_ros2_yaml_is_a_joint_trajectory_whose_times_increase(document: dict[str
     # robot stands there for the acquisition time.
     acquired, following = [], 0
     for line in text.splitlines():
-        following += line.startswith("  - positions:")
+        following += line.startswith("    - positions:")
         found = re.match(r"\s*# acquisition view (\d+)", line)
         if found:
             index = int(found.group(1))
@@ -160,6 +318,26 @@ def test_ros2_yaml_is_a_joint_trajectory_whose_times_increase(document: dict[str
             assert np.allclose([p["positions"] for p, s in zip(points, still, strict=True) if s],
                                document["views"][index]["joints"], atol=1e-12, rtol=0)
     assert acquired == list(range(VIEWS))
+    assert "--format acquisitions" in text.split("\n", 2)[1]
+
+
+def test_the_acquisitions_beside_the_ros2_goal_are_the_plans_views_at_its_points(
+        document: dict[str, Any]) -> None:
+    acquisitions = json.loads(export_plan(document, "acquisitions"))["acquisitions"]
+    points = yaml.load(export_plan(document, "ros2"), Loader=SAFE_LOADER)["trajectory"]["points"]
+    nanoseconds = {p["time_from_start"]["sec"] * 1_000_000_000 + p["time_from_start"]["nanosec"]:
+                   p["positions"] for p in points}
+    assert [entry["view"] for entry in acquisitions] == list(range(VIEWS))
+    for entry in acquisitions:
+        view = document["views"][entry["view"]]
+        assert entry["joints"] == view["joints"]
+        assert entry["sensor_position"] == view["position"]
+        assert entry["sensor_quaternion"] == view["quaternion"]
+        assert entry["end_s"] - entry["start_s"] == pytest.approx(
+            document["sensor"]["acquisition_time_s"])
+        # The goal has a point at the start and the end of each stop, at the view's joints.
+        for time_s in (entry["start_s"], entry["end_s"]):
+            assert nanoseconds[round(time_s * 1e9)] == view["joints"]
 
 
 def divided(times: np.ndarray, values: np.ndarray, order: int) -> np.ndarray:
@@ -224,7 +402,8 @@ def test_a_10_view_plan_exports_every_format_with_each_acquisition(
         document: dict[str, Any]) -> None:
     # How long this takes is `vprobot benchmark motion`'s (export_10_views), not a test's.
     texts = {name: export_plan(document, name) for name in FORMATS}
-    assert texts["urscript"].count("trigger_acquisition(") == VIEWS + 1  # the stub and each view
+    assert texts["urscript"].count("set_standard_digital_out(0, True)") == VIEWS
+    assert len(json.loads(texts["acquisitions"])["acquisitions"]) == VIEWS
 
 
 @pytest.mark.parametrize(
@@ -338,7 +517,8 @@ def test_check_holds_on_a_panda_plan_which_gets_no_urscript(
     assert "the plan's robot is 'panda'" in capsys.readouterr().err
     assert main(["export", str(path), "--format", "ros2", "--out",
                  str(tmp_path / "panda.yaml")]) == 0
-    assert len(yaml.safe_load((tmp_path / "panda.yaml").read_text())["joint_names"]) == 7
+    goal = yaml.safe_load((tmp_path / "panda.yaml").read_text())
+    assert len(goal["trajectory"]["joint_names"]) == len(goal["goal_tolerance"]) == 7
 
 
 def sample_times(format_name: str, text: str) -> np.ndarray:
@@ -347,7 +527,8 @@ def sample_times(format_name: str, text: str) -> np.ndarray:
     if format_name == "ros2":
         return np.array([p["time_from_start"]["sec"] * 1_000_000_000
                          + p["time_from_start"]["nanosec"]
-                         for p in yaml.load(text, Loader=SAFE_LOADER)["points"]]) * 1e-9
+                         for p in yaml.load(text, Loader=SAFE_LOADER)["trajectory"]["points"]]
+                        ) * 1e-9
     if format_name == "trajectory":
         return np.array(json.loads(text)["times"])
     rows = list(csv.reader(line for line in text.splitlines() if not line.startswith("#")))
@@ -462,6 +643,13 @@ def set_at(path: tuple[Any, ...], value: Any) -> Any:
          "robot.limits.velocity_rad_s"),
         ("export", set_at(("robot", "limits", "jerk_rad_s3", 3), 0), "robot.limits.jerk_rad_s3"),
         ("export", set_at(("views", 0), 3), "views[0]"),
+        ("export", set_at(("cell", "program", "trigger_output"), 9),
+         "plan cell.program.trigger_output must be a standard digital I/O in 0..7"),
+        ("export", lambda d: d["cell"]["program"].update(trigger_output=None,
+                                                          trigger_script="a()\nhalt"),
+         "plan cell.program.trigger_script must be one non-empty line"),
+        ("export", set_at(("cell", "payload_kg"), -1), "plan cell.payload_kg"),
+        ("export", set_at(("cell", "housing"), None), "plan cell.housing.position_m"),
         ("export", lambda d: None, "nested too deeply"),  # the file: 10^5 nested [
         ("check", set_at(("cycle_time",), [1]), "cycle_time"),
         ("check", set_at(("cycle_time", "total_s"), "23.1"), "cycle_time.total_s"),
@@ -534,5 +722,6 @@ def test_ros2_joint_names_stay_strings_that_yaml_would_read_as_numbers_or_boolea
     motion = plan_motion(document)
     motion = dataclasses.replace(motion, timed=dataclasses.replace(motion.timed,
                                                                    joint_names=names))
-    message = yaml.load(FORMATS["ros2"].write(motion, 0.1), Loader=SAFE_LOADER)
-    assert message["joint_names"] == list(names)
+    goal = yaml.load(FORMATS["ros2"].write(motion, 0.1), Loader=SAFE_LOADER)
+    assert goal["trajectory"]["joint_names"] == list(names)
+    assert [entry["name"] for entry in goal["path_tolerance"]] == list(names)

@@ -116,7 +116,7 @@ def test_restart_seeds_are_bounded_when_the_object_blocks_the_cell(
     arm = RobotArm(Cell(CONFIG, trimesh.creation.box([0.8] * 3)))
     assert draws == arm_module.MAX_SEED_DRAWS
     assert len(arm.restart_seeds) == 1
-    np.testing.assert_array_equal(arm.restart_seeds[0], arm.joints.home)
+    np.testing.assert_array_equal(arm.restart_seeds[0], arm.joints.start)
 
 
 def test_restart_seeds_of_a_fitting_object_are_unchanged() -> None:
@@ -126,7 +126,7 @@ def test_restart_seeds_of_a_fitting_object_are_unchanged() -> None:
     arm = RobotArm(Cell(CONFIG, load_mesh(MOTOR).mesh))
     rng = np.random.default_rng(CONFIG.kinematics.seed)
     low, high = np.maximum(arm.joints.lower, -math.pi), np.minimum(arm.joints.upper, math.pi)
-    expected = [arm.joints.home]
+    expected = [arm.joints.start]
     for _ in range(arm_module.MAX_SEED_DRAWS):
         if len(expected) == CONFIG.kinematics.restarts:
             break

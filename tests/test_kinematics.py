@@ -72,7 +72,7 @@ def test_ik_round_trip_from_home(arm: RobotArm) -> None:
     targets = free_configurations(arm, 100, seed=1)
     for q_star in targets:
         goal = arm.fk(q_star)
-        result = arm.reach(SensorTarget.full_pose(goal.position, goal.quaternion), arm.joints.home)
+        result = arm.reach(SensorTarget.full_pose(goal.position, goal.quaternion), arm.joints.start)
         if result.reason in ("did_not_converge", "joint_limits"):
             continue
         converged += 1
@@ -87,7 +87,7 @@ def test_look_at_axis_passes_through_point(arm: RobotArm) -> None:
     for direction in ([-1.0, 0.2, 0.3], [0.0, -1.0, 0.5], [0.3, 0.3, 1.0], [-0.5, 0.5, -0.4]):
         direction = np.asarray(direction) / np.linalg.norm(direction)
         target = SensorTarget.look_at(center + 0.47 * direction, center)
-        result = arm.reach(target, arm.joints.home)
+        result = arm.reach(target, arm.joints.start)
         assert result.reason not in ("did_not_converge", "joint_limits"), direction
         pose = arm.fk(result.q)
         offset = center - pose.position
@@ -99,7 +99,7 @@ def test_look_at_axis_passes_through_point(arm: RobotArm) -> None:
 def test_far_target_is_out_of_reach(arm: RobotArm) -> None:
     base = arm.cell.robot_base.position
     target = SensorTarget.look_at(base + [2.0, 0.0, 0.0], base + [3.0, 0.0, 0.0])
-    result = arm.reach(target, arm.joints.home)
+    result = arm.reach(target, arm.joints.start)
     assert not result.reachable
     assert result.reason == "out_of_reach" and result.attempts == 0
 
@@ -107,7 +107,7 @@ def test_far_target_is_out_of_reach(arm: RobotArm) -> None:
 def test_target_inside_the_fixture_collides(arm: RobotArm) -> None:
     fixture_top = arm.collisions.data.mocap_pos[arm.cell.fixture_mocap_id]
     inside = fixture_top - [0.0, 0.0, 0.01]
-    result = arm.reach(SensorTarget.look_at(inside, inside + [0.0, 0.0, -1.0]), arm.joints.home)
+    result = arm.reach(SensorTarget.look_at(inside, inside + [0.0, 0.0, -1.0]), arm.joints.start)
     assert not result.reachable
     assert result.reason == "collision"
 
@@ -128,9 +128,9 @@ def test_path_through_the_fixture_is_not_found_by_the_line_planner() -> None:
 def test_reported_paths_are_collision_free(arm: RobotArm) -> None:
     center = arm.cell.object_center
     target = SensorTarget.look_at(center + [0.0, -0.47, 0.0], center)
-    result = arm.reach(target, arm.joints.home)
+    result = arm.reach(target, arm.joints.start)
     assert result.reachable
-    np.testing.assert_allclose(result.path[0], arm.joints.home)
+    np.testing.assert_allclose(result.path[0], arm.joints.start)
     np.testing.assert_allclose(result.path[-1], result.q)
     assert np.max(np.abs(np.diff(result.path, axis=0))) <= 0.05 + 1e-12
     assert not any(arm.collisions.in_collision(q) for q in result.path)
@@ -147,7 +147,7 @@ def test_no_success_outside_joint_limits() -> None:
     # Straight left of the base: only reachable with the pan joint near +pi/2.
     beside = SensorTarget.look_at(arm.cell.robot_base.position + [0.0, 0.7, 0.3],
                                   arm.cell.robot_base.position + [0.0, 1.5, 0.3])
-    result = arm.reach(beside, np.clip(arm.joints.home, narrow.lower, narrow.upper))
+    result = arm.reach(beside, np.clip(arm.joints.start, narrow.lower, narrow.upper))
     assert not result.reachable
     assert result.reason == "joint_limits"
     rng = np.random.default_rng(3)
@@ -155,7 +155,7 @@ def test_no_success_outside_joint_limits() -> None:
         direction = rng.normal(size=3)
         direction /= np.linalg.norm(direction)
         result = arm.reach(SensorTarget.look_at(center + 0.47 * direction, center),
-                           np.clip(arm.joints.home, narrow.lower, narrow.upper))
+                           np.clip(arm.joints.start, narrow.lower, narrow.upper))
         if result.reachable:
             assert narrow.within_limits(result.q)
             assert np.all(result.path >= narrow.lower - 1e-9)
@@ -163,7 +163,7 @@ def test_no_success_outside_joint_limits() -> None:
 
 
 def test_travel_costs_against_hand_values(arm: RobotArm) -> None:
-    q = arm.joints.home
+    q = arm.joints.start
     center = arm.cell.object_center
     still = arm.travel(q, q, center)
     assert still.joint_time == still.joint_path == still.cartesian == still.paper == 0.0

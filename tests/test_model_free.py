@@ -432,7 +432,7 @@ def test_parse_accepts_every_model_free_form() -> None:
 
 def test_the_arm_blocks_a_point_behind_its_own_links_but_not_one_in_front_of_the_sensor(
         bracket: MotorScene) -> None:
-    home = bracket.cell.joints.home
+    home = bracket.cell.joints.start
     sensor = bracket.arm.fk(home)
     base = bracket.cell.robot_base.position
     assert bracket.arm.hides(home, base)

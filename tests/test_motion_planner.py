@@ -68,12 +68,12 @@ def test_colliding_line_gets_a_planned_path_that_a_finer_check_finds_free(arm: R
 
 
 def test_free_line_is_exactly_its_two_ends(arm: RobotArm) -> None:
-    q_to = arm.joints.home + [0.3, -0.2, 0.1, 0.2, -0.3, 0.4]
-    assert not collides_anywhere(CollisionChecker(arm.cell), np.array([arm.joints.home, q_to]))
-    plan = planner(arm).plan(arm.joints.home, q_to)
+    q_to = arm.joints.start + [0.3, -0.2, 0.1, 0.2, -0.3, 0.4]
+    assert not collides_anywhere(CollisionChecker(arm.cell), np.array([arm.joints.start, q_to]))
+    plan = planner(arm).plan(arm.joints.start, q_to)
     assert plan is not None and plan.method == "line"
-    np.testing.assert_array_equal(plan.waypoints, [arm.joints.home, q_to])
-    np.testing.assert_allclose(plan.path, joint_path(arm.joints.home, q_to, 0.05))
+    np.testing.assert_array_equal(plan.waypoints, [arm.joints.start, q_to])
+    np.testing.assert_allclose(plan.path, joint_path(arm.joints.start, q_to, 0.05))
 
 
 def test_same_query_gives_the_same_path_whatever_ran_before(arm: RobotArm) -> None:

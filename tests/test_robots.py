@@ -43,7 +43,8 @@ def test_importing_the_ur5_urdf_reproduces_the_committed_ur5(tmp_path: Path,
     imported = load_robot(str(out))
     assert (imported.base, imported.flange, imported.pan_joint, imported.roll_joint) == (
         committed.base, committed.flange, committed.pan_joint, committed.roll_joint)
-    assert imported.velocity_limits_rad_s == committed.velocity_limits_rad_s
+    # The import takes the URDF's speeds; the committed UR5 carries the maker's lower ones.
+    assert imported.velocity_limits_rad_s == (3.15, 3.15, 3.15, 3.2, 3.2, 3.2)
     # A URDF has no acceleration or jerk limits: the import writes the assumption the UR5 has.
     assert imported.acceleration_limits_rad_s2 == committed.acceleration_limits_rad_s2
     assert imported.jerk_limits_rad_s3 == committed.jerk_limits_rad_s3
@@ -212,6 +213,12 @@ def test_bundled_robots_carry_their_makers_limits_or_labelled_assumptions() -> N
     # Franka's published joint limits of the Panda (FCI docs, "Limits for Panda").
     panda = load_robot("panda")
     assert panda.velocity_limits_rad_s == (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)
+    # Universal Robots' maximum joint speeds (UR10 and UR5 CB3 user manuals): the UR10's base
+    # and shoulder 120 deg/s, its elbow and wrists 180 deg/s; every joint of the UR5 180 deg/s.
+    assert load_robot("ur10").velocity_limits_rad_s == pytest.approx(
+        np.radians([120, 120, 180, 180, 180, 180]), rel=1e-6)
+    assert load_robot("ur5").velocity_limits_rad_s == pytest.approx(np.radians([180] * 6),
+                                                                     rel=1e-6)
     assert panda.acceleration_limits_rad_s2 == (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
     assert panda.jerk_limits_rad_s3 == (7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0,
                                         10000.0)
@@ -271,7 +278,7 @@ def test_panda_ik_round_trip_within_its_limits() -> None:
             continue
         goal = arm.fk(q)
         result = arm.reach(SensorTarget.full_pose(goal.position, goal.quaternion),
-                           arm.joints.home)
+                           arm.joints.start)
         if result.reachable:
             reached += 1
             assert arm.joints.within_limits(result.q)

@@ -124,7 +124,7 @@ def test_shared_work_refuses_an_episode_that_starts_otherwise(motor: MotorScene)
     Episode(motor, np.eye(3), shared=shared)
     turned = rotation_about_z(0.5)
     for other in ({"object_rotation": turned}, {"carrier": "free"},
-                  {"start_joints": motor.cell.joints.home + 0.1}):
+                  {"start_joints": motor.cell.joints.start + 0.1}):
         with pytest.raises(ValueError, match="starts otherwise"):
             Episode(motor, **{"object_rotation": np.eye(3), "shared": shared, **other})
 

@@ -15,6 +15,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
+from vprobot.cell_config import (
+    PartConfig,
+    ProgramConfig,
+    SafetyConfig,
+    Solid,
+    StaticObject,
+    check_static_objects,
+    with_cell_file,
+)
 from vprobot.geometry import is_rotation_quaternion
 from vprobot.paths import (
     BUNDLED_EPISODE_LISTS,
@@ -34,7 +43,10 @@ from vprobot.splits import Split, split_file
 
 @dataclasses.dataclass(frozen=True)
 class CellConfig:
-    """The inspection cell: which robot, where its base is, where the motor sits.
+    """The inspection cell: the robot and where it stands, what else is in the cell, where the
+    part sits, where the robot starts, the safety margins and the programs' I/O
+    (docs/your-cell.md). A config names a cell file instead with `cell: NAME` (a bundled cell
+    of `configs/cells/` or a file's path).
 
     Attributes:
         robot: A bundled robot (`ur10`, `ur5`, `panda`) or the path of a robot folder (one
@@ -46,21 +58,43 @@ class CellConfig:
         robot_base_tilt_deg: Rotation of the robot base about its own y axis after the yaw:
             0 stands on the floor, 90 hangs on a wall, 180 hangs from the ceiling; None takes
             the robot's own.
-        object_center_m: Where the centre of the motor's bounding box is placed (world frame).
-            The fixture plate is raised to meet the underside of whatever object is placed.
+        robot_stand: Whether a column carries the base down to the floor (`true`, the bundled
+            cells) or the cell's static objects do (a table, say).
+        start_joints_rad: The configuration the robot starts from and every program first moves
+            to; None: the robot's `home`.
+        object_center_m: Where the centre of an episode's part (its bounding box) is placed
+            (world frame); episodes of training and evaluation turn the part about it at random.
+        part: The part as it really sits, which `vprobot plan` plans; None: the episode's part
+            (the bundled motor or `--mesh`) at `object_center_m` with a random pose.
+        fixture: `auto`: a 120 x 80 mm plate on a pedestal under the part; `none`: the static
+            objects hold it.
+        static_objects: The cell's static collision objects (table, fixture, guarding, walls).
+        safety: Clearance and joint-limit margins and the speed scale.
+        program: How the exported programs trigger the sensor and wait for it.
     """
 
     robot: str = "ur10"
     robot_base_position_m: Vec3 | None = None
     robot_base_yaw_deg: float | None = None
     robot_base_tilt_deg: float | None = None
+    robot_stand: bool = True
+    start_joints_rad: tuple[float, ...] | None = None
     object_center_m: Vec3 = (0.45, 0.0, 0.75)
+    part: PartConfig | None = None
+    fixture: Literal["auto", "none"] = "auto"
+    static_objects: tuple[StaticObject, ...] = ()
+    safety: SafetyConfig = dataclasses.field(default_factory=SafetyConfig)
+    program: ProgramConfig = dataclasses.field(default_factory=ProgramConfig)
 
     def __post_init__(self) -> None:
         try:
-            load_robot(self.robot)
+            robot = load_robot(self.robot)
         except ValueError as error:
             raise ConfigError(f"cell.robot: {error}") from None
+        if self.start_joints_rad is not None and len(self.start_joints_rad) != robot.dof:
+            raise ConfigError(f"cell.start_joints_rad has {len(self.start_joints_rad)} values; "
+                              f"robot {robot.name} has {robot.dof} joints")
+        check_static_objects(self.static_objects)
 
 
 def check_registered(name: str, registry: Registry[Any], key: str) -> None:
@@ -129,6 +163,13 @@ def check_sensor(resolution: tuple[int, int], fov_deg: tuple[float, float], near
                           f"({near_m:g}, {far_m:g}], got {working_distance_m:g}")
 
 
+DEFAULT_HOUSING = Solid(shape="box", size_m=(0.2, 0.06, 0.08), position_m=(0.0, 0.0, -0.04))
+"""The paper sensor's housing (an assumption: the paper gives none): 200 x 60 x 80 mm behind
+the optical centre."""
+MAX_PAYLOAD_KG = 35.0
+"""Heaviest sensor: above the payload of every arm vprobot bundles, and of most 6-axis cobots."""
+
+
 @dataclasses.dataclass(frozen=True)
 class SensorConfig:
     """The 3D sensor (paper Table 4) and how it is mounted on the flange.
@@ -148,6 +189,9 @@ class SensorConfig:
             noise, dropout); None where the sensor has none (the paper's).
         acquisition_time_s: How long the robot stands still at a view while the sensor
             acquires (s), a part of the cycle time (`vprobot.kinematics.trajectory`).
+        housing: The sensor's housing, a collision shape in the sensor frame (origin at the
+            optical centre, +z the viewing direction).
+        mass_kg: The sensor's mass with its mount, the payload the programs set.
     """
 
     resolution: tuple[int, int] = (430, 300)
@@ -160,8 +204,13 @@ class SensorConfig:
     sensing: str = "ideal"
     structured_light: StructuredLight | None = None
     acquisition_time_s: float = 0.5
+    housing: Solid = DEFAULT_HOUSING
+    mass_kg: float = 0.8
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.mass_kg <= MAX_PAYLOAD_KG:
+            raise ConfigError(f"sensor.mass_kg must lie in [0, {MAX_PAYLOAD_KG:g}] kg, got "
+                              f"{brief(self.mass_kg)}")
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
         check_sensing(self)
@@ -634,6 +683,6 @@ def load_config(path: str | Path | None = None) -> Config:
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: the top level must be a mapping of sections")
     try:
-        return from_mapping(Config, data)
+        return from_mapping(Config, with_cell_file(data, path))
     except ConfigError as error:
         raise ConfigError(f"{path}: {error}") from None

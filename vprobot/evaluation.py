@@ -12,15 +12,16 @@ views of an episode (`joint_time` s, `joint_path` rad, `cartesian` m, `paper` m;
 from the start to the first view is not counted, docs/states-actions-rewards.md#travel-costs),
 the fraction of requested views the robot reached, the cell's cycle time of the part (approach,
 moves, acquisitions and return home, docs/motion.md#cycle-time; robot only) and the planning time
-per episode. Beside the final figures, the coverage after each of the first 10 requests (the
-initial view included; an unreached request counts, since it costs a request) gives a curve per
-planner (`coverage_vs_views.png`), its area (the mean coverage over those 10 requests) and the
-number of requests at which the goal was reached. An episode that ended earlier keeps its final
-coverage for the remaining requests: the planner stopped there, so that is what it delivers with
-that many requests. An evaluation that runs `optimum` (the fewest views that reach the goal)
-beside the other planners compares each with it, episode by episode: the views above the
-optimum, the share of episodes within one view of it and the ratio of the cycle times
-(`versus_optimum`).
+per episode; the episode rows add the robot's least clearance to the cell's objects over its
+moves and whether every margin held. Beside the final figures, the coverage after each of the
+first 10 requests (the initial view included; an unreached request counts, since it costs a
+request) gives a curve per planner (`coverage_vs_views.png`), its area (the mean coverage over
+those 10 requests) and the number of requests at which the goal was reached. An episode that
+ended earlier keeps its final coverage for the remaining requests: the planner stopped there,
+so that is what it delivers with that many requests. An evaluation that runs `optimum` (the
+fewest views that reach the goal) beside the other planners compares each with it, episode by
+episode: the views above the optimum, the share of episodes within one view of it and the ratio
+of the cycle times (`versus_optimum`).
 """
 
 from __future__ import annotations
@@ -28,7 +29,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import functools
-import hashlib
 import itertools
 import json
 import statistics
@@ -57,6 +57,7 @@ from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
 from vprobot.files import (
     append_line,
     csv_text,
+    file_sha256,
     folder_lock,
     refuse_link,
     save_figure,
@@ -89,7 +90,8 @@ COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct",
 EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
                    "requested", "failed_requests", "success", "views_to_goal", "cycle_time_s",
                    "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct",
-                   "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS, *PROOF_COLUMNS)
+                   "min_clearance_mm", "clearance_held", "plan_s", "plan_ms_per_view",
+                   "episode_s", *CURVE_COLUMNS, *PROOF_COLUMNS)
 VERSUS_COLUMNS = ("episode", "planner", "carrier", "views_above_optimum", "cycle_ratio")
 """The per-episode comparison with `OPTIMUM` (`versus_optimum`)."""
 VERSUS_NAME = "evaluation_vs_optimum.csv"
@@ -155,6 +157,11 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "paper_m": travel.paper,
         "reachable_pct": (None if result.reachability is None
                           else 100.0 * result.reachability),
+        # The least distance to any object; whether each object's own margin held.
+        "min_clearance_mm": (None if not result.clearances
+                             else 1e3 * min(item.distance_m for item in result.clearances)),
+        "clearance_held": (None if not result.clearances
+                           else all(item.holds for item in result.clearances)),
         "plan_s": result.plan_seconds,
         "plan_ms_per_view": 1e3 * result.plan_seconds / max(result.requested, 1),
         "episode_s": result.episode_seconds,
@@ -329,7 +336,7 @@ def _typed(line: str) -> dict[str, Any] | None:
     for key, text in zip(EPISODE_COLUMNS, cells, strict=True):
         if key in _TEXT_COLUMNS:
             typed[key] = text
-        elif key == "success" or (key == "proven" and text):
+        elif key == "success" or (key in ("proven", "clearance_held") and text):
             if text not in ("True", "False"):
                 return None
             typed[key] = text == "True"
@@ -437,16 +444,6 @@ CONTENT = "sha256 of "
 """The settings' key of a file's content hash, before the file's path."""
 
 
-def _sha256(path: Path) -> str | None:
-    """The sha256 of a file's bytes; None if there is no such file (an estimator that no stop
-    rule reads need not exist)."""
-    try:
-        with path.open("rb") as stream:
-            return hashlib.file_digest(stream, "sha256").hexdigest()
-    except FileNotFoundError:
-        return None
-
-
 def _settings(config: Config, specs: Sequence[EpisodeSpec],
               estimator: str | Path | None) -> dict[str, Any]:
     """What an evaluation's rows depend on besides its episodes, planners and carriers, as
@@ -458,7 +455,7 @@ def _settings(config: Config, specs: Sequence[EpisodeSpec],
         files.append(Path(estimator))
     return {"config": config_document(config),
             "estimator": None if estimator is None else str(Path(estimator).resolve()),
-            "sha256": {str(file.resolve()): _sha256(file) for file in dict.fromkeys(files)}}
+            "sha256": {str(file.resolve()): file_sha256(file) for file in dict.fromkeys(files)}}
 
 
 def _flat_settings(settings: dict[str, Any]) -> dict[str, Any]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import errno
+import hashlib
 import io
 import os
 import re
@@ -359,3 +360,12 @@ def save_figure(figure: Any, path: str | Path, title: str) -> Path:
         figure.savefig(temporary, dpi=110)
     plt.close(figure)
     return path
+
+
+def file_sha256(path: Path) -> str | None:
+    """The sha256 of a file's bytes; None if there is no such file."""
+    try:
+        with path.open("rb") as stream:
+            return hashlib.file_digest(stream, "sha256").hexdigest()
+    except FileNotFoundError:
+        return None

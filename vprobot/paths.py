@@ -25,6 +25,8 @@ CONFIGS_DIR = PACKAGE_DIR / "configs"
 DEFAULT_CONFIG = CONFIGS_DIR / "default.yaml"
 SENSORS_DIR = CONFIGS_DIR / "sensors"
 """Sensor presets, one YAML file per device: `sensor: NAME` in a config, `--sensor NAME`."""
+CELLS_DIR = CONFIGS_DIR / "cells"
+"""Bundled cell files, one YAML file per cell: `cell: NAME` in a config, `--cell NAME`."""
 PROFILES_DIR = CONFIGS_DIR / "agents"
 """Agent profiles: the configs `vprobot train` and the studies start from."""
 EPISODES_DIR = CONFIGS_DIR / "episodes"
@@ -54,6 +56,11 @@ def available_robots() -> list[str]:
 def available_sensors() -> list[str]:
     """Names of the sensor presets in `configs/sensors/`, sorted."""
     return sorted(path.stem for path in SENSORS_DIR.glob("*.yaml"))
+
+
+def available_cells() -> list[str]:
+    """Names of the cell files in `configs/cells/`, sorted."""
+    return sorted(path.stem for path in CELLS_DIR.glob("*.yaml"))
 
 
 def names_a_path(text: str) -> bool:

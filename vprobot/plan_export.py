@@ -7,14 +7,17 @@ import json
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
+from vprobot.cell_config import Solid
+from vprobot.config import config_document
 from vprobot.episode import EpisodeRecord, MotorScene, timed_episode
-from vprobot.files import write_text
-from vprobot.geometry import Pose
+from vprobot.files import file_sha256, write_text
+from vprobot.geometry import Pose, quat_to_matrix
 from vprobot.kinematics import TravelCost
 from vprobot.robots import is_bundled
-from vprobot.scene import Cell
+from vprobot.scene import ENVIRONMENT_BIT, STATIC_PREFIX, Cell
 
 
 def view_entry(pose: Pose, joints: np.ndarray | None, reachable: bool | None,
@@ -70,8 +73,9 @@ def ground_truth_block(record: EpisodeRecord) -> dict[str, Any]:
 
 def robot_block(cell: Cell) -> dict[str, Any]:
     """The robot: name (and folder, for a robot that is not bundled), base pose, joint names,
-    the motion limits the plan was timed under and the sensor mount on the flange frame."""
-    base, mount = cell.robot_base, cell.sensor_mount
+    the motion limits the plan was timed under (at the cell's speed scale) and the sensor mount
+    on the flange frame."""
+    base, mount, limits = cell.robot_base, cell.sensor_mount, cell.motion_limits
     # Like the mesh, a robot folder is recorded absolute, so the plan replays from anywhere.
     folder = {} if is_bundled(cell.robot) else {"folder": str(cell.robot.folder.resolve())}
     return {
@@ -81,15 +85,80 @@ def robot_block(cell: Cell) -> dict[str, Any]:
         "base_quaternion": _floats(base.quaternion),
         "joint_names": list(cell.joints.names),
         "limits": {
-            "velocity_rad_s": list(cell.robot.velocity_limits_rad_s),
-            "acceleration_rad_s2": list(cell.robot.acceleration_limits_rad_s2),
-            "jerk_rad_s3": list(cell.robot.jerk_limits_rad_s3),
+            "velocity_rad_s": _floats(limits.velocity),
+            "acceleration_rad_s2": _floats(limits.acceleration),
+            "jerk_rad_s3": _floats(limits.jerk),
         },
         "sensor_mount": {
             "parent": cell.robot.flange,
             "position": _floats(mount.position),
             "quaternion": _floats(mount.quaternion),
         },
+    }
+
+
+def _solid_entry(solid: Solid, pose: Pose) -> dict[str, Any]:
+    """A shape as the plan writes it: its geometry and its pose in its parent frame."""
+    entry: dict[str, Any] = {"shape": solid.shape}
+    if solid.shape == "box":
+        entry["size_m"] = list(solid.size_m or ())
+    elif solid.shape == "cylinder":
+        entry.update(radius_m=solid.radius_m, length_m=solid.length_m)
+    else:
+        path = Path(solid.mesh or "").resolve()
+        entry.update(mesh=str(path), scale=solid.scale, sha256=file_sha256(path))
+    entry.update(position_m=_floats(pose.position), quaternion_wxyz=_floats(pose.quaternion))
+    return entry
+
+
+def _model_solid(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> dict[str, Any]:
+    """A box or cylinder geom of the compiled cell (the fixture, the robot's column) as a
+    world-frame shape."""
+    size = model.geom_size[geom]
+    if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_BOX:
+        solid = Solid(shape="box", size_m=(float(2 * size[0]), float(2 * size[1]),
+                                           float(2 * size[2])))
+    else:
+        solid = Solid(shape="cylinder", radius_m=float(size[0]), length_m=float(2 * size[1]))
+    pose = Pose(data.geom_xpos[geom].copy(), data.geom_xmat[geom].reshape(3, 3).copy())
+    return _solid_entry(solid, pose)
+
+
+def cell_block(cell: Cell, object_rotation: np.ndarray) -> dict[str, Any]:
+    """What a checker outside vprobot needs to rebuild the cell (docs/plan-format.md#cell): every
+    static collision object in the world frame (the cell file's, then the fixture and the
+    robot's column as placed), the sensor housing in the sensor frame, the payload, the
+    margins, the joint limits planned within, the start pose, the programs' I/O, and the
+    cell's settings as given (`settings`, which `vprobot check` rebuilds the cell from)."""
+    settings = cell.config.cell
+    data = cell.make_data()
+    cell.place_object(data, object_rotation)
+    objects = [{"name": item.name, **_solid_entry(item, item.pose)}
+               for item in settings.static_objects]
+    model = cell.model
+    for geom in range(model.ngeom):
+        name = model.geom(geom).name
+        body = model.geom_bodyid[geom]
+        if name.startswith(STATIC_PREFIX) or not model.geom_contype[geom] & ENVIRONMENT_BIT:
+            continue
+        # int(): a pybind11 enum is not equal to a NumPy integer, so `in` would never match.
+        if int(model.geom_type[geom]) in (mujoco.mjtGeom.mjGEOM_BOX,
+                                          mujoco.mjtGeom.mjGEOM_CYLINDER):
+            label = name or model.body(body).name
+            objects.append({"name": label, **_model_solid(model, data, geom)})
+    housing = cell.config.sensor.housing
+    return {
+        "static_objects": objects,
+        "floor_z_m": 0.0,
+        "housing": {"parent": "sensor", **_solid_entry(housing, housing.pose)},
+        "payload_kg": cell.config.sensor.mass_kg,
+        "tcp": "the sensor frame (robot.sensor_mount): the optical centre, +z viewing",
+        "safety": dataclasses.asdict(settings.safety),
+        "joint_limits_rad": {"lower": _floats(cell.joints.lower),
+                             "upper": _floats(cell.joints.upper)},
+        "start_joints": _floats(cell.joints.start),
+        "program": dataclasses.asdict(settings.program),
+        "settings": config_document(cell.config)["cell"],
     }
 
 
@@ -122,8 +191,11 @@ def plan_document(
         object_block: How the object's mesh file is placed in the world, when there is one.
         coverage: Final cumulative coverage, when known.
     """
+    rotation = (quat_to_matrix(object_block["quaternion"]) if object_block is not None
+                else np.eye(3))
     document: dict[str, Any] = {
         "object": object_block,
+        "cell": cell_block(cell, rotation),
         "robot": robot_block(cell),
         "sensor": sensor_block(cell),
         "views": views,

@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 import trimesh
 
+if TYPE_CHECKING:
+    from vprobot.kinematics.trajectory import MotionLimits
+
+from vprobot.cell_config import Solid
 from vprobot.config import Config
 from vprobot.geometry import (
     Pose,
@@ -17,9 +22,14 @@ from vprobot.geometry import (
     rotation_about_y,
     rotation_about_z,
 )
-from vprobot.mesh_loading import solid_problem
+from vprobot.mesh_loading import load_mesh, solid_problem
 from vprobot.robots import RobotDescription, load_robot
-from vprobot.robots.description import SENSOR_BODY, SENSOR_SITE, hangs_below
+from vprobot.robots.description import (
+    GEOM_GROUP_ROBOT,
+    SENSOR_BODY,
+    SENSOR_SITE,
+    hangs_below,
+)
 
 # Geom groups and collision bits of the bundled scenes (see scripts/convert_robots.py).
 GEOM_GROUP_OBJECT = 1
@@ -36,17 +46,23 @@ WALL_BRACKET_M = 0.3
 
 ROBOT_STAND_RADIUS_M = 0.09
 """Radius of the column under a raised robot base (about that of the UR10's base link)."""
+HOUSING_GEOM = "sensor_housing"
+"""The sensor housing's geom on the sensor body, made from `sensor.housing`."""
+FIXTURE_BODY = "fixture"
+STATIC_PREFIX = "static:"
+"""Prefix of the geom names of the cell's static objects (`static:table`)."""
 
 
 @dataclasses.dataclass(frozen=True)
 class JointSpace:
-    """The robot's joints: names, limits, velocity limits and the home configuration."""
+    """The robot's joints: names, limits (inside the cell's joint-limit margin), velocity limits
+    (at the cell's speed scale) and the start configuration."""
 
     names: tuple[str, ...]
     lower: np.ndarray
     upper: np.ndarray
     velocity_limits: np.ndarray
-    home: np.ndarray
+    start: np.ndarray
 
     @property
     def dof(self) -> int:
@@ -114,15 +130,27 @@ class Cell:
         base.pos = list(placement.position)
         base.quat = list(placement.quaternion)
         length = stand_length(placement)
-        if length > 0.0:
+        if length > 0.0 and config.cell.robot_stand:
             self._add_robot_stand(base, length)
         sensor = spec.body(SENSOR_BODY)
         sensor.pos = list(config.sensor.mount_position_m)
         sensor.quat = list(np.asarray(config.sensor.mount_quaternion_wxyz) /
                            np.linalg.norm(config.sensor.mount_quaternion_wxyz))
+        self._add_housing(spec, sensor, config.sensor.housing)
+        if config.cell.fixture == "none":
+            for geom in spec.body(FIXTURE_BODY).geoms:
+                spec.delete(geom)
+        for item in config.cell.static_objects:
+            _add_solid(spec, spec.worldbody, item, STATIC_PREFIX + item.name,
+                       [0.55, 0.57, 0.6, 1.0], group=0, contype=ENVIRONMENT_BIT,
+                       conaffinity=ROBOT_BIT)
+        # The base stands on a table or the floor, bolted down: its contact with them is no
+        # collision (the cell's own check refuses a base inside one).
+        spec.add_exclude(bodyname1="world", bodyname2=self.robot.base)
         self.object_vertices = np.zeros((0, 3))
         if object_mesh is not None:
             self._add_object(spec, object_mesh)
+        self._set_margins(spec)
         self.model = spec.compile()
         self._index_model()
         self.object_center = np.array(config.cell.object_center_m, dtype=float)
@@ -140,6 +168,27 @@ class Cell:
             contype=ENVIRONMENT_BIT,
             conaffinity=ROBOT_BIT,
         )
+
+    @staticmethod
+    def _add_housing(spec: mujoco.MjSpec, sensor: mujoco.MjsBody, housing: Solid) -> None:
+        """The housing of `sensor.housing` on the sensor body, in place of any the robot's MJCF
+        carries (robot folders imported before the housing was the sensor's)."""
+        for geom in sensor.geoms:
+            if geom.name == HOUSING_GEOM:
+                spec.delete(geom)
+        _add_solid(spec, sensor, housing, HOUSING_GEOM, [0.15, 0.15, 0.18, 1.0],
+                   group=GEOM_GROUP_ROBOT, contype=ROBOT_BIT,
+                   conaffinity=ROBOT_BIT | ENVIRONMENT_BIT)
+
+    def _set_margins(self, spec: mujoco.MjSpec) -> None:
+        """Every environment geom (static objects, fixture, column, floor) keeps the robot at
+        `safety.clearance_m`, the part at `safety.part_clearance_m`: MuJoCo then reports a
+        contact for any robot geom closer than that (`CollisionChecker`)."""
+        safety = self.config.cell.safety
+        for geom in spec.geoms:
+            if geom.contype & ENVIRONMENT_BIT:
+                geom.margin = (safety.part_clearance_m if geom.name == "object"
+                               else safety.clearance_m)
 
     def _add_object(self, spec: mujoco.MjSpec, mesh: trimesh.Trimesh) -> None:
         if len(mesh.faces) == 0:
@@ -177,12 +226,20 @@ class Cell:
             raise ValueError(f"robot {self.robot.name}: qpos must hold the arm's "
                              f"{len(joint_ids)} joints only, found nq={model.nq}")
         names = tuple(model.joint(j).name for j in joint_ids)
+        safety = self.config.cell.safety
+        # The joint-limit margin narrows the compiled ranges themselves, so that the IK (mink
+        # reads jnt_range), the path planner and the replay check all keep it.
+        margin = np.deg2rad(safety.joint_limit_margin_deg)
+        limited = np.array(joint_ids)[model.jnt_limited[joint_ids].astype(bool)]
+        model.jnt_range[limited, 0] += margin
+        model.jnt_range[limited, 1] -= margin
+        start = self.config.cell.start_joints_rad
         self.joints = JointSpace(
             names=names,
             lower=model.jnt_range[joint_ids, 0].copy(),
             upper=model.jnt_range[joint_ids, 1].copy(),
-            velocity_limits=np.array(self.robot.velocity_limits_rad_s),
-            home=np.array(self.robot.home),
+            velocity_limits=self.motion_limits.velocity,
+            start=np.array(self.robot.home if start is None else start, dtype=float),
         )
         self.pan_index = names.index(self.robot.pan_joint)
         self.roll_index = names.index(self.robot.roll_joint)
@@ -204,6 +261,18 @@ class Cell:
         )
 
     @property
+    def motion_limits(self) -> MotionLimits:
+        """The robot's motion limits at the cell's speed scale s: velocity times s, acceleration
+        times s^2, jerk times s^3, which times the same paths 1/s slower."""
+        # Imported here: the kinematics package builds on the cell.
+        from vprobot.kinematics.trajectory import MotionLimits
+
+        scale = self.config.cell.safety.speed_scale
+        robot = MotionLimits.of(self.robot)
+        return MotionLimits(robot.velocity * scale, robot.acceleration * scale ** 2,
+                            robot.jerk * scale ** 3)
+
+    @property
     def has_object(self) -> bool:
         return len(self.object_vertices) > 0
 
@@ -221,9 +290,10 @@ class Cell:
         return Pose(self.model.body_pos[base].copy(), quat_to_matrix(self.model.body_quat[base]))
 
     def make_data(self) -> mujoco.MjData:
-        """A fresh MjData at `home` with the object placed upright at the configured centre."""
+        """A fresh MjData at the start configuration with the object placed upright at the
+        configured centre."""
         data = mujoco.MjData(self.model)
-        data.qpos[:] = self.joints.home
+        data.qpos[:] = self.joints.start
         self.place_object(data, np.eye(3))
         return data
 
@@ -244,3 +314,27 @@ class Cell:
         data.mocap_quat[self.fixture_mocap_id] = [1.0, 0.0, 0.0, 0.0]
         mujoco.mj_kinematics(self.model, data)
         return pose
+
+
+def _add_solid(spec: mujoco.MjSpec, body: mujoco.MjsBody, solid: Solid, name: str,
+               rgba: list[float], group: int, contype: int, conaffinity: int) -> None:
+    """Add `solid` to `body` as a geom (a mesh as a mesh asset of the same name)."""
+    pose = solid.pose
+    geom = body.add_geom(name=name, pos=list(pose.position), quat=list(pose.quaternion),
+                         rgba=rgba, group=group, contype=contype, conaffinity=conaffinity)
+    if solid.shape == "box":
+        geom.type = mujoco.mjtGeom.mjGEOM_BOX
+        geom.size = [extent / 2.0 for extent in solid.size_m or ()]
+    elif solid.shape == "cylinder":
+        geom.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+        geom.size = [solid.radius_m or 0.0, (solid.length_m or 0.0) / 2.0, 0.0]
+    else:
+        # The file's own origin is the shape's origin: no centring, unlike a part.
+        loaded = load_mesh(solid.mesh or "", solid.scale)
+        vertices = np.asarray(loaded.mesh.vertices) + loaded.offset
+        asset = spec.add_mesh(name=name, uservert=vertices.astype(np.float32).ravel().tolist(),
+                              userface=np.asarray(loaded.mesh.faces,
+                                                  dtype=np.int32).ravel().tolist())
+        asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+        geom.type = mujoco.mjtGeom.mjGEOM_MESH
+        geom.meshname = name

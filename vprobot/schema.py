@@ -180,7 +180,9 @@ def _convert(value: Any, annotation: Any, key: str) -> Any:
     if origin is tuple:
         item_types = typing.get_args(annotation)
         if len(item_types) == 2 and item_types[1] is Ellipsis:
-            if not isinstance(value, list | tuple) or not value:
+            # A list of records (a cell's static objects) may be empty; a list of values not.
+            records = dataclasses.is_dataclass(item_types[0])
+            if not isinstance(value, list | tuple) or not (value or records):
                 raise ConfigError(f"{key} must be a non-empty list, got {brief(value)}")
             item_types = (item_types[0],) * len(value)
         if not isinstance(value, list | tuple) or len(value) != len(item_types):
@@ -242,4 +244,10 @@ def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
     prefix = f"{key}." if key else ""
     values = {name: _convert(resolvers[name](value, prefix + name), hints[name], prefix + name)
               for name, value in data.items()}
-    return cls(**values)
+    try:
+        return cls(**values)
+    except ConfigError as error:
+        # A record's own check knows its keys but not where the record sits in the file.
+        if not key or str(error).startswith(key):
+            raise
+        raise ConfigError(f"{key}: {error}") from None

@@ -289,7 +289,7 @@ class DepthSensor:
         """The sensor's own MjData with the object turned by `object_rotation` and the robot at
         `joints` (`home` when omitted)."""
         cell, data = self._cell, self._own_data
-        joints = cell.joints.home if joints is None else joints
+        joints = cell.joints.start if joints is None else joints
         # Placing the object costs more than the kinematics: redo it only when the pose changes.
         if self._placed is None or not np.array_equal(self._placed, object_rotation):
             data.qpos[:] = joints

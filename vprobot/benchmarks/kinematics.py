@@ -56,7 +56,7 @@ def run_kinematics_benchmark(
     for target in tqdm(_random_reachable_targets(arm, samples, seed=11), desc="IK",
                        disable=not progress, leave=False):
         start = time.perf_counter()
-        result = arm.reach(target, arm.joints.home)
+        result = arm.reach(target, arm.joints.start)
         ik_ms.append((time.perf_counter() - start) * 1e3)
         converged += result.reason not in UNSOLVED
 
@@ -67,7 +67,7 @@ def run_kinematics_benchmark(
         direction *= rng.uniform(2.0, 3.0) / np.linalg.norm(direction)
         position = arm.shoulder_position + direction
         start = time.perf_counter()
-        arm.reach(SensorTarget.look_at(position, arm.cell.object_center), arm.joints.home)
+        arm.reach(SensorTarget.look_at(position, arm.cell.object_center), arm.joints.start)
         far_ms.append((time.perf_counter() - start) * 1e3)
 
     surveys = {}

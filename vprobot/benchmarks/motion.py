@@ -57,7 +57,7 @@ def _random_view_moves(scene: MotorScene, count: int, seed: int) -> list[Move]:
     targets = view_sphere_targets(scene.cell)
     configurations = []
     for index in np.random.default_rng(seed).permutation(len(targets)):
-        result = arm.reach(targets[index], arm.joints.home)
+        result = arm.reach(targets[index], arm.joints.start)
         if result.reachable:
             configurations.append(result.q)
         if len(configurations) > count:

@@ -31,7 +31,7 @@ def _moving_configurations(scene: MotorScene, frames: int) -> np.ndarray:
     turn = np.zeros(joints.dof)
     turn[0], turn[1], turn[3] = 1.2, -0.4, 0.8
     fractions = np.linspace(0.0, 1.0, frames)[:, None]
-    return np.clip(joints.home + fractions * turn, joints.lower, joints.upper)
+    return np.clip(joints.start + fractions * turn, joints.lower, joints.upper)
 
 
 def measure_cell_fps(scene: MotorScene, frames: int) -> float:

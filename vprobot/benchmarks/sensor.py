@@ -57,7 +57,7 @@ def _random_reachable_views(arm: RobotArm, count: int, seed: int,
                                   np.sqrt(1 - z * z) * np.sin(azimuth), z])
             target = SensorTarget.look_at(center + rng.uniform(0.40, 0.50) * direction,
                                           center + rng.uniform(-0.02, 0.02, 3))
-            result = arm.reach(target, arm.joints.home)
+            result = arm.reach(target, arm.joints.start)
             if result.reachable:
                 configurations.append(result.q)
                 bar.update()

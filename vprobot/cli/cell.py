@@ -76,7 +76,7 @@ def command_reach(args: argparse.Namespace) -> int:
     cell = Cell(config_of(args))
     arm = RobotArm(cell)
     joints = cell.joints
-    q_from = joints.home
+    q_from = joints.start
     if args.from_joints is not None:
         q_from = joints.check(args.from_joints, "--from-joints")
         if not joints.within_limits(q_from):

@@ -10,9 +10,10 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from vprobot.paths import available_robots, available_sensors
+from vprobot.paths import DEFAULT_CONFIG, available_cells, available_robots, available_sensors
 
 if TYPE_CHECKING:
     from vprobot.config import Config
@@ -55,19 +56,56 @@ class Parser(argparse.ArgumentParser):
 
 
 def config_of(args: argparse.Namespace) -> Config:
-    """The config file (or the default), with `--robot`, `--sensor` and `--sensing` applied
-    when given."""
+    """The config file (or the default), with `--cell`, `--robot`, `--sensor` and `--sensing`
+    applied when given, in that order."""
     from vprobot.config import load_config, replace
     from vprobot.robots import load_robot
 
     config = load_config(args.config)
+    if getattr(args, "cell", None):
+        config = cell_option(config, args.cell)
     if getattr(args, "robot", None):
         try:
             load_robot(args.robot)
         except ValueError as error:  # named as the user gave it, not as the config key
             raise ValueError(f"--robot: {error}") from None
-        config = replace(config, "cell", robot=args.robot)
+        try:
+            config = replace(config, "cell", robot=args.robot)
+        except ValueError as error:  # the robot does not fit the cell (its start pose)
+            raise ValueError(f"--robot: {error}") from None
     return sensor_option(config, args)
+
+
+def cell_option(config: Config, name: str) -> Config:
+    """`config` with the cell file `name` (a bundled cell or a path) in place of its `cell` and
+    `sensor` sections (a section the file leaves out takes the defaults)."""
+    from vprobot.cell_config import cell_file, read_cell_file
+    from vprobot.config import Config, config_document
+    from vprobot.schema import from_mapping
+
+    try:
+        path = cell_file(name)
+        sections = read_cell_file(path)
+    except ValueError as error:  # these name the file already
+        raise ValueError(f"--cell: {error}") from None
+    try:
+        return from_mapping(Config, {**config_document(config), "cell": sections.get("cell", {}),
+                                     "sensor": sections.get("sensor", {})})
+    except ValueError as error:
+        raise ValueError(f"--cell: {path}: {error}") from None
+
+
+def cell_source(args: argparse.Namespace) -> Path:
+    """The file the cell of `config_of(args)` comes from, for messages: `--cell`'s, else the
+    cell file the config names (`cell: NAME`), else the config file (or the default)."""
+    from vprobot.cell_config import cell_file
+    from vprobot.schema import read_yaml
+
+    if getattr(args, "cell", None):
+        return cell_file(args.cell)
+    config = Path(args.config) if args.config else DEFAULT_CONFIG
+    named = (read_yaml(config) or {}).get("cell")
+    return cell_file(named) if isinstance(named, str) else config
 
 
 def sensor_option(config: Config, args: argparse.Namespace) -> Config:
@@ -152,7 +190,11 @@ def add(commands: Commands, name: str, handler: Handler, help_text: str,
 
 
 def add_robot(sub: argparse.ArgumentParser) -> None:
-    """`--robot` and the sensor options."""
+    """`--cell`, `--robot` and the sensor options."""
+    sub.add_argument("--cell", metavar="CELL",
+                     help=f"cell file to use instead of the config's cell and sensor sections "
+                     f"(docs/your-cell.md): {', '.join(available_cells())} (configs/cells/) or "
+                     f"a cell file's path; --robot, --sensor and --sensing then change it")
     sub.add_argument("--robot", metavar="ROBOT",
                      help=f"robot to use instead of the config's: "
                           f"{', '.join(available_robots())} or a robot folder")

@@ -12,7 +12,8 @@ from vprobot.outputs import check_output_file
 
 def add_export(commands: Commands) -> None:
     export = add(commands, "export", command_export, "Write a plan's motion for a cell: a "
-                 "sampled trajectory (JSON, CSV), a URScript program or a ROS 2 JointTrajectory.",
+                 "sampled trajectory (JSON, CSV), a URScript program, a ROS 2 "
+                 "FollowJointTrajectory goal or its acquisitions.",
                  config=False)
     export.add_argument("plan", help="plan JSON of `vprobot plan --out` (docs/plan-format.md)")
     export.add_argument("--format", required=True, type=_format_name,
@@ -53,7 +54,8 @@ def add_check(commands: Commands) -> None:
 
 
 def command_export(args: argparse.Namespace) -> int:
-    """Write a plan's motion as a trajectory, a CSV, a URScript program or a ROS 2 message."""
+    """Write a plan's motion as a trajectory, a CSV, a URScript program, a ROS 2 goal or the
+    acquisitions."""
     from vprobot.export.formats import FORMATS, export_plan_file
     from vprobot.files import write_text
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +18,7 @@ from vprobot.cli.common import (
     add,
     add_robot,
     add_stop,
+    cell_source,
     config_of,
     number,
     planner_name,
@@ -77,6 +80,9 @@ def add_plan(commands: Commands) -> None:
     _add_planning(plan)
     plan.add_argument("--out", required=True, help="plan JSON to write")
     plan.add_argument("--video", help="also render the rollout to this .mp4 or .gif")
+    plan.add_argument("--picture", help="also write a still of the cell to this .png: the robot "
+                      "at its start pose, the part placed, static objects see-through "
+                      "(docs/your-cell.md)")
     plan.add_argument("--no-timing", action="store_true",
                       help="leave the timing block out of the plan JSON, so that the same "
                       "inputs give the same file byte for byte")
@@ -137,10 +143,12 @@ def command_plan(args: argparse.Namespace) -> int:
 
     check_output_file(args.out, "--out", (".json",))
     _check_render_outputs(args, args.video, "--video")
+    check_output_file(args.picture, "--picture", (".png",))
     options = _planning(args)
-    with showing_progress():
+    config = config_of(args)
+    with showing_progress(), _naming_the_cell(args):
         scene, record, document, summary = plan_motor(
-            config_of(args), options["mesh"], options["scale"], options["planner"],
+            config, options["mesh"], options["scale"], options["planner"],
             options["views"], options["carrier"], options["seed"], options["stop"],
             options["estimator"])
     if args.no_timing:
@@ -148,6 +156,10 @@ def command_plan(args: argparse.Namespace) -> int:
     print(summary)
     print(f"wrote {write_json(args.out, document)}")
     _render_outputs(args, scene, record, args.video)
+    if args.picture:
+        from vprobot.render.picture import render_cell_picture
+
+        print(f"wrote {render_cell_picture(scene, record, args.picture)}")
     return 0
 
 
@@ -160,7 +172,8 @@ def command_render(args: argparse.Namespace) -> int:
     _check_render_outputs(args, args.out, "--out")
     config = config_of(args)
     if args.plan:
-        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "robot", "sensor", "sensing")
+        given = [f"--{name}" for name in (*PLANNING_OPTIONS, "cell", "robot", "sensor",
+                                          "sensing")
                  if getattr(args, name) is not None]
         if given:
             raise ValueError(f"--plan replays a stored plan, which fixes the mesh, pose, robot, "
@@ -170,7 +183,7 @@ def command_render(args: argparse.Namespace) -> int:
             scene, record = episode_from_plan(config, args.plan)
     else:
         options = _planning(args)
-        with showing_progress():
+        with showing_progress(), _naming_the_cell(args):
             scene, record, _, summary = plan_motor(
                 config, options["mesh"], options["scale"], options["planner"],
                 options["views"], options["carrier"], options["seed"], options["stop"],
@@ -178,6 +191,18 @@ def command_render(args: argparse.Namespace) -> int:
         print(summary)
     _render_outputs(args, scene, record, args.out)
     return 0
+
+
+@contextlib.contextmanager
+def _naming_the_cell(args: argparse.Namespace) -> Iterator[None]:
+    """A cell that fails its own check (`vprobot.cell_check`) is reported with the file it
+    came from: the cell's message names the key, this the file."""
+    from vprobot.cell_check import CellError
+
+    try:
+        yield
+    except CellError as error:
+        raise CellError(f"{cell_source(args)}: {error}") from None
 
 
 def _check_render_outputs(args: argparse.Namespace, video: str | None, option: str) -> None:

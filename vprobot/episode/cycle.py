@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.episode.records import EpisodeRecord
-from vprobot.kinematics.trajectory import CycleTime, MotionLimits, TimedPlan, time_plan
+from vprobot.kinematics.trajectory import CycleTime, TimedPlan, time_plan
 from vprobot.scene import Cell
 
 
@@ -31,7 +31,7 @@ def timed_episode(record: EpisodeRecord, cell: Cell) -> TimedPlan | None:
     moves = episode_moves(record)
     if moves is None:
         return None
-    return time_plan(moves, MotionLimits.of(cell.robot), cell.config.sensor.acquisition_time_s,
+    return time_plan(moves, cell.motion_limits, cell.config.sensor.acquisition_time_s,
                      cell.joints.names)
 
 

@@ -73,7 +73,7 @@ class Episode:
         self.object_pose = self.carrier.object_pose
         self.tracker = CoverageTracker.from_ground_truth(scene.ground_truth)
         joints = scene.cell.joints
-        self.start_joints = joints.home.copy() if start_joints is None else joints.check(
+        self.start_joints = joints.start.copy() if start_joints is None else joints.check(
             start_joints, "start_joints")
         self.q = self.start_joints.copy()
         self.shared.bind(scene, self.object_pose.rotation, carrier, self.start_joints)

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from vprobot.cell_check import Clearance, clearances
 from vprobot.config import Config
 from vprobot.export import CHECK_DT_S
 from vprobot.export.motion import PlanMotion, plan_motion, require_robot
@@ -20,8 +21,8 @@ from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
 from vprobot.kinematics.motion_planner import densify
 from vprobot.kinematics.trajectory import MotionLimits, Trajectory
-from vprobot.render.replay import plan_number, plan_object, read_plan
-from vprobot.scene import Cell
+from vprobot.render.replay import plan_array, plan_field, plan_number, plan_object, read_plan
+from vprobot.scene import Cell, JointSpace
 from vprobot.schema import brief
 
 POSITION_TOLERANCE_M = 1e-4
@@ -50,6 +51,8 @@ class PlanCheck:
         peak_share: Per derivative, the largest share of a joint's limit used (1 = at it).
         pose_error_mm: Largest sensor position error at an acquisition (mm).
         pose_error_deg: Largest sensor orientation error at an acquisition (deg).
+        clearances: Per object of the cell, the least distance from the robot (sensor housing
+            included) over the samples and the dense configurations, and its margin.
         failures: What does not hold, one line each; empty when the plan passes.
     """
 
@@ -60,6 +63,7 @@ class PlanCheck:
     peak_share: dict[str, float]
     pose_error_mm: float
     pose_error_deg: float
+    clearances: tuple[Clearance, ...]
     failures: tuple[str, ...]
 
     @property
@@ -75,6 +79,10 @@ class PlanCheck:
                  f"  peak share of the limits: {shares}",
                  f"  sensor at the acquisitions: within {self.pose_error_mm:.2g} mm / "
                  f"{self.pose_error_deg:.2g} deg of the plan's views",
+                 "  least clearance from the robot and its sensor housing:",
+                 *(f"    {item.name}: {item.distance_m * 1e3:.1f} mm, margin "
+                   f"{item.margin_m * 1e3:g} mm, {'ok' if item.holds else 'FAILS'}"
+                   for item in self.clearances),
                  "  check holds" if self.holds else f"  check FAILED ({len(self.failures)}):",
                  *(f"  - {failure}" for failure in self.failures)]
         return "\n".join(lines)
@@ -137,6 +145,25 @@ def declared_limit_failures(declared: MotionLimits, robot: MotionLimits,
     return failures
 
 
+def joint_range_failures(document: dict[str, Any], joints: JointSpace) -> list[str]:
+    """A line when the joint limits the plan states it was planned within
+    (`cell.joint_limits_rad`) differ from the rebuilt cell's (its robot's less the cell's
+    joint-limit margin), which the samples are held to; none for a plan without a cell block."""
+    block = document.get("cell")
+    if block is None:
+        return []
+    limits = plan_field(block, "joint_limits_rad", "cell")
+    stated = [plan_array(plan_field(limits, key, "cell.joint_limits_rad"),
+                         f"cell.joint_limits_rad.{key}", (joints.dof,))
+              for key in ("lower", "upper")]
+    if all(np.allclose(plan, own, rtol=0.0, atol=1e-9)
+           for plan, own in zip(stated, (joints.lower, joints.upper), strict=True)):
+        return []
+    return [f"joint limits: the plan states cell.joint_limits_rad {np.round(stated, 4).tolist()}"
+            f", the cell rebuilt from its settings has {np.round(joints.lower, 4).tolist()} .. "
+            f"{np.round(joints.upper, 4).tolist()} rad"]
+
+
 def _stated_cycle_s(document: dict[str, Any]) -> float | None:
     """The plan's `cycle_time.total_s`, None when the plan states no cycle time."""
     cycle = document.get("cycle_time")
@@ -156,24 +183,30 @@ def _cell(config: Config, document: dict, plan_path: Path) -> tuple[Cell, np.nda
 
 
 def _collision_failures(cell: Cell, rotation: np.ndarray, motion: PlanMotion,
-                        samples: Trajectory, step_rad: float) -> tuple[int, list[str]]:
-    """Collisions at every sample and along every straight segment at `step_rad`."""
+                        samples: Trajectory, step_rad: float
+                        ) -> tuple[int, list[Clearance], list[str]]:
+    """Collisions (closer than a margin) at every sample and along every straight segment at
+    `step_rad`, and the least clearance to each object over all of them."""
     checker = CollisionChecker(cell, rotation)
     failures = []
     hit = checker.first_collision(samples.positions)
     if hit is not None:
         failures.append(f"collision at t={samples.times[hit]:.4f} s (sample {hit}): "
                         f"{_pairs(checker, samples.positions[hit])}")
-    dense = 0
-    for index, move in enumerate(motion.moves):
-        path = densify(move, step_rad)
-        dense += len(path)
+    paths = [densify(move, step_rad) for move in motion.moves]
+    for index, path in enumerate(paths):
         hit = checker.first_collision(path)
         if hit is not None:
             failures.append(f"collision on move {index} ({_move_name(index, motion)}) at "
                             f"{np.round(path[hit], 4).tolist()}: "
                             f"{_pairs(checker, path[hit])}")
-    return dense, failures
+    data = cell.make_data()
+    cell.place_object(data, rotation)
+    least = clearances(cell, data, np.concatenate([samples.positions, *paths]))
+    failures += [f"clearance: the robot comes {item.distance_m * 1e3:.1f} mm from {item.name}, "
+                 f"within its margin of {item.margin_m * 1e3:g} mm (cell.safety)"
+                 for item in least if not item.holds]
+    return sum(len(path) for path in paths), least, failures
 
 
 def _pairs(checker: CollisionChecker, q: np.ndarray) -> str:
@@ -216,9 +249,10 @@ def check_plan(config: Config, plan_path: str | Path, dt: float = CHECK_DT_S) ->
     samples = motion.timed.sample(dt)
     cell, rotation = _cell(config, document, plan_path)
     require_robot(motion, cell.robot.name, cell.joints.names)
-    dense, failures = _collision_failures(cell, rotation, motion, samples,
-                                          cell.config.kinematics.path_max_joint_step_rad)
+    dense, least, failures = _collision_failures(
+        cell, rotation, motion, samples, cell.config.kinematics.path_max_joint_step_rad)
     joints = cell.joints
+    failures += joint_range_failures(document, joints)
     outside = np.argwhere(~((samples.positions >= joints.lower - 1e-9)
                             & (samples.positions <= joints.upper + 1e-9)))  # NaN fails too
     if len(outside):
@@ -226,7 +260,7 @@ def check_plan(config: Config, plan_path: str | Path, dt: float = CHECK_DT_S) ->
         failures.append(f"joint limit exceeded at t={samples.times[row]:.4f} s (sample {row}): "
                         f"{joints.names[joint]} {samples.positions[row, joint]:.4f} outside "
                         f"{joints.lower[joint]:.4f} .. {joints.upper[joint]:.4f} rad")
-    robot_limits = MotionLimits.of(cell.robot)
+    robot_limits = cell.motion_limits
     failures += declared_limit_failures(motion.limits, robot_limits, motion.joint_names)
     shares, exceeded = limit_failures(samples, robot_limits)
     failures += exceeded
@@ -247,4 +281,4 @@ def check_plan(config: Config, plan_path: str | Path, dt: float = CHECK_DT_S) ->
         failures.append(f"cycle time {motion.timed.cycle.total_s:.6f} s replayed, the plan "
                         f"states {stated}")
     return PlanCheck(len(samples.times), dt, motion.timed.cycle.total_s, dense, shares,
-                     position_mm, angle_deg, tuple(failures))
+                     position_mm, angle_deg, tuple(least), tuple(failures))

@@ -1,9 +1,10 @@
 """A plan JSON's motion, timed: what every export format writes and the replay check replays.
 
 Everything comes from the plan alone (docs/plan-format.md): the corners of every move, the
-return, the robot's limits and the sensor's acquisition time; the time law is
-`vprobot.kinematics.trajectory.time_plan` (docs/motion.md#the-time-law), the one that gave the
-plan's `cycle_time`.
+return, the robot's limits and the sensor's acquisition time, and for the programs the robot's
+base, the sensor mount, the payload and the program's I/O (the plan's `cell` block); the time
+law is `vprobot.kinematics.trajectory.time_plan` (docs/motion.md#the-time-law), the one that
+gave the plan's `cycle_time`.
 """
 
 from __future__ import annotations
@@ -15,9 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from vprobot.cell_config import ProgramConfig
+from vprobot.config import SensorConfig
+from vprobot.geometry import Pose, quat_to_matrix
 from vprobot.kinematics.trajectory import MotionLimits, TimedPlan, time_plan
 from vprobot.render.replay import plan_array, plan_number, plan_quaternion
-from vprobot.schema import brief
+from vprobot.schema import ConfigError, brief, from_mapping
 
 UR_ROBOT = re.compile(r"ur\d+e?", re.IGNORECASE)
 """Names of Universal Robots arms, the robots a URScript program runs on (ur5, ur10, ur10e...)."""
@@ -48,6 +52,31 @@ class ViewStop:
 
 
 @dataclasses.dataclass(frozen=True)
+class ProgramCell:
+    """What a robot program needs of the cell beyond the motion.
+
+    Attributes:
+        base: The robot's base body in the world (the plan's `robot.base_position`,
+            `base_quaternion`).
+        mount: The sensor frame, the program's TCP, in the flange frame (`robot.sensor_mount`).
+        payload_kg: The sensor's mass (`cell.payload_kg`).
+        payload_center: Where its centre of gravity is taken to be: the housing's centre
+            (`cell.housing`) in the flange frame (m), an estimate.
+        io: How the program triggers the sensor and waits for it, and the ROS 2 tolerances
+            (`cell.program`).
+        from_plan: False for a plan written before the `cell` block existed, whose payload and
+            I/O are then the defaults (`SensorConfig`, `ProgramConfig`).
+    """
+
+    base: Pose
+    mount: Pose
+    payload_kg: float
+    payload_center: np.ndarray
+    io: ProgramConfig
+    from_plan: bool
+
+
+@dataclasses.dataclass(frozen=True)
 class PlanMotion:
     """A plan's cycle, timed.
 
@@ -59,6 +88,7 @@ class PlanMotion:
         stops: The acquisitions, one per move but the return, in view order.
         acquisition_time_s: How long the robot stands at each view (the plan's sensor's).
         timed: The moves timed, stopping `acquisition_time_s` at every view.
+        cell: What the programs need of the cell.
     """
 
     robot: str
@@ -67,6 +97,7 @@ class PlanMotion:
     stops: tuple[ViewStop, ...]
     acquisition_time_s: float
     timed: TimedPlan
+    cell: ProgramCell
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -90,6 +121,44 @@ def _limits(robot: dict[str, Any], dof: int) -> MotionLimits:
     return MotionLimits(*arrays)
 
 
+def _pose(block: Any, position_key: str, quaternion_key: str, where: str) -> Pose:
+    position = block.get(position_key) if isinstance(block, dict) else None
+    return Pose(plan_array(position, f"{where}.{position_key}", (3,)),
+                quat_to_matrix(plan_quaternion(block, quaternion_key, where)))
+
+
+def program_cell(document: dict[str, Any]) -> ProgramCell:
+    """The cell as the programs need it, from the plan's `robot` and `cell` blocks; a plan
+    without a `cell` block (written before it existed) takes the default sensor's payload and
+    the default I/O, which are the cell it was planned in.
+
+    Raises:
+        ValueError: Naming a malformed field.
+    """
+    robot = document["robot"]
+    base = _pose(robot, "base_position", "base_quaternion", "robot")
+    mount = _pose(robot.get("sensor_mount"), "position", "quaternion", "robot.sensor_mount")
+    cell = document.get("cell")
+    if cell is None:
+        sensor = SensorConfig()
+        payload_kg, housing, io = (sensor.mass_kg, np.array(sensor.housing.position_m),
+                                   ProgramConfig())
+    else:
+        if not isinstance(cell, dict) or not isinstance(cell.get("program"), dict):
+            raise ValueError(f"plan cell must be an object with a program object, got "
+                             f"{brief(cell)}")
+        payload_kg = plan_number(cell.get("payload_kg"), "cell.payload_kg")
+        block = cell.get("housing")
+        housing = plan_array(block.get("position_m") if isinstance(block, dict) else None,
+                             "cell.housing.position_m", (3,))
+        try:
+            io = from_mapping(ProgramConfig, cell["program"], "cell.program")
+        except ConfigError as error:
+            raise ValueError(f"plan {error}") from None
+    return ProgramCell(base, mount, payload_kg, mount.position + mount.rotation @ housing, io,
+                       from_plan=cell is not None)
+
+
 def check_name(name: Any, where: str) -> str:
     """`name` if it is a robot or joint name (`NAME`), else a ValueError naming the plan's
     field `where`: every export format writes names as they are, in comments too."""
@@ -110,7 +179,7 @@ def plan_motion(document: dict[str, Any]) -> PlanMotion:
         ValueError: For a free-flying plan (no robot program), a plan without the moves'
             corners (written before export existed), without an acquisition or without a way
             back to the start, with a view's joints not where its move ends, or with malformed
-            fields.
+            fields (the `cell` block's too: `program_cell`).
     """
     if document.get("carrier", "robot") != "robot":
         raise ValueError(f"the plan's carrier is {document.get('carrier')!r}: a free-flying "
@@ -150,7 +219,8 @@ def plan_motion(document: dict[str, Any]) -> PlanMotion:
         raise ValueError("plan has no sensor.acquisition_time_s")
     acquisition_time_s = plan_number(sensor["acquisition_time_s"], "sensor.acquisition_time_s")
     timed = time_plan(moves, limits, acquisition_time_s, names)
-    return PlanMotion(name, limits, tuple(moves), tuple(stops), acquisition_time_s, timed)
+    return PlanMotion(name, limits, tuple(moves), tuple(stops), acquisition_time_s, timed,
+                      program_cell(document))
 
 
 def require_robot(motion: PlanMotion, robot: str, joint_names: Sequence[str]) -> None:

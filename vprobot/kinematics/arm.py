@@ -24,7 +24,7 @@ from vprobot.kinematics.ik import (
 )
 from vprobot.kinematics.motion_planner import MotionPlan, MotionPlanner
 from vprobot.kinematics.path import joint_path
-from vprobot.kinematics.trajectory import MotionLimits, time_segment
+from vprobot.kinematics.trajectory import time_segment
 from vprobot.kinematics.travel import (
     TravelCost,
     joint_path_length,
@@ -110,11 +110,11 @@ class RobotArm:
         self.joints = cell.joints
         self.forward = ForwardKinematics(cell)
         self.collisions = CollisionChecker(cell)
-        self.limits = MotionLimits.of(cell.robot)
+        self.limits = cell.motion_limits
         self.ik = IKSolver(cell, self.settings)
         self.reach_radius_m = self._reach_radius()
         # The pan joint's body frame lies on the pan axis, whatever the other joints do.
-        self.shoulder_position = self.forward.body_position(cell.pan_body_id, self.joints.home)
+        self.shoulder_position = self.forward.body_position(cell.pan_body_id, self.joints.start)
         self._pan_frame = self._pan_axis_frame()
         self.restart_seeds = self._restart_seeds()
         self._seed_azimuths = np.array([self._azimuth(self.fk(q).position)
@@ -128,7 +128,7 @@ class RobotArm:
         endless search.
         """
         rng = np.random.default_rng(self.settings.seed)
-        seeds = [self.joints.home.copy()]
+        seeds = [self.joints.start.copy()]
         for _ in range(MAX_SEED_DRAWS):
             if len(seeds) >= self.settings.restarts:
                 break

@@ -12,10 +12,11 @@ from vprobot.scene import Cell
 class CollisionChecker:
     """Finds contacts of robot links and sensor housing with the cell, the object and each other.
 
-    Adjacent links never count (MuJoCo filters parent-child contacts) and neither do the link
-    pairs the robot description excludes; environment geoms do not collide with each other by
-    their collision bits. A contact counts when its penetration exceeds `margin_m` (a negative
-    margin demands clearance).
+    Adjacent links never count, nor links in contact in every configuration: the robot's MJCF
+    excludes those pairs and no others, never the sensor (docs/cell-and-robots.md). Environment
+    geoms do not collide with each other by their collision bits. The cell gives every
+    environment geom its clearance as MuJoCo's geom margin (`Cell`, `cell.safety`): a robot geom
+    closer to it than that is a collision, as is any penetration between robot geoms.
 
     The checker owns its MjData: the object placement it checks against is its own state, set
     once per episode with `place_object`, and never shared with FK, the sensor or a renderer.
@@ -23,15 +24,12 @@ class CollisionChecker:
     Args:
         cell: The compiled cell.
         object_rotation: Rotation of the object about its centre (3x3); upright when omitted.
-        margin_m: Penetration depth tolerated before a contact counts as a collision.
     """
 
-    def __init__(self, cell: Cell, object_rotation: np.ndarray | None = None,
-                 margin_m: float = 0.0):
+    def __init__(self, cell: Cell, object_rotation: np.ndarray | None = None):
         self.cell = cell
         self.model = cell.model
         self.data = cell.make_data()
-        self.margin_m = margin_m
         self.object_pose = self.place_object(np.eye(3) if object_rotation is None
                                              else object_rotation)
 
@@ -50,7 +48,9 @@ class CollisionChecker:
         self._collide(q)
         count = self.data.ncon
         # The struct-array view is orders of magnitude faster than iterating MjContact objects.
-        return count > 0 and bool((self.data.contact.dist[:count] < -self.margin_m).any())
+        contacts = self.data.contact
+        return count > 0 and bool(
+            (contacts.dist[:count] < contacts.includemargin[:count]).any())
 
     def first_collision(self, path: np.ndarray) -> int | None:
         """Index of the first configuration on `path` (n, dof) in collision, or None."""
@@ -64,7 +64,7 @@ class CollisionChecker:
         self._collide(q)
         pairs = []
         for contact in self.data.contact[: self.data.ncon]:
-            if contact.dist < -self.margin_m:
+            if contact.dist < contact.includemargin:
                 body1 = self.model.body(self.model.geom_bodyid[contact.geom1]).name
                 body2 = self.model.body(self.model.geom_bodyid[contact.geom2]).name
                 pairs.append((body1, body2))

@@ -51,7 +51,7 @@ def view_sphere_survey(arm: RobotArm, targets: Sequence[SensorTarget],
     unreachable_ms: list[float] = []
     for target in tqdm(targets, desc=f"view sphere {label}", disable=not progress, leave=False):
         start = time.perf_counter()
-        result = arm.reach(target, arm.joints.home)
+        result = arm.reach(target, arm.joints.start)
         elapsed = (time.perf_counter() - start) * 1e3
         reachable.append(result.reachable)
         (reachable_ms if result.reachable else unreachable_ms).append(elapsed)

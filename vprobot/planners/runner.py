@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from vprobot.cell_check import Clearance, check_cell, episode_clearances, placed_part
 from vprobot.config import Config
 from vprobot.episode import (
     CARRIERS,
@@ -23,6 +24,7 @@ from vprobot.episode import (
     episode_cycle,
     seeded_episode,
 )
+from vprobot.geometry import matrix_to_quat
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.occupancy import GridSettings
@@ -136,6 +138,8 @@ class EpisodeResult:
             (NaN where it was refused).
         estimate_notes: Why the estimate was refused, widened or kept, each once.
         proof: What an exact planner (`optimum`) proved of its plan; None for the others.
+        clearances: The least distance from the robot to each object of the cell over the
+            moves it made (`episode_clearances`); None when it made none.
     """
 
     planner: str
@@ -153,6 +157,7 @@ class EpisodeResult:
     estimates: np.ndarray | None = None
     estimate_notes: tuple[str, ...] = ()
     proof: Proof | None = None
+    clearances: tuple[Clearance, ...] | None = None
 
     @property
     def mesh(self) -> str:
@@ -311,7 +316,8 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
                          cycle=episode_cycle(played.record, scene.cell),
                          candidates=chosen.candidates, stop_reason=played.stop_reason,
                          stop_rule=stop, planner_stopped=played.planner_stopped,
-                         estimates=estimated, estimate_notes=tuple(notes), proof=chosen.proof)
+                         estimates=estimated, estimate_notes=tuple(notes), proof=chosen.proof,
+                         clearances=episode_clearances(played.record, scene.cell))
 
 
 def summary(result: EpisodeResult, config: Config) -> str:
@@ -383,7 +389,8 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
 
     Args:
         config: The configuration (cell, sensor, kinematics, env goal and budget).
-        mesh_path: Mesh file; the bundled default motor when omitted.
+        mesh_path: Mesh file; the cell's part (`cell.part`, at its pose), else the bundled
+            default motor, when omitted.
         scale: Factor from the file's units to metres (0.001 for millimetres).
         planner: A planner name (`planner_names`).
         views: Fixed number of views for bscp; None plans until the coverage goal.
@@ -401,9 +408,24 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
         FileNotFoundError, ValueError: For a missing or unusable mesh, an unknown planner, or
             `views` with a planner other than bscp, a bad stop rule or estimator.
     """
-    mesh_path = mesh_path if mesh_path is not None else DEFAULT_MOTOR
-    scene = MotorScene.load(config, mesh_path, scale, scale_option="--scale")
-    spec = seeded_episode(config.env, mesh_path, seed, scale)
+    part = config.cell.part
+    if part is not None:
+        if mesh_path is not None:
+            raise ValueError(f"--mesh {mesh_path} and the cell's part {part.mesh}: the cell "
+                             f"places its part, so give one or the other")
+        config, mesh = placed_part(config)
+        mesh_path, scale = part.mesh, part.scale
+        scene = MotorScene.build(config, mesh, scale_option="cell.part.scale")
+        spec = dataclasses.replace(seeded_episode(config.env, mesh_path, seed, scale),
+                                   object_quaternion=tuple(matrix_to_quat(part.rotation)))
+    else:
+        mesh_path = mesh_path if mesh_path is not None else DEFAULT_MOTOR
+        scene = MotorScene.load(config, mesh_path, scale, scale_option="--scale")
+        spec = seeded_episode(config.env, mesh_path, seed, scale)
+    # Nothing is planned in a cell that fails its own check.
+    data = scene.cell.make_data()
+    scene.cell.place_object(data, spec.rotation)
+    check_cell(scene.cell, data)
     result = run(config, scene, planner, spec, carrier, views, stop, estimator, estimates=True)
     if result.stop_reason is not None and result.stop_reason.startswith(NO_INITIAL_VIEW):
         raise ValueError(result.stop_reason.removeprefix(f"{NO_INITIAL_VIEW}: "))

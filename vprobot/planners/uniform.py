@@ -75,7 +75,7 @@ def view_band(config: Config, robot: bool) -> tuple[np.ndarray, np.ndarray | Non
         return _band(), None
     envelope = trimesh.creation.icosphere(subdivisions=3, radius=fit_limit(config).radius_m)
     arm = RobotArm(Cell(config, envelope))
-    return _reachable_band(arm, arm.collisions, arm.joints.home,
+    return _reachable_band(arm, arm.collisions, arm.joints.start,
                            np.asarray(config.cell.object_center_m, dtype=float),
                            config.sensor.working_distance_m)
 

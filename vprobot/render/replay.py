@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from vprobot.cell_config import rotation_rpy_deg
 from vprobot.config import Config, replace
 from vprobot.episode import CARRIERS, Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.geometry import (
@@ -29,14 +30,15 @@ from vprobot.geometry import (
 from vprobot.kinematics import SensorTarget
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR
-from vprobot.schema import brief
+from vprobot.schema import ConfigError, brief
 
 BASE_ROTATION_TOLERANCE = 1e-6
 """How far the plan's robot base may deviate from a yaw about the world z axis followed by a
 tilt about the base's y axis (the only base rotations the cell composes)."""
 
 
-def _field(block: Any, key: str, where: str) -> Any:
+def plan_field(block: Any, key: str, where: str) -> Any:
+    """`block[key]`, or a ValueError naming the plan's field `where`.`key` as missing."""
     if not isinstance(block, dict) or key not in block:
         raise ValueError(f"plan has no {where}.{key}")
     return block[key]
@@ -58,7 +60,7 @@ def plan_array(value: Any, where: str, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def _vector(block: Any, key: str, size: int, where: str) -> np.ndarray:
-    return plan_array(_field(block, key, where), f"{where}.{key}", (size,))
+    return plan_array(plan_field(block, key, where), f"{where}.{key}", (size,))
 
 
 def plan_quaternion(block: Any, key: str, where: str) -> np.ndarray:
@@ -122,7 +124,7 @@ def plan_robot(block: Any, plan_path: Path) -> str:
     folder (as `cell.robot` takes them)."""
     folder = block.get("folder")
     if folder is None:
-        return str(_field(block, "name", "robot"))
+        return str(plan_field(block, "name", "robot"))
     return str(_locate(str(folder), plan_path, "robot folder", Path.is_dir))
 
 
@@ -143,21 +145,60 @@ def _base_yaw_tilt_deg(quaternion: np.ndarray) -> tuple[float, float]:
     return float(np.rad2deg(yaw)), float(np.rad2deg(tilt))
 
 
+def _plan_mesh(entry: Any, plan_path: Path, what: str) -> Any:
+    """A shape entry of the plan's cell block with its mesh file located (`_locate`), so a plan
+    moved with its files replays; anything else as it is (`from_mapping` judges it)."""
+    if isinstance(entry, dict) and isinstance(entry.get("mesh"), str):
+        return {**entry, "mesh": str(_locate(entry["mesh"], plan_path, what, Path.is_file))}
+    return entry
+
+
+def _plan_cell(block: Any, plan_path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The cell settings and the sensor's housing and mass of a plan's `cell` block, as the
+    config's `cell` and `sensor` keys (docs/plan-format.md#cell)."""
+    settings = plan_field(block, "settings", "cell")
+    if not isinstance(settings, dict):
+        raise ValueError(f"plan cell.settings must be an object, got {brief(settings)}")
+    objects = settings.get("static_objects")
+    if isinstance(objects, list):
+        settings = {**settings, "static_objects": [
+            _plan_mesh(entry, plan_path, "static object mesh") for entry in objects]}
+    housing = plan_field(block, "housing", "cell")
+    if not isinstance(housing, dict):
+        raise ValueError(f"plan cell.housing must be an object, got {brief(housing)}")
+    rotation = quat_to_matrix(plan_quaternion(housing, "quaternion_wxyz", "cell.housing"))
+    # The plan states the housing's pose as a quaternion, the config as roll, pitch, yaw.
+    solid = {key: value for key, value in _plan_mesh(housing, plan_path, "housing mesh").items()
+             if key not in ("parent", "quaternion_wxyz", "sha256")}
+    sensor = {"housing": {**solid, "rpy_deg": list(rotation_rpy_deg(rotation))},
+              "mass_kg": plan_field(block, "payload_kg", "cell")}
+    return settings, sensor
+
+
 def plan_config(config: Config, document: dict[str, Any], object_center: np.ndarray,
                 plan_path: Path) -> Config:
-    """`config` with the cell and sensor the plan at `plan_path` was made for."""
-    robot = _field(document, "robot", "")
-    mount = _field(robot, "sensor_mount", "robot")
+    """`config` with the cell and sensor the plan at `plan_path` was made for: the plan's
+    robot, base, sensor mount and sensor, and, from its `cell` block, the cell's settings
+    (static objects, fixture, start pose, safety, program) and the sensor's housing and mass;
+    a plan without a `cell` block (before issue 43) keeps the config's."""
+    robot = plan_field(document, "robot", "")
+    mount = plan_field(robot, "sensor_mount", "robot")
     yaw_deg, tilt_deg = _base_yaw_tilt_deg(plan_quaternion(robot, "base_quaternion", "robot"))
-    config = replace(config, "cell", robot=plan_robot(robot, plan_path),
-                     robot_base_position_m=tuple(_vector(robot, "base_position", 3, "robot")),
-                     robot_base_yaw_deg=yaw_deg, robot_base_tilt_deg=tilt_deg,
-                     object_center_m=tuple(float(x) for x in object_center))
-    sensor: dict[str, Any] = {
+    settings, sensor = ({}, {}) if document.get("cell") is None else _plan_cell(
+        document["cell"], plan_path)
+    try:
+        config = replace(config, "cell", **{
+            **settings, "robot": plan_robot(robot, plan_path),
+            "robot_base_position_m": tuple(_vector(robot, "base_position", 3, "robot")),
+            "robot_base_yaw_deg": yaw_deg, "robot_base_tilt_deg": tilt_deg,
+            "object_center_m": tuple(float(x) for x in object_center)})
+    except ConfigError as error:
+        raise ValueError(f"plan cell.settings: {error}") from None
+    sensor.update({
         "mount_position_m": tuple(_vector(mount, "position", 3, "robot.sensor_mount")),
         "mount_quaternion_wxyz": tuple(plan_quaternion(mount, "quaternion",
                                                        "robot.sensor_mount")),
-    }
+    })
     block = document.get("sensor")
     if block is not None:
         near, far = _vector(block, "range", 2, "sensor")
@@ -174,7 +215,10 @@ def plan_config(config: Config, document: dict[str, Any], object_center: np.ndar
         # ... and those written before the acquisition time was, the config's.
         if "acquisition_time_s" in block:
             sensor["acquisition_time_s"] = block["acquisition_time_s"]
-    return replace(config, "sensor", **sensor)
+    try:
+        return replace(config, "sensor", **sensor)
+    except ConfigError as error:
+        raise ValueError(f"plan: {error}") from None
 
 
 def plan_object(config: Config, document: dict[str, Any], plan_path: Path
@@ -186,7 +230,7 @@ def plan_object(config: Config, document: dict[str, Any], plan_path: Path
         ValueError: If the object block is incomplete or its mesh is missing.
     """
     block = document["object"]
-    mesh_path = _locate(str(_field(block, "mesh", "object")), plan_path, "object mesh",
+    mesh_path = _locate(str(plan_field(block, "mesh", "object")), plan_path, "object mesh",
                         Path.is_file, MOTORS_DIR)
     rotation = quat_to_matrix(plan_quaternion(block, "quaternion", "object"))
     mesh = load_mesh(mesh_path, plan_number(block.get("scale", 1.0), "object.scale",
@@ -228,7 +272,7 @@ def episode_from_plan(config: Config, plan_path: str | Path,
                               plan_quaternion(view, "quaternion", where))
         if carrier == "free":
             episode.request(ViewRequest(SensorTarget(pose, roll_free=False)))
-        elif _field(view, "reachable", where) and view.get("joints") is not None:
+        elif plan_field(view, "reachable", where) and view.get("joints") is not None:
             joints = _vector(view, "joints", scene.cell.joints.dof, where)
             # The plan's own path when it has one (plans since issue 32), else planned anew.
             stored = view.get("waypoints")

@@ -33,6 +33,7 @@ from vprobot.robots.description import (
     SENSOR_SITE,
     SUPPORTED_DOF,
     RobotDescription,
+    hangs_below,
 )
 from vprobot.scene import Cell
 from vprobot.schema import Vec3, brief
@@ -52,11 +53,16 @@ CONVERSION_STEPS = """\
    frame: +z viewing direction, +x image right, +y image down.
 5. Geom groups: 0 environment, 1 object, 2 robot. Robot geoms collide with each other and with
    the cell (contype 1, conaffinity 3); environment geoms only with the robot (2 / 1).
-6. Body pairs whose convex hulls already touch at the zero or home configuration are excluded
-   from self-collision, so that a self-collision means a real fold-over of the arm.
+6. Self-collision pairs are excluded only between adjacent links (a link and the one its joint
+   turns on, counting links joined by fixed joints as one) and between links in contact in
+   every one of 300 configurations sampled uniformly within the joint limits (seeded). The
+   sensor body is never excluded against any link. MuJoCo's own parent filter
+   is switched off (`<flag filterparent="disable"/>`): every excluded pair is an `<exclude>`
+   of the model.
 7. A `home` keyframe, and `robot.yaml` with the base, flange, pan joint (the first), roll joint
-   (the last), home, the URDF's velocity limits, acceleration and jerk limits (given, or
-   assumptions labelled so: a URDF has none) and the base placement in the cell.
+   (the last), home, the velocity limits (the maker's where given, else the URDF's),
+   acceleration and jerk limits (given, or assumptions labelled so: a URDF has none) and the
+   base placement in the cell.
 """
 
 ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
@@ -67,6 +73,10 @@ SENSOR_HALF_SIZE = (0.10, 0.03, 0.04)
 SENSOR_MOUNT_OFFSET = 0.09
 """Flange to optical centre along the flange z axis (m); the config's sensor mount overrides it."""
 SENSOR_FOVY_DEG = 25.0
+
+SELF_COLLISION_SAMPLES = 300
+"""Configurations sampled within the joint limits for the pairs in contact in every one."""
+SELF_COLLISION_SEED = 0
 
 DEFAULT_BASE_POSITION_M = (0.0, 0.0, 0.5)
 DEFAULT_BASE_YAW_DEG = 0.0
@@ -359,18 +369,56 @@ def _style_robot_geoms(spec: mujoco.MjSpec) -> None:
         geom.rgba = [0.72, 0.75, 0.80, 1.0]
 
 
-def _touching_body_pairs(model: mujoco.MjModel,
-                         configurations: Sequence[np.ndarray]) -> set[tuple[str, str]]:
-    """Body pairs whose collision geoms touch in any of the given configurations."""
+def _body_pair(model: mujoco.MjModel, body1: int, body2: int) -> tuple[str, str]:
+    name1, name2 = sorted((model.body(body1).name, model.body(body2).name))
+    return name1, name2
+
+
+def _adjacent_body_pairs(model: mujoco.MjModel, tool: set[int]) -> set[tuple[str, str]]:
+    """Pairs of bodies with geoms on adjacent links, none of them in `tool`: the pairs MuJoCo's
+    parent filter skips (a body against those welded to its parent's link; not the base's)."""
+    weld = model.body_weldid
+    parent_weld = weld[model.body_parentid[weld]]
+    bodies = sorted(set(model.geom_bodyid) - tool)
+    return {_body_pair(model, child, body) for child in bodies for body in bodies
+            if weld[body] != 0 and weld[body] == parent_weld[child]}
+
+
+def _always_touching_pairs(model: mujoco.MjModel,
+                           configurations: np.ndarray) -> set[tuple[str, str]]:
+    """Body pairs whose collision geoms touch in every one of `configurations`."""
     data = mujoco.MjData(model)
-    pairs = set()
+    always: set[tuple[str, str]] | None = None
     for qpos in configurations:
         data.qpos[:] = qpos
-        mujoco.mj_forward(model, data)
-        for contact in data.contact[: data.ncon]:
-            bodies = sorted((model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]))
-            pairs.add(tuple(model.body(b).name for b in bodies))
-    return pairs
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        touching = {_body_pair(model, model.geom_bodyid[contact.geom1],
+                               model.geom_bodyid[contact.geom2])
+                    for contact in data.contact[: data.ncon]}
+        always = touching if always is None else always & touching
+    return always or set()
+
+
+def _exclude_self_collisions(spec: mujoco.MjSpec, lower: np.ndarray, upper: np.ndarray,
+                             flange: str) -> None:
+    """Exclude adjacent links and links in contact everywhere (point 6 of `CONVERSION_STEPS`)."""
+    # Without MuJoCo's parent filter every skipped pair is an <exclude>: the sensor is checked
+    # against the link its flange turns on too, which the filter would have hidden.
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_FILTERPARENT
+    model = spec.compile()
+    flange_id = model.body(flange).id
+    tool = {body for body in range(model.nbody)
+            if body != flange_id and hangs_below(model, body, flange_id)}
+    for body1, body2 in sorted(_adjacent_body_pairs(model, tool)):
+        spec.add_exclude(bodyname1=body1, bodyname2=body2)
+    model = spec.compile()
+    samples = np.random.default_rng(SELF_COLLISION_SEED).uniform(
+        lower, upper, size=(SELF_COLLISION_SAMPLES, len(lower)))
+    tool_names = {model.body(body).name for body in tool}
+    for body1, body2 in sorted(_always_touching_pairs(model, samples)):
+        if not tool_names & {body1, body2}:
+            spec.add_exclude(bodyname1=body1, bodyname2=body2)
 
 
 def default_home(chain: UrdfChain) -> np.ndarray:
@@ -405,6 +453,7 @@ def convert_urdf(
     acceleration_limits_rad_s2: Sequence[float] | None = None,
     jerk_limits_rad_s3: Sequence[float] | None = None,
     limit_sources: Mapping[str, str] | None = None,
+    velocity_limits_rad_s: Sequence[float] | None = None,
 ) -> RobotDescription:
     """Convert a serial arm's URDF into the robot folder `out_dir` (see the module docstring).
 
@@ -428,6 +477,8 @@ def convert_urdf(
         jerk_limits_rad_s3: Joint jerk limits; by default `ASSUMED_JERK_RAD_S3`, likewise.
         limit_sources: Where the limits come from, by `robot.yaml` key, written as comments
             above them (the velocity limits' defaults to the URDF).
+        velocity_limits_rad_s: Joint velocity limits, where the maker's differ from the URDF's;
+            by default the URDF's.
 
     Returns:
         The checked description of the new folder.
@@ -453,7 +504,9 @@ def convert_urdf(
         name=name, model=f"{name}.xml", base=chain.base, flange=flange,
         pan_joint=chain.joint_names[0], roll_joint=chain.joint_names[-1],
         home=tuple(float(value) for value in home_q),
-        velocity_limits_rad_s=tuple(chain.velocity_limits()),
+        velocity_limits_rad_s=tuple(map(float, (
+            chain.velocity_limits() if velocity_limits_rad_s is None
+            else velocity_limits_rad_s))),
         acceleration_limits_rad_s2=tuple(map(float, (
             [ASSUMED_ACCELERATION_RAD_S2] * dof if acceleration_limits_rad_s2 is None
             else acceleration_limits_rad_s2))),
@@ -530,13 +583,7 @@ def _build_folder(chain: UrdfChain, description: RobotDescription, sources: Mapp
     _add_sensor(spec, description.flange)
     _style_robot_geoms(spec)
     spec.add_key(name="home", qpos=list(description.home))
-    model = spec.compile()
-    lower, upper = chain.limits()
-    # Convex hulls of neighbouring links overlap by construction at the zero and home poses;
-    # such pairs are excluded so that self-collision means a real fold-over of the arm.
-    zero = np.clip(np.zeros(len(lower)), lower, upper)
-    for body1, body2 in sorted(_touching_body_pairs(model, [zero, np.array(description.home)])):
-        spec.add_exclude(bodyname1=body1, bodyname2=body2)
+    _exclude_self_collisions(spec, *chain.limits(), chain.flange)
     spec.compile()
     (folder / description.model).write_text(spec.to_xml())
     (folder / SCENE_FILE).write_text(SCENE_TEMPLATE.format(name=description.name,
@@ -548,8 +595,9 @@ def _build_folder(chain: UrdfChain, description: RobotDescription, sources: Mapp
     (folder / "README.md").write_text(README_TEMPLATE.format(
         title=provenance.title, name=description.name, model=description.model,
         source=provenance.source, flange=description.flange, base=description.base,
-        joints=", ".join(chain.joint_names), home=list(np.round(description.home, 4)),
+        joints=", ".join(chain.joint_names), home=[round(value, 4) for value in description.home],
         steps=CONVERSION_STEPS.rstrip()))
+
 
 
 def _check_folder(folder: Path, urdf: Path) -> None:

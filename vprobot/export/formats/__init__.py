@@ -1,5 +1,6 @@
 """The export formats, one module each, registered in `FORMATS` (`base`), which imports every
-module of this package when first read: `trajectory` (JSON), `csv`, `urscript`, `ros2`."""
+module of this package when first read: `trajectory` (JSON), `csv`, `urscript`, `ros2`,
+`acquisitions`."""
 
 from vprobot.export.formats.base import (
     FORMATS,
