@@ -63,7 +63,7 @@ def _reached_view(cell: Cell, rotation: np.ndarray) -> tuple[Pose, np.ndarray, f
         direction = np.array([np.sin(polar) * np.cos(a), np.sin(polar) * np.sin(a),
                               np.cos(polar)])
         target = SensorTarget.look_at(center + distance * direction, center)
-        result = arm.reach(target, cell.joints.home, collisions)
+        result = arm.reach(target, cell.joints.start, collisions)
         if result.reachable:
             return arm.fk(result.q), result.q, azimuth
     raise RuntimeError(f"the robot reaches none of the azimuths {AZIMUTHS_DEG}")

@@ -14,7 +14,11 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from vprobot.config import Config, load_config
+import pytest
+
+from vprobot.cell_check import CellError, check_cell
+from vprobot.config import Config, load_config, replace, with_sensor
+from vprobot.kinematics.survey import default_cell
 from vprobot.paths import DEFAULT_CONFIG, available_sensors
 from vprobot.planners.candidates import CANDIDATE_COUNT
 from vprobot.schema import read_yaml
@@ -151,9 +155,20 @@ DOC_ROBOTS = {"UR10": "ur10", "UR10 (default)": "ur10", "Panda": "panda",
               "Franka Emika Panda": "panda", "UR5": "ur5"}
 
 
+REFUSED = "refused: its home holds the housing against the motor"
+"""How the docs write a cell `vprobot cell` refuses, its start pose failing the cell's check."""
+
+
 def reached(robot: str, preset: str) -> str:
-    """The view sphere's reachable share that `vprobot cell` recorded, as the docs write it."""
-    recorded = json.loads((VIEW_SPHERE / f"{robot}_{preset}.json").read_text())
+    """The view sphere's reachable share that `vprobot cell` recorded, as the docs write it; for
+    a cell without a record, that `vprobot cell` refuses it (its start pose collides)."""
+    record = VIEW_SPHERE / f"{robot}_{preset}.json"
+    if not record.is_file():
+        cell = default_cell(with_sensor(replace(Config(), "cell", robot=robot), preset))
+        with pytest.raises(CellError, match=r"cell\.start_joints_rad: at the start pose"):
+            check_cell(cell, cell.make_data())
+        return REFUSED
+    recorded = json.loads(record.read_text())
     assert recorded["robot"] == robot
     return f"{100 * recorded['fraction']:.1f} %"
 

@@ -606,7 +606,8 @@ def test_check_dt_is_bounded_and_a_plan_timed_over_the_limits_fails_at_the_coars
 
 def test_a_nan_sample_fails_the_limit_check() -> None:
     from vprobot.export.check import limit_failures
-    from vprobot.kinematics.trajectory import MotionLimits, Trajectory
+    from vprobot.kinematics.trajectory import Trajectory
+    from vprobot.robots.description import MotionLimits
 
     times = np.linspace(0.0, 1.0, 11)
     positions = np.zeros((11, 2))

@@ -3,15 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 import trimesh
-
-if TYPE_CHECKING:
-    from vprobot.kinematics.trajectory import MotionLimits
 
 from vprobot.cell_config import Solid
 from vprobot.config import Config
@@ -28,6 +24,7 @@ from vprobot.robots.description import (
     GEOM_GROUP_ROBOT,
     SENSOR_BODY,
     SENSOR_SITE,
+    MotionLimits,
     hangs_below,
 )
 
@@ -262,15 +259,8 @@ class Cell:
 
     @property
     def motion_limits(self) -> MotionLimits:
-        """The robot's motion limits at the cell's speed scale s: velocity times s, acceleration
-        times s^2, jerk times s^3, which times the same paths 1/s slower."""
-        # Imported here: the kinematics package builds on the cell.
-        from vprobot.kinematics.trajectory import MotionLimits
-
-        scale = self.config.cell.safety.speed_scale
-        robot = MotionLimits.of(self.robot)
-        return MotionLimits(robot.velocity * scale, robot.acceleration * scale ** 2,
-                            robot.jerk * scale ** 3)
+        """The robot's motion limits at the cell's speed scale (`MotionLimits.scaled`)."""
+        return MotionLimits.of(self.robot).scaled(self.config.cell.safety.speed_scale)
 
     @property
     def has_object(self) -> bool:

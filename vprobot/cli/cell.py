@@ -7,7 +7,15 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.cli.common import POSITIVE_INT, Commands, add, add_robot, config_of, write_json
+from vprobot.cli.common import (
+    POSITIVE_INT,
+    Commands,
+    add,
+    add_robot,
+    config_of,
+    naming_the_cell,
+    write_json,
+)
 from vprobot.outputs import check_output_file
 from vprobot.paths import available_robots, available_sensors
 
@@ -108,12 +116,16 @@ def command_reach(args: argparse.Namespace) -> int:
 
 def command_cell(args: argparse.Namespace) -> int:
     """Report how much of the view sphere around the motor the robot reaches."""
+    from vprobot.cell_check import check_cell
     from vprobot.kinematics import RobotArm
     from vprobot.kinematics.survey import default_cell, view_sphere_survey, view_sphere_targets
 
     check_output_file(args.json, "--json", (".json",))
     config = config_of(args)
     cell = default_cell(config)
+    # A survey from a start pose that already collides would count every view unreachable.
+    with naming_the_cell(args):
+        check_cell(cell, cell.make_data())
     arm = RobotArm(cell)
     targets = view_sphere_targets(cell, args.candidates)
     survey = view_sphere_survey(arm, targets, progress=True, label=cell.robot.name)

@@ -8,8 +8,9 @@ only, and a help text that lists a registry is filled in when `--help` prints it
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
@@ -242,3 +243,15 @@ def add_stop(sub: argparse.ArgumentParser,
     sub.add_argument("--estimator", metavar="PATH",
                      help="coverage estimator (estimator.npz of `vprobot stop fit`) for "
                      "--stop estimate and the per-view estimates; default: the bundled one")
+
+
+@contextlib.contextmanager
+def naming_the_cell(args: argparse.Namespace) -> Iterator[None]:
+    """A cell that fails its own check (`vprobot.cell_check`) is reported with the file it
+    came from: the cell's message names the key, this the file."""
+    from vprobot.cell_check import CellError
+
+    try:
+        yield
+    except CellError as error:
+        raise CellError(f"{cell_source(args)}: {error}") from None

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -18,8 +16,8 @@ from vprobot.cli.common import (
     add,
     add_robot,
     add_stop,
-    cell_source,
     config_of,
+    naming_the_cell,
     number,
     planner_name,
 )
@@ -146,7 +144,7 @@ def command_plan(args: argparse.Namespace) -> int:
     check_output_file(args.picture, "--picture", (".png",))
     options = _planning(args)
     config = config_of(args)
-    with showing_progress(), _naming_the_cell(args):
+    with showing_progress(), naming_the_cell(args):
         scene, record, document, summary = plan_motor(
             config, options["mesh"], options["scale"], options["planner"],
             options["views"], options["carrier"], options["seed"], options["stop"],
@@ -183,7 +181,7 @@ def command_render(args: argparse.Namespace) -> int:
             scene, record = episode_from_plan(config, args.plan)
     else:
         options = _planning(args)
-        with showing_progress(), _naming_the_cell(args):
+        with showing_progress(), naming_the_cell(args):
             scene, record, _, summary = plan_motor(
                 config, options["mesh"], options["scale"], options["planner"],
                 options["views"], options["carrier"], options["seed"], options["stop"],
@@ -191,18 +189,6 @@ def command_render(args: argparse.Namespace) -> int:
         print(summary)
     _render_outputs(args, scene, record, args.out)
     return 0
-
-
-@contextlib.contextmanager
-def _naming_the_cell(args: argparse.Namespace) -> Iterator[None]:
-    """A cell that fails its own check (`vprobot.cell_check`) is reported with the file it
-    came from: the cell's message names the key, this the file."""
-    from vprobot.cell_check import CellError
-
-    try:
-        yield
-    except CellError as error:
-        raise CellError(f"{cell_source(args)}: {error}") from None
 
 
 def _check_render_outputs(args: argparse.Namespace, video: str | None, option: str) -> None:

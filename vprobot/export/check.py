@@ -20,8 +20,9 @@ from vprobot.geometry import quat_to_matrix, rotation_angle
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
 from vprobot.kinematics.motion_planner import densify
-from vprobot.kinematics.trajectory import MotionLimits, Trajectory
+from vprobot.kinematics.trajectory import Trajectory
 from vprobot.render.replay import plan_array, plan_field, plan_number, plan_object, read_plan
+from vprobot.robots.description import MotionLimits
 from vprobot.scene import Cell, JointSpace
 from vprobot.schema import brief
 

@@ -19,8 +19,9 @@ import numpy as np
 from vprobot.cell_config import ProgramConfig
 from vprobot.config import SensorConfig
 from vprobot.geometry import Pose, quat_to_matrix
-from vprobot.kinematics.trajectory import MotionLimits, TimedPlan, time_plan
+from vprobot.kinematics.trajectory import TimedPlan, time_plan
 from vprobot.render.replay import plan_array, plan_number, plan_quaternion
+from vprobot.robots.description import MotionLimits
 from vprobot.schema import ConfigError, brief, from_mapping
 
 UR_ROBOT = re.compile(r"ur\d+e?", re.IGNORECASE)

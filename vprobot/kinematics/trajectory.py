@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 import ruckig
 
-from vprobot.robots.description import RobotDescription
+from vprobot.robots.description import MotionLimits
 
 JOIN_TOLERANCE_RAD = 1e-9
 """Largest gap between a move's end and the next move's start (and between the return's end and
@@ -41,25 +41,6 @@ increase (ros2_control's joint_trajectory_controller)."""
 MAX_SAMPLES = 1_000_000
 """Most samples of a sampled trajectory (a 2.2-hour cycle at 125 Hz): more would take gigabytes,
 in the arrays and more so in an exported file."""
-
-
-@dataclasses.dataclass(frozen=True)
-class MotionLimits:
-    """Per-joint velocity (rad/s), acceleration (rad/s^2) and jerk (rad/s^3) limits."""
-
-    velocity: np.ndarray
-    acceleration: np.ndarray
-    jerk: np.ndarray
-
-    @classmethod
-    def of(cls, robot: RobotDescription) -> MotionLimits:
-        """The limits of a robot's description (`robot.yaml`)."""
-        return cls(np.array(robot.velocity_limits_rad_s),
-                   np.array(robot.acceleration_limits_rad_s2), np.array(robot.jerk_limits_rad_s3))
-
-    @property
-    def dof(self) -> int:
-        return len(self.velocity)
 
 
 @dataclasses.dataclass(frozen=True)

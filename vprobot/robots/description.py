@@ -60,6 +60,32 @@ the UR robots' limits (Universal Robots publishes neither), with the comments th
 
 
 @dataclasses.dataclass(frozen=True)
+class MotionLimits:
+    """Per-joint velocity (rad/s), acceleration (rad/s^2) and jerk (rad/s^3) limits, which time
+    the trajectories (`vprobot.kinematics.trajectory`)."""
+
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+
+    @classmethod
+    def of(cls, robot: RobotDescription) -> MotionLimits:
+        """The limits of a robot's description (`robot.yaml`)."""
+        return cls(np.array(robot.velocity_limits_rad_s),
+                   np.array(robot.acceleration_limits_rad_s2), np.array(robot.jerk_limits_rad_s3))
+
+    def scaled(self, speed_scale: float) -> MotionLimits:
+        """The limits at speed scale s: velocity times s, acceleration times s^2, jerk times
+        s^3, which time the same paths 1/s slower (a controller's speed slider)."""
+        return MotionLimits(self.velocity * speed_scale, self.acceleration * speed_scale ** 2,
+                            self.jerk * speed_scale ** 3)
+
+    @property
+    def dof(self) -> int:
+        return len(self.velocity)
+
+
+@dataclasses.dataclass(frozen=True)
 class RobotDescription:
     """What vprobot knows about an arm (`robot.yaml`, every key required).
 

@@ -48,9 +48,10 @@ CONVERSION_STEPS = """\
    STL with trimesh.
 3. MuJoCo's URDF importer compiles the arm (`fusestatic=false` keeps the flange as a body).
    Continuous joints get limits of +-2 pi.
-4. A `sensor_body` is mounted on the flange: a box housing (200 x 60 x 80 mm), the site `sensor`
-   at the optical centre 0.09 m in front of the flange and the camera `sensor_camera`. Sensor
-   frame: +z viewing direction, +x image right, +y image down.
+4. A `sensor_body` is mounted on the flange: the site `sensor` at the optical centre 0.09 m in
+   front of the flange and the camera `sensor_camera`. Sensor frame: +z viewing direction, +x
+   image right, +y image down. Its housing is the sensor's (`sensor.housing`), which the cell
+   adds.
 5. Geom groups: 0 environment, 1 object, 2 robot. Robot geoms collide with each other and with
    the cell (contype 1, conaffinity 3); environment geoms only with the robot (2 / 1).
 6. Self-collision pairs are excluded only between adjacent links (a link and the one its joint
@@ -68,8 +69,6 @@ CONVERSION_STEPS = """\
 ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
 """Collision bits (contype / conaffinity), shared with vprobot.scene."""
 
-SENSOR_HALF_SIZE = (0.10, 0.03, 0.04)
-"""A structured-light sensor housing (about 200 x 60 x 80 mm), the optical centre at its front."""
 SENSOR_MOUNT_OFFSET = 0.09
 """Flange to optical centre along the flange z axis (m); the config's sensor mount overrides it."""
 SENSOR_FOVY_DEG = 25.0
@@ -339,19 +338,9 @@ def _prepare_urdf(chain: UrdfChain, meshes: Path,
 
 
 def _add_sensor(spec: mujoco.MjSpec, flange: str) -> None:
-    """Mount the sensor body on the flange: housing geom, `sensor` site, render camera."""
+    """Mount the sensor body on the flange: `sensor` site, render camera (the cell adds the
+    sensor's housing, `vprobot.scene`)."""
     sensor = spec.body(flange).add_body(name=SENSOR_BODY, pos=[0.0, 0.0, SENSOR_MOUNT_OFFSET])
-    sensor.add_geom(
-        name="sensor_housing",
-        type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=list(SENSOR_HALF_SIZE),
-        pos=[0.0, 0.0, -SENSOR_HALF_SIZE[2]],
-        mass=0.8,
-        rgba=[0.15, 0.15, 0.18, 1.0],
-        group=GEOM_GROUP_ROBOT,
-        contype=ROBOT_BIT,
-        conaffinity=ROBOT_BIT | ENVIRONMENT_BIT,
-    )
     # Sensor frame: +z views, +x is image right, +y image down
     # (docs/units-and-frames.md#sensor-frame).
     sensor.add_site(name=SENSOR_SITE, size=[0.01, 0.01, 0.01], rgba=[1.0, 0.5, 0.0, 1.0])
@@ -361,8 +350,6 @@ def _add_sensor(spec: mujoco.MjSpec, flange: str) -> None:
 
 def _style_robot_geoms(spec: mujoco.MjSpec) -> None:
     for geom in spec.geoms:
-        if geom.name == "sensor_housing":
-            continue
         geom.group = GEOM_GROUP_ROBOT
         geom.contype = ROBOT_BIT
         geom.conaffinity = ROBOT_BIT | ENVIRONMENT_BIT
