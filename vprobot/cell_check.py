@@ -17,7 +17,7 @@ import numpy as np
 from vprobot.config import Config, replace
 from vprobot.kinematics.motion_planner import densify
 from vprobot.mesh_loading import LoadedMesh, load_mesh
-from vprobot.scene import ENVIRONMENT_BIT, HOUSING_GEOM, STATIC_PREFIX, Cell
+from vprobot.scene import ENVIRONMENT_BIT, HOUSING_GEOM, PLANNING_SLACK_M, STATIC_PREFIX, Cell
 
 if TYPE_CHECKING:
     from vprobot.episode import EpisodeRecord
@@ -210,11 +210,14 @@ def check_cell(cell: Cell, data: mujoco.MjData) -> None:
                     f"rest in free space)")
     worst = min(clearances(cell, data, start[None]), key=lambda c: c.distance_m - c.margin_m,
                 default=None)
-    if worst is not None and not worst.holds:
+    # Planning keeps its slack from the start on: a start pose inside it starts every move in
+    # collision.
+    if worst is not None and worst.distance_m < worst.margin_m + PLANNING_SLACK_M:
         raise CellError(
             f"cell.start_joints_rad: at the start pose the robot comes {worst.distance_m * 1e3:.1f}"
             f" mm from {worst.name}, within the clearance of {worst.margin_m * 1e3:g} mm "
-            f"(cell.safety); choose a start pose clear of the cell")
+            f"(cell.safety) and the {PLANNING_SLACK_M * 1e3:g} mm planning keeps beyond it; "
+            f"choose a start pose clear of the cell")
     data.qpos[:] = start
     mujoco.mj_collision(model, data)
     contacts = data.contact[: data.ncon]

@@ -43,6 +43,11 @@ WALL_BRACKET_M = 0.3
 
 ROBOT_STAND_RADIUS_M = 0.09
 """Radius of the column under a raised robot base (about that of the UR10's base link)."""
+PLANNING_SLACK_M = 0.005
+"""What planning keeps beyond the clearance margins: a path is checked at configurations
+`kinematics.path_max_joint_step_rad` apart, and between two of them the arm may pass closer to an
+object than at either. 5 mm made every plan of the bundled lists keep its margin at the replay's
+2 ms samples (`clearance_held` in `vprobot evaluate`), where none did without it."""
 HOUSING_GEOM = "sensor_housing"
 """The sensor housing's geom on the sensor body, made from `sensor.housing`."""
 FIXTURE_BODY = "fixture"
@@ -179,13 +184,14 @@ class Cell:
 
     def _set_margins(self, spec: mujoco.MjSpec) -> None:
         """Every environment geom (static objects, fixture, column, floor) keeps the robot at
-        `safety.clearance_m`, the part at `safety.part_clearance_m`: MuJoCo then reports a
-        contact for any robot geom closer than that (`CollisionChecker`)."""
+        `safety.clearance_m`, the part at `safety.part_clearance_m`, and planning
+        `PLANNING_SLACK_M` more: MuJoCo then reports a contact for any robot geom closer than
+        that (`CollisionChecker`)."""
         safety = self.config.cell.safety
         for geom in spec.geoms:
             if geom.contype & ENVIRONMENT_BIT:
-                geom.margin = (safety.part_clearance_m if geom.name == "object"
-                               else safety.clearance_m)
+                geom.margin = PLANNING_SLACK_M + (
+                    safety.part_clearance_m if geom.name == "object" else safety.clearance_m)
 
     def _add_object(self, spec: mujoco.MjSpec, mesh: trimesh.Trimesh) -> None:
         if len(mesh.faces) == 0:

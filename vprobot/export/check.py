@@ -188,7 +188,7 @@ def _collision_failures(cell: Cell, rotation: np.ndarray, motion: PlanMotion,
                         ) -> tuple[int, list[Clearance], list[str]]:
     """Collisions (closer than a margin) at every sample and along every straight segment at
     `step_rad`, and the least clearance to each object over all of them."""
-    checker = CollisionChecker(cell, rotation)
+    checker = CollisionChecker(cell, rotation, planning=False)
     failures = []
     hit = checker.first_collision(samples.positions)
     if hit is not None:

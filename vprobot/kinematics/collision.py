@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 
 from vprobot.geometry import Pose
-from vprobot.scene import Cell
+from vprobot.scene import PLANNING_SLACK_M, Cell
 
 
 class CollisionChecker:
@@ -16,7 +16,10 @@ class CollisionChecker:
     excludes those pairs and no others, never the sensor (docs/cell-and-robots.md). Environment
     geoms do not collide with each other by their collision bits. The cell gives every
     environment geom its clearance as MuJoCo's geom margin (`Cell`, `cell.safety`): a robot geom
-    closer to it than that is a collision, as is any penetration between robot geoms.
+    closer to it than that is a collision, as is any penetration between robot geoms. Planning
+    keeps `PLANNING_SLACK_M` more (the arm moves between the configurations a path is checked
+    at); the replay check, which checks every sample, keeps the margins themselves
+    (`planning=False`).
 
     The checker owns its MjData: the object placement it checks against is its own state, set
     once per episode with `place_object`, and never shared with FK, the sensor or a renderer.
@@ -24,12 +27,16 @@ class CollisionChecker:
     Args:
         cell: The compiled cell.
         object_rotation: Rotation of the object about its centre (3x3); upright when omitted.
+        planning: Keep `PLANNING_SLACK_M` beyond the clearance margins.
     """
 
-    def __init__(self, cell: Cell, object_rotation: np.ndarray | None = None):
+    def __init__(self, cell: Cell, object_rotation: np.ndarray | None = None,
+                 planning: bool = True):
         self.cell = cell
         self.model = cell.model
         self.data = cell.make_data()
+        # An environment contact carries margin + slack (`Cell`); robot pairs carry none.
+        self._slack_off = 0.0 if planning else PLANNING_SLACK_M
         self.object_pose = self.place_object(np.eye(3) if object_rotation is None
                                              else object_rotation)
 
@@ -48,9 +55,17 @@ class CollisionChecker:
         self._collide(q)
         count = self.data.ncon
         # The struct-array view is orders of magnitude faster than iterating MjContact objects.
+        if count == 0:
+            return False
         contacts = self.data.contact
-        return count > 0 and bool(
-            (contacts.dist[:count] < contacts.includemargin[:count]).any())
+        return bool((contacts.dist[:count] < self._threshold(
+            contacts.includemargin[:count])).any())
+
+    def _threshold(self, includemargin: np.ndarray | float) -> np.ndarray:
+        """The distance below which a contact counts: its margin, less the planning slack
+        when not planning (environment pairs only)."""
+        margin = np.asarray(includemargin, dtype=float)
+        return np.where(margin > 0.0, margin - self._slack_off, margin)
 
     def first_collision(self, path: np.ndarray) -> int | None:
         """Index of the first configuration on `path` (n, dof) in collision, or None."""
@@ -64,7 +79,7 @@ class CollisionChecker:
         self._collide(q)
         pairs = []
         for contact in self.data.contact[: self.data.ncon]:
-            if contact.dist < contact.includemargin:
+            if contact.dist < self._threshold(contact.includemargin):
                 body1 = self.model.body(self.model.geom_bodyid[contact.geom1]).name
                 body2 = self.model.body(self.model.geom_bodyid[contact.geom2]).name
                 pairs.append((body1, body2))
