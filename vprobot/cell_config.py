@@ -17,7 +17,7 @@ import numpy as np
 
 from vprobot.geometry import Pose, rotation_about_x, rotation_about_y, rotation_about_z
 from vprobot.paths import CELLS_DIR, available_cells, bundled_or_path
-from vprobot.schema import ConfigError, Vec3, brief, read_yaml
+from vprobot.schema import ConfigError, Vec3, brief, check_within, read_yaml
 
 Shape = Literal["box", "cylinder", "mesh"]
 CELL_FILE_SECTIONS = ("cell", "sensor")
@@ -172,14 +172,9 @@ class SafetyConfig:
 
     def __post_init__(self) -> None:
         for key in ("clearance_m", "part_clearance_m"):
-            value = getattr(self, key)
-            if not 0.0 <= value <= MAX_CLEARANCE_M:
-                raise ConfigError(f"cell.safety.{key} must lie in [0, {MAX_CLEARANCE_M:g}] m, "
-                                  f"got {brief(value)}")
-        if not 0.0 <= self.joint_limit_margin_deg <= MAX_JOINT_LIMIT_MARGIN_DEG:
-            raise ConfigError(f"cell.safety.joint_limit_margin_deg must lie in [0, "
-                              f"{MAX_JOINT_LIMIT_MARGIN_DEG:g}] deg, got "
-                              f"{brief(self.joint_limit_margin_deg)}")
+            check_within(f"cell.safety.{key}", getattr(self, key), 0.0, MAX_CLEARANCE_M, "m")
+        check_within("cell.safety.joint_limit_margin_deg", self.joint_limit_margin_deg, 0.0,
+                     MAX_JOINT_LIMIT_MARGIN_DEG, "deg")
         if not 0.0 < self.speed_scale <= 1.0:
             raise ConfigError(f"cell.safety.speed_scale must lie in (0, 1], got "
                               f"{brief(self.speed_scale)}")

@@ -35,7 +35,16 @@ from vprobot.paths import (
 from vprobot.registry import Registry
 from vprobot.rewards import REWARDS
 from vprobot.robots import load_robot
-from vprobot.schema import RESOLVE, ConfigError, Quat, Vec3, brief, from_mapping, read_yaml
+from vprobot.schema import (
+    RESOLVE,
+    ConfigError,
+    Quat,
+    Vec3,
+    brief,
+    check_within,
+    from_mapping,
+    read_yaml,
+)
 from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
 from vprobot.sensing import SENSING_MODELS, SensingModel, StructuredLight, check_sensing
 from vprobot.splits import Split, split_file
@@ -208,19 +217,15 @@ class SensorConfig:
     mass_kg: float = 0.8
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.mass_kg <= MAX_PAYLOAD_KG:
-            raise ConfigError(f"sensor.mass_kg must lie in [0, {MAX_PAYLOAD_KG:g}] kg, got "
-                              f"{brief(self.mass_kg)}")
+        check_within("sensor.mass_kg", self.mass_kg, 0.0, MAX_PAYLOAD_KG, "kg")
         check_sensor(self.resolution, self.fov_deg, self.near_m, self.far_m,
                      self.working_distance_m)
         check_sensing(self)
         if not is_rotation_quaternion(self.mount_quaternion_wxyz):
             raise ConfigError(f"sensor.mount_quaternion_wxyz must be a non-zero, finite "
                               f"quaternion (w, x, y, z), got {brief(self.mount_quaternion_wxyz)}")
-        if not 0.0 <= self.acquisition_time_s <= MAX_ACQUISITION_TIME_S:
-            raise ConfigError(f"sensor.acquisition_time_s must lie in [0, "
-                              f"{MAX_ACQUISITION_TIME_S:g}] s, got "
-                              f"{brief(self.acquisition_time_s)}")
+        check_within("sensor.acquisition_time_s", self.acquisition_time_s, 0.0,
+                     MAX_ACQUISITION_TIME_S, "s")
 
     @property
     def sensing_model(self) -> SensingModel:

@@ -46,8 +46,9 @@ ROBOT_STAND_RADIUS_M = 0.09
 PLANNING_SLACK_M = 0.005
 """What planning keeps beyond the clearance margins: a path is checked at configurations
 `kinematics.path_max_joint_step_rad` apart, and between two of them the arm may pass closer to an
-object than at either. 5 mm made every plan of the bundled lists keep its margin at the replay's
-2 ms samples (`clearance_held` in `vprobot evaluate`), where none did without it."""
+object than at either: without it the UR5's `nbv` plan of the bundled motor came within its 10 mm
+of the part between two checked configurations. The replay check holds the margins themselves at
+every 2 ms sample (`vprobot check`, `clearance_held` in `vprobot evaluate`)."""
 HOUSING_GEOM = "sensor_housing"
 """The sensor housing's geom on the sensor body, made from `sensor.housing`."""
 FIXTURE_BODY = "fixture"

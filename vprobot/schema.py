@@ -161,6 +161,12 @@ def read_yaml(path: str | Path) -> Any:
     return parse_yaml(text, str(path))
 
 
+def check_within(key: str, value: float, low: float, high: float, unit: str) -> None:
+    """Raise ConfigError unless low <= value <= high (the message names the key and unit)."""
+    if not low <= value <= high:
+        raise ConfigError(f"{key} must lie in [{low:g}, {high:g}] {unit}, got {brief(value)}")
+
+
 def _as_written(value: Any, key: str) -> Any:
     return value
 
