@@ -41,13 +41,13 @@ def test_comparing_episode_tables_matches_every_episode_not_one_per_planner(
     old = _table(tmp_path / "old.csv", [_row(0, 3, 0.1), _row(1, 4, 0.1)], columns)
     new = _table(tmp_path / EPISODES_NAME, [_row(0, 5, 0.1), _row(1, 4, 9.0)], columns)
     assert main(["report", "compare", str(old), str(new)]) == 1
-    # acquisitions and requested (acquisitions + 1 in `_row`) of episode 0 moved; 26 columns
-    # compared per row (the 32 less the key and the timing columns).
+    # acquisitions and requested (acquisitions + 1 in `_row`) of episode 0 moved; 28 columns
+    # compared per row (the 34 less the key and the timing columns).
     assert capsys.readouterr().out.splitlines() == [
         "('0', 'bscp', 'robot') acquisitions: 3 -> 5", "('0', 'bscp', 'robot') requested: 4 -> 6",
-        "2 rows, 52 cells compared, 2 moved"]
+        "2 rows, 56 cells compared, 2 moved"]
     assert main(["report", "compare", str(old), str(old)]) == 0
-    assert capsys.readouterr().out == "2 rows, 52 cells compared, 0 moved\n"
+    assert capsys.readouterr().out == "2 rows, 56 cells compared, 0 moved\n"
 
 
 def test_an_episodes_table_against_a_summary_is_refused_in_one_line(
