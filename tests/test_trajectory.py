@@ -140,6 +140,18 @@ def test_a_single_joint_move_takes_the_closed_form_time_optimal_duration(
                                                rel=1e-9)
 
 
+@pytest.mark.parametrize("scale", [1.0, 0.5, 0.2])
+def test_a_speed_scale_times_the_same_move_one_over_the_scale_slower(scale: float) -> None:
+    # cell.safety.speed_scale s: velocity times s, acceleration s^2, jerk s^3 (`scaled`); the
+    # double-S profile's duration under those limits is the unscaled one over s.
+    robot = MotionLimits(np.array([2.094, 9.0]), np.array([5.0, 9.0]), np.array([100.0, 9.0]))
+    segment = time_segment([0.0, 0.0], [1.2, 0.0], robot.scaled(scale))
+    assert segment.duration_s == pytest.approx(
+        seven_segment_duration(1.2, 2.094 * scale, 5.0 * scale**2, 100.0 * scale**3), rel=1e-9)
+    assert segment.duration_s == pytest.approx(
+        seven_segment_duration(1.2, 2.094, 5.0, 100.0) / scale, rel=1e-9)
+
+
 def test_a_diagonal_move_is_as_fast_as_its_tightest_joint_allows() -> None:
     # Joint 0 travels 1 rad, joint 1 travels 0.5 rad: along the line joint 1's limits count at
     # twice their size, so the path's limits are v = min(1, 2 * 3) = 1, a = min(10, 2 * 2) = 4,
