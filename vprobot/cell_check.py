@@ -17,7 +17,14 @@ import numpy as np
 from vprobot.config import Config, replace
 from vprobot.kinematics.motion_planner import densify
 from vprobot.mesh_loading import LoadedMesh, load_mesh
-from vprobot.scene import ENVIRONMENT_BIT, HOUSING_GEOM, PLANNING_SLACK_M, STATIC_PREFIX, Cell
+from vprobot.scene import (
+    ENVIRONMENT_BIT,
+    HOUSING_GEOM,
+    OBJECT_GEOM,
+    PLANNING_SLACK_M,
+    STATIC_PREFIX,
+    Cell,
+)
 
 if TYPE_CHECKING:
     from vprobot.episode import EpisodeRecord
@@ -61,7 +68,7 @@ def geom_label(model: mujoco.MjModel, geom: int) -> str:
         return name.removeprefix(STATIC_PREFIX)
     if name == HOUSING_GEOM:
         return "the sensor housing"
-    if name == "object":
+    if name == OBJECT_GEOM:
         return "the part"
     return name or model.body(model.geom_bodyid[geom]).name
 
@@ -96,8 +103,9 @@ def environment_geoms(cell: Cell) -> dict[str, list[int]]:
     model = cell.model
     found: dict[str, list[int]] = {}
     for geom in range(model.ngeom):
-        if (model.geom_contype[geom] & ENVIRONMENT_BIT and model.geom_bodyid[geom] not in (
-                cell.base_body_id,) and model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_PLANE):
+        if (model.geom_contype[geom] & ENVIRONMENT_BIT
+                and model.geom_bodyid[geom] != cell.base_body_id
+                and model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_PLANE):
             found.setdefault(geom_label(model, geom), []).append(geom)
     return found
 

@@ -49,6 +49,8 @@ PLANNING_SLACK_M = 0.005
 object than at either: without it the UR5's `nbv` plan of the bundled motor came within its 10 mm
 of the part between two checked configurations. The replay check holds the margins themselves at
 every 2 ms sample (`vprobot check`, `clearance_held` in `vprobot evaluate`)."""
+OBJECT_GEOM = "object"
+"""The part's geom on the `object` body, made from its mesh."""
 HOUSING_GEOM = "sensor_housing"
 """The sensor housing's geom on the sensor body, made from `sensor.housing`."""
 FIXTURE_BODY = "fixture"
@@ -192,7 +194,7 @@ class Cell:
         for geom in spec.geoms:
             if geom.contype & ENVIRONMENT_BIT:
                 geom.margin = PLANNING_SLACK_M + (
-                    safety.part_clearance_m if geom.name == "object" else safety.clearance_m)
+                    safety.part_clearance_m if geom.name == OBJECT_GEOM else safety.clearance_m)
 
     def _add_object(self, spec: mujoco.MjSpec, mesh: trimesh.Trimesh) -> None:
         if len(mesh.faces) == 0:
@@ -210,7 +212,7 @@ class Cell:
         # Only the surface matters to vprobot: a shell inertia tolerates open user meshes.
         asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         spec.body("object").add_geom(
-            name="object",
+            name=OBJECT_GEOM,
             type=mujoco.mjtGeom.mjGEOM_MESH,
             meshname="object_mesh",
             group=GEOM_GROUP_OBJECT,
