@@ -14,8 +14,8 @@ reduced (`reduce_cover`): points already covered or seen by no candidate are dro
 by the same candidates merge into one weighted y, and a candidate whose points another one sees
 too (dominated) is dropped. When 3 or fewer views reach the goal, they are found by counting
 pairs and triples (`fewest_views`), which also proves when 4 are needed. Greedy's solution
-(B_SCP's picks), made smaller where one candidate stands in for two of its views (`swap_down`),
-is the incumbent: the program is bounded by it (no more views, or no fewer points) and is only
+(B_SCP's picks), made smaller where one candidate stands in for two of its views or two for three
+(`swap_down`), is the incumbent: the program is bounded by it (no more views, or no fewer points) and is only
 taken when it does better, so the optimum never needs more views than B_SCP.
 HiGHS stops after `node_limit` branch-and-bound nodes (a count of work, so the plan and its
 proof are the same on every machine and under any load); the planner then keeps the best
@@ -240,12 +240,14 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
 
 def swap_down(visibility: np.ndarray, covered: np.ndarray, needed: int,
               picks: Sequence[int]) -> list[int]:
-    """`picks` made smaller while one row can stand in for two of them: each time, the pair
-    whose points one other row adds, with the rest, to `needed` new points is replaced by it.
-    Picks that do not reach `needed` are returned as they are.
+    """`picks` made smaller while fewer rows can stand in for some of them: each time, two picks
+    are replaced by the one row that, with the rest, adds `needed` new points, or else three by
+    the two rows that do (of those, the pair adding the most). Picks that do not reach `needed`
+    are returned as they are.
 
-    Greedy's last picks often add little each; one row may cover what two of them add. A
-    smaller incumbent bounds the program tighter, and is a solution where HiGHS's time runs out.
+    Greedy's last picks often add little each; one row may cover what two of them add, two rows
+    what three add. A smaller incumbent bounds the program tighter, and is a solution where the
+    solver's work runs out.
     """
     picks = list(picks)
 
@@ -255,19 +257,41 @@ def swap_down(visibility: np.ndarray, covered: np.ndarray, needed: int,
     if int((added(picks) & ~covered).sum()) < needed:
         return picks
     target = needed + int(covered.sum())
+    rows = visibility.astype(np.float32)  # exact: the counts stay far below 2^24
     improved = True
-    while improved and len(picks) >= 2:
+    while improved:
         improved = False
-        for first, second in itertools.combinations(range(len(picks)), 2):
-            rest = [pick for index, pick in enumerate(picks) if index not in (first, second)]
-            base = added(rest)
-            gains = visibility[:, ~base].sum(axis=1)
-            best = int(np.argmax(gains))
-            if int(base.sum()) + int(gains[best]) >= target:
-                # A best row that adds nothing is one the rest already holds: they suffice.
-                picks, improved = rest + [best] if gains[best] else rest, True
+        for size in (2, 3):
+            for dropped in itertools.combinations(range(len(picks)), size):
+                rest = [pick for index, pick in enumerate(picks) if index not in dropped]
+                base = added(rest)
+                stand_in = _stand_in(rows, ~base, target - int(base.sum()), size - 1)
+                if stand_in is not None:
+                    picks, improved = rest + stand_in, True
+                    break
+            if improved:
                 break
     return picks
+
+
+def _stand_in(rows: np.ndarray, open_points: np.ndarray, missing: int, most: int
+              ) -> list[int] | None:
+    """At most `most` (1 or 2) rows that see `missing` of the open points (fewest first, then
+    the ones seeing most), or None when no such rows exist."""
+    if missing <= 0:
+        return []  # the rest reach the goal by themselves
+    seen = rows[:, open_points]
+    gains = seen.sum(axis=1)
+    best = int(np.argmax(gains))
+    if gains[best] >= missing:
+        return [best]
+    if most < 2 or gains[best] + np.partition(gains, -2)[-2] < missing:
+        return None
+    # A pair's union is at most its gains' sum: only rows with enough gain can complete one.
+    able = np.flatnonzero(gains >= missing - gains[best])
+    unions = gains[able, None] + gains[None, able] - seen[able] @ seen[able].T
+    first, second = np.unravel_index(np.argmax(unions), unions.shape)
+    return [int(able[first]), int(able[second])] if unions[first, second] >= missing else None
 
 
 def fewest_views(reduced: Reduced, needed: int) -> tuple[list[int] | None, int]:
