@@ -11,7 +11,7 @@ from vprobot.cli.common import POSITIVE_INT, Commands, add, add_robot, config_of
 from vprobot.outputs import check_output_file
 
 SUITES = ("kinematics", "sensor", "env", "planners", "mesh", "render", "train", "cluster",
-          "objects", "motion", "cli")
+          "objects", "motion", "cli", "optimum")
 
 
 def add_benchmark(commands: Commands) -> None:
@@ -72,6 +72,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         results = run_large_mesh_benchmark(config, [
             item for option in ("config", "robot", "sensor") if getattr(args, option)
             for item in (f"--{option}", str(getattr(args, option)))])
+    elif args.suite == "optimum":
+        from vprobot.benchmarks.optimum import print_table, run_optimum_benchmark
+
+        results, printer = run_optimum_benchmark(config), print_table
     elif args.suite == "cli":
         from vprobot.benchmarks.cli import run_cli_benchmark
 
