@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vprobot.benchmarks.optimum import print_table as print_optimum_table
+from vprobot.benchmarks.optimum import run_optimum_benchmark
 from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.episode import Episode, MotorScene, ViewRequest, episode_cycle, seeded_episode
@@ -26,6 +28,8 @@ from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.optimum import (
     TIME_LIMIT_S,
     OptimumPlanner,
+    Reduced,
+    _solve,
     fewest_views,
     reduce_cover,
     solve_cover,
@@ -105,6 +109,33 @@ def test_up_to_three_views_are_found_by_counting_and_more_are_bounded(seed: int)
             assert covered_by(visibility, covered, tuple(found)) - covered.sum() >= needed
         else:
             assert found is None and bound <= (fewest or candidates + 1)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_merged_program_has_the_unmerged_optimum_and_that_of_every_subset(seed: int) -> None:
+    # Points drawn from a few column patterns, so that many merge into one weighted row.
+    rng = np.random.default_rng(500 + seed)
+    for _ in range(20):
+        candidates = int(rng.integers(2, 10))
+        patterns = rng.random((candidates, int(rng.integers(2, 12)))) < 0.4
+        visibility = patterns[:, rng.integers(0, patterns.shape[1], size=60)]
+        covered = rng.random(60) < 0.2
+        needed = int(rng.integers(1, 61)) - int(covered.sum())
+        fewest = next((size for size in range(candidates + 1)
+                       for rows in itertools.combinations(range(candidates), size)
+                       if covered_by(visibility, covered, rows) - covered.sum() >= needed), None)
+        unmerged = Reduced(np.arange(candidates), visibility[:, ~covered],
+                           np.ones(int((~covered).sum())))
+        merged = reduce_cover(visibility, covered)
+        assert merged.matrix.shape[1] < unmerged.matrix.shape[1]
+        for program in (unmerged, merged):
+            solved = _solve(program, candidates, max(needed, 0), 10**6, 60.0)
+            if fewest is None:
+                assert solved.picks is None and solved.bound == candidates + 1
+            else:
+                assert solved.picks is not None and len(solved.picks) == solved.bound == fewest
+                assert (covered_by(visibility, covered, tuple(solved.picks)) - covered.sum()
+                        >= needed)
 
 
 def test_the_reduction_drops_dominated_views_and_merges_points() -> None:
@@ -386,3 +417,20 @@ def test_plan_with_the_optimum_writes_json_video_and_replays(
                  "--height", "72"]) == 0
     assert video.stat().st_size > 0
     assert main(["check", str(plan)]) == 0
+
+
+def test_the_optimum_benchmark_refuses_an_episode_outside_its_list() -> None:
+    with pytest.raises(ValueError, match=r"episode 16 is not in families-test-v1 \(0\.\.15\)"):
+        run_optimum_benchmark(CONFIG, episodes=(16,))
+
+
+@pytest.mark.benchmark
+def test_the_optimum_benchmark_reports_the_proof_and_the_target(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    results = run_optimum_benchmark(CONFIG, episodes=(0,), carriers=("free",), progress=False)
+    (row,) = results["episodes"]
+    assert "bracket" in row["motor"] and row["views"] <= row["bscp_views"]
+    assert row["target_met"] == (row["gap_views"] is not None and row["gap_views"] <= 1
+                                 and row["solve_s"] <= 60.0)
+    print_optimum_table(results)
+    assert "target met on" in capsys.readouterr().out

@@ -43,7 +43,7 @@ def run_optimum_benchmark(config: Config, episodes: Sequence[int] = HARDEST,
     outside = [index for index in episodes if not 0 <= index < len(specs)]
     if outside:
         raise ValueError(f"episode {outside[0]} is not in {EPISODE_LIST} (0..{len(specs) - 1})")
-    rows = []
+    rows: list[dict[str, Any]] = []
     with tqdm(total=len(episodes) * len(carriers), desc="optimum", disable=not progress) as bar:
         for index in episodes:
             spec = specs[index]
@@ -74,7 +74,7 @@ def run_optimum_benchmark(config: Config, episodes: Sequence[int] = HARDEST,
             "episodes": rows,
             "target_met": sum(row["target_met"] for row in rows),
             "proven": sum(row["proven"] for row in rows),
-            "solve_s_max": max((row["solve_s"] for row in rows), default=0.0)}
+            "solve_s_max": max((float(row["solve_s"]) for row in rows), default=0.0)}
 
 
 def print_table(results: dict[str, Any]) -> None:

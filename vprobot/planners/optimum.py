@@ -14,9 +14,10 @@ reduced (`reduce_cover`): points already covered or seen by no candidate are dro
 by the same candidates merge into one weighted y, and a candidate whose points another one sees
 too (dominated) is dropped. When 3 or fewer views reach the goal, they are found by counting
 pairs and triples (`fewest_views`), which also proves when 4 are needed. Greedy's solution
-(B_SCP's picks), made smaller where one candidate stands in for two of its views or two for three
-(`swap_down`), is the incumbent: the program is bounded by it (no more views, or no fewer points) and is only
-taken when it does better, so the optimum never needs more views than B_SCP.
+(B_SCP's picks), made smaller where one candidate stands in for two of its views or two for
+three (`swap_down`), is the incumbent: the program is bounded by it (no more views, or no fewer
+points) and is only taken when it does better, so the optimum never needs more views than
+B_SCP.
 HiGHS stops after `node_limit` branch-and-bound nodes (a count of work, so the plan and its
 proof are the same on every machine and under any load); the planner then keeps the best
 solution found and records the proven gap. `time_limit_s` is a wall-clock safety net only, for a
