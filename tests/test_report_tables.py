@@ -22,6 +22,7 @@ def _row(episode: int, planner: str, acquisitions: int, success: bool,
     row.update({"episode": episode, "planner": planner, "carrier": "robot", "motor": "m.stl",
                 "seed": 0, "coverage_pct": 90.0, "acquisitions": acquisitions,
                 "requested": acquisitions + 1, "failed_requests": 1, "success": success,
+                "views_to_goal": acquisitions if success else "",
                 "cycle_time_s": cycle, "paper_m": 1.0, "plan_s": 0.1,
                 "plan_ms_per_view": 1.0, "episode_s": 1.0,
                 **dict.fromkeys(CURVE_COLUMNS, 90.0)})
@@ -65,12 +66,13 @@ def test_agents_are_averaged_over_seeds_against_the_optimum_of_the_same_episodes
                         capsys=capsys)
     assert code == 0, err
     text = (tmp_path / "t.md").read_text()
-    # bscp: 4.5 views, +1 above, cycle 12 s; the optimum +0.
-    assert "| bscp | 100 | 4.50 | 1.00 | 12.00 | +1.00 |" in text
-    assert "| optimum | 100 | 3.50 | 1.00 | 11.00 | +0.00 |" in text
-    # The agent: goal 100 and 50 %, views 5 and 4, above the optimum 1.5 and 0.5 per seed.
-    assert ("| learned (2 seeds) | 75 (50-100) | 4.50 (4.00-5.00) | 1.00 (1.00-1.00) "
-            "| 21.00 (21.00-21.00) | +1.00 (0.50-1.50) |") in text
+    # bscp: 4.5 views, all to the goal, +1 above, cycle 12 s; the optimum +0.
+    assert "| bscp | 100 | 4.50 | 4.50 | 1.00 | 12.00 | +1.00 |" in text
+    assert "| optimum | 100 | 3.50 | 3.50 | 1.00 | 11.00 | +0.00 |" in text
+    # The agent: goal 100 and 50 %, views 5 and 4, to the goal 5 and 3 (its one episode
+    # there), above the optimum 1.5 and 0.5 per seed.
+    assert ("| learned (2 seeds) | 75 (50-100) | 4.50 (4.00-5.00) | 4.00 (3.00-5.00) "
+            "| 1.00 (1.00-1.00) | 21.00 (21.00-21.00) | +1.00 (0.50-1.50) |") in text
     # Chosen rows in the order given, the agent after the one named.
     code, err = _tables("--folders", "cell", "--agents", "learned=agent", "--planners",
                         "optimum", "bscp", "--agents-after", "optimum", "--out", "c.md",
