@@ -26,6 +26,7 @@ from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import candidate_views
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.optimum import (
+    PREDICTED_ROUNDS,
     TIME_LIMIT_S,
     OptimumPlanner,
     Reduced,
@@ -280,7 +281,8 @@ def confirmed_optimum(planner: OptimumPlanner, clock_step_s: float = 0.0
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr("vprobot.planners.optimum.time", types.SimpleNamespace(
             perf_counter=lambda: clock() + clock_step_s * next(readings)))
-        best = planner._confirmed_optimum(known, covered, 10, 0.9, confirm, measured)
+        best = planner._confirmed_optimum(known, covered, 10, 0.9, confirm, measured,
+                                          range(20))
     return best, planner.proof
 
 
@@ -292,6 +294,37 @@ def test_the_plan_and_its_proof_do_not_depend_on_the_clock() -> None:
     # Each round takes about 40 s as this clock reads it: far more than the machine needs,
     # well within the safety net.
     assert confirmed_optimum(OptimumPlanner(), clock_step_s=10.0) == (best, proof)
+
+
+def test_after_its_predicted_rounds_the_optimum_measures_every_row_and_is_exact() -> None:
+    # Predictions twice as optimistic as the measurements: each round on predicted rows picks
+    # views that fall short when measured, until every row is measured; the last solve is then
+    # the optimum of the measured rows, checked against every subset.
+    rng = np.random.default_rng(11)
+    predicted = rng.random((12, 60)) < 0.35
+    measured_rows = predicted & (rng.random(predicted.shape) < 0.5)
+    covered = np.zeros(60, dtype=bool)
+    measured: set[int] = set()
+
+    def known() -> np.ndarray:
+        rows = predicted.copy()
+        rows[list(measured)] = measured_rows[list(measured)]
+        return rows
+
+    def confirm(index: int) -> np.ndarray:
+        measured.add(index)
+        return measured_rows[index]
+
+    planner = OptimumPlanner()
+    planner.greedy_picks, _ = greedy_cover(known(), covered, 12, 0.8, confirm=confirm,
+                                           confirmations=1)
+    best = planner._confirmed_optimum(known, covered, 12, 0.8, confirm, measured, range(12))
+    assert planner.rounds == PREDICTED_ROUNDS + 1 and measured == set(range(12))
+    needed = math.ceil(0.8 * 60)
+    fewest = min(size for size in range(13) for rows in itertools.combinations(range(12), size)
+                 if covered_by(measured_rows, covered, rows) >= needed)
+    assert covered_by(measured_rows, covered, tuple(best)) >= needed and len(best) == fewest
+    assert planner.proof == Proof(proven=True, bound=fewest, gap_views=0)
 
 
 def test_the_time_safety_net_cuts_the_rounds_and_states_no_proof() -> None:
@@ -407,7 +440,6 @@ def test_plan_with_the_optimum_writes_json_video_and_replays(
                                  "node_limit": 1, **kwargs})
 
     monkeypatch.setattr(OptimumPlanner, "__init__", small)
-    monkeypatch.setattr("vprobot.planners.optimum.SOLVE_ROUNDS", 3)
     plan, video = tmp_path / "plan.json", tmp_path / "replay.gif"
     assert main(["plan", "--planner", "optimum", "--out", str(plan)]) == 0
     assert "goal 90% reached" in capsys.readouterr().out

@@ -26,8 +26,9 @@ warning), since what it would prove depends on the clock.
 
 The visibility is predicted, so the chosen views are confirmed by simulated acquisitions as B_SCP
 confirms its picks: the program is solved again on the rows measured so far until every view it
-chooses was measured before the solve (its answer then holds for what the views measure), at
-most `SOLVE_ROUNDS` times. The views are ordered for the least cycle time
+chooses was measured before the solve (its answer then holds for what the views measure); after
+`PREDICTED_ROUNDS` solves every usable candidate is measured and the program solved once more,
+on what every candidate measures. The views are ordered for the least cycle time
 (`ordering.cycle_order`); when the executed plan falls short of the goal, the planner adds
 B_SCP's next view as B_SCP does.
 """
@@ -62,17 +63,17 @@ its plans and proofs do not depend on the machine or its load. HiGHS's root (pre
 heuristics) runs to its end before it, and is the most of the work on the valve bodies."""
 TIME_LIMIT_S = 1200.0
 """Wall-clock safety net per episode (all solves of the confirmation rounds together), far above
-what `NODE_LIMIT` and `SOLVE_ROUNDS` take here; a plan it cuts short states no proof."""
+what `NODE_LIMIT` and `PREDICTED_ROUNDS` take here; a plan it cuts short states no proof."""
 TRIPLE_CHUNK = 20_000
 """Triples counted exactly at once (memory: this many rows of bits, one per point)."""
 TRIPLE_LIMIT = 5_000_000
 """Triples counted exactly per program at most (some seconds); the test motors leave under
 half a million open."""
-SOLVE_ROUNDS = 50
-"""Solves per episode at most: each round confirms the views the last solve chose (about a
-second each on a motor). The test motors settle in 1 to 12 rounds, but on two of them every
-round finds another triple whose predicted rows reach the goal and whose measured rows do not,
-until this limit."""
+PREDICTED_ROUNDS = 3
+"""Solves on predicted rows at most: each confirms the views it chose. Most episodes settle in
+one or two; where the prediction is optimistic (structured light above all), every round finds
+another set whose predicted rows reach the goal and whose measured rows do not. After this many,
+every usable candidate is measured and the program solved once more, on measured rows only."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -452,8 +453,9 @@ class OptimumPlanner(SetCoverPlanner):
         self.greedy_picks, _ = greedy_cover(
             candidates.known_visibility(), episode.covered, count, goal, confirm=confirm,
             confirmations=CONFIRMATIONS_PER_PICK)
+        usable = np.flatnonzero(candidates.usable).tolist()
         best = self._confirmed_optimum(candidates.known_visibility, episode.covered, count, goal,
-                                       confirm, measured)
+                                       confirm, measured, usable)
         self.picks, self.gains = _ordered_gains(candidates.known_visibility(), episode.covered,
                                                 best)
         self._taken = set(self.picks)
@@ -461,11 +463,12 @@ class OptimumPlanner(SetCoverPlanner):
 
     def _confirmed_optimum(self, known: Callable[[], np.ndarray], covered: np.ndarray,
                            count: int, goal: float | None, confirm: Callable[[int], np.ndarray],
-                           measured: set[int]) -> list[int]:
+                           measured: set[int], usable: Sequence[int]) -> list[int]:
         """The best confirmed solution: solve on the rows known so far (greedy's picks the
         incumbent), confirm the chosen rows, again until a solve chooses only rows measured
-        before it, or the rounds run out. Records the proof and the gap, or None when the
-        safety net `time_limit_s` cut the rounds short (the proof would depend on the clock)."""
+        before it; after `PREDICTED_ROUNDS` solves every `usable` row is measured, so that the
+        next solve is the last. Records the proof and the gap, or None when the safety net
+        `time_limit_s` cut the rounds short (the proof would depend on the clock)."""
         best = list(self.greedy_picks)
         deadline = time.perf_counter() + self.time_limit_s
         self.solve_seconds, self.rounds = 0.0, 0
@@ -480,10 +483,14 @@ class OptimumPlanner(SetCoverPlanner):
             if _better(known(), covered, count, goal, cover.picks, best):
                 best = list(cover.picks)
             # Cut when HiGHS stopped at the clock, or another round was due past it.
-            timed_out = cover.timed_out or (bool(fresh) and self.rounds < SOLVE_ROUNDS
-                                            and time.perf_counter() >= deadline)
-            if not fresh or self.rounds >= SOLVE_ROUNDS or timed_out:
+            timed_out = cover.timed_out or (bool(fresh) and time.perf_counter() >= deadline)
+            if not fresh or timed_out:
                 break
+            if self.rounds == PREDICTED_ROUNDS:
+                # Measured rows only from here: the next solve chooses none unmeasured.
+                for index in usable:
+                    if index not in measured:
+                        confirm(index)
         if timed_out:
             warnings.warn(f"optimum: the {self.time_limit_s:g} s safety net cut the solves "
                           f"short after {self.rounds} round(s); the plan states no proof",
