@@ -9,7 +9,7 @@ import json
 import math
 import time
 import types
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -254,15 +254,10 @@ def test_the_time_safety_net_keeps_the_incumbent_and_says_it_cut() -> None:
     assert cover.proven == (cover.views_bound == len(cover.picks))
 
 
-def confirmed_optimum(planner: OptimumPlanner, clock_step_s: float = 0.0
-                      ) -> tuple[list[int], Proof | None]:
-    """The planner's confirmation rounds (`_confirmed_optimum`) on a synthetic instance whose
-    measured rows see less than predicted (it takes 2 rounds), with the wall clock as read by
-    the planner advancing `clock_step_s` more at each reading (a machine that slow)."""
-    rng = np.random.default_rng(4)
-    predicted = rng.random((20, 100)) < rng.uniform(0.1, 0.4, size=(20, 1))
-    measured_rows = predicted & (rng.random(predicted.shape) < 0.7)
-    covered = np.zeros(100, dtype=bool)
+def confirmation(predicted: np.ndarray, measured_rows: np.ndarray
+                 ) -> tuple[Callable[[], np.ndarray], Callable[[int], np.ndarray], set[int]]:
+    """The planner's view of a synthetic instance: the rows known so far (predicted, measured
+    where confirmed), the confirmation of a row, and the rows confirmed."""
     measured: set[int] = set()
 
     def known() -> np.ndarray:
@@ -273,6 +268,20 @@ def confirmed_optimum(planner: OptimumPlanner, clock_step_s: float = 0.0
     def confirm(index: int) -> np.ndarray:
         measured.add(index)
         return measured_rows[index]
+
+    return known, confirm, measured
+
+
+def confirmed_optimum(planner: OptimumPlanner, clock_step_s: float = 0.0
+                      ) -> tuple[list[int], Proof | None]:
+    """The planner's confirmation rounds (`_confirmed_optimum`) on a synthetic instance whose
+    measured rows see less than predicted (it takes 2 rounds), with the wall clock as read by
+    the planner advancing `clock_step_s` more at each reading (a machine that slow)."""
+    rng = np.random.default_rng(4)
+    predicted = rng.random((20, 100)) < rng.uniform(0.1, 0.4, size=(20, 1))
+    measured_rows = predicted & (rng.random(predicted.shape) < 0.7)
+    covered = np.zeros(100, dtype=bool)
+    known, confirm, measured = confirmation(predicted, measured_rows)
 
     planner.greedy_picks, _ = greedy_cover(known(), covered, 10, 0.9, confirm=confirm,
                                            confirmations=3)
@@ -304,16 +313,7 @@ def test_after_its_predicted_rounds_the_optimum_measures_every_row_and_is_exact(
     predicted = rng.random((12, 60)) < 0.35
     measured_rows = predicted & (rng.random(predicted.shape) < 0.5)
     covered = np.zeros(60, dtype=bool)
-    measured: set[int] = set()
-
-    def known() -> np.ndarray:
-        rows = predicted.copy()
-        rows[list(measured)] = measured_rows[list(measured)]
-        return rows
-
-    def confirm(index: int) -> np.ndarray:
-        measured.add(index)
-        return measured_rows[index]
+    known, confirm, measured = confirmation(predicted, measured_rows)
 
     planner = OptimumPlanner()
     planner.greedy_picks, _ = greedy_cover(known(), covered, 12, 0.8, confirm=confirm,
