@@ -89,8 +89,9 @@ def print_table(results: dict[str, Any]) -> None:
     for row in results["episodes"]:
         gap = "-" if row["gap_views"] is None else row["gap_views"]
         bound = "-" if row["bound"] is None else row["bound"]
-        print(f"{row['episode']:>7}  {Path(row['motor']).name:<24}{row['carrier']:<8}{row['bscp_views']:>5}"
-              f"{row['views']:>6}{bound:>6}{gap:>5}{'yes' if row['proven'] else 'no':>7}"
+        print(f"{row['episode']:>7}  {Path(row['motor']).name:<24}{row['carrier']:<8}"
+              f"{row['bscp_views']:>5}{row['views']:>6}{bound:>6}{gap:>5}"
+              f"{'yes' if row['proven'] else 'no':>7}"
               f"{row['rounds']:>7}{'yes' if row['measured_all'] else 'no':>4}"
               f"{row['solve_s']:>9.1f}{row['plan_s']:>8.1f}  "
               f"{'met' if row['target_met'] else 'MISSED'}")
