@@ -287,13 +287,15 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
         f"the goal, on the same episode and carrier): the mean acquisitions above its own, the "
         f"share of episodes within one view of it, and the mean ratio of the cycle times "
         f"(per episode in `{VERSUS_NAME}`). `proven %` is the share of `{OPTIMUM}`'s plans "
-        f"its solver proved optimal (on the measured visibility of the views chosen) within "
-        f"its time limit, `gap views, max` the most views any of its plans lies above the "
+        f"its solver proved optimal (on the measured visibility of the views chosen, or of "
+        f"every candidate where it measured them all) within its work limit, `gap views, "
+        f"max` the most views any of its plans lies above the "
         f"proven fewest (0: proven).",
         "",
         *([] if any(row["views_above_optimum"] is not None for row in table) else [
             f"No `{OPTIMUM}` rows here, so the comparison with it is empty: add it to the "
-            f"planners (`--planners ... {OPTIMUM}`; up to a minute per episode) to fill it.",
+            f"planners (`--planners ... {OPTIMUM}`; minutes per episode on the hardest parts) to "
+            f"fill it.",
             ""]),
         header,
         "|" + "---|" * (header.count("|") - 1),
