@@ -32,13 +32,12 @@ from vprobot.occupancy import (
     GAINS,
     OCCUPIED,
     UNKNOWN,
-    UNKNOWN_PASS,
     VOXEL_M,
     EpisodeGrid,
     GridSettings,
     OccupancyGrid,
-    ViewGains,
 )
+from vprobot.view_gains import UNKNOWN_PASS, ViewGains
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
@@ -371,7 +370,7 @@ def test_unknown_gain_of_a_ray_through_unknown_space_is_the_hand_computed_series
     assert gains.score(grid, "unknown")[0] == pytest.approx(series)
     # All three gains at once, over runs of samples in one voxel: the same series for unknown;
     # no free or occupied voxel, so no frontier or rear side.
-    np.testing.assert_allclose(gains.scores(grid)[0], [series, 0.0, 0.0], rtol=1e-12)
+    np.testing.assert_allclose(gains.camera_scores(grid)[0], [series, 0.0, 0.0], rtol=1e-12)
     # Free space holds nothing to learn; an occupied voxel ends the ray before what it hides.
     grid.state[:] = FREE
     assert gains.score(grid, "unknown")[0] == 0.0
@@ -390,7 +389,7 @@ def test_scores_of_all_gains_at_once_are_score_of_each_sample_by_sample_on_rando
         grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
         expected = np.stack([gains.score(grid, gain) for gain in GAINS], axis=1)
         assert expected[:, 0].min() > 0.0
-        np.testing.assert_allclose(gains.scores(grid), expected, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(gains.camera_scores(grid), expected, rtol=1e-12, atol=1e-12)
 
 
 def test_flat_index_finds_the_voxel_of_points_inside_it_and_minus_one_outside() -> None:

@@ -32,7 +32,8 @@ from vprobot.config import Config
 from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
-from vprobot.occupancy import OccupancyGrid, ViewGains
+from vprobot.occupancy import OccupancyGrid
+from vprobot.view_gains import ViewGains
 from vprobot.progress import stage
 from vprobot.sensor_model import SensorModel
 from vprobot.viewsphere import sphere_directions
@@ -141,7 +142,8 @@ def band_candidates(config: Config, voxel_m: float) -> BandCandidates:
                               sensor.working_distance_m, directions)
     return BandCandidates(targets, directions,
                           ViewGains(OccupancyGrid.for_cell(config, voxel_m), sensor,
-                                    [target.pose for target in targets]))
+                                    [target.pose for target in targets],
+                                    sensing=config.sensor.sensing_model))
 
 
 def request_directions(views: Sequence[ViewRecord], center: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ from vprobot.cli.common import POSITIVE_INT, Commands, add, add_robot, config_of
 from vprobot.outputs import check_output_file
 
 SUITES = ("kinematics", "sensor", "env", "planners", "mesh", "render", "train", "cluster",
-          "objects", "motion", "cli", "optimum")
+          "objects", "motion", "cli", "optimum", "grid")
 
 
 def add_benchmark(commands: Commands) -> None:
@@ -76,6 +76,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.optimum import print_table, run_optimum_benchmark
 
         results, printer = run_optimum_benchmark(config), print_table
+    elif args.suite == "grid":
+        from vprobot.benchmarks.grid import run_grid_benchmark
+
+        results = run_grid_benchmark(config)
     elif args.suite == "cli":
         from vprobot.benchmarks.cli import run_cli_benchmark
 

@@ -129,7 +129,7 @@ class GridState:
         if not mask.any():
             mask = ~failed
         gains = self.band.gains
-        scores = gains.scores(grid) / (gains.rays * gains.ray_bound)
+        scores = gains.camera_scores(grid) / (gains.rays * gains.ray_bound)
         best = scores[mask].max(axis=0, initial=0.0)
         relative = np.divide(scores, best, out=np.zeros_like(scores), where=best > 0.0)
         current_cos = directions @ self._sensor_direction(episode)

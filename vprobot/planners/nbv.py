@@ -4,8 +4,11 @@ Like the agents it starts from the episode's initial view. After every acquisiti
 integrated into an occupancy grid over where an object may stand in the cell
 (`vprobot.occupancy`); the candidates are the band candidates (`views.band_candidates`:
 look-at views spread evenly over the view band at the working distance, as `uniform<k>`), each
-scored by the expected information of
-its rays through the grid (`DEFAULT_GAIN`). The best candidate is requested next, skipping
+scored by the expected information of its rays through the grid (`DEFAULT_GAIN`) as its sensor
+would measure it (`vprobot.view_gains.ViewGains.scores`: under structured light only what the
+projector lights within both incidence limits; with the ideal sensor what the camera sees).
+`nbv_camera` scores by what the camera sees whatever the sensor (`vprobot.planners.nbv_camera`),
+as `nbv` did before issue 45. The best candidate is requested next, skipping
 candidates within `EXCLUDE_DEG` of an earlier request (taken or failed) and, with the robot,
 candidates the IK cannot reach from the current configuration or where the arm would hide the
 view (cast against the robot's own geometry; up to `REACH_TRIES` tries per view; a failed
@@ -22,7 +25,7 @@ the fixture) keeps it above 60 % of its first value after ten views that saw eve
 
 from __future__ import annotations
 
-from typing import cast
+from typing import ClassVar, cast
 
 import numpy as np
 
@@ -65,6 +68,8 @@ class VolumetricPlanner(Planner):
     pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>.+))?"
     evaluated = ("nbv", "nbv@grid")
     initial_view = True
+    sensed: ClassVar[bool] = True
+    """Whether candidates score by what the sensor measures (else by what the camera sees)."""
 
     def __init__(self, config: Config, gain: Gain = DEFAULT_GAIN, stop: str = "goal",
                  voxel_m: float = VOXEL_M):
@@ -114,7 +119,9 @@ class VolumetricPlanner(Planner):
         allowed = offered(band.directions, request_directions(episode.views, episode.center),
                           self._failed)
         grid = episode.occupancy(self.settings).grid
-        scores = np.where(allowed, band.gains.score(grid, self.gain), 0.0)
+        gains = (band.gains.scores(grid).scores[:, GAINS.index(self.gain)] if self.sensed
+                 else band.gains.score(grid, self.gain))
+        scores = np.where(allowed, gains, 0.0)
         for index in np.argsort(-scores, kind="stable")[:REACH_TRIES]:
             if scores[index] <= 0.0:
                 break

@@ -1,0 +1,396 @@
+"""The gains of candidate views against an occupancy grid: what a view would see of the unknown,
+and what its sensor would measure of it.
+
+A candidate view is scored by casting a sparse grid of rays through the grid (`ViewGains`):
+along each ray a sample's visibility is the product of the chances that the samples before it
+let the ray through (1 for free, `UNKNOWN_PASS` per voxel for unknown, 0 for occupied), and a
+gain sums the visibility of the samples of one kind (`vprobot.occupancy.GAINS`). That is what the
+camera would see (`ViewGains.camera_scores`).
+
+A structured-light sensor measures less (`vprobot.sensing.structured_light`): a point only where
+its projector, `baseline_m` along the sensor's +x axis, lights it unoccluded, and where the
+camera's and the projector's rays meet the surface within their incidence limits.
+`ViewGains.scores` weighs every counted sample by whether the candidate's sensor would measure a
+surface there, judged from the grid alone:
+
+- the normal of a surface in an unknown voxel points to the free voxels about it (the sum of
+  the offsets to its free neighbours among the 26): a surface bounds the free space it was
+  looked at through. A voxel without free neighbours, or with free space on every side, has no
+  normal, and nothing keeps it from the incidence limits;
+- the camera's ray and the ray from the projector to the voxel's centre meet that normal within
+  their limits, from its free side;
+- the projector lights the voxel when no occupied voxel lies in front of it: each candidate's
+  occupied voxels are drawn into a depth map from its projector (`SHADOW_PIXEL_VOXELS` voxels a
+  pixel at the working distance), and the voxel is in shadow where it lies farther from the
+  projector than the map says, by more than a voxel and its surface's slope across a pixel.
+
+Under structured light the gains sum the samples a candidate sees with a visibility of at least
+`RELEVANT_VISIBILITY`, weighed so (the others, seen less, would add a thirtieth of a ray at most);
+with the ideal sensor no weight applies and the gains are the camera's, the same numbers.
+`Gains.remaining` is the model-free bound of what is left to measure: the open border of the
+surface seen so far (unknown voxels next to both an occupied and a free one) that one of the
+offered candidates would measure, each at its best candidate's chance, as a share of that border
+and the occupied voxels. It falls to 0 when no offered candidate can extend the seen surface.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from vprobot.geometry import Pose
+from vprobot.occupancy import FREE, GAINS, OCCUPIED, UNKNOWN, Gain, OccupancyGrid
+from vprobot.sensing.base import SensingModel
+from vprobot.sensing.structured_light import StructuredLight
+from vprobot.sensor_model import SensorModel
+
+UNKNOWN_PASS = 0.5
+"""Chance that a ray passes an unknown voxel (an uninformed prior: as likely free as not)."""
+RELEVANT_VISIBILITY = 1e-2
+"""Under structured light, samples seen less than this count nothing (their sensing is not
+worked out; together they would add at most a thirtieth of a ray, `ViewGains.ray_bound`'s
+tail)."""
+SHADOW_PIXEL_VOXELS = 2.0
+"""The projector's depth map: voxels per pixel at the working distance (two: a surface of
+occupied voxels leaves no holes in it)."""
+_KIND_BITS = len(GAINS)
+_CODES = (OCCUPIED + 1) << _KIND_BITS
+_SURFACE_FRONTIER = (1 << GAINS.index("frontier")) | (1 << GAINS.index("rear_side"))
+_AROUND = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+                    if (dx, dy, dz) != (0, 0, 0)])
+"""The offsets to a voxel's 26 neighbours."""
+
+
+def sample_distances(sensor: SensorModel, voxel_m: float) -> np.ndarray:
+    """Distances half a voxel apart from the sensor's near to its far bound."""
+    step = 0.5 * voxel_m
+    return np.arange(sensor.near_m, sensor.far_m + step, step)
+
+
+def ray_samples(pose: Pose, directions: np.ndarray, sensor: SensorModel,
+                voxel_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Samples half a voxel apart along rays from the sensor's near to its far bound.
+
+    Args:
+        pose: The sensor pose.
+        directions: Unit ray directions (n, 3) in the sensor frame.
+        sensor: The sensor's range.
+        voxel_m: Voxel edge of the grid the samples are for.
+
+    Returns:
+        The distances along every ray (k,) and the sample points (n, k, 3) in the world.
+    """
+    distances = sample_distances(sensor, voxel_m)
+    return distances, (pose.position + (directions @ pose.rotation.T)[:, None, :]
+                       * distances[None, :, None])
+
+
+@dataclasses.dataclass(frozen=True)
+class Gains:
+    """Every gain of every candidate against one grid, and what is left to measure.
+
+    Attributes:
+        scores: The gains as the sensor would measure them (candidates, len(GAINS)).
+        remaining: The bound of what is left: measurable frontier voxels over those and the
+            occupied voxels, in [0, 1]; 1 before anything was seen.
+    """
+
+    scores: np.ndarray
+    remaining: float
+
+
+class ViewGains:
+    """Gains of a fixed set of candidate sensor poses, scored against a grid.
+
+    The rays of every candidate are sampled once (their voxel indices do not depend on what the
+    grid holds), so that scoring all candidates is a gather and a cumulative product.
+
+    Args:
+        grid: The grid the candidates will be scored against (its geometry only).
+        sensor: The sensor's opening angles and range.
+        poses: Candidate sensor poses (world).
+        rays: Rays per candidate along image x and y.
+        sensing: How the sensor measures (`vprobot.sensing`); structured light weighs the gains
+            by what its projector lights and its incidence limits, any other model measures
+            what the camera sees.
+    """
+
+    def __init__(self, grid: OccupancyGrid, sensor: SensorModel, poses: list[Pose],
+                 rays: tuple[int, int] = (16, 12), sensing: SensingModel | None = None):
+        directions = sensor.at_resolution(rays).ray_directions
+        index = grid.flat_index(np.stack([ray_samples(pose, directions, sensor, grid.voxel_m)[1]
+                                          for pose in poses]))
+        # Samples outside the grid read an extra last element that counts as free space.
+        self._index = np.where(index >= 0, index, grid.state.size).astype(np.int32)
+        # Two samples per voxel: each passes an unknown voxel with the root of its chance.
+        self._unknown_pass = UNKNOWN_PASS ** 0.5
+        self._runs = _SampleRuns(self._index, grid.state.size, self._unknown_pass)
+        self._light = (_Projectors(grid, sensor, poses, sensing)
+                       if isinstance(sensing, StructuredLight) else None)
+
+    def __len__(self) -> int:
+        return len(self._index)
+
+    @property
+    def rays(self) -> int:
+        """Rays per candidate."""
+        return self._index.shape[1]
+
+    @property
+    def ray_bound(self) -> float:
+        """The largest gain of one ray: every sample unknown, inside the grid and counted."""
+        samples = self._index.shape[2]
+        return (1.0 - self._unknown_pass ** samples) / (1.0 - self._unknown_pass)
+
+    @staticmethod
+    def _seen(passes: np.ndarray) -> np.ndarray:
+        """Visibility of every sample: everything before it let the ray through (its own
+        state aside)."""
+        visible = np.cumprod(passes, axis=-1)
+        return np.concatenate([np.ones_like(visible[..., :1]), visible[..., :-1]], axis=-1)
+
+    def score(self, grid: OccupancyGrid, gain: Gain) -> np.ndarray:
+        """The camera's gain of every candidate (count,) against the grid's current state,
+        sample by sample (the reference of `camera_scores`)."""
+        state = np.append(grid.state.reshape(-1), np.int8(FREE))[self._index]
+        passes = np.where(state == FREE, 1.0,
+                          np.where(state == UNKNOWN, self._unknown_pass, 0.0))
+        counted = np.append(grid.kind_mask(gain).reshape(-1), False)[self._index]
+        return (self._seen(passes) * counted).sum(axis=(1, 2))
+
+    def camera_scores(self, grid: OccupancyGrid) -> np.ndarray:
+        """Every gain of every candidate (count, len(GAINS)) as the camera sees it: `score`
+        of each gain, computed over the runs of samples in one voxel."""
+        codes = _codes(grid)
+        keys, visible = self._runs.visibility(codes)
+        return self._runs.sums(keys, visible[:-1])
+
+    def scores(self, grid: OccupancyGrid, offered: np.ndarray | None = None) -> Gains:
+        """Every gain of every candidate as the sensor would measure it, and the bound of what
+        is left to measure from the `offered` candidates (bool, count; all when None)."""
+        codes = _codes(grid)
+        keys, visible = self._runs.visibility(codes)
+        weights = visible[:-1]
+        kinds = self._runs.kinds(keys[1:])
+        relevant = np.flatnonzero((kinds != 0) & (weights >= RELEVANT_VISIBILITY))
+        voxels = self._runs.voxels[1:].ravel()[relevant]
+        kinds = kinds.ravel()[relevant]
+        weight = weights.ravel()[relevant]
+        candidates = relevant % weights.shape[1] // self.rays
+        if self._light is None:
+            scores = self._runs.sums(keys, weights)
+        else:
+            weight *= self._light.measured(grid, voxels, candidates)
+            scores = self._runs.sums_at(keys[1:].ravel()[relevant], candidates, weight)
+        frontier = (kinds & _SURFACE_FRONTIER) == _SURFACE_FRONTIER
+        if offered is not None:
+            frontier &= offered[candidates]
+        best = np.zeros(grid.state.size + 1)
+        np.maximum.at(best, voxels[frontier], weight[frontier])
+        left = float(best.sum())
+        occupied = int(np.count_nonzero(grid.state == OCCUPIED))
+        return Gains(scores, left / (left + occupied) if left + occupied > 0 else 1.0)
+
+
+def _codes(grid: OccupancyGrid) -> np.ndarray:
+    """Every voxel's code (state << 3 | one bit per gain), the outside element (free) last."""
+    code = grid.state.astype(np.uint8) << _KIND_BITS
+    for bit, gain in enumerate(GAINS):
+        code |= grid.kind_mask(gain).astype(np.uint8) << bit
+    return np.append(code.reshape(-1), np.uint8(FREE << _KIND_BITS))
+
+
+class _Projectors:
+    """The candidates' projectors: where each lights and at what incidence, from a grid.
+
+    Args:
+        grid: The grid (its geometry).
+        sensor: The camera's opening angles and working distance.
+        poses: The candidates' sensor poses (the camera's).
+        light: The structured-light figures (baseline, incidence limits).
+    """
+
+    def __init__(self, grid: OccupancyGrid, sensor: SensorModel, poses: list[Pose],
+                 light: StructuredLight):
+        self._rotations = np.stack([pose.rotation for pose in poses]).astype(np.float32)
+        self._cameras = np.stack([pose.position for pose in poses]).astype(np.float32)
+        self._projectors = self._cameras + light.baseline_m * self._rotations[:, :, 0]
+        self._min_cos = light.min_cos_incidence
+        self._voxel = grid.voxel_m
+        # The depth map spans every direction in which the projector can light a point the
+        # camera sees within range: the camera's field, shifted by the baseline at the near
+        # bound along x, and a pixel more on every side for the voxels' centres, which lie up to
+        # a voxel off the camera's rays.
+        half_x, half_y = sensor.half_tangents
+        self._pitch = SHADOW_PIXEL_VOXELS * grid.voxel_m / sensor.working_distance_m
+        self._low = np.array([-half_x - light.baseline_m / sensor.near_m, -half_y]) - self._pitch
+        self._size = np.ceil((np.array([half_x, half_y]) + self._pitch - self._low)
+                             / self._pitch).astype(int)
+        shape = np.array(grid.shape)
+        self._padded_shape = tuple(shape + 2)
+        self._padded_offsets = np.ravel_multi_index((_AROUND + 1).T, self._padded_shape) - int(
+            np.ravel_multi_index((1, 1, 1), self._padded_shape))
+
+    def _pixels(self, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The depth-map pixel (flat) of points in a projector's frame (3, ...), and whether
+        they lie in front of it and in the map."""
+        z = local[2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            column = np.floor((local[0] / z - self._low[0]) / self._pitch)
+            row = np.floor((local[1] / z - self._low[1]) / self._pitch)
+        inside = (z > 0.0) & (column >= 0) & (column < self._size[0]) & (row >= 0) & (
+            row < self._size[1])
+        pixel = np.where(inside, row * self._size[0] + column, 0).astype(np.int64)
+        return pixel, inside
+
+    def _depth_maps(self, grid: OccupancyGrid) -> np.ndarray:
+        """Per candidate, the distance from its projector to the nearest occupied voxel centre
+        in each pixel of its depth map (candidates, pixels); inf where none."""
+        occupied = np.flatnonzero(grid.state.reshape(-1) == OCCUPIED)
+        count, pixels = len(self._projectors), int(np.prod(self._size))
+        maps = np.full(count * pixels, np.inf, dtype=np.float32)
+        if len(occupied):
+            centres = np.take(grid.centres, occupied, axis=1)  # (3, k)
+            local = np.einsum("cji,jk->cik", self._rotations, centres) - np.einsum(
+                "cji,cj->ci", self._rotations, self._projectors)[:, :, None]
+            pixel, inside = self._pixels(np.moveaxis(local, 1, 0))
+            distance = np.sqrt(np.einsum("cik,cik->ck", local, local))
+            keys = pixel + (np.arange(count) * pixels)[:, None]
+            np.minimum.at(maps, keys[inside], distance[inside])
+        return maps.reshape(count, pixels)
+
+    def _normals(self, grid: OccupancyGrid, voxels: np.ndarray) -> np.ndarray:
+        """The surface normal (3, n) at each voxel from its free neighbours; zero without."""
+        free = np.pad(grid.state == FREE, 1).reshape(-1).view(np.int8)
+        cells = np.array(np.unravel_index(voxels, grid.shape)) + 1
+        padded = np.ravel_multi_index(cells, self._padded_shape)
+        sums = np.zeros((3, len(voxels)), dtype=np.int16)
+        for offset, flat in zip(_AROUND, self._padded_offsets, strict=True):
+            near = free[padded + flat]
+            for axis in np.flatnonzero(offset):
+                if offset[axis] > 0:
+                    sums[axis] += near
+                else:
+                    sums[axis] -= near
+        return sums.astype(np.float32)
+
+    def measured(self, grid: OccupancyGrid, voxels: np.ndarray,
+                 candidates: np.ndarray) -> np.ndarray:
+        """Whether the candidate's sensor would measure a surface in each voxel (1 or 0,
+        float32): lit by its projector and within both incidence limits."""
+        # The distinct voxels, in order (a mark per voxel: cheaper than sorting them).
+        marked = np.zeros(grid.state.size + 1, dtype=np.int32)
+        marked[voxels] = 1
+        unique = np.flatnonzero(marked)
+        slot = np.cumsum(marked)[voxels] - 1
+        normals = self._normals(grid, unique)
+        length = np.sqrt((normals * normals).sum(axis=0))
+        has_normal = length > 0.0
+        normals[:, has_normal] /= length[has_normal]
+        normal = normals[:, slot]
+        centres = np.take(grid.centres, voxels, axis=1)
+        view = centres - self._cameras[candidates].T
+        light = centres - self._projectors[candidates].T
+        light_distance = np.sqrt((light * light).sum(axis=0))
+        cos_camera = -(view * normal).sum(axis=0) / np.sqrt((view * view).sum(axis=0))
+        cos_projector = -(light * normal).sum(axis=0) / light_distance
+        min_camera, min_projector = self._min_cos
+        facing = ~has_normal[slot] | ((cos_camera > 0.0) & (cos_camera >= min_camera)
+                                       & (cos_projector > 0.0)
+                                       & (cos_projector >= min_projector))
+        axes = self._rotations.reshape(len(self._rotations), 9).T  # (9, count): R[j, i] at 3j + i
+        local = np.stack([sum(axes[3 * j + i][candidates] * light[j] for j in range(3))
+                          for i in range(3)])
+        pixel, inside = self._pixels(local)
+        maps = self._depth_maps(grid)
+        # Shadow where an occupied voxel lies in front by more than a voxel and the slope of
+        # the surface across a pixel (a surface does not shadow itself).
+        across = self._pitch * local[2]
+        slope = np.where(has_normal[slot],
+                         np.sqrt(np.maximum(1.0 - cos_projector ** 2, 0.0))
+                         / np.maximum(cos_projector, 0.2), 1.0)
+        lit = ~inside | (light_distance <= maps[candidates, pixel] + self._voxel + across * slope)
+        return (facing & lit).astype(np.float32)
+
+
+class _SampleRuns:
+    """The samples of every ray as runs of consecutive samples in one voxel, for the scores.
+
+    Half a voxel apart, a ray's samples fall in the same voxel up to four times in a row (the
+    band candidates' runs number about 60 % of their samples); a run of m samples passes a ray
+    with the m-th power of one sample's chance and its samples' visibility sums to the first
+    one's times 1 + p + ... + p^(m-1). The runs are stored run by run across all rays (run,
+    ray), so that the cumulative product is a few dozen products of whole rows, and every ray
+    starts with an empty run (visibility 1 before the first voxel). What a run reads is one
+    byte, its key: length x `_CODES` + its voxel's code (state << 3 | one bit per gain).
+
+    Args:
+        index: Voxel index of every sample (candidates, rays, samples); `outside` for samples
+            outside the grid.
+        outside: The index of the extra element read outside the grid (free space).
+        unknown_pass: One sample's chance to pass an unknown voxel.
+
+    Attributes:
+        voxels: The voxel of every run (runs, candidates x rays); `outside` for the empty
+            first runs and past a ray's end.
+    """
+
+    def __init__(self, index: np.ndarray, outside: int, unknown_pass: float):
+        count, rays, samples = index.shape
+        flat = index.reshape(count * rays, samples)
+        starts = np.ones(flat.shape, dtype=bool)
+        starts[:, 1:] = flat[:, 1:] != flat[:, :-1]
+        run = np.cumsum(starts, axis=1)  # from 1: run 0 is the empty first one
+        column = np.broadcast_to(np.arange(len(flat))[:, None], flat.shape)
+        self.voxels = np.full((run.max() + 1, len(flat)), outside, dtype=np.int32)
+        self.voxels[run, column] = flat
+        lengths = np.zeros(self.voxels.shape, dtype=np.int64)
+        np.add.at(lengths, (run, column), 1)
+        # Outside the grid a run passes everything and counts nothing, however long it is.
+        lengths[self.voxels == outside] = 0
+        codes = np.arange(_CODES)
+        sample_pass = np.select([codes >> _KIND_BITS == FREE, codes >> _KIND_BITS == UNKNOWN],
+                                [1.0, unknown_pass], 0.0)
+        counted = (codes[:, None] >> np.arange(_KIND_BITS)) & 1
+        powers = sample_pass ** np.arange(lengths.max() + 1)[:, None]  # (length, code)
+        # By key: a run's chance to pass, and what it adds to each gain per unit of visibility
+        # before it (1 + p + ... + p^(m-1); nothing for the empty runs).
+        self._pass = powers.ravel()
+        sums = np.concatenate([np.zeros((1, _CODES)), np.cumsum(powers, axis=0)[:-1]])
+        self._counts = (sums[:, :, None] * counted).reshape(-1, _KIND_BITS)
+        self._kinds = np.tile(codes & ((1 << _KIND_BITS) - 1), len(powers)).astype(np.uint8)
+        key_type = np.min_scalar_type(len(self._pass) - 1)
+        self._key_offsets = (lengths * _CODES).astype(key_type)
+        self._bins = (np.arange(len(flat)) // rays * len(self._pass)).astype(np.int64)
+        self._count = count
+
+    def visibility(self, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every run's key and the visibility after it (runs, columns), for voxel codes `codes`
+        (flat, the extra outside element last)."""
+        keys = np.take(codes, self.voxels).astype(self._key_offsets.dtype, copy=False)
+        keys += self._key_offsets
+        visible = np.take(self._pass, keys)
+        for run in range(1, len(visible)):
+            np.multiply(visible[run], visible[run - 1], out=visible[run])
+        return keys, visible
+
+    def kinds(self, keys: np.ndarray) -> np.ndarray:
+        """The gain bits of the voxel of every run of `keys` (uint8, same shape)."""
+        return np.take(self._kinds, keys)
+
+    def sums_at(self, keys: np.ndarray, candidates: np.ndarray,
+                weights: np.ndarray) -> np.ndarray:
+        """The gains (count, len(GAINS)) of some runs: their keys, candidates and weights."""
+        sums = np.bincount(candidates * len(self._pass) + keys, weights=weights,
+                           minlength=self._count * len(self._pass))
+        return sums.reshape(self._count, -1) @ self._counts
+
+    def sums(self, keys: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """The gains (count, len(GAINS)): each run's key weighed by `weights`, the visibility
+        before it (runs - 1, columns)."""
+        bins = keys[1:] + self._bins
+        sums = np.bincount(bins.ravel(), weights=weights.ravel(),
+                           minlength=self._count * len(self._pass))
+        return sums.reshape(self._count, -1) @ self._counts
