@@ -19,10 +19,10 @@ from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import Episode
 from vprobot.geometry import Pose
 from vprobot.occupancy import GAINS, EpisodeGrid, OccupancyGrid
-from vprobot.view_gains import UNKNOWN_PASS
 from vprobot.paths import MOTORS_DIR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.sensor_model import SensorModel
+from vprobot.view_gains import UNKNOWN_PASS
 from vprobot.views import band_directions, offered
 
 RESOLUTION = (64, 45)

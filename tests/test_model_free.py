@@ -37,7 +37,6 @@ from vprobot.occupancy import (
     GridSettings,
     OccupancyGrid,
 )
-from vprobot.view_gains import UNKNOWN_PASS, ViewGains
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
@@ -47,6 +46,7 @@ from vprobot.planners.uniform import view_band
 from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
 from vprobot.stopping.rules import make_stop_rule
+from vprobot.view_gains import UNKNOWN_PASS, ViewGains
 from vprobot.views import band_candidates
 
 CONFIG = Config()

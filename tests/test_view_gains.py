@@ -49,7 +49,7 @@ def frontier_gains(grid: OccupancyGrid, pose: Pose) -> tuple[float, float]:
     """The camera's and the structured-light sensor's frontier gain of one ray."""
     gains = ViewGains(grid, SENSOR, [pose], rays=(1, 1), sensing=LIGHT)
     return (float(gains.camera_scores(grid)[0, FRONTIER]),
-            float(gains.scores(grid).scores[0, FRONTIER]))
+            float(gains.scores(grid)[0, FRONTIER]))
 
 
 def test_a_plate_whose_projector_a_step_shadows_gains_nothing_there() -> None:
@@ -107,5 +107,5 @@ def test_the_ideal_sensors_gains_are_the_cameras_on_random_grids() -> None:
     for shares in ((1.0, 0.0, 0.0), (0.5, 0.45, 0.05), (0.2, 0.7, 0.1)):
         grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
         expected = np.stack([camera.score(grid, gain) for gain in GAINS], axis=1)
-        np.testing.assert_allclose(ideal.scores(grid).scores, expected, rtol=1e-12, atol=1e-12)
-        np.testing.assert_array_equal(ideal.scores(grid).scores, ideal.camera_scores(grid))
+        np.testing.assert_allclose(ideal.scores(grid), expected, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(ideal.scores(grid), ideal.camera_scores(grid))

@@ -15,8 +15,9 @@ surface there, judged from the grid alone:
 
 - the normal of a surface in an unknown voxel points to the free voxels about it (the sum of
   the offsets to its free neighbours among the 26): a surface bounds the free space it was
-  looked at through. A voxel without free neighbours, or with free space on every side, has no
-  normal, and nothing keeps it from the incidence limits;
+  looked at through. A voxel deeper in the unknown, without free neighbours, has no normal and
+  counts nothing: a ray that reaches it met the unknown first where it entered, and a surface
+  there is what the sensor would measure;
 - the camera's ray and the ray from the projector to the voxel's centre meet that normal within
   their limits, from its free side;
 - the projector lights the voxel when no occupied voxel lies in front of it: each candidate's
@@ -27,16 +28,9 @@ surface there, judged from the grid alone:
 Under structured light the gains sum the samples a candidate sees with a visibility of at least
 `RELEVANT_VISIBILITY`, weighed so (the others, seen less, would add a thirtieth of a ray at most);
 with the ideal sensor no weight applies and the gains are the camera's, the same numbers.
-`Gains.remaining` is the model-free bound of what is left to measure: the open border of the
-surface seen so far (unknown voxels next to both an occupied and a free one) that one of the
-offered candidates would measure, each at its best candidate's chance, as a share of that border
-and the occupied voxels. It falls to 0 when no offered candidate can extend the seen surface.
 """
 
 from __future__ import annotations
-
-import dataclasses
-import math
 
 import numpy as np
 
@@ -57,7 +51,6 @@ SHADOW_PIXEL_VOXELS = 2.0
 occupied voxels leaves no holes in it)."""
 _KIND_BITS = len(GAINS)
 _CODES = (OCCUPIED + 1) << _KIND_BITS
-_SURFACE_FRONTIER = (1 << GAINS.index("frontier")) | (1 << GAINS.index("rear_side"))
 _AROUND = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                     if (dx, dy, dz) != (0, 0, 0)])
 """The offsets to a voxel's 26 neighbours."""
@@ -85,20 +78,6 @@ def ray_samples(pose: Pose, directions: np.ndarray, sensor: SensorModel,
     distances = sample_distances(sensor, voxel_m)
     return distances, (pose.position + (directions @ pose.rotation.T)[:, None, :]
                        * distances[None, :, None])
-
-
-@dataclasses.dataclass(frozen=True)
-class Gains:
-    """Every gain of every candidate against one grid, and what is left to measure.
-
-    Attributes:
-        scores: The gains as the sensor would measure them (candidates, len(GAINS)).
-        remaining: The bound of what is left: measurable frontier voxels over those and the
-            occupied voxels, in [0, 1]; 1 before anything was seen.
-    """
-
-    scores: np.ndarray
-    remaining: float
 
 
 class ViewGains:
@@ -167,31 +146,19 @@ class ViewGains:
         keys, visible = self._runs.visibility(codes)
         return self._runs.sums(keys, visible[:-1])
 
-    def scores(self, grid: OccupancyGrid, offered: np.ndarray | None = None) -> Gains:
-        """Every gain of every candidate as the sensor would measure it, and the bound of what
-        is left to measure from the `offered` candidates (bool, count; all when None)."""
+    def scores(self, grid: OccupancyGrid) -> np.ndarray:
+        """Every gain of every candidate (count, len(GAINS)) as the sensor would measure it."""
+        if self._light is None:
+            return self.camera_scores(grid)
         codes = _codes(grid)
         keys, visible = self._runs.visibility(codes)
         weights = visible[:-1]
         kinds = self._runs.kinds(keys[1:])
         relevant = np.flatnonzero((kinds != 0) & (weights >= RELEVANT_VISIBILITY))
-        voxels = self._runs.voxels[1:].ravel()[relevant]
-        kinds = kinds.ravel()[relevant]
-        weight = weights.ravel()[relevant]
         candidates = relevant % weights.shape[1] // self.rays
-        if self._light is None:
-            scores = self._runs.sums(keys, weights)
-        else:
-            weight *= self._light.measured(grid, voxels, candidates)
-            scores = self._runs.sums_at(keys[1:].ravel()[relevant], candidates, weight)
-        frontier = (kinds & _SURFACE_FRONTIER) == _SURFACE_FRONTIER
-        if offered is not None:
-            frontier &= offered[candidates]
-        best = np.zeros(grid.state.size + 1)
-        np.maximum.at(best, voxels[frontier], weight[frontier])
-        left = float(best.sum())
-        occupied = int(np.count_nonzero(grid.state == OCCUPIED))
-        return Gains(scores, left / (left + occupied) if left + occupied > 0 else 1.0)
+        weight = weights.ravel()[relevant] * self._light.measured(
+            grid, self._runs.voxels[1:].ravel()[relevant], candidates)
+        return self._runs.sums_at(keys[1:].ravel()[relevant], candidates, weight)
 
 
 def _codes(grid: OccupancyGrid) -> np.ndarray:
@@ -297,9 +264,8 @@ class _Projectors:
         cos_camera = -(view * normal).sum(axis=0) / np.sqrt((view * view).sum(axis=0))
         cos_projector = -(light * normal).sum(axis=0) / light_distance
         min_camera, min_projector = self._min_cos
-        facing = ~has_normal[slot] | ((cos_camera > 0.0) & (cos_camera >= min_camera)
-                                       & (cos_projector > 0.0)
-                                       & (cos_projector >= min_projector))
+        facing = (has_normal[slot] & (cos_camera > 0.0) & (cos_camera >= min_camera)
+                  & (cos_projector > 0.0) & (cos_projector >= min_projector))
         axes = self._rotations.reshape(len(self._rotations), 9).T  # (9, count): R[j, i] at 3j + i
         local = np.stack([sum(axes[3 * j + i][candidates] * light[j] for j in range(3))
                           for i in range(3)])

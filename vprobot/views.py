@@ -33,9 +33,9 @@ from vprobot.ground_truth import MAX_POLAR_DEG
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.occupancy import OccupancyGrid
-from vprobot.view_gains import ViewGains
 from vprobot.progress import stage
 from vprobot.sensor_model import SensorModel
+from vprobot.view_gains import ViewGains
 from vprobot.viewsphere import sphere_directions
 
 if TYPE_CHECKING:

@@ -7,8 +7,8 @@ the robot's and the cell's blocked pixels), and each frame is integrated twice: 
 frame, thinned so that neighbours stay within half a voxel at the far bound, sampled half a voxel
 apart from the near bound to its measurement or the far bound). The suite reports, per list, the
 share of the grid's voxels the two classify otherwise after all the episode's views (mean and
-largest; target: the mean <= `TARGET_DIFFER_PCT` % on every list), and the milliseconds of a frame of each (median, the episode's first
-frame apart: only it finds the whole grid unknown).
+largest; target: the mean <= `TARGET_DIFFER_PCT` % on every list), and the milliseconds of a
+frame of each (median, the episode's first frame apart: only it finds the whole grid unknown).
 """
 
 from __future__ import annotations
@@ -94,13 +94,14 @@ def run_grid_benchmark(config: Config, lists: tuple[str, ...] = LISTS,
             grids = {"projected": settings.new_grid(), "sampled": settings.new_grid()}
             frames = [view for view in views if view.sensor_pose is not None]
             for number, view in enumerate(frames):
-                frame = (view.sensor_pose, view.points_world, view.pixels, view.blocked_pixels)
+                assert view.sensor_pose is not None
+                frame = (view.points_world, view.pixels, view.blocked_pixels)
                 for method, grid in grids.items():
                     start = time.perf_counter()
                     if method == "projected":
-                        grid.integrate(settings.sensor, *frame)
+                        grid.integrate(settings.sensor, view.sensor_pose, *frame)
                     else:
-                        sampled_integration(grid, settings.sensor, *frame)
+                        sampled_integration(grid, settings.sensor, view.sensor_pose, *frame)
                     elapsed = 1e3 * (time.perf_counter() - start)
                     (first_ms if number == 0 else later_ms)[method].append(elapsed)
             shares.append(float(np.mean(grids["projected"].state != grids["sampled"].state)))

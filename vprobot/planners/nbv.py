@@ -66,7 +66,7 @@ class VolumetricPlanner(Planner):
 
     name = "nbv"
     pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>.+))?"
-    evaluated = ("nbv", "nbv@grid")
+    evaluated: ClassVar[tuple[str, ...]] = ("nbv", "nbv@grid")
     initial_view = True
     sensed: ClassVar[bool] = True
     """Whether candidates score by what the sensor measures (else by what the camera sees)."""
@@ -119,7 +119,7 @@ class VolumetricPlanner(Planner):
         allowed = offered(band.directions, request_directions(episode.views, episode.center),
                           self._failed)
         grid = episode.occupancy(self.settings).grid
-        gains = (band.gains.scores(grid).scores[:, GAINS.index(self.gain)] if self.sensed
+        gains = (band.gains.scores(grid)[:, GAINS.index(self.gain)] if self.sensed
                  else band.gains.score(grid, self.gain))
         scores = np.where(allowed, gains, 0.0)
         for index in np.argsort(-scores, kind="stable")[:REACH_TRIES]:

@@ -8,6 +8,8 @@ same gain and stop rule: `nbv_camera:frontier`, `nbv_camera@grid`.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from vprobot.planners.base import register_planner
 from vprobot.planners.nbv import VolumetricPlanner
 
@@ -17,5 +19,5 @@ class CameraVolumetricPlanner(VolumetricPlanner):
     """`nbv` by the camera's gain (`VolumetricPlanner`'s arguments)."""
 
     name = "nbv_camera"
-    evaluated = ()
+    evaluated: ClassVar[tuple[str, ...]] = ()
     sensed = False
