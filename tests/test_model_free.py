@@ -21,6 +21,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.trained import TrainedAgent
 from vprobot.agents.training import build_model
+from vprobot.benchmarks.grid import sampled_integration
 from vprobot.config import Config, replace, with_sensing, with_sensor
 from vprobot.env.grid_state import FEATURES as GRID_FEATURES
 from vprobot.env.grid_state import candidate_count
@@ -356,6 +357,42 @@ def test_a_box_hides_what_is_behind_it_and_blocked_rays_observe_nothing() -> Non
     assert state_at(grid, (0.01, 0.01, -0.01)) == UNKNOWN      # inside and under the box
     assert state_at(grid, (0.09, 0.01, -0.05)) == FREE         # beside it, seen past its edge
     assert state_at(grid, (-0.11, 0.01, 0.05)) == UNKNOWN      # behind the robot's rays
+
+
+def test_projective_integration_classifies_as_the_sampled_reference_within_one_percent() -> None:
+    """The grid's integration (each unknown voxel projected into the frame) against the
+    reference it replaced (`sampled_integration`: every ray sampled half a voxel apart), on a
+    box on a plate seen by a 120 x 100 sensor from five poses around it, part of one frame
+    blocked (1 cm voxels, as the cells' grids): the same voxels occupied, and at most 1.5 % of
+    the voxels classified otherwise (1.23 %: the frustum's borders cut more of this small grid
+    than of the cells', where `vprobot benchmark grid` measures 0.7-0.9 % on the test lists)."""
+    sensor = SensorModel(resolution=(240, 200), fov_deg=(40.0, 34.0), near_m=0.3, far_m=0.6,
+                         working_distance_m=0.45)
+    plate = trimesh.creation.box(extents=(0.3, 0.3, 0.01)).apply_translation((0.0, 0.0, -0.03))
+    scene = trimesh.util.concatenate([trimesh.creation.box(extents=(0.08, 0.06, 0.05)), plate])
+    projected, sampled = (OccupancyGrid.around(np.zeros(3), 0.2, VOXEL_M) for _ in range(2))
+    rng = np.random.default_rng(3)
+    for index in range(5):
+        polar, azimuth = np.radians(25.0 + 10.0 * index), rng.uniform(0.0, 2.0 * np.pi)
+        position = 0.45 * np.array([np.sin(polar) * np.cos(azimuth),
+                                    np.sin(polar) * np.sin(azimuth), np.cos(polar)])
+        forward = -position / np.linalg.norm(position)
+        right = np.cross(forward, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        pose = Pose(position, np.column_stack([right, np.cross(forward, right), forward]))
+        rays = sensor.ray_directions @ pose.rotation.T
+        points, pixels, _ = scene.ray.intersects_location(
+            np.repeat(position[None], len(rays), axis=0), rays, multiple_hits=False)
+        distance = np.linalg.norm(points - position, axis=1)
+        kept = sensor.in_range(distance)
+        blocked = (np.flatnonzero(np.arange(sensor.rays_per_frame) % sensor.resolution[0] < 30)
+                   if index == 2 else np.zeros(0, dtype=int))
+        kept &= ~np.isin(pixels, blocked)
+        projected.integrate(sensor, pose, points[kept], pixels[kept], blocked)
+        sampled_integration(sampled, sensor, pose, points[kept], pixels[kept], blocked)
+    assert projected.counts()["free"] > 0.2 * projected.state.size
+    assert np.mean(projected.state != sampled.state) <= 0.015
+    np.testing.assert_array_equal(projected.state == OCCUPIED, sampled.state == OCCUPIED)
 
 
 def test_unknown_gain_of_a_ray_through_unknown_space_is_the_hand_computed_series() -> None:
