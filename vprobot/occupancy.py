@@ -221,12 +221,13 @@ class OccupancyGrid:
         # measurement crosses the voxel for at least `least`.
         begin = np.maximum(distance - reach, sensor.near_m)
         end = distance + reach
-        offset = np.maximum(reach - least, 0.0) / z
+        footprint = np.maximum(reach - least, 0.0) / z
         crossed = np.zeros(len(unknown), dtype=bool)
         for du, dv in ((0.0, 0.0), (-1.0, 0.0), (1.0, 0.0), (0.0, -1.0), (0.0, 1.0)):
-            pixel = (np.clip(row + dv * offset * rows_per_tangent, 0, height - 1).astype(np.int64)
-                     * width + np.clip(column + du * offset * columns_per_tangent, 0,
-                                       width - 1).astype(np.int64))
+            pixel = (np.clip(row + dv * footprint * rows_per_tangent, 0, height - 1)
+                     .astype(np.int64) * width
+                     + np.clip(column + du * footprint * columns_per_tangent, 0, width - 1)
+                     .astype(np.int64))
             crossed |= np.minimum(depth[pixel] - half, end) - begin >= least
         flat = self.state.reshape(-1)
         flat[unknown[crossed]] = FREE

@@ -184,6 +184,10 @@ class _Projectors:
         self._rotations = np.stack([pose.rotation for pose in poses]).astype(np.float32)
         self._cameras = np.stack([pose.position for pose in poses]).astype(np.float32)
         self._projectors = self._cameras + light.baseline_m * self._rotations[:, :, 0]
+        # R[j, i] of every candidate at row 3 j + i (9, count), and each projector's position in
+        # its own frame: what moving points into the projectors' frames reads.
+        self._axes = self._rotations.reshape(len(self._rotations), 9).T
+        self._projectors_local = np.einsum("cji,cj->ci", self._rotations, self._projectors)
         self._min_cos = light.min_cos_incidence
         self._voxel = grid.voxel_m
         # The depth map spans every direction in which the projector can light a point the
@@ -220,8 +224,8 @@ class _Projectors:
         maps = np.full(count * pixels, np.inf, dtype=np.float32)
         if len(occupied):
             centres = np.take(grid.centres, occupied, axis=1)  # (3, k)
-            local = np.einsum("cji,jk->cik", self._rotations, centres) - np.einsum(
-                "cji,cj->ci", self._rotations, self._projectors)[:, :, None]
+            local = (np.einsum("cji,jk->cik", self._rotations, centres)
+                     - self._projectors_local[:, :, None])
             pixel, inside = self._pixels(np.moveaxis(local, 1, 0))
             distance = np.sqrt(np.einsum("cik,cik->ck", local, local))
             keys = pixel + (np.arange(count) * pixels)[:, None]
@@ -266,8 +270,7 @@ class _Projectors:
         min_camera, min_projector = self._min_cos
         facing = (has_normal[slot] & (cos_camera > 0.0) & (cos_camera >= min_camera)
                   & (cos_projector > 0.0) & (cos_projector >= min_projector))
-        axes = self._rotations.reshape(len(self._rotations), 9).T  # (9, count): R[j, i] at 3j + i
-        local = np.stack([sum(axes[3 * j + i][candidates] * light[j] for j in range(3))
+        local = np.stack([sum(self._axes[3 * j + i][candidates] * light[j] for j in range(3))
                           for i in range(3)])
         pixel, inside = self._pixels(local)
         maps = self._depth_maps(grid)
