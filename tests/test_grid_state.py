@@ -13,7 +13,7 @@ from gymnasium.utils.env_checker import check_env
 from scipy import ndimage
 
 from vprobot.agents.trained import TrainedAgent
-from vprobot.config import Config, ConfigError, replace
+from vprobot.config import Config, ConfigError, replace, with_sensor
 from vprobot.env.grid_state import FEATURES, GridState
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import Episode
@@ -163,6 +163,24 @@ def test_the_features_are_the_brute_force_values_and_the_gains_of_an_independent
         2 / 10, *(counts[kind] / grid.state.size for kind in ("occupied", "free", "unknown"))],
         rtol=1e-6)
     assert (rows[:, COLUMN["requests_used"]:] == rows[0, COLUMN["requests_used"]:]).all()
+
+
+def test_under_structured_light_the_gains_are_what_each_candidates_sensor_measures() -> None:
+    # The scorer itself is checked against closed forms in tests/test_view_gains.py; here the
+    # state reads it, not the camera's, and normalises it as the camera's gains were.
+    config = replace(with_sensor(CONFIG, "zivid2plus_mr60"), "sensor", resolution=RESOLUTION)
+    env = InspectEnv(config)
+    env.reset(seed=3)
+    rows = env.step(int(np.argmax(band_directions()[:, 2])))[0]["candidates"]
+    builder = env.observer.grid_state
+    gains = builder.band.gains
+    grid = env.episode.occupancy(builder.settings).grid
+    sensed = gains.scores(grid) / (gains.rays * gains.ray_bound)
+    camera = gains.camera_scores(grid) / (gains.rays * gains.ray_bound)
+    np.testing.assert_allclose(rows[:, :len(GAINS)], np.minimum(sensed, 1.0), rtol=1e-5,
+                               atol=1e-7)
+    # The projector and the incidence limits keep less than the camera sees.
+    assert (sensed <= camera + 1e-12).all() and (sensed < 0.9 * camera).any()
 
 
 def test_offered_drops_directions_within_10_deg_of_a_request_and_failed_ones() -> None:

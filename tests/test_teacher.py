@@ -16,6 +16,7 @@ from vprobot.agents.teacher import WASTED, CandidateTeacher
 from vprobot.agents.training import build_model, train
 from vprobot.config import Config, ConfigError, replace
 from vprobot.env.grid_state import FEATURES
+from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.paths import MOTORS_DIR
 from vprobot.views import screen_reachability
@@ -155,14 +156,21 @@ def test_teacher_shards_are_the_same_rolled_out_alone_or_in_two_processes_and_ar
     np.testing.assert_array_equal(again.values, alone.values)
 
 
-def test_a_teacher_folder_of_another_cell_or_seed_is_refused(tmp_path: Path) -> None:
+def test_a_teacher_folder_of_another_cell_seed_or_state_version_is_refused(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     cfg = replace(config("free", teacher_seed=3), "env", resolution=(64, 45))
     collect(cfg, episodes=1, seed=0, folder=tmp_path)
-    for other, differs in ((replace(cfg, "agent", teacher_seed=4), "teacher_seed"),
-                           (replace(cfg, "env", reward="R1"), "env")):
+
+    def refused(other: Config, differs: str) -> None:
         with pytest.raises(ConfigError, match=re.escape(
                 f"{tmp_path} holds the teacher states of another run: its teacher.json differs "
                 f"in {differs}; give another agent.teacher_dir")):
             collect(other, episodes=1, seed=0, folder=tmp_path)
+
+    refused(replace(cfg, "agent", teacher_seed=4), "teacher_seed")
+    refused(replace(cfg, "env", reward="R1"), "env")
+    # States stored before a column changed its meaning are not this state's.
+    monkeypatch.setattr("vprobot.agents.pretrain.GRID_STATE_VERSION", GRID_STATE_VERSION + 1)
+    refused(cfg, "grid_state_version")
     with pytest.raises(ConfigError, match=re.escape("agent.teacher_seed must be >= 0")):
         config(teacher_seed=-1)

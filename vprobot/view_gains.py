@@ -150,15 +150,22 @@ class ViewGains:
         """Every gain of every candidate (count, len(GAINS)) as the sensor would measure it."""
         if self._light is None:
             return self.camera_scores(grid)
-        codes = _codes(grid)
-        keys, visible = self._runs.visibility(codes)
-        weights = visible[:-1]
-        kinds = self._runs.kinds(keys[1:])
-        relevant = np.flatnonzero((kinds != 0) & (weights >= RELEVANT_VISIBILITY))
-        candidates = relevant % weights.shape[1] // self.rays
-        weight = weights.ravel()[relevant] * self._light.measured(
-            grid, self._runs.voxels[1:].ravel()[relevant], candidates)
-        return self._runs.sums_at(keys[1:].ravel()[relevant], candidates, weight)
+        keys, voxels, columns, weights = self._runs.relevant(_codes(grid), RELEVANT_VISIBILITY)
+        candidates = columns // self.rays
+        weights *= self._light.measured(grid, voxels, candidates)
+        return self._runs.sums_at(keys, candidates, weights)
+
+    def measurable(self, grid: OccupancyGrid, candidates: np.ndarray, gain: Gain = "frontier",
+                   min_visibility: float = 0.5) -> np.ndarray:
+        """The voxels of a gain that one of `candidates` (a mask) would see with a visibility of
+        at least `min_visibility` and its sensor measure: their flat indices, each once."""
+        keys, voxels, columns, _ = self._runs.relevant(_codes(grid), min_visibility)
+        counted = (((self._runs.kinds(keys) >> GAINS.index(gain)) & 1 == 1)
+                   & candidates[columns // self.rays])
+        voxels, columns = voxels[counted], columns[counted]
+        if self._light is not None:
+            voxels = voxels[self._light.measured(grid, voxels, columns // self.rays) > 0.0]
+        return np.unique(voxels)
 
 
 def _codes(grid: OccupancyGrid) -> np.ndarray:
@@ -348,6 +355,15 @@ class _SampleRuns:
     def kinds(self, keys: np.ndarray) -> np.ndarray:
         """The gain bits of the voxel of every run of `keys` (uint8, same shape)."""
         return np.take(self._kinds, keys)
+
+    def relevant(self, codes: np.ndarray, threshold: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The runs a gain counts (of a voxel with a gain bit) seen with a visibility of at
+        least `threshold`: their keys, voxels, columns and the visibility before them."""
+        keys, visible = self.visibility(codes)
+        keys, seen = keys[1:], visible[:-1]
+        rows, columns = np.nonzero((self.kinds(keys) != 0) & (seen >= threshold))
+        return keys[rows, columns], self.voxels[1:][rows, columns], columns, seen[rows, columns]
 
     def sums_at(self, keys: np.ndarray, candidates: np.ndarray,
                 weights: np.ndarray) -> np.ndarray:

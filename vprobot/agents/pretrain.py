@@ -32,6 +32,7 @@ from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, allowed_rows
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import CandidateTeacher
 from vprobot.config import Config, ConfigError, config_document
+from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.files import atomic_output, folder_lock, read_text, write_text
 from vprobot.processes import worker_pool
@@ -70,10 +71,11 @@ def teacher_seed(config: Config, seed: int) -> int:
 
 def teacher_identity(config: Config, seed: int) -> dict[str, Any]:
     """What decides the teacher's states: the cell, sensor, kinematics and env sections, the
-    teacher's seed (`teacher_seed`'s) and its exploration."""
+    version of the `s_grid` state, the teacher's seed (`teacher_seed`'s) and its exploration."""
     document = config_document(config)
     return {**{section: document[section] for section in ("cell", "sensor", "kinematics", "env")},
-            "teacher_seed": seed, "epsilon": EPSILON, "shard_episodes": SHARD_EPISODES}
+            "grid_state_version": GRID_STATE_VERSION, "teacher_seed": seed, "epsilon": EPSILON,
+            "shard_episodes": SHARD_EPISODES}
 
 
 def shard_sizes(episodes: int) -> list[int]:

@@ -51,6 +51,10 @@ FEATURES: tuple[str, ...] = (
     "occupied_share", "free_share", "unknown_share",
 )
 """The columns of `candidates`, in order (see `InspectEnv`'s docstring for what each holds)."""
+VERSION = 2
+"""Raised when what a column holds changes (2: the gains are what the candidate's sensor would
+measure, issue 45; 1: what the camera sees): states stored under another version, a teacher's,
+are not this state's."""
 MATCH_DEG = 1.0
 """A direction this close to a candidate's is that candidate's."""
 _SIGNED = ("direction_x", "direction_y", "direction_z", "closest_request_cos", "current_cos")
@@ -129,7 +133,9 @@ class GridState:
         if not mask.any():
             mask = ~failed
         gains = self.band.gains
-        scores = gains.camera_scores(grid) / (gains.rays * gains.ray_bound)
+        # What each candidate's sensor would measure (under structured light, what its
+        # projector lights within the incidence limits; else what the camera sees).
+        scores = gains.scores(grid) / (gains.rays * gains.ray_bound)
         best = scores[mask].max(axis=0, initial=0.0)
         relative = np.divide(scores, best, out=np.zeros_like(scores), where=best > 0.0)
         current_cos = directions @ self._sensor_direction(episode)

@@ -128,7 +128,9 @@ class InspectEnv(gym.Env):
     | 15 | requests used of the budget (the step limit) | [0, 1] |
     | 16-18 | shares of the grid's voxels occupied, free, unknown | [0, 1] |
 
-    Columns 15-18 are the same on every row. `mask` is 1 where the candidate may be requested:
+    The gains are what the candidate's sensor would measure (`ViewGains.scores`): under
+    structured light only what its projector lights within both incidence limits, otherwise
+    what the camera sees. Columns 15-18 are the same on every row. `mask` is 1 where the candidate may be requested:
     reachable, not within 10 deg (`views.EXCLUDE_DEG`) of an earlier request, taken or
     failed, and not failed; if that leaves none, every candidate that did not fail is unmasked.
 
