@@ -51,6 +51,7 @@ SHADOW_PIXEL_VOXELS = 2.0
 occupied voxels leaves no holes in it)."""
 _KIND_BITS = len(GAINS)
 _CODES = (OCCUPIED + 1) << _KIND_BITS
+_KIND_MASK = (1 << _KIND_BITS) - 1
 _AROUND = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                     if (dx, dy, dz) != (0, 0, 0)])
 """The offsets to a voxel's 26 neighbours."""
@@ -336,25 +337,30 @@ class _SampleRuns:
         self._pass = powers.ravel()
         sums = np.concatenate([np.zeros((1, _CODES)), np.cumsum(powers, axis=0)[:-1]])
         self._counts = (sums[:, :, None] * counted).reshape(-1, _KIND_BITS)
-        self._kinds = np.tile(codes & ((1 << _KIND_BITS) - 1), len(powers)).astype(np.uint8)
         key_type = np.min_scalar_type(len(self._pass) - 1)
         self._key_offsets = (lengths * _CODES).astype(key_type)
+        # Reused at every score: a fresh array of this size costs its page faults each time.
+        self._keys = np.empty(self.voxels.shape, dtype=key_type)
+        self._visible = np.empty(self.voxels.shape)
         self._bins = (np.arange(len(flat)) // rays * len(self._pass)).astype(np.int64)
         self._count = count
 
     def visibility(self, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every run's key and the visibility after it (runs, columns), for voxel codes `codes`
-        (flat, the extra outside element last)."""
-        keys = np.take(codes, self.voxels).astype(self._key_offsets.dtype, copy=False)
+        (flat, the extra outside element last); both arrays are overwritten by the next call."""
+        keys, visible = self._keys, self._visible
+        np.take(codes.astype(keys.dtype, copy=False), self.voxels, out=keys)
         keys += self._key_offsets
-        visible = np.take(self._pass, keys)
+        np.take(self._pass, keys, out=visible)
         for run in range(1, len(visible)):
             np.multiply(visible[run], visible[run - 1], out=visible[run])
         return keys, visible
 
-    def kinds(self, keys: np.ndarray) -> np.ndarray:
-        """The gain bits of the voxel of every run of `keys` (uint8, same shape)."""
-        return np.take(self._kinds, keys)
+    @staticmethod
+    def kinds(keys: np.ndarray) -> np.ndarray:
+        """The gain bits of the voxel of every run of `keys` (uint8, same shape): a key's low
+        bits, as `_CODES` is a multiple of their range."""
+        return keys & _KIND_MASK
 
     def relevant(self, codes: np.ndarray, threshold: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
