@@ -12,10 +12,11 @@ frame of each (median, the episode's first frame apart: only it finds the whole 
 
 It also times `nbv`'s decision from a frame, without the IK of the candidates it tries: the
 frame's integration and the scores of every band candidate as the sensor measures them
-(`ViewGains.scores`), and before issue 45 (the sampled integration and the camera's gain sample
-by sample, `ViewGains.score`), and the camera's scores the `s_grid` state reads
-(`camera_scores`); milliseconds per frame, the median over every frame (issue 45's target for the
-decision: 60 ms in the realistic cell, 20 ms in the paper's).
+(`ViewGains.scores`, which the `s_grid` state reads too), and before issue 45 (the sampled
+integration and the camera's gain sample by sample, `ViewGains.score`), and the camera's scores
+(`camera_scores`, the numbers `nbv_camera` ranks by); milliseconds per frame, the median over
+every frame (issue 45's target for the decision: 60 ms in the realistic cell, 20 ms in the
+paper's).
 """
 
 from __future__ import annotations
