@@ -130,9 +130,10 @@ class InspectEnv(gym.Env):
 
     The gains are what the candidate's sensor would measure (`ViewGains.scores`): under
     structured light only what its projector lights within both incidence limits, otherwise
-    what the camera sees. Columns 15-18 are the same on every row. `mask` is 1 where the candidate may be requested:
-    reachable, not within 10 deg (`views.EXCLUDE_DEG`) of an earlier request, taken or
-    failed, and not failed; if that leaves none, every candidate that did not fail is unmasked.
+    what the camera sees. Columns 15-18 are the same on every row. `mask` is 1 where the
+    candidate may be requested: reachable, not within 10 deg (`views.EXCLUDE_DEG`) of an
+    earlier request, taken or failed, and not failed; if that leaves none, every candidate that
+    did not fail is unmasked.
 
     ## Action
     Box [-1, 1]^n of the `action` variant: A_2S0R (2), A_3S0R (3), A_2S2R (4), A_2S2R_lim (4),
