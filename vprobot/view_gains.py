@@ -339,19 +339,15 @@ class _SampleRuns:
         self._counts = (sums[:, :, None] * counted).reshape(-1, _KIND_BITS)
         key_type = np.min_scalar_type(len(self._pass) - 1)
         self._key_offsets = (lengths * _CODES).astype(key_type)
-        # Reused at every score: a fresh array of this size costs its page faults each time.
-        self._keys = np.empty(self.voxels.shape, dtype=key_type)
-        self._visible = np.empty(self.voxels.shape)
         self._bins = (np.arange(len(flat)) // rays * len(self._pass)).astype(np.int64)
         self._count = count
 
     def visibility(self, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every run's key and the visibility after it (runs, columns), for voxel codes `codes`
-        (flat, the extra outside element last); both arrays are overwritten by the next call."""
-        keys, visible = self._keys, self._visible
-        np.take(codes.astype(keys.dtype, copy=False), self.voxels, out=keys)
+        (flat, the extra outside element last)."""
+        keys = np.take(codes, self.voxels).astype(self._key_offsets.dtype, copy=False)
         keys += self._key_offsets
-        np.take(self._pass, keys, out=visible)
+        visible = np.take(self._pass, keys)
         for run in range(1, len(visible)):
             np.multiply(visible[run], visible[run - 1], out=visible[run])
         return keys, visible
