@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from vprobot import files
 from vprobot import ground_truth as gt_module
 from vprobot.config import Config
 from vprobot.ground_truth import (
@@ -245,7 +246,7 @@ def test_unwritable_cache_dir_warns_once_and_returns_the_gt(
         make_dir: Callable[[Path, pytest.MonkeyPatch], Path], tmp_path: Path,
         monkeypatch: pytest.MonkeyPatch, box: trimesh.Trimesh, box_gt: GroundTruth) -> None:
     monkeypatch.setattr(gt_module, "_MEMORY_CACHE", {})
-    monkeypatch.setattr(gt_module, "_WARNED_CACHE_DIRS", set())
+    monkeypatch.setattr(files, "_WARNED_CACHE_DIRS", set())
     directory = make_dir(tmp_path, monkeypatch)
     # Through the environment, as most runs find their cache.
     monkeypatch.setenv("VPROBOT_CACHE_DIR", str(directory.parent))

@@ -333,6 +333,43 @@ def test_parse_planner() -> None:
             parse_planner(bad)
 
 
+def test_the_robots_view_band_is_screened_once_per_cell_and_read_back_from_the_cache(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Another process (the memory cache cleared) reads the band instead of screening it; a
+    setting that cannot change it (the resolution) finds it too, one of the cell does not, and
+    a damaged file is screened again."""
+    from vprobot.planners import uniform
+
+    monkeypatch.setenv("VPROBOT_CACHE_DIR", str(tmp_path))
+    band = uniform._band()[:5]
+    screened: list[float] = []
+
+    def screen(*args: object) -> tuple[np.ndarray, np.ndarray]:
+        screened.append(len(screened))
+        return band, np.arange(30.0).reshape(5, 6) + len(screened)
+
+    monkeypatch.setattr(uniform, "_reachable_band", screen)
+
+    def fresh(config: Config) -> tuple[np.ndarray, np.ndarray | None]:
+        uniform.view_band.cache_clear()
+        return uniform.view_band(config, True)
+
+    try:
+        directions, joints = fresh(CONFIG)
+        assert len(screened) == 1 and np.array_equal(directions, band)
+        again = fresh(replace(CONFIG, "sensor", resolution=(43, 30)))
+        assert len(screened) == 1
+        assert np.array_equal(again[0], band) and np.array_equal(again[1], joints)
+        fresh(replace(CONFIG, "cell", object_center_m=(0.45, 0.0, 0.76)))
+        assert len(screened) == 2
+        for path in (tmp_path / "view_band").glob("*.npz"):
+            path.write_bytes(b"not an npz")
+        assert not np.array_equal(fresh(CONFIG)[1], joints) and len(screened) == 3
+        assert not np.array_equal(fresh(CONFIG)[1], joints) and len(screened) == 3
+    finally:
+        uniform.view_band.cache_clear()
+
+
 def test_uniform_targets_beyond_the_usable_band_name_the_count_and_the_way_out() -> None:
     """The Panda cannot hold the PhoXi M at its working distance (0.79 m) around the motor:
     neither around the largest object the cell fits nor around the part itself does the band

@@ -1,6 +1,7 @@
 """The committed evaluation tables regenerate: a small subset of `results/motors` is run again
-from its own episode list, with an empty cache, and must give the committed rows cell by cell
-(`vprobot report check`; the full check is recorded in results/regenerated/README.md)."""
+from its own episode list, with the test run's cache (built by this code, as `vprobot report
+check`'s empty one is), and must give the committed rows cell by cell (`vprobot report check`;
+the full check is recorded in results/regenerated/README.md)."""
 
 from __future__ import annotations
 
@@ -23,9 +24,9 @@ README's rows name."""
 
 
 @pytest.fixture(scope="module")
-def regenerated(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def regenerated(tmp_path_factory: pytest.TempPathFactory, session_cache: Path) -> Path:
     out = tmp_path_factory.mktemp("check") / "regenerated"
-    check.regenerate(MOTORS, out, EPISODES, PLANNERS, ["free", "robot"])
+    check.regenerate(MOTORS, out, EPISODES, PLANNERS, ["free", "robot"], cache=session_cache)
     return out
 
 

@@ -10,9 +10,17 @@ import io
 import os
 import re
 import tempfile
+import warnings
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
+
+from vprobot.paths import CACHE_ENV_VAR
+
+_WARNED_CACHE_DIRS: set[Path] = set()
+"""Cache directories already reported as unwritable by this process."""
 
 
 def _new_file_mode() -> int:
@@ -158,6 +166,63 @@ def atomic_output(path: Path) -> Iterator[Path]:
         # BaseException: KeyboardInterrupt and SystemExit must not leave the temporary either.
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+@contextlib.contextmanager
+def waiting_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the file `path` (created, with its folder, if missing) for the
+    block, waiting for any other holder first: for work that processes share once done (a
+    cache entry), where the second should wait for the first rather than do it again. The
+    file stays; flock(2) ends with its holder, however it ends. Where the file cannot be
+    made (a read-only cache), the block runs unlocked: the work is then only done twice."""
+    import fcntl  # POSIX only; imported here so that the module still imports elsewhere
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        stream = path.open("a")
+    except OSError:
+        yield
+        return
+    with stream:
+        fcntl.flock(stream, fcntl.LOCK_EX)
+        yield
+
+
+def read_cached_arrays(path: Path) -> dict[str, np.ndarray] | None:
+    """The arrays of the cache file `path` (`.npz`, no pickles), or None when there is none or
+    it cannot be read: the caller recomputes, and checks what it reads."""
+    try:
+        # Our own handle: np.load leaks the one it opens when the zip directory is corrupt.
+        with path.open("rb") as stream, np.load(stream, allow_pickle=False) as stored:
+            return {name: stored[name] for name in stored.files}
+    except Exception:
+        # A corrupt file fails in many ways (BadZipFile, EOFError, ValueError, OSError, a
+        # .npy instead of an .npz, ...); any of them just means "recompute".
+        return None
+
+
+def write_cached_arrays(path: Path, arrays: Mapping[str, Any], what: str,
+                        stacklevel: int = 3) -> None:
+    """Store `arrays` in the cache file `path` atomically (see `atomic_output`); warn once per
+    directory when it cannot be written, naming `what` the cache holds (e.g. "ground truths"),
+    at the frame `stacklevel` counts from here (3: the caller's caller).
+
+    A half-written or failed store leaves any previous file in place, and the next run
+    recomputes it if it is bad.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_output(path) as temporary, temporary.open("wb") as stream:
+            np.savez(stream, **arrays)
+    except OSError as error:
+        # What was cached is computed; a cache that cannot be written only costs time later.
+        directory = path.parent
+        if directory not in _WARNED_CACHE_DIRS:
+            _WARNED_CACHE_DIRS.add(directory)
+            warnings.warn(f"cannot write the cache directory {directory} ({error}); {what} "
+                          f"are not cached on disk and are recomputed in every run; set "
+                          f"${CACHE_ENV_VAR} to a writable directory", RuntimeWarning,
+                          stacklevel=stacklevel)
 
 
 def append_line(path: Path, text: str) -> None:

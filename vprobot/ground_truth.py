@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -49,9 +48,9 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from vprobot.config import Config, SensorConfig
-from vprobot.files import atomic_output
+from vprobot.files import read_cached_arrays, write_cached_arrays
 from vprobot.geometry import Pose
-from vprobot.paths import CACHE_ENV_VAR, cache_root
+from vprobot.paths import cache_root
 from vprobot.progress import stage
 from vprobot.robots import robot_folder
 from vprobot.robots.description import DESCRIPTION_FILE
@@ -92,8 +91,6 @@ class GroundTruth:
 
 
 _MEMORY_CACHE: dict[str, GroundTruth] = {}
-_WARNED_CACHE_DIRS: set[Path] = set()
-"""Cache directories already reported as unwritable by this process."""
 
 
 def mesh_hash(mesh: trimesh.Trimesh) -> str:
@@ -272,7 +269,7 @@ def _cache_key(mesh: trimesh.Trimesh, config: Config) -> str:
     """`<mesh hash>-<settings hash>`: the mesh, plus everything that shapes its GT."""
     settings: tuple[Any, ...] = (_METHOD_VERSION, N_GT, VIEW_COUNT, MAX_POLAR_DEG, RESOLUTION,
                 ENVIRONMENT_GROUP, dataclasses.astuple(config.cell),
-                _sensor_settings(config.sensor), _robot_digest(config.cell.robot))
+                _sensor_settings(config.sensor), robot_digest(config.cell.robot))
     # Only a model other than the ideal one joins the key (`ground_truth_key`): the ideal GTs
     # keep the keys they always had, and their caches stay valid.
     settings += gt_sensing(config.sensor).ground_truth_key()
@@ -288,7 +285,7 @@ def _sensor_settings(sensor: SensorConfig) -> tuple[Any, ...]:
                  if field.name not in ("sensing", "structured_light", "acquisition_time_s"))
 
 
-def _robot_digest(robot: str) -> str:
+def robot_digest(robot: str) -> str:
     """sha256 of the robot folder's description and MJCF files: the robot's name alone does not
     fix its scene (floor, fixture plate, pedestal) or its own base placement (the stand), which
     occlude in the GT and may differ between versions or be edited in a user's folder."""
@@ -310,15 +307,8 @@ def _read(path: Path, expected_hash: str) -> GroundTruth | None:
         path: The `.npz` file.
         expected_hash: `mesh_hash` of the mesh the file must belong to.
     """
-    try:
-        # Our own handle: np.load leaks the one it opens when the zip directory is corrupt.
-        with path.open("rb") as stream, np.load(stream, allow_pickle=False) as stored:
-            arrays = {name: stored[name] for name in stored.files}
-    except Exception:
-        # A corrupt file fails in many ways (BadZipFile, EOFError, ValueError, OSError, a
-        # .npy instead of an .npz, ...); any of them just means "recompute".
-        return None
-    if set(arrays) != {"points", *_SCALAR_KINDS}:
+    arrays = read_cached_arrays(path)
+    if arrays is None or set(arrays) != {"points", *_SCALAR_KINDS}:
         return None
     points = arrays["points"]
     if points.dtype != np.float64 or points.shape != (N_GT, 3) or not np.isfinite(points).all():
@@ -338,23 +328,8 @@ def _read(path: Path, expected_hash: str) -> GroundTruth | None:
 
 
 def _write(path: Path, result: GroundTruth) -> None:
-    """Store atomically (see `atomic_output`); warn once per directory when it cannot be written.
-
-    A half-written or failed store leaves any previous file in place, and the next run
-    recomputes it if it is bad.
-    """
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_output(path) as temporary, temporary.open("wb") as stream:
-            np.savez(stream, points=result.points, spacing_m=result.spacing_m,
-                     voxel_size_m=result.voxel_size_m, mesh_hash=result.mesh_hash,
-                     views=result.views)
-    except OSError as error:
-        # The GT is computed; a cache that cannot be written only costs time in later runs.
-        directory = path.parent
-        if directory not in _WARNED_CACHE_DIRS:
-            _WARNED_CACHE_DIRS.add(directory)
-            warnings.warn(f"cannot write the ground-truth cache directory {directory} "
-                          f"({error}); ground truths are not cached on disk and are recomputed "
-                          f"in every run; set ${CACHE_ENV_VAR} to a writable directory",
-                          RuntimeWarning, stacklevel=3)
+    """Store in the cache (`write_cached_arrays`)."""
+    write_cached_arrays(path, {"points": result.points, "spacing_m": result.spacing_m,
+                               "voxel_size_m": result.voxel_size_m,
+                               "mesh_hash": result.mesh_hash, "views": result.views},
+                        "ground truths", stacklevel=4)

@@ -27,8 +27,7 @@ import trimesh
 from tqdm import tqdm
 
 from vprobot.config import Config
-from vprobot.ground_truth import CACHE_ENV_VAR
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.paths import CACHE_ENV_VAR, DEFAULT_MOTOR
 from vprobot.processes import child_environment
 
 DENSITIES = {"dense": 4, "modest": 2}

@@ -30,22 +30,32 @@ pattern does not know the coverage.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import hashlib
+from pathlib import Path
 
 import numpy as np
 import trimesh
 
 from vprobot.config import Config
 from vprobot.episode import Episode, ViewRequest
+from vprobot.files import read_cached_arrays, waiting_lock, write_cached_arrays
 from vprobot.fit import fit_limit
-from vprobot.ground_truth import MAX_POLAR_DEG
+from vprobot.ground_truth import MAX_POLAR_DEG, robot_digest
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
+from vprobot.paths import cache_root
 from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
 from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view
 from vprobot.planners.ordering import fixed_plan
 from vprobot.scene import Cell
-from vprobot.views import look_at_targets, nearest_directions, screen_reachability
+from vprobot.views import (
+    SCREEN_RESTARTS,
+    look_at_targets,
+    nearest_directions,
+    screen_reachability,
+)
 from vprobot.viewsphere import sphere_directions
 
 
@@ -66,18 +76,62 @@ def _reachable_band(arm: RobotArm, collisions: CollisionChecker, start_q: np.nda
     return directions[usable], joints[usable]
 
 
+VIEW_BAND_METHOD = 1
+"""Bumped when the screening would find other candidates: cached bands of another are not read."""
+
+
 @functools.lru_cache(maxsize=4)
 def view_band(config: Config, robot: bool) -> tuple[np.ndarray, np.ndarray | None]:
     """Unit directions (n, 3) of the band's candidates the cell can use (see the module
     docstring) and, with the robot, a configuration (n, dof) reaching each around the cell's
-    object envelope; cached, as they depend on the cell only."""
+    object envelope. They depend on the cell only, so the robot's are kept in vprobot's cache
+    (`paths.cache_root()`, `view_band/`): screening them is minutes of motion planning."""
     if not robot:
         return _band(), None
-    envelope = trimesh.creation.icosphere(subdivisions=3, radius=fit_limit(config).radius_m)
-    arm = RobotArm(Cell(config, envelope))
-    return _reachable_band(arm, arm.collisions, arm.joints.start,
-                           np.asarray(config.cell.object_center_m, dtype=float),
-                           config.sensor.working_distance_m)
+    path = cache_root() / "view_band" / f"{_view_band_key(config)}.npz"
+    # Processes starting at once (an evaluation's workers) screen it once: the others wait.
+    with waiting_lock(path.with_suffix(".lock")):
+        stored = _read_view_band(path)
+        if stored is not None:
+            return stored
+        envelope = trimesh.creation.icosphere(subdivisions=3, radius=fit_limit(config).radius_m)
+        arm = RobotArm(Cell(config, envelope))
+        directions, joints = _reachable_band(
+            arm, arm.collisions, arm.joints.start,
+            np.asarray(config.cell.object_center_m, dtype=float),
+            config.sensor.working_distance_m)
+        write_cached_arrays(path, {"directions": directions, "joints": joints}, "view bands")
+    return directions, joints
+
+
+def _view_band_key(config: Config) -> str:
+    """What shapes a cell's view band: the cell, the kinematics, the sensor's geometry (its
+    housing and mount collide; its resolution and sensing model do not matter) and the robot's
+    files."""
+    sensor = tuple(getattr(config.sensor, field.name)
+                   for field in dataclasses.fields(config.sensor)
+                   if field.name not in ("resolution", "sensing", "structured_light",
+                                         "acquisition_time_s"))
+    settings = (VIEW_BAND_METHOD, CANDIDATE_COUNT, MAX_POLAR_DEG, SCREEN_RESTARTS,
+                dataclasses.astuple(config.cell), dataclasses.astuple(config.kinematics), sensor,
+                robot_digest(config.cell.robot))
+    return hashlib.sha256(repr(settings).encode()).hexdigest()[:32]
+
+
+def _read_view_band(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """The view band cached at `path`, or None when there is none or it does not hold band
+    directions and a finite configuration for each (then it is recomputed)."""
+    arrays = read_cached_arrays(path)
+    if arrays is None or set(arrays) != {"directions", "joints"}:
+        return None
+    directions, joints = arrays["directions"], arrays["joints"]
+    band = _band()
+    if (directions.dtype != np.float64 or directions.ndim != 2 or directions.shape[1:] != (3,)
+            or joints.dtype != np.float64 or joints.ndim != 2 or len(joints) != len(directions)
+            or not np.isfinite(joints).all()
+            or not all(np.isclose(band, row).all(axis=1).any() for row in directions)):
+        return None
+    return directions, joints
 
 
 def episode_band(config: Config, episode: Episode) -> tuple[np.ndarray, np.ndarray]:

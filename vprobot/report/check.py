@@ -44,7 +44,8 @@ def episode_count(folder: Path) -> int:
 
 def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
                planners: Sequence[str] | None = None,
-               carriers: Sequence[str] | None = None, scratch: Path | None = None) -> None:
+               carriers: Sequence[str] | None = None, scratch: Path | None = None,
+               cache: Path | None = None) -> None:
     """Run `vprobot evaluate` for (a subset of) a committed evaluation folder into `out`, in a
     child that ends with this process (`vprobot.processes`).
 
@@ -56,6 +57,8 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
         carriers: Carriers to run; None: those of the committed table.
         scratch: A temporary folder holding `out`, which the child removes if this process
             ends before it (killed).
+        cache: vprobot's cache for the child; None: an empty one in `out`, so that ground
+            truths, generated objects and view bands are built by this code, as in a clone.
 
     Raises:
         subprocess.CalledProcessError: If the evaluation fails.
@@ -70,8 +73,7 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
     (out / "list.json").write_text(json.dumps(episode_list))
     (out / "config.yaml").write_text(yaml.safe_dump(recorded_config(folder)))
     env = child_environment(scratch)
-    # An empty cache: ground truth and generated objects are built by this code, as in a clone.
-    env["VPROBOT_CACHE_DIR"] = str(out / "cache")
+    env["VPROBOT_CACHE_DIR"] = str(cache if cache is not None else out / "cache")
     root = PACKAGE_DIR.parent
     env["PYTHONPATH"] = os.pathsep.join(filter(None, (str(root), env.get("PYTHONPATH"))))
     subprocess.run([sys.executable, "-m", "vprobot.cli", "evaluate", "--config",
