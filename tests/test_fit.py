@@ -19,6 +19,7 @@ from vprobot.episode import MotorScene
 from vprobot.fit import check_fits, fit_limit, sensor_limit_m
 from vprobot.kinematics import RobotArm
 from vprobot.mesh_loading import load_mesh
+from vprobot.paths import CACHE_ENV_VAR
 from vprobot.planners.runner import plan_motor
 from vprobot.scene import Cell
 
@@ -36,7 +37,7 @@ def _box(path: Path, side: float) -> Path:
 def no_ground_truth(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """An empty GT cache, and GT builders and cell construction that fail if reached."""
     cache = tmp_path / "cache"
-    monkeypatch.setenv(vprobot.ground_truth.CACHE_ENV_VAR, str(cache))
+    monkeypatch.setenv(CACHE_ENV_VAR, str(cache))
 
     def forbidden(*args: object, **kwargs: object) -> None:
         raise AssertionError("reached past the fit check")

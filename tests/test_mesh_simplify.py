@@ -11,10 +11,9 @@ from scipy.spatial import cKDTree
 
 from vprobot import mesh_loading, progress
 from vprobot.cli import main
-from vprobot.ground_truth import CACHE_ENV_VAR
 from vprobot.mesh_loading import load_mesh
 from vprobot.mesh_simplify import simplify
-from vprobot.paths import ASSETS_DIR
+from vprobot.paths import ASSETS_DIR, CACHE_ENV_VAR
 
 CENTRE = np.array([0.3, -0.2, 0.1])
 RADIUS = 0.08

@@ -221,10 +221,12 @@ def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:
 
 
 def _low_resolution_and_one_episode(folder: Path) -> tuple[Path, Path]:
-    """A config file at the tests' low resolution and a list of one episode on the default
-    motor."""
+    """A config file at the tests' low resolution, with straight-line moves only (the robot's
+    view band is then screened in seconds, not the minute of motion planning the default
+    cell's takes), and a list of one episode on the default motor."""
     config = folder / "low.yaml"
-    config.write_text(f"sensor:\n  resolution: [{RESOLUTION[0]}, {RESOLUTION[1]}]\n")
+    config.write_text(f"sensor:\n  resolution: [{RESOLUTION[0]}, {RESOLUTION[1]}]\n"
+                      f"kinematics:\n  path_planner: line\n")
     episodes = folder / "one.json"
     write_episode_list(episodes, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
     return config, episodes
