@@ -2,10 +2,15 @@
 
 The teacher (`vprobot.agents.teacher`) rolls out episodes on the run's training objects,
 requesting its best candidate, or with probability `EPSILON` a random allowed one, so that the
-states also hold a learner's mistakes. Every state is stored with the values of all candidates,
-and the Q-network (and its target) is fitted to them by least squares over the allowed
-candidates: a target for every candidate at once, where RL sees one reward per step. DQN then
-goes on from there, adding the discounted future to the immediate value.
+states also hold a learner's mistakes. Every state is stored with the values of all candidates
+and its remaining cover (`CandidateTeacher.remaining_cover`: which candidates, whether they
+reach the goal within the views left, and whether they are proven the fewest). With
+`agent.pretrain_target: values` the Q-network (and its target) is fitted to the values by least
+squares over the allowed candidates: a target for every candidate at once, where RL sees one
+reward per step. DQN then goes on from there, adding the discounted future to the immediate
+value. With `cover` the network's outputs are fitted as logits of membership in the remaining
+cover (binary cross-entropy), so that the policy's choice is a view of a smallest plan to the
+goal; RL then only goes on where validation keeps it.
 
 The episodes come from a stream of their own (`PRETRAIN_RANK`), apart from the RL envs', drawn
 from `agent.teacher_seed` (the run's seed by default). They are rolled out in shards of
@@ -40,12 +45,22 @@ from vprobot.processes import worker_pool
 PRETRAIN_RANK = 1_000
 EPSILON = 0.2
 PRETRAIN_FILE = "pretrain.csv"
-"""Per epoch of the fit: the mean squared error over the allowed candidates."""
+"""Per epoch of the fit: its loss over the allowed candidates (`mse` for the values, `bce` for
+the cover)."""
+COVER_POSITIVE_WEIGHT = 1.5
+"""`agent.pretrain_target: cover`: the weight of a member in the cross-entropy (MA-SCVP's 1.5: a
+cover holds a few of the candidates)."""
 SHARD_EPISODES = 25
 """Teacher episodes rolled out and saved together."""
 TEACHER_FILE = "teacher.json"
 """What made a teacher folder's shards (`teacher_identity`)."""
+LABELS_VERSION = 1
+"""What the shards hold besides the states: 1, the values and the remaining cover."""
 _VALUES_KEY = "values"
+_COVER_KEY = "cover"
+_REACHES_KEY = "cover_reaches"
+_PROVEN_KEY = "cover_proven"
+_LABEL_KEYS = (_VALUES_KEY, _COVER_KEY, _REACHES_KEY, _PROVEN_KEY)
 
 
 @dataclasses.dataclass
@@ -55,10 +70,16 @@ class TeacherStates:
     Attributes:
         observations: The env's observations, stacked per key (n, ...).
         values: The teacher's value of every candidate (n, K).
+        cover: Whether each candidate is in the state's remaining cover (n, K).
+        cover_reaches: Whether that cover reaches the goal within the views left (n,).
+        cover_proven: Whether it is proven a smallest one (n,).
     """
 
     observations: dict[str, np.ndarray]
     values: np.ndarray
+    cover: np.ndarray
+    cover_reaches: np.ndarray
+    cover_proven: np.ndarray
 
     def __len__(self) -> int:
         return len(self.values)
@@ -71,11 +92,12 @@ def teacher_seed(config: Config, seed: int) -> int:
 
 def teacher_identity(config: Config, seed: int) -> dict[str, Any]:
     """What decides the teacher's states: the cell, sensor, kinematics and env sections, the
-    version of the `s_grid` state, the teacher's seed (`teacher_seed`'s) and its exploration."""
+    version of the `s_grid` state, the teacher's seed (`teacher_seed`'s) and its exploration;
+    and what its shards hold (`LABELS_VERSION`)."""
     document = config_document(config)
     return {**{section: document[section] for section in ("cell", "sensor", "kinematics", "env")},
-            "grid_state_version": GRID_STATE_VERSION, "teacher_seed": seed, "epsilon": EPSILON,
-            "shard_episodes": SHARD_EPISODES}
+            "grid_state_version": GRID_STATE_VERSION, "labels_version": LABELS_VERSION,
+            "teacher_seed": seed, "epsilon": EPSILON, "shard_episodes": SHARD_EPISODES}
 
 
 def shard_sizes(episodes: int) -> list[int]:
@@ -99,6 +121,10 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
     teacher = CandidateTeacher()
     observations: list[dict[str, np.ndarray]] = []
     values: list[np.ndarray] = []
+    covers: list[np.ndarray] = []
+    reaches: list[bool] = []
+    proven: list[bool] = []
+    goal = config.env.coverage_goal
     for _ in range(episodes):
         observation, _ = env.reset()
         episode = inspect.current_episode()
@@ -108,8 +134,12 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
         done = False
         while not done:
             value = teacher.values(episode)
+            cover = teacher.remaining_cover(episode, goal, inspect.step_limit - inspect.steps)
             observations.append(observation)
             values.append(value)
+            covers.append(np.isin(np.arange(len(value)), cover.picks))
+            reaches.append(cover.goal_reached)
+            proven.append(cover.proven)
             allowed = np.flatnonzero(observation[MASK_KEY] > 0.5)
             if rng.random() < EPSILON:
                 action = int(rng.choice(allowed))
@@ -119,7 +149,8 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
             done = terminated or truncated
     env.close()
     stacked = {key: np.stack([obs[key] for obs in observations]) for key in observations[0]}
-    return TeacherStates(stacked, np.stack(values).astype(np.float32))
+    return TeacherStates(stacked, np.stack(values).astype(np.float32), np.stack(covers),
+                         np.array(reaches), np.array(proven))
 
 
 def _shard_file(folder: Path, shard: int, episodes: int) -> Path:
@@ -130,7 +161,9 @@ def _save_shard(config: Config, seed: int, shard: int, sizes: list[int], folder:
     states = collect_shard(config, seed, shard, sum(sizes[:shard]), sizes[shard])
     path = _shard_file(folder, shard, sizes[shard])
     with atomic_output(path) as temporary, temporary.open("wb") as file:
-        arrays: dict[str, Any] = {_VALUES_KEY: states.values, **states.observations}
+        arrays: dict[str, Any] = {_VALUES_KEY: states.values, _COVER_KEY: states.cover,
+                                  _REACHES_KEY: states.cover_reaches,
+                                  _PROVEN_KEY: states.cover_proven, **states.observations}
         np.savez(file, **arrays)
     return path
 
@@ -151,8 +184,9 @@ def _read_shard(path: Path) -> dict[str, np.ndarray]:
             TypeError) as error:
         raise ValueError(f"cannot read teacher shard {path}: {error}; remove it, and "
                          f"`vprobot teacher` rolls it out again") from None
-    if _VALUES_KEY not in arrays:
-        raise ValueError(f"{path} is not a teacher shard (it has no {_VALUES_KEY!r} array); "
+    missing = [key for key in _LABEL_KEYS if key not in arrays]
+    if missing:
+        raise ValueError(f"{path} is not a teacher shard (it has no {missing[0]!r} array); "
                          f"remove it, and `vprobot teacher` rolls it out again")
     return arrays
 
@@ -201,9 +235,10 @@ def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int
             _roll_out([shard for shard, file in enumerate(files) if not file.is_file()],
                       sizes, config, seed, folder, workers, progress)
     shards = [_read_shard(file) for file in files]
-    return TeacherStates({key: np.concatenate([shard[key] for shard in shards])
-                          for key in shards[0] if key != _VALUES_KEY},
-                         np.concatenate([shard[_VALUES_KEY] for shard in shards]))
+    joined = {key: np.concatenate([shard[key] for shard in shards]) for key in shards[0]}
+    return TeacherStates({key: array for key, array in joined.items() if key not in _LABEL_KEYS},
+                         joined[_VALUES_KEY], joined[_COVER_KEY], joined[_REACHES_KEY],
+                         joined[_PROVEN_KEY])
 
 
 def _roll_out(missing: list[int], sizes: list[int], config: Config, seed: int, folder: Path,
@@ -230,11 +265,16 @@ def teacher_folder(config: Config, run_dir: Path) -> Path:
     return Path(config.agent.teacher_dir) if config.agent.teacher_dir else run_dir / "teacher"
 
 
-def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int) -> list[float]:
-    """Fit the model's Q-network to the teacher's values (Adam at the model's learning rate,
-    its batch size), then copy it into the target network. Returns the loss of every epoch."""
+def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
+        target: str = "values") -> list[float]:
+    """Fit the model's Q-network to the teacher's `target` (`agent.pretrain_target`: `values`
+    by least squares, `cover` by binary cross-entropy on logits) over the allowed candidates
+    (Adam at the model's learning rate, its batch size), then copy it into the target network.
+    Returns the loss of every epoch."""
     q_net = model.policy.q_net
     optimizer = torch.optim.Adam(q_net.parameters(), lr=model.lr_schedule(1.0))
+    labels = states.values if target == "values" else states.cover.astype(np.float32)
+    weight = torch.tensor(COVER_POSITIVE_WEIGHT, device=model.device)
     rng = np.random.default_rng(seed)
     losses = []
     for _ in range(epochs):
@@ -244,10 +284,14 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int) -> l
             batch = order[start:start + model.batch_size]
             obs = {key: torch.as_tensor(value[batch], device=model.device)
                    for key, value in states.observations.items()}
-            target = torch.as_tensor(states.values[batch], device=model.device)
+            wanted = torch.as_tensor(labels[batch], device=model.device)
             allowed = allowed_rows(obs[MASK_KEY]).float()
-            error = (q_net(obs) - target) * allowed
-            loss = error.square().sum() / allowed.sum()
+            if target == "values":
+                error = (q_net(obs) - wanted).square()
+            else:
+                error = torch.nn.functional.binary_cross_entropy_with_logits(
+                    q_net(obs), wanted, pos_weight=weight, reduction="none")
+            loss = (error * allowed).sum() / allowed.sum()
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
@@ -264,7 +308,8 @@ def pretrain(model: CandidateDQN, config: Config, seed: int, run_dir: Path,
     agent = config.agent
     states = collect(config, agent.pretrain_episodes, seed, teacher_folder(config, run_dir),
                      progress=progress)
-    losses = fit(model, states, agent.pretrain_epochs, seed)
-    write_text(run_dir / PRETRAIN_FILE, "epoch,mse\n" + "".join(
+    losses = fit(model, states, agent.pretrain_epochs, seed, agent.pretrain_target)
+    loss = "mse" if agent.pretrain_target == "values" else "bce"
+    write_text(run_dir / PRETRAIN_FILE, f"epoch,{loss}\n" + "".join(
         f"{epoch},{loss:.6g}\n" for epoch, loss in enumerate(losses, start=1)))
     return losses

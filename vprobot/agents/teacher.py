@@ -10,6 +10,17 @@ the values keep 0 there, so that they stay continuous in what a view sees: a can
 would add 0.1 % and one that adds nothing look alike and differ by a thousandth, not by one.)
 The agent never sees them at run time; `vprobot.agents.pretrain` fits the Q-network to them
 before RL.
+
+The teacher also labels each state with its *remaining cover* (`CandidateTeacher.remaining_cover`),
+as MA-SCVP does: the fewest candidates that bring the part from its coverage now to the goal
+within the views left, a set cover (`vprobot.planners.optimum.solve_cover`) over what each
+usable candidate measures (every one confirmed by a simulated acquisition, once an episode:
+what a candidate measures does not depend on the state). Where 3 or fewer candidates reach the
+goal the label is exact (every pair and triple counted); beyond, it is greedy's solution made
+smaller (`swap_down`), and the count proves no 3 reach it: HiGHS's exact program costs up to a
+minute a state here (its root alone), thousands of states a teacher. Where no set reaches the
+goal within the views left, the candidates greedy finds adding the most. A policy that scores
+membership in it learns where the rest of the plan lies, not only the next view.
 """
 
 from __future__ import annotations
@@ -21,6 +32,7 @@ import numpy as np
 from vprobot.config import ConfigError, EnvConfig
 from vprobot.episode import Episode
 from vprobot.planners.candidates import CandidateViews, candidate_views
+from vprobot.planners.optimum import Cover, solve_cover
 from vprobot.views import BAND_COUNT
 
 WASTED = -1.0
@@ -47,6 +59,7 @@ class CandidateTeacher:
 
     def __init__(self) -> None:
         self._views: CandidateViews | None = None
+        self._rows: np.ndarray | None = None
 
     def reset(self, episode: Episode,
               screened: tuple[np.ndarray, Sequence[str | None]] | None = None) -> None:
@@ -54,6 +67,7 @@ class CandidateTeacher:
         robot, screen their reachability, unless `screened` holds the episode's screening:
         the `s_grid` state's, `GridState.screening`)."""
         self._views = candidate_views(episode, BAND_COUNT, screened=screened)
+        self._rows = None
 
     def values(self, episode: Episode) -> np.ndarray:
         """The value (BAND_COUNT,) of requesting each candidate now: the coverage it adds (the
@@ -62,11 +76,30 @@ class CandidateTeacher:
         Raises:
             RuntimeError: Before `reset`.
         """
-        if self._views is None:
-            raise RuntimeError("call reset() before values()")
-        views = self._views
+        views = self._current()
         # Confirms the best candidates by simulated acquisitions, as the oracle does: the
         # renderer's prediction overstates what the sensor covers (by about a tenth).
         views.next_best(episode, taken=set())
         gain = (views.known_visibility() & ~episode.covered).mean(axis=1)
         return np.where(views.usable, gain, WASTED)
+
+    def remaining_cover(self, episode: Episode, goal: float, views_left: int) -> Cover:
+        """The fewest candidates that bring the episode's coverage to `goal` with at most
+        `views_left` views, or without such a set the `views_left` that add the most: the set
+        cover over what every usable candidate measures (its `picks`, candidate indices; exact
+        where it takes 3 or fewer, see the module docstring; `proven` says where).
+
+        Raises:
+            RuntimeError: Before `reset`.
+        """
+        views = self._current()
+        if self._rows is None:
+            for index in np.flatnonzero(views.usable):
+                views.measured(int(index), episode)
+            self._rows = views.known_visibility()
+        return solve_cover(self._rows, episode.covered, views_left, goal, node_limit=0)
+
+    def _current(self) -> CandidateViews:
+        if self._views is None:
+            raise RuntimeError("call reset() before asking the teacher")
+        return self._views

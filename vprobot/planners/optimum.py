@@ -89,7 +89,7 @@ class Cover:
         views_bound: The solver's proof: no fewer rows reach the goal (None when the goal was
             not solved for: no goal, or none of `count` rows reaches it).
         points_bound: The solver's proof: no `count` rows add more points (None when the goal
-            was solved for).
+            was solved for, or no solve ran).
         proven: Whether the picks meet the bound (optimal).
         seconds: Time spent reducing and solving.
         timed_out: Whether a solve stopped at the wall-clock `time_limit_s` (the safety net)
@@ -181,7 +181,9 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
         time_limit_s: The solver's wall-clock safety net (all solves together).
         incumbent: A known solution (e.g. one confirmed by acquisitions) that bounds the
             program.
-        node_limit: HiGHS's branch-and-bound nodes per solve at most.
+        node_limit: HiGHS's branch-and-bound nodes per solve at most; 0 runs no solve (nor its
+            root, which alone can take a minute): the rows counted exactly when 3 or fewer reach
+            the goal, else greedy's solution made smaller (`swap_down`) with the counted bound.
 
     Raises:
         ValueError: If the shapes disagree, count < 0, or the goal lies outside (0, 1].
@@ -224,16 +226,23 @@ def solve_cover(visibility: np.ndarray, covered: np.ndarray, count: int,
             return result(reaching, views_bound=lowest)
         if fewest is not None and len(fewest) <= count:
             return result(fewest, views_bound=lowest)
-        solved = _solve(reduced, cap, needed, node_limit, time_limit_s, lowest)
-        timed_out = solved.timed_out
-        if solved.picks is not None and (reaching is None or len(solved.picks) < len(reaching)):
-            return result(solved.picks, views_bound=solved.bound)
-        if reaching is not None:
-            return result(reaching, views_bound=solved.bound)
+        if node_limit == 0:
+            if reaching is not None:
+                return result(reaching, views_bound=lowest)
+        else:
+            solved = _solve(reduced, cap, needed, node_limit, time_limit_s, lowest)
+            timed_out = solved.timed_out
+            if solved.picks is not None and (reaching is None
+                                             or len(solved.picks) < len(reaching)):
+                return result(solved.picks, views_bound=solved.bound)
+            if reaching is not None:
+                return result(reaching, views_bound=solved.bound)
         # No `count` rows reach the goal (proven, or none found within the limits): the most
         # points.
         time_limit_s -= time.perf_counter() - start
     fallback = incumbent if len(incumbent) <= count else ()
+    if node_limit == 0:
+        return result(fallback)
     floor = points(fallback)
     solved = _solve(reduced, count, None, node_limit, max(time_limit_s, 0.0), floor)
     timed_out = timed_out or solved.timed_out
