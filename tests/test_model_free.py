@@ -138,7 +138,11 @@ def guarded_run(planner: Planner, scene: MotorScene, carrier: str, seed: int = 0
 @pytest.mark.parametrize("name", ["uniform4", "nbv", "nbv@grid"])
 def test_model_free_planners_never_read_mesh_ground_truth_or_coverage(
         bracket: MotorScene, name: str, carrier: str) -> None:
-    episode = guarded_run(make_planner(name, CONFIG), bracket, carrier)
+    # uniform's band screened with straight-line moves: seconds, where the default cell's takes
+    # a minute of motion planning (test_results_regenerate's uniform4 screens that one); the
+    # episode's robot still plans its moves.
+    planner_config = replace(CONFIG, "kinematics", path_planner="line")
+    episode = guarded_run(make_planner(name, planner_config), bracket, carrier)
     assert sum(view.acquired for view in episode.views) >= 3
 
 
