@@ -153,6 +153,25 @@ def test_the_remaining_cover_is_the_fewest_views_that_enumeration_finds() -> Non
     assert not one.goal_reached and len(one.picks) == 1 and one.points == best_single
 
 
+def test_the_labels_leave_the_teachers_values_as_they_were() -> None:
+    """Measuring every candidate for the labels must not change what the values know: a teacher
+    asked for both gives the values of one asked for the values alone, step after step."""
+    values: list[list[np.ndarray]] = []
+    for label in (False, True):
+        env = InspectEnv(replace(config("free"), "env", resolution=(64, 45)))
+        env.reset(seed=4)
+        teacher = CandidateTeacher()
+        teacher.reset(env.episode)
+        values.append([])
+        for _ in range(3):
+            values[-1].append(teacher.values(env.episode))
+            if label:
+                teacher.remaining_cover(env.episode, 0.9, 5)
+            env.step(int(np.argmax(values[-1][-1])))
+    for alone, labelled in zip(*values, strict=True):
+        np.testing.assert_array_equal(alone, labelled)
+
+
 def test_a_network_fitted_to_the_cover_scores_its_members_first(tmp_path: Path) -> None:
     """`agent.pretrain_target: cover`: on the states it was fitted to, the policy's choice is a
     member of the state's remaining cover, far more often than a uniform allowed choice is."""

@@ -15,7 +15,8 @@ The teacher also labels each state with its *remaining cover* (`CandidateTeacher
 as MA-SCVP does: the fewest candidates that bring the part from its coverage now to the goal
 within the views left, a set cover (`vprobot.planners.optimum.solve_cover`) over what each
 usable candidate measures (every one confirmed by a simulated acquisition, once an episode:
-what a candidate measures does not depend on the state). Where 3 or fewer candidates reach the
+what a candidate measures does not depend on the state; on a copy of the candidates of its own,
+so that the values stay what the teacher alone knows). Where 3 or fewer candidates reach the
 goal the label is exact (every pair and triple counted); beyond, it is greedy's solution made
 smaller (`swap_down`), and the count proves no 3 reach it: HiGHS's exact program costs up to a
 minute a state here (its root alone), thousands of states a teacher. Where no set reaches the
@@ -59,6 +60,7 @@ class CandidateTeacher:
 
     def __init__(self) -> None:
         self._views: CandidateViews | None = None
+        self._labels: CandidateViews | None = None
         self._rows: np.ndarray | None = None
 
     def reset(self, episode: Episode,
@@ -67,6 +69,9 @@ class CandidateTeacher:
         robot, screen their reachability, unless `screened` holds the episode's screening:
         the `s_grid` state's, `GridState.screening`)."""
         self._views = candidate_views(episode, BAND_COUNT, screened=screened)
+        # The labels measure every candidate on a copy of their own (the acquisitions shared):
+        # the values go on knowing only the candidates they confirmed themselves.
+        self._labels = self._views.own_copy()
         self._rows = None
 
     def values(self, episode: Episode) -> np.ndarray:
@@ -76,7 +81,7 @@ class CandidateTeacher:
         Raises:
             RuntimeError: Before `reset`.
         """
-        views = self._current()
+        views = _reset_before(self._views)
         # Confirms the best candidates by simulated acquisitions, as the oracle does: the
         # renderer's prediction overstates what the sensor covers (by about a tenth).
         views.next_best(episode, taken=set())
@@ -92,14 +97,20 @@ class CandidateTeacher:
         Raises:
             RuntimeError: Before `reset`.
         """
-        views = self._current()
+        labels = _reset_before(self._labels)
         if self._rows is None:
-            for index in np.flatnonzero(views.usable):
-                views.measured(int(index), episode)
-            self._rows = views.known_visibility()
+            for index in np.flatnonzero(labels.usable):
+                labels.measured(int(index), episode)
+            self._rows = labels.known_visibility()
         return solve_cover(self._rows, episode.covered, views_left, goal, node_limit=0)
 
-    def _current(self) -> CandidateViews:
-        if self._views is None:
-            raise RuntimeError("call reset() before asking the teacher")
-        return self._views
+
+def _reset_before(views: CandidateViews | None) -> CandidateViews:
+    """The teacher's candidates, set by `reset`.
+
+    Raises:
+        RuntimeError: Before `reset`.
+    """
+    if views is None:
+        raise RuntimeError("call reset() before asking the teacher")
+    return views
