@@ -11,7 +11,6 @@ from __future__ import annotations
 # (vprobot/kernels.py), which numpy's OpenBLAS reads only when it loads.
 import vprobot  # noqa: F401
 # isort: on
-import fcntl
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 import pytest
 from helpers import SERIAL_EVALUATION, TINY_TRAINING, SmokeRuns
 
+from vprobot.files import waiting_lock
 from vprobot.paths import CACHE_ENV_VAR
 
 
@@ -46,8 +46,7 @@ def serial_evaluation(session_cache: Path, tmp_path_factory: pytest.TempPathFact
     from vprobot.cli import main
 
     folder = _run_folder(tmp_path_factory) / "serial-evaluation"
-    with (folder.parent / "serial-evaluation.lock").open("w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+    with waiting_lock(folder.parent / "serial-evaluation.lock"):
         # Made whole while the lock is held: present means done.
         if not (folder / "evaluation.md").is_file():
             assert main([*SERIAL_EVALUATION, "--out", str(folder)]) == 0

@@ -309,7 +309,7 @@ def pretrain(model: CandidateDQN, config: Config, seed: int, run_dir: Path,
     states = collect(config, agent.pretrain_episodes, seed, teacher_folder(config, run_dir),
                      progress=progress)
     losses = fit(model, states, agent.pretrain_epochs, seed, agent.pretrain_target)
-    loss = "mse" if agent.pretrain_target == "values" else "bce"
-    write_text(run_dir / PRETRAIN_FILE, f"epoch,{loss}\n" + "".join(
+    column = "mse" if agent.pretrain_target == "values" else "bce"
+    write_text(run_dir / PRETRAIN_FILE, f"epoch,{column}\n" + "".join(
         f"{epoch},{loss:.6g}\n" for epoch, loss in enumerate(losses, start=1)))
     return losses
