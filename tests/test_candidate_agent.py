@@ -294,14 +294,16 @@ def test_two_env_processes_train_and_store_only_allowed_requests() -> None:
     assert not np.array_equal(candidates[:, 0], candidates[:, 1])
 
 
-def test_the_cover_profile_is_the_realistic_one_fitted_to_the_cover_on_its_teacher() -> None:
-    """real-cover.yaml differs from real-candidates.yaml only in what the imitation fits and
-    the RL steps after it, so that both read one teacher folder."""
+@pytest.mark.parametrize("name, target", [("real-cover", "cover"), ("real-views", "views")])
+def test_the_cover_profiles_are_the_realistic_one_fitted_to_the_labels_on_its_teacher(
+        name: str, target: str) -> None:
+    """real-cover.yaml and real-views.yaml differ from real-candidates.yaml only in what the
+    imitation fits and the RL steps after it, so that all read one teacher folder."""
     values = profile_config(CONFIGS_DIR / "agents" / "real-candidates.yaml")
-    cover = profile_config(CONFIGS_DIR / "agents" / "real-cover.yaml")
-    assert (values.agent.pretrain_target, cover.agent.pretrain_target) == ("values", "cover")
-    assert cover.agent.teacher_dir == values.agent.teacher_dir
-    assert replace(cover, "agent", pretrain_target="values",
+    fitted = profile_config(CONFIGS_DIR / "agents" / f"{name}.yaml")
+    assert (values.agent.pretrain_target, fitted.agent.pretrain_target) == ("values", target)
+    assert fitted.agent.teacher_dir == values.agent.teacher_dir
+    assert replace(fitted, "agent", pretrain_target="values",
                    total_steps=values.agent.total_steps) == values
 
 

@@ -35,6 +35,7 @@ from vprobot.planners.optimum import (
     reduce_cover,
     solve_cover,
     swap_down,
+    views_to_goal,
 )
 from vprobot.planners.ordering import cycle_order, path_cost, shortest_cycle
 from vprobot.planners.runner import make_planner, parse_planner, run_episode
@@ -110,6 +111,31 @@ def test_up_to_three_views_are_found_by_counting_and_more_are_bounded(seed: int)
             assert covered_by(visibility, covered, tuple(found)) - covered.sum() >= needed
         else:
             assert found is None and bound <= (fewest or candidates + 1)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_views_to_the_goal_of_each_row_match_every_subset_up_to_three(seed: int) -> None:
+    """Exact where the fewest subsets holding the row take 3 or fewer, never fewer beyond;
+    inf for an unusable row and where all usable rows miss the goal."""
+    rng = np.random.default_rng(500 + seed)
+    for _ in range(30):
+        candidates = int(rng.integers(2, 10))
+        visibility, covered = random_instance(rng, candidates, int(rng.integers(10, 60)))
+        usable = rng.random(candidates) < 0.85
+        goal = rng.uniform(0.4, 1.0)
+        needed = math.ceil(goal * len(covered) - 1e-9)
+        views = views_to_goal(visibility, covered, goal, usable)
+        others = np.flatnonzero(usable)
+        for row in range(candidates):
+            rest = [other for other in others if other != row]
+            fewest = next((size + 1 for size in range(len(rest) + 1)
+                           for rows in itertools.combinations(rest, size)
+                           if covered_by(visibility, covered, (row, *rows)) >= needed),
+                          math.inf) if usable[row] else math.inf
+            if fewest <= 3 or math.isinf(fewest):
+                assert views[row] == fewest, (row, views, fewest)
+            else:
+                assert fewest <= views[row] < math.inf
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -12,7 +12,7 @@ import pytest
 import torch
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from vprobot.agents.pretrain import LABELS_VERSION, collect, fit
+from vprobot.agents.pretrain import LABELS_VERSION, TeacherStates, collect, fit, fit_labels
 from vprobot.agents.teacher import WASTED, CandidateTeacher
 from vprobot.agents.training import build_model, train
 from vprobot.config import Config, ConfigError, replace
@@ -172,22 +172,56 @@ def test_the_labels_leave_the_teachers_values_as_they_were() -> None:
         np.testing.assert_array_equal(alone, labelled)
 
 
-def test_a_network_fitted_to_the_cover_scores_its_members_first(tmp_path: Path) -> None:
-    """`agent.pretrain_target: cover`: on the states it was fitted to, the policy's choice is a
-    member of the state's remaining cover, far more often than a uniform allowed choice is."""
-    cfg = config("free", pretrain_target="cover", learning_rate=1e-2)
-    states = collect(cfg, episodes=2, seed=0, folder=tmp_path)
+def test_the_cover_labels_hold_every_candidate_of_some_smallest_cover() -> None:
+    """Hand-made views to the goal: `cover` marks every candidate with the fewest (the state's
+    one cover where the goal is out of reach), `views` fits the value minus them where finite."""
+    inf = np.inf
+    views = np.array([[2, 3, 2, inf], [inf, inf, inf, inf]], dtype=np.float32)
+    values = np.array([[0.1, 0.3, 0.2, -1.0], [0.0, 0.2, 0.1, -1.0]], dtype=np.float32)
+    cover = np.array([[True, False, False, False], [False, True, True, False]])
+    states = TeacherStates({}, values, cover, np.array([True, False]), np.array([True, False]),
+                           views)
+    members, where = fit_labels(states, "cover")
+    np.testing.assert_array_equal(members, [[1, 0, 1, 0], [0, 1, 1, 0]])
+    assert where.all()
+    targets, where = fit_labels(states, "views")
+    np.testing.assert_allclose(targets[0, :3], [-1.9, -2.7, -1.8])
+    np.testing.assert_array_equal(where, [[1, 1, 1, 0], [0, 0, 0, 0]])
+    np.testing.assert_array_equal(fit_labels(states, "values")[0], values)
+
+
+@pytest.fixture(scope="module")
+def labelled_states(tmp_path_factory: pytest.TempPathFactory) -> TeacherStates:
+    """The teacher's states of one episode in the free cell, with their labels."""
+    return collect(config("free"), episodes=1, seed=0, folder=tmp_path_factory.mktemp("teacher"))
+
+
+@pytest.mark.parametrize("target", ["cover", "views"])
+def test_a_network_fitted_to_the_labels_of_a_toy_state_chooses_a_candidate_with_the_fewest_views(
+        labelled_states: TeacherStates, target: str) -> None:
+    """`agent.pretrain_target: cover` or `views`: fitted to the labels of three states of an
+    episode (those with the fewest members), the policy's choice in each is a member of one of
+    its smallest remaining covers, which a uniform allowed choice is far less often."""
+    cfg = config("free", pretrain_target=target, learning_rate=1e-2)
+    states = labelled_states
     allowed = states.observations["mask"] > 0.5
     assert (states.cover & ~allowed).sum() <= (states.cover & allowed).sum()
     assert states.cover_reaches.any()
+    fewest = np.where(allowed, states.cover_views, np.inf).min(axis=1, keepdims=True)
+    members = allowed & (states.cover_views <= fewest)
+    # The one cover the labels name is one of them.
+    assert (members | ~states.cover | ~allowed).all()
+    first = np.argsort(members.sum(axis=1) / allowed.sum(axis=1), kind="stable")[:3]
+    toy = TeacherStates({key: value[first] for key, value in states.observations.items()},
+                        states.values[first], states.cover[first], states.cover_reaches[first],
+                        states.cover_proven[first], states.cover_views[first])
     model = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")
-    # A few members among a hundred candidates: the logits fall first, the members rise later.
-    losses = fit(model, states, epochs=600, seed=0, target="cover")
-    assert losses[-1] < 0.1 * losses[0]
-    actions, _ = model.predict(states.observations, deterministic=True)
-    member = states.cover[np.arange(len(actions)), actions]
-    uniform = (states.cover & allowed).sum(axis=1) / allowed.sum(axis=1)
-    assert member.mean() >= 0.9 and uniform.mean() < 0.2, (member.mean(), uniform.mean())
+    losses = fit(model, toy, epochs=600, seed=0, target=target)
+    assert losses[-1] < 0.2 * losses[0]
+    actions, _ = model.predict(toy.observations, deterministic=True)
+    assert members[first][np.arange(len(actions)), actions].all()
+    uniform = members[first].sum(axis=1) / allowed[first].sum(axis=1)
+    assert uniform.mean() < 0.5, uniform
 
 
 def test_pretraining_needs_dqn_and_the_r2_reward(tmp_path: Path) -> None:

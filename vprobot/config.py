@@ -547,9 +547,11 @@ class AgentConfig:
             Q-network is fitted to before RL (`vprobot.agents.pretrain`; 0: none).
         pretrain_epochs: Passes over those states.
         pretrain_target: What the network is fitted to: `values`, the teacher's value of every
-            candidate (least squares, a Q-function); `cover`, whether each candidate is in the
-            state's remaining cover (`CandidateTeacher.remaining_cover`; binary cross-entropy on
-            logits, members weighted `COVER_POSITIVE_WEIGHT`), the scores of a plan's members.
+            candidate (least squares, a Q-function); `cover`, whether each candidate is in
+            some smallest remaining cover (`CandidateTeacher.views_to_goal`; binary
+            cross-entropy on logits, members weighted `COVER_POSITIVE_WEIGHT`), the scores of a
+            plan's members; `views`, the candidate's value minus its views to the goal (least
+            squares, a cost-to-go). See `vprobot.agents.pretrain.fit_labels`.
         teacher_seed: The seed the teacher's episodes are drawn from (None: the run's seed);
             runs that share it and `teacher_dir` share the teacher's states.
         teacher_dir: The folder the teacher's states are kept in, shard by shard (None: the
@@ -594,7 +596,7 @@ class AgentConfig:
     exploration_final_eps: float = 0.05
     pretrain_episodes: int = 0
     pretrain_epochs: int = 20
-    pretrain_target: Literal["values", "cover"] = "values"
+    pretrain_target: Literal["values", "cover", "views"] = "values"
     teacher_seed: int | None = None
     teacher_dir: str | None = None
     n_steps: int = 1_024

@@ -8,9 +8,11 @@ reach the goal within the views left, and whether they are proven the fewest). W
 `agent.pretrain_target: values` the Q-network (and its target) is fitted to the values by least
 squares over the allowed candidates: a target for every candidate at once, where RL sees one
 reward per step. DQN then goes on from there, adding the discounted future to the immediate
-value. With `cover` the network's outputs are fitted as logits of membership in the remaining
-cover (binary cross-entropy), so that the policy's choice is a view of a smallest plan to the
-goal; RL then only goes on where validation keeps it.
+value. With `cover` the network's outputs are fitted as logits of membership in a remaining cover
+(binary cross-entropy; every candidate of some smallest cover is a member), so that the policy's
+choice is a view of a smallest plan to the goal; with `views` they are fitted (least squares) to
+minus the views to the goal when the candidate is taken next, plus its value as the tie-break, a
+cost-to-go whose best is minus the views left. RL then only goes on where validation keeps it.
 
 The episodes come from a stream of their own (`PRETRAIN_RANK`), apart from the RL envs', drawn
 from `agent.teacher_seed` (the run's seed by default). They are rolled out in shards of
@@ -54,13 +56,15 @@ SHARD_EPISODES = 25
 """Teacher episodes rolled out and saved together."""
 TEACHER_FILE = "teacher.json"
 """What made a teacher folder's shards (`teacher_identity`)."""
-LABELS_VERSION = 1
-"""What the shards hold besides the states: 1, the values and the remaining cover."""
+LABELS_VERSION = 2
+"""What the shards hold besides the states: 1, the values and the remaining cover; 2, also
+every candidate's views to the goal."""
 _VALUES_KEY = "values"
 _COVER_KEY = "cover"
 _REACHES_KEY = "cover_reaches"
 _PROVEN_KEY = "cover_proven"
-_LABEL_KEYS = (_VALUES_KEY, _COVER_KEY, _REACHES_KEY, _PROVEN_KEY)
+_VIEWS_KEY = "cover_views"
+_LABEL_KEYS = (_VALUES_KEY, _COVER_KEY, _REACHES_KEY, _PROVEN_KEY, _VIEWS_KEY)
 
 
 @dataclasses.dataclass
@@ -73,6 +77,8 @@ class TeacherStates:
         cover: Whether each candidate is in the state's remaining cover (n, K).
         cover_reaches: Whether that cover reaches the goal within the views left (n,).
         cover_proven: Whether it is proven a smallest one (n,).
+        cover_views: The views to the goal when each candidate is taken next (n, K); inf where
+            it cannot be taken or the goal is out of reach.
     """
 
     observations: dict[str, np.ndarray]
@@ -80,6 +86,7 @@ class TeacherStates:
     cover: np.ndarray
     cover_reaches: np.ndarray
     cover_proven: np.ndarray
+    cover_views: np.ndarray
 
     def __len__(self) -> int:
         return len(self.values)
@@ -124,6 +131,7 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
     covers: list[np.ndarray] = []
     reaches: list[bool] = []
     proven: list[bool] = []
+    views: list[np.ndarray] = []
     goal = config.env.coverage_goal
     for _ in range(episodes):
         observation, _ = env.reset()
@@ -140,6 +148,7 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
             covers.append(np.isin(np.arange(len(value)), cover.picks))
             reaches.append(cover.goal_reached)
             proven.append(cover.proven)
+            views.append(teacher.views_to_goal(episode, goal, cover))
             allowed = np.flatnonzero(observation[MASK_KEY] > 0.5)
             if rng.random() < EPSILON:
                 action = int(rng.choice(allowed))
@@ -150,7 +159,8 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
     env.close()
     stacked = {key: np.stack([obs[key] for obs in observations]) for key in observations[0]}
     return TeacherStates(stacked, np.stack(values).astype(np.float32), np.stack(covers),
-                         np.array(reaches), np.array(proven))
+                         np.array(reaches), np.array(proven),
+                         np.stack(views).astype(np.float32))
 
 
 def _shard_file(folder: Path, shard: int, episodes: int) -> Path:
@@ -163,7 +173,8 @@ def _save_shard(config: Config, seed: int, shard: int, sizes: list[int], folder:
     with atomic_output(path) as temporary, temporary.open("wb") as file:
         arrays: dict[str, Any] = {_VALUES_KEY: states.values, _COVER_KEY: states.cover,
                                   _REACHES_KEY: states.cover_reaches,
-                                  _PROVEN_KEY: states.cover_proven, **states.observations}
+                                  _PROVEN_KEY: states.cover_proven,
+                                  _VIEWS_KEY: states.cover_views, **states.observations}
         np.savez(file, **arrays)
     return path
 
@@ -238,7 +249,7 @@ def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int
     joined = {key: np.concatenate([shard[key] for shard in shards]) for key in shards[0]}
     return TeacherStates({key: array for key, array in joined.items() if key not in _LABEL_KEYS},
                          joined[_VALUES_KEY], joined[_COVER_KEY], joined[_REACHES_KEY],
-                         joined[_PROVEN_KEY])
+                         joined[_PROVEN_KEY], joined[_VIEWS_KEY])
 
 
 def _roll_out(missing: list[int], sizes: list[int], config: Config, seed: int, folder: Path,
@@ -273,7 +284,7 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
     Returns the loss of every epoch."""
     q_net = model.policy.q_net
     optimizer = torch.optim.Adam(q_net.parameters(), lr=model.lr_schedule(1.0))
-    labels = states.values if target == "values" else states.cover.astype(np.float32)
+    labels, fitted = fit_labels(states, target)
     weight = torch.tensor(COVER_POSITIVE_WEIGHT, device=model.device)
     rng = np.random.default_rng(seed)
     losses = []
@@ -285,8 +296,9 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
             obs = {key: torch.as_tensor(value[batch], device=model.device)
                    for key, value in states.observations.items()}
             wanted = torch.as_tensor(labels[batch], device=model.device)
-            allowed = allowed_rows(obs[MASK_KEY]).float()
-            if target == "values":
+            allowed = allowed_rows(obs[MASK_KEY]).float() * torch.as_tensor(
+                fitted[batch], device=model.device)
+            if target != "cover":
                 error = (q_net(obs) - wanted).square()
             else:
                 error = torch.nn.functional.binary_cross_entropy_with_logits(
@@ -301,6 +313,28 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
     return losses
 
 
+def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarray]:
+    """What `fit` fits the network's outputs to (n, K), and where (n, K), for `target`:
+
+    - `values`: the teacher's values, everywhere;
+    - `cover`: 1 for the candidates of some smallest remaining cover (those with the fewest
+      views to the goal), else 0; where the goal is out of reach, the remaining cover's (the
+      candidates adding the most);
+    - `views`: the value minus the views to the goal, where the goal is in reach: the fewest
+      views first, then the most coverage now (the value, a gain, stays below one view).
+    """
+    views = states.cover_views
+    reachable = np.isfinite(views)
+    if target == "values":
+        return states.values, np.ones(views.shape, dtype=np.float32)
+    if target == "cover":
+        fewest = np.where(reachable, views, np.inf).min(axis=1, keepdims=True)
+        members = np.where(reachable.any(axis=1, keepdims=True), views <= fewest, states.cover)
+        return members.astype(np.float32), np.ones(views.shape, dtype=np.float32)
+    return (np.where(reachable, states.values - views, 0.0).astype(np.float32),
+            reachable.astype(np.float32))
+
+
 def pretrain(model: CandidateDQN, config: Config, seed: int, run_dir: Path,
              progress: bool = False) -> list[float]:
     """Collect the teacher's states and fit the model to them; the losses go to
@@ -309,7 +343,7 @@ def pretrain(model: CandidateDQN, config: Config, seed: int, run_dir: Path,
     states = collect(config, agent.pretrain_episodes, seed, teacher_folder(config, run_dir),
                      progress=progress)
     losses = fit(model, states, agent.pretrain_epochs, seed, agent.pretrain_target)
-    column = "mse" if agent.pretrain_target == "values" else "bce"
+    column = "bce" if agent.pretrain_target == "cover" else "mse"
     write_text(run_dir / PRETRAIN_FILE, f"epoch,{column}\n" + "".join(
         f"{epoch},{loss:.6g}\n" for epoch, loss in enumerate(losses, start=1)))
     return losses

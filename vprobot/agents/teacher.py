@@ -21,7 +21,10 @@ goal the label is exact (every pair and triple counted); beyond, it is greedy's 
 smaller (`swap_down`), and the count proves no 3 reach it: HiGHS's exact program costs up to a
 minute a state here (its root alone), thousands of states a teacher. Where no set reaches the
 goal within the views left, the candidates greedy finds adding the most. A policy that scores
-membership in it learns where the rest of the plan lies, not only the next view.
+membership in it learns where the rest of the plan lies, not only the next view. Beside it, each
+candidate's *views to the goal* when taken next (`CandidateTeacher.views_to_goal`): exact up to
+3, greedy's count beyond; the candidates where it is least are those of some smallest cover
+(there are often many), and that least is the number of views left.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ import numpy as np
 from vprobot.config import ConfigError, EnvConfig
 from vprobot.episode import Episode
 from vprobot.planners.candidates import CandidateViews, candidate_views
-from vprobot.planners.optimum import Cover, solve_cover
+from vprobot.planners.optimum import Cover, solve_cover, views_to_goal
 from vprobot.views import BAND_COUNT
 
 WASTED = -1.0
@@ -97,12 +100,34 @@ class CandidateTeacher:
         Raises:
             RuntimeError: Before `reset`.
         """
+        return solve_cover(self._measured_rows(episode), episode.covered, views_left, goal,
+                           node_limit=0)
+
+    def views_to_goal(self, episode: Episode, goal: float, cover: Cover) -> np.ndarray:
+        """The views to the goal (BAND_COUNT,) when each candidate is taken next
+        (`optimum.views_to_goal` over what every usable candidate measures; inf where the
+        robot cannot take it or the goal is out of reach), no more than the size of the state's
+        remaining `cover` for its members where it reaches the goal.
+
+        Raises:
+            RuntimeError: Before `reset`.
+        """
+        labels = _reset_before(self._labels)
+        views = views_to_goal(self._measured_rows(episode), episode.covered, goal, labels.usable)
+        if cover.goal_reached:
+            picks = list(cover.picks)
+            views[picks] = np.minimum(views[picks], len(picks))
+        return views
+
+    def _measured_rows(self, episode: Episode) -> np.ndarray:
+        """What every candidate measures (its row of the labels' copy), acquired once an
+        episode: what a candidate measures does not depend on the state."""
         labels = _reset_before(self._labels)
         if self._rows is None:
             for index in np.flatnonzero(labels.usable):
                 labels.measured(int(index), episode)
             self._rows = labels.known_visibility()
-        return solve_cover(self._rows, episode.covered, views_left, goal, node_limit=0)
+        return self._rows
 
 
 def _reset_before(views: CandidateViews | None) -> CandidateViews:

@@ -363,6 +363,71 @@ def fewest_views(reduced: Reduced, needed: int) -> tuple[list[int] | None, int]:
     return (None, 4) if found is None else (reduced.rows[found].tolist(), 3)
 
 
+def views_to_goal(visibility: np.ndarray, covered: np.ndarray, goal: float,
+                  usable: np.ndarray | None = None) -> np.ndarray:
+    """For every row, the fewest rows that take it and reach the goal: the views to the goal
+    when it is taken next (the cost-to-go of the remaining cover; the smallest covers are the
+    rows where it is least).
+
+    Exact up to 3: one row is counted, a pair is greedy's second pick (the row adding the most
+    to it), a triple every pair that can complete it (`_stand_in`). Beyond 3, greedy's count
+    from the row, an upper bound. Greedy runs from every row at once, over the points merged by
+    the rows that see them.
+
+    Args:
+        visibility: Which points each candidate sees (candidates, points).
+        covered: Points covered already (points,); they count towards the goal.
+        goal: Fraction of all points to cover, in (0, 1].
+        usable: Rows that may be taken (candidates,); None: all.
+
+    Returns:
+        Views (candidates,), float: inf for an unusable row, and for every row where all the
+        usable rows together do not reach the goal.
+
+    Raises:
+        ValueError: If the shapes disagree or the goal lies outside (0, 1].
+    """
+    visibility, covered = cover_input(visibility, covered, 0)
+    if not 0.0 < goal <= 1.0:
+        raise ValueError(f"goal must lie in (0, 1], got {goal}")
+    usable = (np.ones(len(visibility), dtype=bool) if usable is None
+              else np.asarray(usable, dtype=bool))
+    if usable.shape != visibility.shape[:1]:
+        raise ValueError(f"usable {usable.shape} and visibility {visibility.shape} disagree")
+    needed = max(math.ceil(goal * len(covered) - 1e-9) - int(covered.sum()), 0)
+    views = np.full(len(visibility), np.inf)
+    seen = visibility[:, ~covered] & usable[:, None]
+    seen_any = seen.any(axis=0)
+    if seen_any.sum() < needed:
+        return views
+    matrix, weights = _merge_columns(seen[:, seen_any], np.ones(int(seen_any.sum())))
+    weights = weights.astype(np.float32)  # exact: the sums stay far below 2^24
+    columns = matrix.astype(np.float32)
+    added = columns @ weights
+    count = np.ones(len(views))
+    open_points = ~matrix
+    active = usable.copy()
+    while True:
+        reached = active & (added >= needed - 0.5)
+        views[reached] = count[reached]
+        active &= ~reached
+        if not active.any():
+            break
+        # Greedy's next pick from every open row at once: the row adding the most to it.
+        gains = (open_points[active] * weights) @ columns.T
+        picks = np.argmax(gains, axis=1)
+        open_points[active] &= ~matrix[picks]
+        added[active] += gains[np.arange(len(picks)), picks]
+        count[active] += 1
+    rows = seen.astype(np.float32)
+    for row in np.flatnonzero(views > 3):
+        if np.isfinite(views[row]):
+            open_row = ~seen[row]
+            if _stand_in(rows, open_row, needed - int(seen[row].sum()), 2) is not None:
+                views[row] = 3
+    return views
+
+
 def _solve(reduced: Reduced, count: int, needed: int | None, node_limit: int,
            time_limit_s: float, floor: int = 0) -> Solved:
     """Solve the reduced program within `node_limit` nodes (and the safety net `time_limit_s`):
