@@ -10,9 +10,11 @@ from typing import Any
 import mujoco
 import numpy as np
 import trimesh
+from scipy.spatial.distance import pdist
 
 from vprobot.config import Config
-from vprobot.paths import DEFAULT_MOTOR, MOTORS_DIR
+from vprobot.families import FAMILIES
+from vprobot.paths import DEFAULT_MOTOR, MOTORS_DIR, OBJECTS_DIR
 
 
 def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
@@ -83,3 +85,37 @@ TINY_TRAINING = (
 SmokeRuns = Callable[[str, str, bool], tuple[Config, dict[str, Any], Path]]
 """conftest's `smoke_runs`: (algorithm, encoder, robot state) -> the run's config, its result
 and its folder."""
+
+
+def shape_descriptor(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rotation-invariant shape statistics from 512 surface points (Osada et al. 2002): the
+    distribution of pair distances over their mean (D2), the distribution of |cos| between the
+    pairs' normals, and the log of seven linear sizes (cube root of volume and of hull volume,
+    square root of area, the three principal spreads of the points)."""
+    points, faces = trimesh.sample.sample_surface(mesh, 512, seed=0)
+    distances = pdist(points)
+    d2 = np.histogram(distances / distances.mean(), bins=32, range=(0, 3))[0]
+    # Clipped: rounding puts the |cos| of parallel faces a hair above 1, out of the range.
+    cosines = np.clip(np.abs(1 - pdist(mesh.face_normals[faces], "cosine")), 0, 1)
+    angles = np.histogram(cosines, bins=16, range=(0, 1))[0]
+    spreads = np.sqrt(np.clip(np.linalg.eigvalsh(np.cov(points.T)), 0, None))
+    sizes = np.log([np.cbrt(mesh.volume), np.sqrt(mesh.area), np.cbrt(mesh.convex_hull.volume),
+                    *spreads])
+    return d2 / d2.sum(), angles / angles.sum(), sizes
+
+
+def likeness(a: tuple[np.ndarray, ...], b: tuple[np.ndarray, ...]) -> float:
+    """Below 1 when two shapes are near-duplicates: D2 within 0.05 (L1), the normal-angle
+    distribution within 0.1 (L1), and every linear size within 15 %."""
+    return max(np.abs(a[0] - b[0]).sum() / 0.05, np.abs(a[1] - b[1]).sum() / 0.1,
+               np.abs(a[2] - b[2]).max() / np.log(1.15))
+
+
+def held_out_test_objects() -> list[trimesh.Trimesh]:
+    """The held-out test objects that no training part may nearly duplicate (`likeness`):
+    instances 20000-20007 of each test family and the three test shapes."""
+    tests = [FAMILIES[family].instance(seed).mesh
+             for family in ("bracket", "pipe_fitting", "pulley", "valve_body")
+             for seed in range(20000, 20008)]
+    return tests + [trimesh.load(OBJECTS_DIR / f"{name}.stl")
+                    for name in ("bracket", "pipe_tee", "torus")]

@@ -10,7 +10,7 @@ from collections import Counter
 import numpy as np
 import pytest
 import trimesh
-from scipy.spatial.distance import pdist
+from helpers import held_out_test_objects, likeness, shape_descriptor
 
 from vprobot.cli import main
 from vprobot.families import FAMILIES, family_rng
@@ -23,7 +23,6 @@ from vprobot.families.procedural import (
     base_of,
     draw_feature,
 )
-from vprobot.paths import OBJECTS_DIR
 
 SEEDS = range(200)
 FAMILY = FAMILIES["procedural"]
@@ -111,30 +110,6 @@ def test_instances_with_cavity_features_hide_part_of_their_surface(
     assert np.median(fractions) > 0.05
 
 
-def shape_descriptor(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rotation-invariant shape statistics from 512 surface points (Osada et al. 2002): the
-    distribution of pair distances over their mean (D2), the distribution of |cos| between the
-    pairs' normals, and the log of seven linear sizes (cube root of volume and of hull volume,
-    square root of area, the three principal spreads of the points)."""
-    points, faces = trimesh.sample.sample_surface(mesh, 512, seed=0)
-    distances = pdist(points)
-    d2 = np.histogram(distances / distances.mean(), bins=32, range=(0, 3))[0]
-    # Clipped: rounding puts the |cos| of parallel faces a hair above 1, out of the range.
-    cosines = np.clip(np.abs(1 - pdist(mesh.face_normals[faces], "cosine")), 0, 1)
-    angles = np.histogram(cosines, bins=16, range=(0, 1))[0]
-    spreads = np.sqrt(np.clip(np.linalg.eigvalsh(np.cov(points.T)), 0, None))
-    sizes = np.log([np.cbrt(mesh.volume), np.sqrt(mesh.area), np.cbrt(mesh.convex_hull.volume),
-                    *spreads])
-    return d2 / d2.sum(), angles / angles.sum(), sizes
-
-
-def likeness(a: tuple[np.ndarray, ...], b: tuple[np.ndarray, ...]) -> float:
-    """Below 1 when two shapes are near-duplicates: D2 within 0.05 (L1), the normal-angle
-    distribution within 0.1 (L1), and every linear size within 15 %."""
-    return max(np.abs(a[0] - b[0]).sum() / 0.05, np.abs(a[1] - b[1]).sum() / 0.1,
-               np.abs(a[2] - b[2]).max() / np.log(1.15))
-
-
 def test_no_instance_is_a_near_duplicate_of_a_held_out_test_object(
         drawn: dict[int, tuple[Layout, trimesh.Trimesh]]) -> None:
     # Near-duplicates are pairs below 1 (`likeness`). Measured with this descriptor: a test
@@ -142,11 +117,7 @@ def test_no_instance_is_a_near_duplicate_of_a_held_out_test_object(
     # family, 8 % (bracket) to 56 % (valve_body) of the instances have a sibling below 1; the
     # first 20 instances of every training family stay above 2.1, and procedural seeds 0-299
     # above 1.7 against those 48 seeds and the shapes (2.06 for the seeds and objects here).
-    tests = [FAMILIES[family].instance(seed).mesh
-             for family in ("bracket", "pipe_fitting", "pulley", "valve_body")
-             for seed in range(20000, 20008)]
-    tests += [trimesh.load(OBJECTS_DIR / f"{name}.stl") for name in ("bracket", "pipe_tee",
-                                                                     "torus")]
+    tests = held_out_test_objects()
     held_out = [shape_descriptor(mesh) for mesh in tests]
     copy = tests[0].copy()
     copy.apply_transform(trimesh.transformations.rotation_matrix(1.0, (1, 2, 3)))
