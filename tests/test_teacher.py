@@ -174,7 +174,8 @@ def test_the_labels_leave_the_teachers_values_as_they_were() -> None:
 
 def test_the_cover_labels_hold_every_candidate_of_some_smallest_cover() -> None:
     """Hand-made views to the goal: `cover` marks every candidate with the fewest (the state's
-    one cover where the goal is out of reach), `views` fits the value minus them where finite."""
+    one cover where the goal is out of reach), `views` fits the value minus the views beyond the
+    fewest where finite."""
     inf = np.inf
     views = np.array([[2, 3, 2, inf], [inf, inf, inf, inf]], dtype=np.float32)
     values = np.array([[0.1, 0.3, 0.2, -1.0], [0.0, 0.2, 0.1, -1.0]], dtype=np.float32)
@@ -185,7 +186,7 @@ def test_the_cover_labels_hold_every_candidate_of_some_smallest_cover() -> None:
     np.testing.assert_array_equal(members, [[1, 0, 1, 0], [0, 1, 1, 0]])
     assert where.all()
     targets, where = fit_labels(states, "views")
-    np.testing.assert_allclose(targets[0, :3], [-1.9, -2.7, -1.8])
+    np.testing.assert_allclose(targets[0, :3], [0.1, -0.7, 0.2])
     np.testing.assert_array_equal(where, [[1, 1, 1, 0], [0, 0, 0, 0]])
     np.testing.assert_array_equal(fit_labels(states, "values")[0], values)
 

@@ -550,8 +550,8 @@ class AgentConfig:
             candidate (least squares, a Q-function); `cover`, whether each candidate is in
             some smallest remaining cover (`CandidateTeacher.views_to_goal`; binary
             cross-entropy on logits, members weighted `COVER_POSITIVE_WEIGHT`), the scores of a
-            plan's members; `views`, the candidate's value minus its views to the goal (least
-            squares, a cost-to-go). See `vprobot.agents.pretrain.fit_labels`.
+            plan's members; `views`, the candidate's value minus its views to the goal beyond
+            the state's fewest (least squares). See `vprobot.agents.pretrain.fit_labels`.
         teacher_seed: The seed the teacher's episodes are drawn from (None: the run's seed);
             runs that share it and `teacher_dir` share the teacher's states.
         teacher_dir: The folder the teacher's states are kept in, shard by shard (None: the

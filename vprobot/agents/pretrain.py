@@ -11,8 +11,8 @@ reward per step. DQN then goes on from there, adding the discounted future to th
 value. With `cover` the network's outputs are fitted as logits of membership in a remaining cover
 (binary cross-entropy; every candidate of some smallest cover is a member), so that the policy's
 choice is a view of a smallest plan to the goal; with `views` they are fitted (least squares) to
-minus the views to the goal when the candidate is taken next, plus its value as the tie-break, a
-cost-to-go whose best is minus the views left. RL then only goes on where validation keeps it.
+how many views more than the fewest the goal takes when the candidate is taken next (negated),
+plus its value as the tie-break. RL then only goes on where validation keeps it.
 
 The episodes come from a stream of their own (`PRETRAIN_RANK`), apart from the RL envs', drawn
 from `agent.teacher_seed` (the run's seed by default). They are rolled out in shards of
@@ -320,18 +320,21 @@ def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarr
     - `cover`: 1 for the candidates of some smallest remaining cover (those with the fewest
       views to the goal), else 0; where the goal is out of reach, the remaining cover's (the
       candidates adding the most);
-    - `views`: the value minus the views to the goal, where the goal is in reach: the fewest
-      views first, then the most coverage now (the value, a gain, stays below one view).
+    - `views`: the value minus the views to the goal beyond the state's fewest, where the goal
+      is in reach: the fewest views first, then the most coverage now (the value, a gain, stays
+      below one view). Beyond the fewest, not the views themselves: the network then ranks the
+      candidates of a state without also fitting how far it lies from the goal (fitted to the
+      views themselves, its choice was in a smallest cover less often than the values' was).
     """
     views = states.cover_views
     reachable = np.isfinite(views)
     if target == "values":
         return states.values, np.ones(views.shape, dtype=np.float32)
+    fewest = np.where(reachable, views, np.inf).min(axis=1, keepdims=True)
     if target == "cover":
-        fewest = np.where(reachable, views, np.inf).min(axis=1, keepdims=True)
         members = np.where(reachable.any(axis=1, keepdims=True), views <= fewest, states.cover)
         return members.astype(np.float32), np.ones(views.shape, dtype=np.float32)
-    return (np.where(reachable, states.values - views, 0.0).astype(np.float32),
+    return (np.where(reachable, states.values - (views - fewest), 0.0).astype(np.float32),
             reachable.astype(np.float32))
 
 
