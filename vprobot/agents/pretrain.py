@@ -334,7 +334,9 @@ def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarr
     if target == "cover":
         members = np.where(reachable.any(axis=1, keepdims=True), views <= fewest, states.cover)
         return members.astype(np.float32), np.ones(views.shape, dtype=np.float32)
-    return (np.where(reachable, states.values - (views - fewest), 0.0).astype(np.float32),
+    # A state out of reach has no fewest: 0 there keeps its (unfitted) entries finite.
+    beyond = views - np.where(np.isfinite(fewest), fewest, 0.0)
+    return (np.where(reachable, states.values - beyond, 0.0).astype(np.float32),
             reachable.astype(np.float32))
 
 
