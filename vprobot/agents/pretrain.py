@@ -245,6 +245,15 @@ def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int
             _open_folder(config, seed, folder)
             _roll_out([shard for shard, file in enumerate(files) if not file.is_file()],
                       sizes, config, seed, folder, workers, progress)
+    return read_shards(files)
+
+
+def read_shards(files: list[Path]) -> TeacherStates:
+    """The states of teacher shards, in the order given.
+
+    Raises:
+        ValueError: If a file is not a teacher shard (`_read_shard`).
+    """
     shards = [_read_shard(file) for file in files]
     joined = {key: np.concatenate([shard[key] for shard in shards]) for key in shards[0]}
     return TeacherStates({key: array for key, array in joined.items() if key not in _LABEL_KEYS},

@@ -1,0 +1,100 @@
+"""How well each imitation target carries over to teacher states it was not fitted to.
+
+Fits the candidate Q-network of an agent profile to the first shards of its teacher folder with
+each `agent.pretrain_target`, then scores the greedy choice on the last shards (other episodes
+of the training objects, never a validation or test object): how often it is a member of some
+smallest remaining cover (its views to the goal are the state's fewest), how many views beyond
+the fewest it costs on the mean, and the coverage it adds against the teacher's best. A
+diagnostic of the targets in seconds of CPU a target, not model selection: that stays with the
+validation list (`vprobot train`).
+
+    python scripts/teacher_holdout.py vprobot/configs/agents/real-cover.yaml \
+        --out results/generalist/real-cover/holdout.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from vprobot.agents.candidate_q import CandidateDQN
+from vprobot.agents.models import build_model
+from vprobot.agents.pretrain import TeacherStates, fit, read_shards
+from vprobot.config import load_config, replace
+from vprobot.files import atomic_output
+
+TARGETS = ("values", "cover", "views")
+
+
+class _Spaces(gym.Env):
+    """The candidate env's spaces, read from the teacher's states: the model needs no cell."""
+
+    def __init__(self, states: TeacherStates) -> None:
+        self.observation_space = gym.spaces.Dict({
+            key: gym.spaces.Box(-np.inf, np.inf, value.shape[1:], np.float32)
+            for key, value in states.observations.items()})
+        self.action_space = gym.spaces.Discrete(states.values.shape[1])
+
+
+def score(model: CandidateDQN, states: TeacherStates) -> dict[str, float]:
+    """The greedy choice's membership in a smallest cover, views beyond the fewest, and gain
+    against the best candidate's."""
+    actions, _ = model.predict(states.observations, deterministic=True)
+    allowed = states.observations["mask"] > 0.5
+    views = np.where(allowed, states.cover_views, np.inf)
+    fewest = views.min(axis=1)
+    rows = np.arange(len(actions))
+    chosen = views[rows, actions]
+    best_gain = np.where(allowed, states.values, -np.inf).max(axis=1)
+    return {"member_pct": 100 * float(np.mean(chosen <= fewest)),
+            "views_beyond": float(np.mean(chosen - fewest)),
+            "gain_pct_of_best": 100 * float(states.values[rows, actions].sum() / best_gain.sum())}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("profile", type=Path, help="agent profile with a teacher_dir")
+    parser.add_argument("--held-out", type=int, default=2, help="last shards held out")
+    parser.add_argument("--epochs", type=int, default=100)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0])
+    parser.add_argument("--targets", nargs="+", choices=TARGETS, default=list(TARGETS))
+    parser.add_argument("--out", type=Path, required=True, help="CSV to write")
+    args = parser.parse_args()
+    config = load_config(args.profile)
+    if (config.agent.algorithm, config.agent.encoder) != ("dqn", "candidates"):
+        parser.error(f"{args.profile} is not a candidate agent's profile (agent.algorithm dqn, "
+                     f"agent.encoder candidates)")
+    if not config.agent.teacher_dir:
+        parser.error(f"{args.profile} sets no agent.teacher_dir")
+    files = sorted(Path(config.agent.teacher_dir).glob("shard-*.npz"))
+    if len(files) <= args.held_out or args.held_out < 1:
+        parser.error(f"--held-out must lie in 1 .. {len(files) - 1} ({len(files)} shards in "
+                     f"{config.agent.teacher_dir}), got {args.held_out}")
+    fitted, held = read_shards(files[:-args.held_out]), read_shards(files[-args.held_out:])
+    torch.set_num_threads(1)
+    rows = []
+    for target in args.targets:
+        for seed in args.seeds:
+            run = replace(config, "agent", pretrain_target=target)
+            model = build_model(run, _Spaces(fitted), seed=seed, device="cpu")
+            assert isinstance(model, CandidateDQN)  # checked above: dqn over candidates
+            losses = fit(model, fitted, args.epochs, seed, target)
+            for name, states in (("fitted", fitted), ("held_out", held)):
+                rows.append({"target": target, "seed": seed, "epochs": args.epochs,
+                             "states": name, "count": len(states), "final_loss": losses[-1],
+                             **score(model, states)})
+                print(", ".join(f"{key} {value:.4g}" if isinstance(value, float)
+                                else f"{key} {value}" for key, value in rows[-1].items()))
+    with atomic_output(args.out) as temporary, temporary.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+if __name__ == "__main__":
+    main()
