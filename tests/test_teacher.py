@@ -2,20 +2,33 @@
 
 from __future__ import annotations
 
+import hashlib
 import itertools
+import json
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import torch
+import yaml
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from vprobot.agents.pretrain import LABELS_VERSION, TeacherStates, collect, fit, fit_labels
+from vprobot.agents.pretrain import (
+    LABELS_VERSION,
+    TeacherStates,
+    collect,
+    fit,
+    fit_labels,
+    joined_states,
+    more_teacher_states,
+)
+from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import WASTED, CandidateTeacher
 from vprobot.agents.training import build_model, train
-from vprobot.config import Config, ConfigError, replace
+from vprobot.config import Config, ConfigError, config_document, replace
 from vprobot.env.grid_state import FEATURES
 from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
 from vprobot.env.inspect_env import InspectEnv
@@ -293,3 +306,47 @@ def test_a_teacher_folder_of_another_cell_seed_state_or_labels_version_is_refuse
     refused(cfg, "labels_version")
     with pytest.raises(ConfigError, match=re.escape("agent.teacher_seed must be >= 0")):
         config(teacher_seed=-1)
+
+
+def test_an_agents_rollouts_follow_its_greedy_choices_and_are_fitted_beside_the_teachers(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`agent.rollout_agent` (DAgger): without exploration, every request of the teacher's
+    episodes is the agent's greedy choice in the state before it, not the teacher's best; the
+    folder records the agent, and `more_teacher_dirs` adds its states to a run's fit."""
+    cfg = replace(config("free", teacher_seed=5), "env", resolution=(64, 45))
+    run = tmp_path / "run"
+    run.mkdir()
+    model = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")
+    model.save(run / "model.zip")
+    (run / "config.yaml").write_text(yaml.safe_dump(config_document(cfg)))
+    requested: list[int] = []
+
+    class Recorded(EpisodeStream):
+        def step(self, action: int) -> Any:
+            requested.append(action)
+            return super().step(action)
+
+    monkeypatch.setattr("vprobot.agents.pretrain.EPSILON", 0.0)
+    monkeypatch.setattr("vprobot.agents.pretrain.EpisodeStream", Recorded)
+    dagger = replace(cfg, "agent", rollout_agent=str(run))
+    states = collect(dagger, episodes=1, seed=0, folder=tmp_path / "rollouts")
+    greedy, _ = model.predict(states.observations, deterministic=True)
+    assert requested == greedy.tolist()
+    best = [int(np.argmax(np.where(mask > 0.5, value, -np.inf)))
+            for mask, value in zip(states.observations["mask"], states.values, strict=True)]
+    assert requested != best
+    record = json.loads((tmp_path / "rollouts" / "teacher.json").read_text())
+    assert record["rollout_agent"] == hashlib.sha256((run / "model.zip").read_bytes()).hexdigest()
+
+    own = collect(cfg, episodes=1, seed=0, folder=tmp_path / "teacher")
+    more = replace(cfg, "agent", more_teacher_dirs=(str(tmp_path / "rollouts"),))
+    (extra,) = more_teacher_states(more)
+    joined = joined_states([own, extra])
+    assert len(joined) == len(own) + len(states)
+    np.testing.assert_array_equal(joined.cover_views[len(own):], states.cover_views)
+    with pytest.raises(ConfigError, match=re.escape(
+            f"agent.more_teacher_dirs: {tmp_path / 'rollouts'} was made for another run: its "
+            f"teacher.json differs in env")):
+        more_teacher_states(replace(more, "env", reward="R1"))
+    with pytest.raises(ConfigError, match="holds no teacher shards"):
+        more_teacher_states(replace(cfg, "agent", more_teacher_dirs=(str(tmp_path / "none"),)))

@@ -556,6 +556,13 @@ class AgentConfig:
             runs that share it and `teacher_dir` share the teacher's states.
         teacher_dir: The folder the teacher's states are kept in, shard by shard (None: the
             run's `teacher/`); relative to where the command runs.
+        rollout_agent: A trained agent (a bundled name, a run folder or a model file) whose
+            greedy choices drive the teacher's episodes in place of the teacher's best (one
+            time in five a random allowed one, as before): the teacher then labels the states
+            the agent itself visits (DAgger). None: the teacher's own choices.
+        more_teacher_dirs: Teacher folders whose states are fitted too, beside `teacher_dir`'s
+            (made by `vprobot teacher` in the same cell, sensor, kinematics and env, e.g. with
+            another `rollout_agent`); relative to where the command runs.
         n_steps: Env steps per PPO rollout (per env).
         n_epochs: PPO epochs per rollout.
         total_steps: Env steps of a training run.
@@ -599,6 +606,8 @@ class AgentConfig:
     pretrain_target: Literal["values", "cover", "views"] = "values"
     teacher_seed: int | None = None
     teacher_dir: str | None = None
+    rollout_agent: str | None = None
+    more_teacher_dirs: tuple[str, ...] | None = None
     n_steps: int = 1_024
     n_epochs: int = 10
     total_steps: int = 75_000

@@ -21,6 +21,12 @@ default the run's `teacher/`), with `teacher.json` saying what made them: a kill
 finished shards, runs with one teacher seed and folder share them (the teacher's data made once
 for every seed of a study), and `vprobot teacher` fills the folder beforehand on several cores.
 A folder made for another cell, sensor, env or teacher seed is refused.
+
+With `agent.rollout_agent` the episodes follow a trained agent's greedy choices instead of the
+teacher's best (still one time in five a random allowed one), and the teacher labels the states
+the agent itself visits (DAgger): an imitation is only ever fitted to the teacher's states, and
+its own mistakes lead it where the teacher never went. `agent.more_teacher_dirs` adds such
+folders' states to a run's fit.
 """
 
 from __future__ import annotations
@@ -38,10 +44,11 @@ from tqdm import tqdm
 from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, allowed_rows
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import CandidateTeacher
+from vprobot.agents.trained import load_agent, model_file
 from vprobot.config import Config, ConfigError, config_document
 from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.files import atomic_output, folder_lock, read_text, write_text
+from vprobot.files import atomic_output, file_sha256, folder_lock, read_text, write_text
 from vprobot.processes import worker_pool
 
 PRETRAIN_RANK = 1_000
@@ -97,14 +104,22 @@ def teacher_seed(config: Config, seed: int) -> int:
     return seed if config.agent.teacher_seed is None else config.agent.teacher_seed
 
 
+_WORLD_KEYS = ("cell", "sensor", "kinematics", "env", "grid_state_version", "labels_version")
+"""What a teacher folder's states must share with a run to be fitted by it: the world they were
+made in and what the shards hold (not the seed or the choices that drove the episodes)."""
+
+
 def teacher_identity(config: Config, seed: int) -> dict[str, Any]:
     """What decides the teacher's states: the cell, sensor, kinematics and env sections, the
-    version of the `s_grid` state, the teacher's seed (`teacher_seed`'s) and its exploration;
+    version of the `s_grid` state, the teacher's seed (`teacher_seed`'s), its exploration and
+    the agent whose choices it follows (`agent.rollout_agent`, by the sha256 of its model file);
     and what its shards hold (`LABELS_VERSION`)."""
     document = config_document(config)
+    rollout = config.agent.rollout_agent
     return {**{section: document[section] for section in ("cell", "sensor", "kinematics", "env")},
             "grid_state_version": GRID_STATE_VERSION, "labels_version": LABELS_VERSION,
-            "teacher_seed": seed, "epsilon": EPSILON, "shard_episodes": SHARD_EPISODES}
+            "teacher_seed": seed, "epsilon": EPSILON, "shard_episodes": SHARD_EPISODES,
+            "rollout_agent": None if rollout is None else file_sha256(model_file(rollout))}
 
 
 def shard_sizes(episodes: int) -> list[int]:
@@ -126,6 +141,8 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
     env = EpisodeStream(inspect, seed, PRETRAIN_RANK, start=first)
     rng = np.random.default_rng([seed, PRETRAIN_RANK, shard])
     teacher = CandidateTeacher()
+    rollout = (None if config.agent.rollout_agent is None
+               else load_agent(config.agent.rollout_agent).model)
     observations: list[dict[str, np.ndarray]] = []
     values: list[np.ndarray] = []
     covers: list[np.ndarray] = []
@@ -152,6 +169,8 @@ def collect_shard(config: Config, seed: int, shard: int, first: int,
             allowed = np.flatnonzero(observation[MASK_KEY] > 0.5)
             if rng.random() < EPSILON:
                 action = int(rng.choice(allowed))
+            elif rollout is not None:
+                action = int(rollout.predict(observation, deterministic=True)[0])
             else:
                 action = int(allowed[np.argmax(value[allowed])])
             observation, _, terminated, truncated, _ = env.step(action)
@@ -280,6 +299,40 @@ def _roll_out(missing: list[int], sizes: list[int], config: Config, seed: int, f
                     bar.update()
 
 
+def more_teacher_states(config: Config) -> list[TeacherStates]:
+    """The states of every folder of `agent.more_teacher_dirs`: all their shards.
+
+    Raises:
+        ConfigError: For a folder that holds no teacher shards, or shards made in another world
+            (cell, sensor, kinematics, env) or holding other labels, naming what differs.
+    """
+    identity = teacher_identity(config, 0)
+    found = []
+    for name in config.agent.more_teacher_dirs or ():
+        folder = Path(name)
+        record, files = folder / TEACHER_FILE, sorted(folder.glob("shard-*.npz"))
+        if not record.is_file() or not files:
+            raise ConfigError(f"agent.more_teacher_dirs: {folder} holds no teacher shards "
+                              f"(make them with `vprobot teacher ... --out {folder}`)")
+        held = json.loads(read_text(record))
+        differing = [key for key in _WORLD_KEYS
+                     if held.get(key) != json.loads(json.dumps(identity[key]))]
+        if differing:
+            raise ConfigError(f"agent.more_teacher_dirs: {folder} was made for another run: its "
+                              f"{TEACHER_FILE} differs in {', '.join(differing)}")
+        found.append(read_shards(files))
+    return found
+
+
+def joined_states(parts: list[TeacherStates]) -> TeacherStates:
+    """One set of the states of several."""
+    return TeacherStates(
+        {key: np.concatenate([part.observations[key] for part in parts])
+         for key in parts[0].observations},
+        *(np.concatenate([getattr(part, field.name) for part in parts])
+          for field in dataclasses.fields(TeacherStates)[1:]))
+
+
 def teacher_folder(config: Config, run_dir: Path) -> Path:
     """Where a run's teacher shards are: `agent.teacher_dir`, else the run's `teacher/`."""
     return Path(config.agent.teacher_dir) if config.agent.teacher_dir else run_dir / "teacher"
@@ -354,8 +407,9 @@ def pretrain(model: CandidateDQN, config: Config, seed: int, run_dir: Path,
     """Collect the teacher's states and fit the model to them; the losses go to
     `run_dir/pretrain.csv`."""
     agent = config.agent
-    states = collect(config, agent.pretrain_episodes, seed, teacher_folder(config, run_dir),
-                     progress=progress)
+    states = joined_states([collect(config, agent.pretrain_episodes, seed,
+                                    teacher_folder(config, run_dir), progress=progress),
+                            *more_teacher_states(config)])
     losses = fit(model, states, agent.pretrain_epochs, seed, agent.pretrain_target)
     column = "bce" if agent.pretrain_target == "cover" else "mse"
     write_text(run_dir / PRETRAIN_FILE, f"epoch,{column}\n" + "".join(

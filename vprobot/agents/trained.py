@@ -64,7 +64,7 @@ class TrainedAgent:
     path: Path
 
 
-def _model_file(name: str) -> Path:
+def model_file(name: str) -> Path:
     """The model file of a bundled agent's name, a run directory or a model file; an explicit
     path (`./cpu`) is never a bundled agent's name."""
     source = (BUNDLED_AGENTS[name] if name in BUNDLED_AGENTS and not names_a_path(name)
@@ -125,9 +125,9 @@ def load_agent(source: str | Path | None = None) -> TrainedAgent:
             missing, a file that is not a loadable model, or a model whose observations are not
             those of its run's config.
     """
-    shown = _model_file(str(source if source is not None else BUNDLED_AGENT))
-    model_file = shown.resolve()
-    return _load(model_file, model_file.stat().st_mtime_ns, shown)
+    shown = model_file(str(source if source is not None else BUNDLED_AGENT))
+    resolved = shown.resolve()
+    return _load(resolved, resolved.stat().st_mtime_ns, shown)
 
 
 def trained_with(trained: SensorConfig, given: SensorConfig) -> bool:
