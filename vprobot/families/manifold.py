@@ -26,24 +26,18 @@ import numpy as np
 import trimesh
 
 from vprobot.families.base import Parameter, PartFamily, Values, register_family
-from vprobot.families.procedural import is_whole
+from vprobot.families.procedural import NoRoom, first_whole_layout
 from vprobot.families.solids import OVERLAP_M, box, carve, cylinder_x, rod
 
 BODY_KINDS = ("block", "cylinder")
 WALL_M = 0.003
 """Least material between a feature and a face or another feature."""
-MAX_DRAWS = 50
-"""Layouts drawn before a seed is given up on (a bug of the drawer)."""
 _PLACE_TRIES = 30
 """Positions tried for a port on an end face before it goes on a side face."""
 _BORE_SECTIONS = 64
 """Facets of the body's round side, the main bore and the grooves."""
 _SECTIONS = 40
 """Facets of the cross bores and ports."""
-
-
-class _NoRoom(Exception):
-    """A feature found no place on the drawn body: the layout is drawn again."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -211,7 +205,7 @@ def _groove(rng: np.random.Generator, body: Body, share: float) -> _Pending[Groo
     bore = body.bore_radius
     radius = float(min(bore * rng.uniform(1.2, 1.6), body.half_min - 2 * WALL_M))
     if radius < bore + 0.0015:
-        raise _NoRoom
+        raise NoRoom
     width = float(min(np.clip(rng.uniform(0.04, 0.1) * body.length, 0.004, 0.015), share))
     return _Pending(width / 2, lambda x: Groove(x, width, radius))
 
@@ -232,7 +226,7 @@ def _cross_bore(rng: np.random.Generator, body: Body, share: float) -> _Pending[
     if body.kind == "cylinder":
         far = min(far, float(np.sqrt(max((half - WALL_M) ** 2 - radius**2, 0.0))))
     if far <= bore:
-        raise _NoRoom
+        raise NoRoom
     return _Pending(radius, lambda x: Bore(
         "cross_bore", np.array([x, 0, 0]) + half * normal, np.array([x, 0, 0]) - far * normal,
         radius))
@@ -267,7 +261,7 @@ def _port(rng: np.random.Generator, body: Body, share: float, ends: dict[int, fl
     # deeper than the bore's wall.
     lateral = 0.0 if body.kind == "cylinder" else body.half_along(across) - mouth_radius - WALL_M
     if lateral < 0:
-        raise _NoRoom
+        raise NoRoom
     offset = float(rng.uniform(-lateral, lateral))
     if abs(offset) < bore + mouth_radius + WALL_M:
         deepest = half - bore - WALL_M
@@ -278,7 +272,7 @@ def _port(rng: np.random.Generator, body: Body, share: float, ends: dict[int, fl
     sag = _sag(body, mouth_radius)
     counterbore_depth = sag + float(rng.uniform(0.2, 0.4)) * (depth - sag) if counterbore else 0.0
     if depth - max(sag, counterbore_depth) < 0.002:
-        raise _NoRoom
+        raise NoRoom
 
     def make(x: float) -> Bore:
         mouth = np.array([x, 0.0, 0.0]) + offset * across + half * normal
@@ -349,7 +343,7 @@ def draw_layout(values: Values, rng: np.random.Generator) -> Layout:
     in a row, `WALL_M` apart, whatever their order: features at different x never meet.
 
     Raises:
-        _NoRoom: If a feature finds no room on this body (the caller draws again).
+        NoRoom: If a feature finds no room on this body (the caller draws again).
     """
     body = body_of(values)
     counts = [int(values[name]) for name in ("groove_count", "cross_bore_count", "port_count")]
@@ -372,18 +366,9 @@ def accepted_layout(values: Values) -> tuple[Layout, trimesh.Trimesh]:
     """The first layout drawn from `layout_seed` that makes a whole part, and its mesh.
 
     Raises:
-        RuntimeError: If `MAX_DRAWS` layouts in a row fail (a bug of the drawer).
+        RuntimeError: If `procedural.MAX_DRAWS` layouts in a row fail (a bug of the drawer).
     """
-    rng = np.random.default_rng(int(values["layout_seed"]))
-    for _ in range(MAX_DRAWS):
-        try:
-            layout = draw_layout(values, rng)
-        except _NoRoom:
-            continue
-        mesh = layout.mesh()
-        if is_whole(mesh):
-            return layout, mesh
-    raise RuntimeError(f"manifold: no whole part in {MAX_DRAWS} draws of {dict(values)}")
+    return first_whole_layout("manifold", values, draw_layout)
 
 
 @register_family

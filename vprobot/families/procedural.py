@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import Protocol, TypeVar
 
 import numpy as np
 import trimesh
@@ -368,19 +369,47 @@ def is_whole(mesh: trimesh.Trimesh) -> bool:
     return bool(RADIUS_RANGE_M[0] <= radius <= RADIUS_RANGE_M[1])
 
 
+class NoRoom(Exception):
+    """A drawn feature found no place on the part: the layout is drawn again."""
+
+
+class DrawnLayout(Protocol):
+    """A drawn part that makes its mesh."""
+
+    def mesh(self) -> trimesh.Trimesh: ...
+
+
+L = TypeVar("L", bound=DrawnLayout)
+
+
+def first_whole_layout(
+    family: str, values: Values, draw: Callable[[Values, np.random.Generator], L],
+) -> tuple[L, trimesh.Trimesh]:
+    """The first layout `draw` makes from `layout_seed`'s generator that gives a whole part
+    (`is_whole`), and its mesh; a draw that raises `NoRoom` is drawn again too.
+
+    Raises:
+        RuntimeError: If `MAX_DRAWS` layouts in a row fail (a bug of a drawer), naming `family`.
+    """
+    rng = np.random.default_rng(int(values["layout_seed"]))
+    for _ in range(MAX_DRAWS):
+        try:
+            layout = draw(values, rng)
+        except NoRoom:
+            continue
+        mesh = layout.mesh()
+        if is_whole(mesh):
+            return layout, mesh
+    raise RuntimeError(f"{family}: no whole part in {MAX_DRAWS} draws of {dict(values)}")
+
+
 def accepted_layout(values: Values) -> tuple[Layout, trimesh.Trimesh]:
     """The first layout drawn from `layout_seed` that makes a whole part, and its mesh.
 
     Raises:
         RuntimeError: If `MAX_DRAWS` layouts in a row fail (a bug of a feature drawer).
     """
-    rng = np.random.default_rng(int(values["layout_seed"]))
-    for _ in range(MAX_DRAWS):
-        layout = draw_layout(values, rng)
-        mesh = layout.mesh()
-        if is_whole(mesh):
-            return layout, mesh
-    raise RuntimeError(f"procedural: no whole part in {MAX_DRAWS} draws of {dict(values)}")
+    return first_whole_layout("procedural", values, draw_layout)
 
 
 @register_family
