@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import zipfile
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -232,12 +233,18 @@ def _open_folder(config: Config, seed: int, folder: Path) -> None:
     if not record.is_file():
         write_text(record, json.dumps(identity, indent=1) + "\n")
         return
-    held = json.loads(read_text(record))
-    differing = [key for key in identity if held.get(key) != json.loads(json.dumps(identity[key]))]
+    differing = _differing(record, identity, identity)
     if differing:
         raise ConfigError(f"{folder} holds the teacher states of another run: its "
                           f"{TEACHER_FILE} differs in {', '.join(differing)}; give another "
                           f"agent.teacher_dir (or remove that folder)")
+
+
+def _differing(record: Path, identity: dict[str, Any], keys: Iterable[str]) -> list[str]:
+    """The `keys` whose values in the `teacher.json` at `record` are not `identity`'s (compared
+    as JSON holds them)."""
+    held = json.loads(read_text(record))
+    return [key for key in keys if held.get(key) != json.loads(json.dumps(identity[key]))]
 
 
 def collect(config: Config, episodes: int, seed: int, folder: Path, workers: int = 1,
@@ -314,9 +321,7 @@ def more_teacher_states(config: Config) -> list[TeacherStates]:
         if not record.is_file() or not files:
             raise ConfigError(f"agent.more_teacher_dirs: {folder} holds no teacher shards "
                               f"(make them with `vprobot teacher ... --out {folder}`)")
-        held = json.loads(read_text(record))
-        differing = [key for key in _WORLD_KEYS
-                     if held.get(key) != json.loads(json.dumps(identity[key]))]
+        differing = _differing(record, identity, _WORLD_KEYS)
         if differing:
             raise ConfigError(f"agent.more_teacher_dirs: {folder} was made for another run: its "
                               f"{TEACHER_FILE} differs in {', '.join(differing)}")
@@ -325,7 +330,9 @@ def more_teacher_states(config: Config) -> list[TeacherStates]:
 
 
 def joined_states(parts: list[TeacherStates]) -> TeacherStates:
-    """One set of the states of several."""
+    """One set of the states of several (the one itself, uncopied)."""
+    if len(parts) == 1:
+        return parts[0]
     return TeacherStates(
         {key: np.concatenate([part.observations[key] for part in parts])
          for key in parts[0].observations},
@@ -392,7 +399,7 @@ def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarr
     reachable = np.isfinite(views)
     if target == "values":
         return states.values, np.ones(views.shape, dtype=np.float32)
-    fewest = np.where(reachable, views, np.inf).min(axis=1, keepdims=True)
+    fewest = views.min(axis=1, keepdims=True)  # inf where none is reachable
     if target == "cover":
         members = np.where(reachable.any(axis=1, keepdims=True), views <= fewest, states.cover)
         return members.astype(np.float32), np.ones(views.shape, dtype=np.float32)

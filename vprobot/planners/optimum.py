@@ -420,11 +420,9 @@ def views_to_goal(visibility: np.ndarray, covered: np.ndarray, goal: float,
         added[active] += gains[np.arange(len(picks)), picks]
         count[active] += 1
     rows = seen.astype(np.float32)
-    for row in np.flatnonzero(views > 3):
-        if np.isfinite(views[row]):
-            open_row = ~seen[row]
-            if _stand_in(rows, open_row, needed - int(seen[row].sum()), 2) is not None:
-                views[row] = 3
+    for row in np.flatnonzero(np.isfinite(views) & (views > 3)):
+        if _stand_in(rows, ~seen[row], needed - int(seen[row].sum()), 2) is not None:
+            views[row] = 3
     return views
 
 
