@@ -86,8 +86,8 @@ def test_unknown_test_lists_are_refused_with_the_profile_before_training(
     (line,) = capsys.readouterr().err.splitlines()
     assert code == 2 and not out.exists()
     assert line == ("vprobot train: error: agent.test_lists must name bundled episode lists "
-                    "(test-v1, shapes-v1, families-test-v1, validation-v1, validation-v2), got "
-                    "'bogus'")
+                    "(test-v1, shapes-v1, families-test-v1, validation-v1, validation-v2, "
+                    "validation-v3), got 'bogus'")
 
 
 def test_teacher_needs_a_folder_and_a_profile_with_a_teacher(

@@ -119,8 +119,8 @@ def test_env_split_picks_the_split_that_training_and_validation_draw_from() -> N
         replace(CONFIG, "env", objects=("procedural",))
     with pytest.raises(ConfigError, match="'pulley' is a test family of split v2"):
         replace(CONFIG, "env", objects=("pulley",), split=2)
-    with pytest.raises(ConfigError, match=r"^env.split: no split version 3; bundled: 1, 2$"):
-        replace(CONFIG, "env", split=3)
+    with pytest.raises(ConfigError, match=r"^env.split: no split version 4; bundled: 1, 2, 3$"):
+        replace(CONFIG, "env", split=4)
 
 
 def test_validation_episodes_are_those_of_the_trained_sources() -> None:
@@ -209,7 +209,8 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
 
 PINNED_SHA256 = {
     "bracket": "aacec58c042cd363", "flange": "c9e9cae60cda6379", "housing": "ffa5cb5974f36a97",
-    "lever": "dadd1e244fd4f1d9", "pipe_fitting": "0a38250d4bac1bf7",
+    "lever": "dadd1e244fd4f1d9", "manifold": "8c50def59c9b8479",
+    "pipe_fitting": "0a38250d4bac1bf7",
     "procedural": "2dd98189bc5e515b", "pulley": "85d3eb1371153e3d",
     "spur_gear": "80872660f6236cf2", "stepped_shaft": "92c102d6c4b503e0",
     "valve_body": "643fd0356dc084ed",

@@ -33,7 +33,8 @@ EPISODES_DIR = CONFIGS_DIR / "episodes"
 """Bundled episode lists, one JSON file each."""
 BUNDLED_EPISODE_LISTS = {
     name: EPISODES_DIR / f"{name}.json"
-    for name in ("test-v1", "shapes-v1", "families-test-v1", "validation-v1", "validation-v2")}
+    for name in ("test-v1", "shapes-v1", "families-test-v1", "validation-v1", "validation-v2",
+                 "validation-v3")}
 """The bundled episode lists by name (`vprobot evaluate --episodes NAME`, `agent.test_lists`):
 the test motors, the non-motor shapes, the test families' instances, and the validation lists of
 splits v1 and v2 (`vprobot.splits`)."""

@@ -292,7 +292,7 @@ def read_episode_list(path: str | Path) -> list[EpisodeSpec]:
 
 def split_lists(config: Config, split: Split) -> dict[str, list[EpisodeSpec]]:
     """The episode lists the split defines, drawn by the shared sampler: its validation list
-    (`validation-v1`, `validation-v2`) and `families-test-v1`."""
+    (`validation-v1`, `validation-v2`, `validation-v3`) and `families-test-v1`."""
     return {
         split.validation_list: episode_list(config, split.validation_objects(),
                                             split.validation_poses),
