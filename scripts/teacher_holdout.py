@@ -4,7 +4,8 @@ Fits the candidate Q-network of an agent profile to the first shards of its teac
 each `agent.pretrain_target`, then scores the greedy choice on the last shards (other episodes
 of the training objects, never a validation or test object): how often it is a member of some
 smallest remaining cover (its views to the goal are the state's fewest), how many views beyond
-the fewest it costs on the mean, and the coverage it adds against the teacher's best. A
+the fewest it costs on the mean, and the coverage it adds against the teacher's best; for the
+targets with the head of the views left, that head's mean absolute error in views. A
 diagnostic of the targets in seconds of CPU a target, not model selection: that stays with the
 validation list (`vprobot train`).
 
@@ -51,9 +52,20 @@ def score(model: CandidateDQN, states: TeacherStates) -> dict[str, float]:
     rows = np.arange(len(actions))
     chosen = views[rows, actions]
     best_gain = np.where(allowed, states.values, -np.inf).max(axis=1)
-    return {"member_pct": 100 * float(np.mean(chosen <= fewest)),
-            "views_beyond": float(np.mean(chosen - fewest)),
-            "gain_pct_of_best": 100 * float(states.values[rows, actions].sum() / best_gain.sum())}
+    scores = {"member_pct": 100 * float(np.mean(chosen <= fewest)),
+              "views_beyond": float(np.mean(chosen - fewest)),
+              "gain_pct_of_best": 100 * float(states.values[rows, actions].sum()
+                                              / best_gain.sum()),
+              "views_left_mae": float("nan")}
+    q_net = model.policy.q_net
+    if q_net.views_left_head is not None:
+        left = states.cover_views.min(axis=1)  # the labels `fit` fits the head to
+        known = np.isfinite(left)
+        with torch.no_grad():
+            predicted = q_net.views_left(
+                {key: torch.as_tensor(value[known]) for key, value in states.observations.items()})
+        scores["views_left_mae"] = float(np.mean(np.abs(predicted.numpy() - left[known])))
+    return scores
 
 
 def main() -> None:
@@ -83,10 +95,10 @@ def main() -> None:
             run = replace(config, "agent", pretrain_target=target)
             model = build_model(run, _Spaces(fitted), seed=seed, device="cpu")
             assert isinstance(model, CandidateDQN)  # checked above: dqn over candidates
-            losses = fit(model, fitted, args.epochs, seed, target)
+            loss = next(iter(fit(model, fitted, args.epochs, seed, target).values()))
             for name, states in (("fitted", fitted), ("held_out", held)):
                 rows.append({"target": target, "seed": seed, "epochs": args.epochs,
-                             "states": name, "count": len(states), "final_loss": losses[-1],
+                             "states": name, "count": len(states), "final_loss": loss[-1],
                              **score(model, states)})
                 print(", ".join(f"{key} {value:.4g}" if isinstance(value, float)
                                 else f"{key} {value}" for key, value in rows[-1].items()))

@@ -27,6 +27,7 @@ from vprobot.agents.pretrain import (
 )
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import WASTED, CandidateTeacher
+from vprobot.agents.trained import load_agent
 from vprobot.agents.training import build_model, train
 from vprobot.config import Config, ConfigError, config_document, replace
 from vprobot.env.grid_state import FEATURES
@@ -111,7 +112,7 @@ def test_the_fitted_q_network_picks_candidates_nearly_as_good_as_the_teachers_be
     cfg = config("free")
     states = collect(cfg, episodes=2, seed=0, folder=tmp_path)
     model = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")
-    losses = fit(model, states, epochs=150, seed=0)
+    losses = fit(model, states, epochs=150, seed=0)["mse"]
     assert losses[-1] < 0.2 * losses[0]
     q_net, target = model.policy.q_net, model.policy.q_net_target
     assert all(torch.equal(a, b) for a, b in zip(q_net.state_dict().values(),
@@ -230,12 +231,26 @@ def test_a_network_fitted_to_the_labels_of_a_toy_state_chooses_a_candidate_with_
                         states.values[first], states.cover[first], states.cover_reaches[first],
                         states.cover_proven[first], states.cover_views[first])
     model = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")
-    losses = fit(model, toy, epochs=600, seed=0, target=target)
+    log = fit(model, toy, epochs=600, seed=0, target=target)
+    losses = log["bce" if target == "cover" else "mse"]
     assert losses[-1] < 0.2 * losses[0]
     actions, _ = model.predict(toy.observations, deterministic=True)
     assert members[first][np.arange(len(actions)), actions].all()
     uniform = members[first].sum(axis=1) / allowed[first].sum(axis=1)
     assert uniform.mean() < 0.5, uniform
+    # The head of the views left: fitted to each state's fewest views (within a quarter view),
+    # as its logged error says; the Q-values are those of the same fit without the head.
+    observations = {key: torch.as_tensor(value) for key, value in toy.observations.items()}
+    q_net = model.policy.q_net
+    with torch.no_grad():
+        left = q_net.views_left(observations).numpy()
+    np.testing.assert_allclose(left, toy.cover_views.min(axis=1), atol=0.25)
+    assert log["views_left_mae"][-1] < 0.25 < log["views_left_mae"][0]
+    headless = build_model(cfg, DummyVecEnv([lambda: InspectEnv(cfg)]), seed=0, device="cpu")
+    headless.policy.q_net.views_left_head = headless.policy.q_net_target.views_left_head = None
+    assert list(fit(headless, toy, epochs=600, seed=0, target=target)) == list(log)[:1]
+    with torch.no_grad():
+        torch.testing.assert_close(headless.policy.q_net(observations), q_net(observations))
 
 
 def test_pretraining_needs_dqn_and_the_r2_reward(tmp_path: Path) -> None:
@@ -254,12 +269,16 @@ def test_pretraining_needs_dqn_and_the_r2_reward(tmp_path: Path) -> None:
 
 
 def test_a_pretrained_run_evaluates_the_imitation_as_step_0(tmp_path: Path) -> None:
+    """With the cover's fit, whose network has the head of the views left: its log and its
+    weights come back with the trained agent."""
     cfg = replace(config("free", pretrain_episodes=1, pretrain_epochs=3, total_steps=30,
                          learning_starts=10, eval_freq=1000, eval_episodes=1,
-                         checkpoint_freq=1000, test_lists=None), "env", resolution=(64, 45))
+                         checkpoint_freq=1000, test_lists=None, pretrain_target="cover"),
+                  "env", resolution=(64, 45))
     train(cfg, tmp_path / "run", progress=False)
     epochs = (tmp_path / "run" / "pretrain.csv").read_text().splitlines()
-    assert epochs[0] == "epoch,mse" and len(epochs) == 4
+    assert epochs[0] == "epoch,bce,views_left_mae" and len(epochs) == 4
+    assert load_agent(tmp_path / "run").model.policy.q_net.views_left_head is not None
     steps = [line.split(",")[0] for line in
              (tmp_path / "run" / "evaluations.csv").read_text().splitlines()[1:]]
     assert steps == ["0", "30"]

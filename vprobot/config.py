@@ -552,6 +552,8 @@ class AgentConfig:
             cross-entropy on logits, members weighted `COVER_POSITIVE_WEIGHT`), the scores of a
             plan's members; `views`, the candidate's value minus its views to the goal beyond
             the state's fewest (least squares). See `vprobot.agents.pretrain.fit_labels`.
+            With `cover` and `views` the network also has the head of the views left, fitted
+            to the state's fewest views to the goal (`CandidateQNetwork.views_left`).
         teacher_seed: The seed the teacher's episodes are drawn from (None: the run's seed);
             runs that share it and `teacher_dir` share the teacher's states.
         teacher_dir: The folder the teacher's states are kept in, shard by shard (None: the

@@ -76,25 +76,34 @@ class CandidateQNetwork(BasePolicy):
     are taken or unreachable) and the robot state when there is one. A first layer of width
     `net_arch[0]` embeds every row; the mean and the max of the embeddings over the rows are the
     context; the MLP of widths `net_arch` maps each row's input and the context to its Q-value.
+    With `views_left`, a second MLP of widths `net_arch` maps the context alone to the number of
+    views the state still needs to reach the goal (`views_left`, fitted beside a cover's
+    membership, `vprobot.agents.pretrain`); the Q-values do not read it.
 
     Args:
         observation_space: A Dict of `candidates`, `mask` and optionally `robot`.
         action_space: Discrete(K).
         net_arch: Hidden widths of the per-row MLP.
+        views_left: Whether the network has the head of the views left.
 
     Raises:
         ConfigError: For spaces that are not those of a candidate-view env.
     """
 
     def __init__(self, observation_space: gym.Space, action_space: gym.Space,
-                 net_arch: list[int]):
+                 net_arch: list[int], views_left: bool = False):
         width = check_candidate_spaces(observation_space, action_space)
         super().__init__(observation_space, action_space)
         self.net_arch = list(net_arch)
         self.embedding = nn.Sequential(nn.Linear(width, self.net_arch[0]), nn.ReLU())
         self.head = nn.Sequential(*create_mlp(width + 2 * self.net_arch[0], 1, self.net_arch))
+        self.views_left_head = (nn.Sequential(*create_mlp(2 * self.net_arch[0], 1, self.net_arch))
+                                if views_left else None)
 
-    def forward(self, observation: PyTorchObs) -> torch.Tensor:
+    def _rows_context(self, observation: PyTorchObs) -> tuple[torch.Tensor, torch.Tensor,
+                                                                   torch.Tensor]:
+        """Every row's input (batch, K, width), the pooled context (batch, 2 net_arch[0]) and
+        the mask (batch, K)."""
         obs = preprocess_obs(observation, self.observation_space)
         # The Dict space (check_candidate_spaces) preprocesses to a dict.
         assert isinstance(obs, dict)
@@ -106,8 +115,29 @@ class CandidateQNetwork(BasePolicy):
         rows = torch.cat(parts, dim=2)
         embedded = self.embedding(rows)
         context = torch.cat([embedded.mean(dim=1), embedded.max(dim=1).values], dim=1)
+        return rows, context, mask
+
+    def forward(self, observation: PyTorchObs) -> torch.Tensor:
+        rows, context, mask = self._rows_context(observation)
+        count = rows.shape[1]
         values = self.head(torch.cat([rows, context.unsqueeze(1).expand(-1, count, -1)], dim=2))
         return values.squeeze(2).masked_fill(~allowed_rows(mask), MASKED_Q)
+
+    def context(self, observation: PyTorchObs) -> torch.Tensor:
+        """The pooled context (batch, 2 net_arch[0]): the mean and the max of the rows'
+        embeddings."""
+        return self._rows_context(observation)[1]
+
+    def views_left(self, observation: PyTorchObs) -> torch.Tensor:
+        """The views each state still needs to reach the goal (batch,).
+
+        Raises:
+            ValueError: For a network built without the head.
+        """
+        if self.views_left_head is None:
+            raise ValueError("this network has no head of the views left (it is built for "
+                             "agent.pretrain_target cover or views)")
+        return self.views_left_head(self.context(observation)).squeeze(1)
 
     def _predict(self, observation: PyTorchObs,
                  deterministic: bool = True) -> torch.Tensor:
@@ -116,12 +146,20 @@ class CandidateQNetwork(BasePolicy):
 
 class CandidatePolicy(DQNPolicy):
     """DQN's policy (Q-network, target network, optimiser) with `CandidateQNetwork`s: they read
-    the Dict observation themselves, with no features extractor."""
+    the Dict observation themselves, with no features extractor. `views_left` gives them the head
+    of the views left."""
+
+    def __init__(self, *args: Any, views_left: bool = False, **kwargs: Any):
+        self.views_left = views_left  # read by make_q_net, which DQNPolicy's __init__ calls
+        super().__init__(*args, **kwargs)
 
     # SB3 annotates its own QNetwork; DQN only calls the network and its parameters.
     def make_q_net(self) -> CandidateQNetwork:  # type: ignore[override]
         return CandidateQNetwork(self.observation_space, self.action_space,
-                                 self.net_arch).to(self.device)
+                                 self.net_arch, self.views_left).to(self.device)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        return {**super()._get_constructor_parameters(), "views_left": self.views_left}
 
 
 class CandidateDQN(DQN):

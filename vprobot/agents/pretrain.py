@@ -42,7 +42,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, allowed_rows
+from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, CandidateQNetwork, allowed_rows
 from vprobot.agents.stream import EpisodeStream
 from vprobot.agents.teacher import CandidateTeacher
 from vprobot.agents.trained import load_agent, model_file
@@ -55,8 +55,12 @@ from vprobot.processes import worker_pool
 PRETRAIN_RANK = 1_000
 EPSILON = 0.2
 PRETRAIN_FILE = "pretrain.csv"
-"""Per epoch of the fit: its loss over the allowed candidates (`mse` for the values, `bce` for
-the cover)."""
+"""Per epoch of the fit: its loss over the allowed candidates (`mse` for the values and the
+views, `bce` for the cover) and, with the head of the views left, its error
+(`VIEWS_LEFT_COLUMN`)."""
+VIEWS_LEFT_COLUMN = "views_left_mae"
+"""The head of the views left's mean absolute error (views) over the states whose goal is in
+reach, per epoch."""
 COVER_POSITIVE_WEIGHT = 1.5
 """`agent.pretrain_target: cover`: the weight of a member in the cross-entropy (MA-SCVP's 1.5: a
 cover holds a few of the candidates)."""
@@ -346,20 +350,34 @@ def teacher_folder(config: Config, run_dir: Path) -> Path:
 
 
 def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
-        target: str = "values") -> list[float]:
+        target: str = "values") -> dict[str, list[float]]:
     """Fit the model's Q-network to the teacher's `target` (`agent.pretrain_target`: `values`
     by least squares, `cover` by binary cross-entropy on logits) over the allowed candidates
     (Adam at the model's learning rate, its batch size), then copy it into the target network.
-    Returns the loss of every epoch."""
+    A network with the head of the views left (`CandidateQNetwork.views_left`) fits it beside,
+    by least squares to the state's fewest views to the goal where the goal is in reach, on the
+    pooled context with its gradient stopped: the head reads what the policy learns and leaves
+    the policy as it would be without it.
+
+    Returns:
+        Per epoch, the loss over the allowed candidates (`mse` or, for `cover`, `bce`) and, with
+        the head, its mean absolute error in views (`views_left_mae`), by column name.
+    """
     q_net = model.policy.q_net
+    assert isinstance(q_net, CandidateQNetwork)  # a CandidateDQN's policy makes one
     optimizer = torch.optim.Adam(q_net.parameters(), lr=model.lr_schedule(1.0))
     labels, fitted = fit_labels(states, target)
+    left = states.cover_views.min(axis=1).astype(np.float32)
+    head = q_net.views_left_head
     weight = torch.tensor(COVER_POSITIVE_WEIGHT, device=model.device)
     rng = np.random.default_rng(seed)
-    losses = []
+    column = "bce" if target == "cover" else "mse"
+    log: dict[str, list[float]] = {column: []}
+    if head is not None:
+        log[VIEWS_LEFT_COLUMN] = []
     for _ in range(epochs):
         order = rng.permutation(len(states))
-        total = 0.0
+        total = head_error = 0.0
         for start in range(0, len(order), model.batch_size):
             batch = order[start:start + model.batch_size]
             obs = {key: torch.as_tensor(value[batch], device=model.device)
@@ -373,13 +391,23 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
                 error = torch.nn.functional.binary_cross_entropy_with_logits(
                     q_net(obs), wanted, pos_weight=weight, reduction="none")
             loss = (error * allowed).sum() / allowed.sum()
+            total += loss.item() * len(batch)
+            if head is not None:
+                views = torch.as_tensor(left[batch], device=model.device)
+                known = torch.isfinite(views)
+                if known.any():
+                    context = q_net.context(obs).detach()[known]
+                    miss = head(context).squeeze(1) - views[known]
+                    loss = loss + miss.square().mean()
+                    head_error += miss.abs().sum().item()
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
-            total += loss.item() * len(batch)
-        losses.append(total / len(order))
+        log[column].append(total / len(order))
+        if head is not None:
+            log[VIEWS_LEFT_COLUMN].append(head_error / max(int(np.isfinite(left).sum()), 1))
     model.policy.q_net_target.load_state_dict(q_net.state_dict())
-    return losses
+    return log
 
 
 def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarray]:
@@ -410,15 +438,15 @@ def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarr
 
 
 def pretrain(model: CandidateDQN, config: Config, seed: int, run_dir: Path,
-             progress: bool = False) -> list[float]:
-    """Collect the teacher's states and fit the model to them; the losses go to
+             progress: bool = False) -> dict[str, list[float]]:
+    """Collect the teacher's states and fit the model to them; the fit's log (`fit`) goes to
     `run_dir/pretrain.csv`."""
     agent = config.agent
     states = joined_states([collect(config, agent.pretrain_episodes, seed,
                                     teacher_folder(config, run_dir), progress=progress),
                             *more_teacher_states(config)])
-    losses = fit(model, states, agent.pretrain_epochs, seed, agent.pretrain_target)
-    column = "bce" if agent.pretrain_target == "cover" else "mse"
-    write_text(run_dir / PRETRAIN_FILE, f"epoch,{column}\n" + "".join(
-        f"{epoch},{loss:.6g}\n" for epoch, loss in enumerate(losses, start=1)))
-    return losses
+    log = fit(model, states, agent.pretrain_epochs, seed, agent.pretrain_target)
+    write_text(run_dir / PRETRAIN_FILE, ",".join(["epoch", *log]) + "\n" + "".join(
+        ",".join([str(epoch), *(f"{values[epoch - 1]:.6g}" for values in log.values())]) + "\n"
+        for epoch in range(1, agent.pretrain_epochs + 1)))
+    return log

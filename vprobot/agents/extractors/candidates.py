@@ -9,5 +9,8 @@ from vprobot.agents.candidate_q import CandidatePolicy
 from vprobot.agents.encoders import ENCODERS, Encoder
 
 ENCODERS.register("candidates", Encoder(
-    CandidatePolicy, settings=lambda agent: {"net_arch": list(agent.net_arch)},
+    CandidatePolicy,
+    # The head of the views left where the fit has their labels: a cover's (issue 46).
+    settings=lambda agent: {"net_arch": list(agent.net_arch),
+                            "views_left": agent.pretrain_target != "values"},
     algorithms=("dqn",)))
