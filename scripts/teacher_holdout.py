@@ -4,8 +4,9 @@ Fits the candidate Q-network of an agent profile to the first shards of its teac
 each `agent.pretrain_target`, then scores the greedy choice on the last shards (other episodes
 of the training objects, never a validation or test object): how often it is a member of some
 smallest remaining cover (its views to the goal are the state's fewest), how many views beyond
-the fewest it costs on the mean, and the coverage it adds against the teacher's best; for the
-targets with the head of the views left, that head's mean absolute error in views. A
+the fewest it costs on the mean (both over the states whose goal is in reach), and the coverage
+it adds against the teacher's best; for the targets with the head of the views left, that
+head's mean absolute error in views, beside the error of the fitted states' median. A
 diagnostic of the targets in seconds of CPU a target, not model selection: that stays with the
 validation list (`vprobot train`).
 
@@ -42,21 +43,25 @@ class _Spaces(gym.Env):
         self.action_space = gym.spaces.Discrete(states.values.shape[1])
 
 
-def score(model: CandidateDQN, states: TeacherStates) -> dict[str, float]:
-    """The greedy choice's membership in a smallest cover, views beyond the fewest, and gain
-    against the best candidate's."""
+def score(model: CandidateDQN, states: TeacherStates, typical_left: float) -> dict[str, float]:
+    """Over the states whose goal is in reach: the greedy choice's membership in a smallest
+    cover and views beyond the fewest; over all: its gain against the best candidate's; and the
+    head of the views left's mean absolute error beside that of `typical_left` (the fitted
+    states' median) for every state."""
     actions, _ = model.predict(states.observations, deterministic=True)
     allowed = states.observations["mask"] > 0.5
     views = np.where(allowed, states.cover_views, np.inf)
     fewest = views.min(axis=1)
     rows = np.arange(len(actions))
     chosen = views[rows, actions]
+    known = np.isfinite(fewest)
     best_gain = np.where(allowed, states.values, -np.inf).max(axis=1)
-    scores = {"member_pct": 100 * float(np.mean(chosen <= fewest)),
-              "views_beyond": float(np.mean(chosen - fewest)),
+    scores = {"in_reach": float(known.sum()),
+              "member_pct": 100 * float(np.mean(chosen[known] <= fewest[known])),
+              "views_beyond": float(np.mean(chosen[known] - fewest[known])),
               "gain_pct_of_best": 100 * float(states.values[rows, actions].sum()
                                               / best_gain.sum()),
-              "views_left_mae": float("nan")}
+              "views_left_mae": float("nan"), "median_left_mae": float("nan")}
     q_net = model.policy.q_net
     if q_net.views_left_head is not None:
         left = states.cover_views.min(axis=1)  # the labels `fit` fits the head to
@@ -65,6 +70,7 @@ def score(model: CandidateDQN, states: TeacherStates) -> dict[str, float]:
             predicted = q_net.views_left(
                 {key: torch.as_tensor(value[known]) for key, value in states.observations.items()})
         scores["views_left_mae"] = float(np.mean(np.abs(predicted.numpy() - left[known])))
+        scores["median_left_mae"] = float(np.mean(np.abs(typical_left - left[known])))
     return scores
 
 
@@ -88,6 +94,8 @@ def main() -> None:
         parser.error(f"--held-out must lie in 1 .. {len(files) - 1} ({len(files)} shards in "
                      f"{config.agent.teacher_dir}), got {args.held_out}")
     fitted, held = read_shards(files[:-args.held_out]), read_shards(files[-args.held_out:])
+    left = fitted.cover_views.min(axis=1)
+    typical_left = float(np.median(left[np.isfinite(left)]))
     torch.set_num_threads(1)
     rows = []
     for target in args.targets:
@@ -99,7 +107,7 @@ def main() -> None:
             for name, states in (("fitted", fitted), ("held_out", held)):
                 rows.append({"target": target, "seed": seed, "epochs": args.epochs,
                              "states": name, "count": len(states), "final_loss": loss[-1],
-                             **score(model, states)})
+                             **score(model, states, typical_left)})
                 print(", ".join(f"{key} {value:.4g}" if isinstance(value, float)
                                 else f"{key} {value}" for key, value in rows[-1].items()))
     with atomic_output(args.out) as temporary, temporary.open("w", newline="") as stream:

@@ -76,9 +76,11 @@ class CandidateQNetwork(BasePolicy):
     are taken or unreachable) and the robot state when there is one. A first layer of width
     `net_arch[0]` embeds every row; the mean and the max of the embeddings over the rows are the
     context; the MLP of widths `net_arch` maps each row's input and the context to its Q-value.
-    With `views_left`, a second MLP of widths `net_arch` maps the context alone to the number of
-    views the state still needs to reach the goal (`views_left`, fitted beside a cover's
-    membership, `vprobot.agents.pretrain`); the Q-values do not read it.
+    With `views_left`, a second network of the same shape but with parameters of its own (an
+    embedding of every row, pooled by mean and max, and an MLP of widths `net_arch`) maps the
+    rows to the number of views the state still needs to reach the goal (`views_left`, fitted
+    beside a cover's membership, `vprobot.agents.pretrain`); the Q-values do not read it, and
+    fitting it leaves them as they would be without it.
 
     Args:
         observation_space: A Dict of `candidates`, `mask` and optionally `robot`.
@@ -97,13 +99,10 @@ class CandidateQNetwork(BasePolicy):
         self.net_arch = list(net_arch)
         self.embedding = nn.Sequential(nn.Linear(width, self.net_arch[0]), nn.ReLU())
         self.head = nn.Sequential(*create_mlp(width + 2 * self.net_arch[0], 1, self.net_arch))
-        self.views_left_head = (nn.Sequential(*create_mlp(2 * self.net_arch[0], 1, self.net_arch))
-                                if views_left else None)
+        self.views_left_head = _PooledRows(width, self.net_arch) if views_left else None
 
-    def _rows_context(self, observation: PyTorchObs) -> tuple[torch.Tensor, torch.Tensor,
-                                                                   torch.Tensor]:
-        """Every row's input (batch, K, width), the pooled context (batch, 2 net_arch[0]) and
-        the mask (batch, K)."""
+    def _rows(self, observation: PyTorchObs) -> tuple[torch.Tensor, torch.Tensor]:
+        """Every row's input (batch, K, width) and the mask (batch, K)."""
         obs = preprocess_obs(observation, self.observation_space)
         # The Dict space (check_candidate_spaces) preprocesses to a dict.
         assert isinstance(obs, dict)
@@ -112,21 +111,14 @@ class CandidateQNetwork(BasePolicy):
         parts = [candidates, mask.unsqueeze(2)]
         if ROBOT_KEY in obs:
             parts.append(obs[ROBOT_KEY].unsqueeze(1).expand(-1, count, -1))
-        rows = torch.cat(parts, dim=2)
-        embedded = self.embedding(rows)
-        context = torch.cat([embedded.mean(dim=1), embedded.max(dim=1).values], dim=1)
-        return rows, context, mask
+        return torch.cat(parts, dim=2), mask
 
     def forward(self, observation: PyTorchObs) -> torch.Tensor:
-        rows, context, mask = self._rows_context(observation)
+        rows, mask = self._rows(observation)
         count = rows.shape[1]
+        context = _pooled(self.embedding(rows))
         values = self.head(torch.cat([rows, context.unsqueeze(1).expand(-1, count, -1)], dim=2))
         return values.squeeze(2).masked_fill(~allowed_rows(mask), MASKED_Q)
-
-    def context(self, observation: PyTorchObs) -> torch.Tensor:
-        """The pooled context (batch, 2 net_arch[0]): the mean and the max of the rows'
-        embeddings."""
-        return self._rows_context(observation)[1]
 
     def views_left(self, observation: PyTorchObs) -> torch.Tensor:
         """The views each state still needs to reach the goal (batch,).
@@ -137,11 +129,29 @@ class CandidateQNetwork(BasePolicy):
         if self.views_left_head is None:
             raise ValueError("this network has no head of the views left (it is built for "
                              "agent.pretrain_target cover or views)")
-        return self.views_left_head(self.context(observation)).squeeze(1)
+        return self.views_left_head(self._rows(observation)[0])
 
     def _predict(self, observation: PyTorchObs,
                  deterministic: bool = True) -> torch.Tensor:
         return self(observation).argmax(dim=1).reshape(-1)
+
+
+def _pooled(embedded: torch.Tensor) -> torch.Tensor:
+    """The mean and the max of the rows' embeddings (batch, 2 width), a row order's invariant."""
+    return torch.cat([embedded.mean(dim=1), embedded.max(dim=1).values], dim=1)
+
+
+class _PooledRows(nn.Module):
+    """One number per state from its rows: an embedding of every row, pooled (`_pooled`), then an
+    MLP of widths `net_arch`."""
+
+    def __init__(self, width: int, net_arch: list[int]):
+        super().__init__()
+        self.embedding = nn.Sequential(nn.Linear(width, net_arch[0]), nn.ReLU())
+        self.mlp = nn.Sequential(*create_mlp(2 * net_arch[0], 1, net_arch))
+
+    def forward(self, rows: torch.Tensor) -> torch.Tensor:
+        return self.mlp(_pooled(self.embedding(rows))).squeeze(1)
 
 
 class CandidatePolicy(DQNPolicy):

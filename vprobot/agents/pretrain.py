@@ -355,9 +355,8 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
     by least squares, `cover` by binary cross-entropy on logits) over the allowed candidates
     (Adam at the model's learning rate, its batch size), then copy it into the target network.
     A network with the head of the views left (`CandidateQNetwork.views_left`) fits it beside,
-    by least squares to the state's fewest views to the goal where the goal is in reach, on the
-    pooled context with its gradient stopped: the head reads what the policy learns and leaves
-    the policy as it would be without it.
+    by least squares to the state's fewest views to the goal where the goal is in reach; the
+    head shares no parameter with the Q-values, which it leaves as they would be without it.
 
     Returns:
         Per epoch, the loss over the allowed candidates (`mse` or, for `cover`, `bce`) and, with
@@ -368,12 +367,12 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
     optimizer = torch.optim.Adam(q_net.parameters(), lr=model.lr_schedule(1.0))
     labels, fitted = fit_labels(states, target)
     left = states.cover_views.min(axis=1).astype(np.float32)
-    head = q_net.views_left_head
+    has_head = q_net.views_left_head is not None
     weight = torch.tensor(COVER_POSITIVE_WEIGHT, device=model.device)
     rng = np.random.default_rng(seed)
     column = "bce" if target == "cover" else "mse"
     log: dict[str, list[float]] = {column: []}
-    if head is not None:
+    if has_head:
         log[VIEWS_LEFT_COLUMN] = []
     for _ in range(epochs):
         order = rng.permutation(len(states))
@@ -392,19 +391,18 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
                     q_net(obs), wanted, pos_weight=weight, reduction="none")
             loss = (error * allowed).sum() / allowed.sum()
             total += loss.item() * len(batch)
-            if head is not None:
+            if has_head:
                 views = torch.as_tensor(left[batch], device=model.device)
                 known = torch.isfinite(views)
                 if known.any():
-                    context = q_net.context(obs).detach()[known]
-                    miss = head(context).squeeze(1) - views[known]
+                    miss = q_net.views_left(obs)[known] - views[known]
                     loss = loss + miss.square().mean()
                     head_error += miss.abs().sum().item()
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
         log[column].append(total / len(order))
-        if head is not None:
+        if has_head:
             log[VIEWS_LEFT_COLUMN].append(head_error / max(int(np.isfinite(left).sum()), 1))
     model.policy.q_net_target.load_state_dict(q_net.state_dict())
     return log
