@@ -120,8 +120,9 @@ class CandidateQNetwork(BasePolicy):
         values = self.head(torch.cat([rows, context.unsqueeze(1).expand(-1, count, -1)], dim=2))
         return values.squeeze(2).masked_fill(~allowed_rows(mask), MASKED_Q)
 
-    def views_left(self, observation: PyTorchObs) -> torch.Tensor:
-        """The views each state still needs to reach the goal (batch,).
+    def log_views_left(self, observation: PyTorchObs) -> torch.Tensor:
+        """The logarithm of the views each state still needs to reach the goal (batch,): what
+        the head outputs, fitted in logs since the views left run from 1 to a few tens.
 
         Raises:
             ValueError: For a network built without the head.
@@ -130,6 +131,15 @@ class CandidateQNetwork(BasePolicy):
             raise ValueError("this network has no head of the views left (it is built for "
                              "agent.pretrain_target cover or views)")
         return self.views_left_head(self._rows(observation)[0])
+
+    def views_left(self, observation: PyTorchObs) -> torch.Tensor:
+        """The views each state still needs to reach the goal (batch,), `log_views_left`'s
+        exponential.
+
+        Raises:
+            ValueError: For a network built without the head.
+        """
+        return self.log_views_left(observation).exp()
 
     def _predict(self, observation: PyTorchObs,
                  deterministic: bool = True) -> torch.Tensor:

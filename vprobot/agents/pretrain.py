@@ -355,8 +355,9 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
     by least squares, `cover` by binary cross-entropy on logits) over the allowed candidates
     (Adam at the model's learning rate, its batch size), then copy it into the target network.
     A network with the head of the views left (`CandidateQNetwork.views_left`) fits it beside,
-    by least squares to the state's fewest views to the goal where the goal is in reach; the
-    head shares no parameter with the Q-values, which it leaves as they would be without it.
+    by least squares on their logarithms to the state's fewest views to the goal where the goal
+    is in reach; the head shares no parameter with the Q-values, which it leaves as they would be
+    without it.
 
     Returns:
         Per epoch, the loss over the allowed candidates (`mse` or, for `cover`, `bce`) and, with
@@ -395,9 +396,9 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
                 views = torch.as_tensor(left[batch], device=model.device)
                 known = torch.isfinite(views)
                 if known.any():
-                    miss = q_net.views_left(obs)[known] - views[known]
-                    loss = loss + miss.square().mean()
-                    head_error += miss.abs().sum().item()
+                    logs = q_net.log_views_left(obs)[known]
+                    loss = loss + (logs - views[known].log()).square().mean()
+                    head_error += (logs.detach().exp() - views[known]).abs().sum().item()
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
