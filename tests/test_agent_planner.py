@@ -260,3 +260,40 @@ def test_an_s_grid_agent_refuses_a_cell_whose_grid_is_not_the_one_it_was_trained
                                          r"cube about \(0.5, 0, 0.75\) m .*cell.object_center_m"):
         make_planner("agent:generalist", moved)
     assert isinstance(make_planner("agent:cpu", moved), AgentPlanner)
+
+
+def test_agent_k_takes_the_nearest_of_the_k_best_scored_allowed_candidates() -> None:
+    """`agent~K`: checked against a brute-force pick over the scores on made-up states (some
+    candidates masked, joint moves drawn); `agent~1` is the greedy policy's choice. An agent
+    that does not choose among candidate views refuses it, naming its action."""
+    import torch
+
+    from vprobot.env.grid_state import FEATURES
+    from vprobot.planners.runner import make_planner
+
+    planner = make_planner("agent~4:generalist", CONFIG)
+    greedy = make_planner("agent~1:generalist", CONFIG)
+    assert isinstance(planner, AgentPlanner) and isinstance(greedy, AgentPlanner)
+    assert (planner.nearest, greedy.nearest) == (4, 1)
+    space = planner.agent.model.observation_space
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        observation = {key: rng.uniform(box.low, box.high).astype(np.float32)
+                       for key, box in space.spaces.items()}
+        observation["mask"] = (rng.random(observation["mask"].shape) < 0.5).astype(np.float32)
+        with torch.no_grad():
+            scores = planner.agent.model.policy.q_net(
+                {key: torch.as_tensor(value)[None] for key, value in observation.items()})[0]
+        allowed = [int(index) for index in np.flatnonzero(observation["mask"])]
+        ranked = sorted(allowed, key=lambda index: -float(scores[index]))[:4]
+        moves = {index: observation["candidates"][index, FEATURES.index("joint_move")]
+                 for index in ranked}
+        nearest = min(moves.values())
+        assert planner.nearest_of_best(observation) == next(
+            index for index in ranked if moves[index] == nearest)
+        action, _ = greedy.agent.model.predict(observation, deterministic=True)
+        assert greedy.nearest_of_best(observation) == int(action) == ranked[0]
+    with pytest.raises(ValueError, match=r"agent~3 takes the nearest of an agent's best-scored "
+                                         r"candidate views; agent cpu acts with env.action "
+                                         r"A_2S0R, not A_view"):
+        make_planner("agent~3:cpu", CONFIG)

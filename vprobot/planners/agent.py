@@ -18,6 +18,12 @@ it rather than take the agent's silently: the sensor and sensing model (`trained
 agent's views are taken at its working distance) and, for an `s_grid` agent, the occupancy grid
 its state is read from (`GridSettings`: where the cell places an object and the largest it
 takes). The agent then reads the episode's own grid, the one the coverage estimate reads too.
+
+`agent~K` (`agent~K:NAME`, `agent~K:PATH`) takes, of a candidate-view agent's K best-scored
+allowed candidates, the one the robot reaches with the least joint move from where it is (the
+state's `joint_move`; the best-scored first among equals): a cover-fitted agent scores dozens of
+candidates about equally (a state has about 30 of some smallest cover), and of those the nearest
+costs the least cycle time.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ import numpy as np
 
 from vprobot.config import Config
 from vprobot.env.actions import ActionMapping
+from vprobot.env.grid_state import FEATURES
 from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
 from vprobot.occupancy import GridSettings
@@ -43,19 +50,23 @@ class AgentPlanner(Planner):
         source: A bundled agent's name, a run directory, a model .zip in a run, or None for
             the default bundled agent.
         views: Stop after this many views in all (None: at the goal or the view budget).
+        nearest: Of the this many best-scored allowed candidates, take the one with the least
+            joint move (`agent~K`; None: the best-scored); a candidate-view agent's only.
 
     Raises:
-        ValueError: If views is not in 1..MAX_VIEWS or the agent cannot be loaded.
+        ValueError: If views is not in 1..MAX_VIEWS, the agent cannot be loaded, or `nearest`
+            is given for an agent that does not choose among candidate views.
     """
 
     name = "agent"
-    pattern = r"(?::(?P<source>.+))?"
-    usage = "agent, agent:NAME, agent:PATH"
+    pattern = r"(?:~(?P<nearest>[1-9]\d*))?(?::(?P<source>.+))?"
+    usage = "agent, agent:NAME, agent:PATH, agent~K: of the K best, the nearest"
     counted = True
     evaluated = ("agent",)
     initial_view = True
 
-    def __init__(self, source: str | Path | None = None, views: int | None = None):
+    def __init__(self, source: str | Path | None = None, views: int | None = None,
+                 nearest: int | None = None):
         if views is not None:
             check_views(views)
         note(f"loading agent {source or 'generalist (bundled)'} ...")
@@ -73,6 +84,11 @@ class AgentPlanner(Planner):
         self.decides_stop = config.env.stop_action
         self.stops_at_goal = views is None and not self.decides_stop
         self._rng = np.random.default_rng(0)
+        if nearest is not None and config.env.action != "A_view":
+            raise ValueError(f"agent~{nearest} takes the nearest of an agent's best-scored "
+                             f"candidate views; agent {source or 'generalist (bundled)'} acts "
+                             f"with env.action {config.env.action}, not A_view")
+        self.nearest = nearest
 
     @classmethod
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:
@@ -89,7 +105,8 @@ class AgentPlanner(Planner):
         from vprobot.agents.trained import default_agent, describe_sensor, trained_with
 
         source = params.get("source") or default_agent(config.sensor)
-        planner = cls(source, views)
+        nearest = params.get("nearest")
+        planner = cls(source, views, None if nearest is None else int(nearest))
         trained = planner.agent.config.sensor
         if not trained_with(trained, config.sensor):
             raise ValueError(f"agent {source} was trained with the sensor "
@@ -117,12 +134,30 @@ class AgentPlanner(Planner):
             self.stop_reason = "max views"
             return None
         observation = self.observer.observe(episode, self._rng)
-        action, _ = self.agent.model.predict(observation, deterministic=True)
+        action = (self.agent.model.predict(observation, deterministic=True)[0]
+                  if self.nearest is None else np.array(self.nearest_of_best(observation)))
         if self.decides_stop and self.views is None and self.mapping.stops(action):
             self.stop_reason = "stop action"
             return None
         return self.observer.request(self.mapping, action, episode.center, self.roll_free)
 
+    def nearest_of_best(self, observation: dict[str, np.ndarray]) -> int:
+        """Of the `nearest` best-scored allowed candidates, the one with the least joint move
+        (the best-scored first among equals)."""
+        # Imported here, as in `__init__`: torch comes with the agent.
+        import torch
+
+        from vprobot.agents.candidate_q import CANDIDATES_KEY, CandidateQNetwork
+
+        q_net = self.agent.model.policy.q_net
+        assert isinstance(q_net, CandidateQNetwork)  # an A_view agent's (checked in __init__)
+        with torch.no_grad():
+            scores = q_net({key: torch.as_tensor(value)[None]
+                            for key, value in observation.items()})[0]
+        # Masked candidates score MASKED_Q, below every allowed one.
+        best = np.argsort(-scores.numpy(), kind="stable")[:self.nearest]
+        moves = observation[CANDIDATES_KEY][best, FEATURES.index("joint_move")]
+        return int(best[np.argmin(moves)])
 
 
 def _describe_grid(settings: GridSettings) -> str:
