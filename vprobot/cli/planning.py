@@ -32,7 +32,8 @@ def _planner_help() -> str:
 
     return (f"{', '.join(planner_names())}: agent is the bundled trained "
             f"agent, agent:NAME another bundled one (cpu: motors only), "
-            f"agent:PATH a training run or model .zip, nbv@RULE nbv "
+            f"agent:PATH a training run or model .zip, agent~K the nearest of "
+            f"a candidate agent's K best views, nbv@RULE nbv "
             f"stopping itself by a --stop rule (nbv@grid); default: bscp")
 
 
@@ -43,7 +44,8 @@ def _planners_help() -> str:
             f"{' / '.join(f'{name}<N>' for name in counted_planners())} with N views, nbv:GAIN "
             f"nbv ranking by another gain, nbv@RULE nbv stopping itself by a --stop rule, "
             f"agent:NAME another bundled agent (e.g. agent:cpu, motors only), agent:PATH a "
-            f"training run or model .zip; default: {' '.join(evaluated_planners())}")
+            f"training run or model .zip, agent~K the nearest of a candidate agent's K best "
+            f"views; default: {' '.join(evaluated_planners())}")
 
 
 def _views_help() -> str:

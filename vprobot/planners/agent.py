@@ -50,7 +50,7 @@ class AgentPlanner(Planner):
         source: A bundled agent's name, a run directory, a model .zip in a run, or None for
             the default bundled agent.
         views: Stop after this many views in all (None: at the goal or the view budget).
-        nearest: Of the this many best-scored allowed candidates, take the one with the least
+        nearest: Of this many best-scored allowed candidates, take the one with the least
             joint move (`agent~K`; None: the best-scored); a candidate-view agent's only.
 
     Raises:
@@ -60,7 +60,7 @@ class AgentPlanner(Planner):
 
     name = "agent"
     pattern = r"(?:~(?P<nearest>[1-9]\d*))?(?::(?P<source>.+))?"
-    usage = "agent, agent:NAME, agent:PATH, agent~K: of the K best, the nearest"
+    usage = "agent, agent:NAME, agent:PATH, agent~K"
     counted = True
     evaluated = ("agent",)
     initial_view = True
