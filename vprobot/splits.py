@@ -6,8 +6,10 @@ families; the validation list (model selection only: best model, early stop, hyp
 holds new motors and held-out instances of the same families; the test lists (reported numbers
 only) are the bundled test motors, instances of four families never trained on, and the
 non-motor shapes. v2 is v1 with the `procedural` family added to training (instances 0-4999)
-and validation (4 held-out instances); its test side is v1's. `tests/test_splits.py` checks for
-every version that no test object, family or episode reaches training or validation.
+and validation (4 held-out instances); its test side is v1's. v3 is v2 with the `manifold`
+family added to training (instances 0-299) and validation; its test side is v1's too.
+`tests/test_splits.py` checks for every version that no test object, family or episode reaches
+training or validation.
 """
 
 from __future__ import annotations
