@@ -26,7 +26,7 @@ import torch
 
 from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.models import build_model
-from vprobot.agents.pretrain import TeacherStates, fit, read_shards
+from vprobot.agents.pretrain import TeacherStates, fit, loss_column, read_shards
 from vprobot.config import load_config, replace
 from vprobot.files import atomic_output
 
@@ -64,7 +64,7 @@ def score(model: CandidateDQN, states: TeacherStates, typical_left: float) -> di
               "views_left_mae": float("nan"), "median_left_mae": float("nan")}
     q_net = model.policy.q_net
     if q_net.views_left_head is not None:
-        left = states.cover_views.min(axis=1)  # the labels `fit` fits the head to
+        left = states.views_left  # the labels `fit` fits the head to
         known = np.isfinite(left)
         with torch.no_grad():
             predicted = q_net.views_left(
@@ -94,7 +94,7 @@ def main() -> None:
         parser.error(f"--held-out must lie in 1 .. {len(files) - 1} ({len(files)} shards in "
                      f"{config.agent.teacher_dir}), got {args.held_out}")
     fitted, held = read_shards(files[:-args.held_out]), read_shards(files[-args.held_out:])
-    left = fitted.cover_views.min(axis=1)
+    left = fitted.views_left
     typical_left = float(np.median(left[np.isfinite(left)]))
     torch.set_num_threads(1)
     rows = []
@@ -103,7 +103,7 @@ def main() -> None:
             run = replace(config, "agent", pretrain_target=target)
             model = build_model(run, _Spaces(fitted), seed=seed, device="cpu")
             assert isinstance(model, CandidateDQN)  # checked above: dqn over candidates
-            loss = next(iter(fit(model, fitted, args.epochs, seed, target).values()))
+            loss = fit(model, fitted, args.epochs, seed, target)[loss_column(target)]
             for name, states in (("fitted", fitted), ("held_out", held)):
                 rows.append({"target": target, "seed": seed, "epochs": args.epochs,
                              "states": name, "count": len(states), "final_loss": loss[-1],

@@ -103,6 +103,12 @@ class TeacherStates:
     def __len__(self) -> int:
         return len(self.values)
 
+    @property
+    def views_left(self) -> np.ndarray:
+        """The fewest views to the goal of every state (n,), the next one included: what the
+        head of the views left is fitted to; inf where the goal is out of reach."""
+        return self.cover_views.min(axis=1)
+
 
 def teacher_seed(config: Config, seed: int) -> int:
     """The seed the teacher's episodes are drawn from: `agent.teacher_seed`, else the run's."""
@@ -367,11 +373,12 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
     assert isinstance(q_net, CandidateQNetwork)  # a CandidateDQN's policy makes one
     optimizer = torch.optim.Adam(q_net.parameters(), lr=model.lr_schedule(1.0))
     labels, fitted = fit_labels(states, target)
-    left = states.cover_views.min(axis=1).astype(np.float32)
+    left = states.views_left.astype(np.float32)
+    in_reach = max(int(np.isfinite(left).sum()), 1)
     has_head = q_net.views_left_head is not None
     weight = torch.tensor(COVER_POSITIVE_WEIGHT, device=model.device)
     rng = np.random.default_rng(seed)
-    column = "bce" if target == "cover" else "mse"
+    column = loss_column(target)
     log: dict[str, list[float]] = {column: []}
     if has_head:
         log[VIEWS_LEFT_COLUMN] = []
@@ -404,9 +411,15 @@ def fit(model: CandidateDQN, states: TeacherStates, epochs: int, seed: int,
             optimizer.step()
         log[column].append(total / len(order))
         if has_head:
-            log[VIEWS_LEFT_COLUMN].append(head_error / max(int(np.isfinite(left).sum()), 1))
+            log[VIEWS_LEFT_COLUMN].append(head_error / in_reach)
     model.policy.q_net_target.load_state_dict(q_net.state_dict())
     return log
+
+
+def loss_column(target: str) -> str:
+    """The name of `fit`'s loss for `target` in its log and `pretrain.csv`: `bce` for the cover's
+    cross-entropy, `mse` for the least squares of the values and the views."""
+    return "bce" if target == "cover" else "mse"
 
 
 def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarray]:
@@ -426,7 +439,7 @@ def fit_labels(states: TeacherStates, target: str) -> tuple[np.ndarray, np.ndarr
     reachable = np.isfinite(views)
     if target == "values":
         return states.values, np.ones(views.shape, dtype=np.float32)
-    fewest = views.min(axis=1, keepdims=True)  # inf where none is reachable
+    fewest = states.views_left[:, None]  # inf where none is reachable
     if target == "cover":
         members = np.where(reachable.any(axis=1, keepdims=True), views <= fewest, states.cover)
         return members.astype(np.float32), np.ones(views.shape, dtype=np.float32)
