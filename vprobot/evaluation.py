@@ -37,6 +37,7 @@ import warnings
 from collections.abc import Generator, Iterator, Sequence
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 from tqdm import tqdm
 
@@ -67,7 +68,14 @@ from vprobot.files import (
 from vprobot.generated import is_generated
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
-from vprobot.planners.runner import EpisodeResult, make_planner, parse_planner, run
+from vprobot.plan_export import write_json
+from vprobot.planners.runner import (
+    EpisodeResult,
+    make_planner,
+    parse_planner,
+    result_document,
+    run,
+)
 from vprobot.progress import showing_progress
 from vprobot.stopping.rules import make_stop_rule
 
@@ -99,6 +107,11 @@ VERSUS_NAME = "evaluation_vs_optimum.csv"
 PLOT_NAME = "coverage_vs_views.png"
 EPISODES_NAME = "evaluation_episodes.csv"
 """An evaluation folder's table of episode rows (`EPISODE_COLUMNS`)."""
+PLANS_FOLDER = "plans"
+"""An evaluation folder's plan JSON of each episode row (`plan_path`), for `vprobot view`,
+`export` and `check`; without the ground-truth block, which a replay computes again."""
+PLAN_KEY = "_plan"
+"""The key under which a finished job's row carries its plan document to the writer."""
 SETTINGS_NAME = "evaluation_settings.json"
 """The settings an evaluation folder's rows were run with (the config and the estimator)."""
 PAPER_TABLE_9 = (
@@ -410,6 +423,12 @@ def _append_row(path: Path, row: dict[str, Any]) -> None:
                                header=not path.exists() or path.stat().st_size == 0))
 
 
+def plan_path(out: Path, episode: int, carrier: str, planner: str) -> Path:
+    """Where an evaluation folder `out` keeps the plan of an episode row: `plans/<episode>/
+    <carrier>/<planner label, %-quoted>.json` (a label may hold `:`, `/` or spaces)."""
+    return out / PLANS_FOLDER / str(episode) / carrier / f"{quote(planner, safe='')}.json"
+
+
 def stop_label(planner: str, stop: str) -> str:
     """A planner's label in the tables under a stop rule: the planner's own under `goal`."""
     return planner if stop == "goal" else f"{planner} --stop {stop}"
@@ -621,9 +640,14 @@ def _job_rows(config: Config, jobs: Sequence[Job],
     for _, group in itertools.groupby(jobs, key=lambda job: (job[0], job[2])):
         shared = SharedWork()
         for index, spec, carrier, label, name, views, stop in group:
-            result = run(config, _scene(config, spec.motor_path, spec.scale), name, spec,
-                         carrier, views, stop, estimator, shared=shared)
-            yield {**episode_row(index, result), "planner": label}
+            scene = _scene(config, spec.motor_path, spec.scale)
+            result = run(config, scene, name, spec, carrier, views, stop, estimator,
+                         shared=shared)
+            document = result_document(scene, result)
+            # The ground truth (thousands of points) is the episode's again when it is replayed.
+            document.pop("ground_truth")
+            yield {**episode_row(index, result), "planner": label,
+                   PLAN_KEY: {**document, "planner": label}}
 
 
 def run_jobs(config: Config, jobs: Sequence[Job],
@@ -672,8 +696,9 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         out_dir: Folder for `evaluation.md`, `evaluation.csv` (one row per planner and
             carrier), `evaluation_episodes.csv` (one row per episode), `episodes.json` (the
             episode list), `evaluation_vs_optimum.csv` (each episode row against `optimum`'s,
-            when it ran), `coverage_vs_views.png` (the mean coverage curves) and
-            `evaluation_settings.json`; created if missing.
+            when it ran), `coverage_vs_views.png` (the mean coverage curves),
+            `evaluation_settings.json` and each episode's plan JSON (`plan_path`); created if
+            missing.
         progress: Show a progress bar.
         carriers: `robot` and/or `free`.
         workers: Ray tasks at once (one CPU each); 1 without `address` runs in this process.
@@ -740,6 +765,10 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
                 with contextlib.closing(_rows(config, jobs, workers, address,
                                               estimator)) as finished:
                     for row in finished:
+                        # The plan before its row: a row on file has its plan.
+                        plan = plan_path(out, row["episode"], row["carrier"], row["planner"])
+                        plan.parent.mkdir(parents=True, exist_ok=True)
+                        write_json(plan, row.pop(PLAN_KEY))
                         _append_row(rows_path, row)
                         rows.append(row)
                         bar.update()

@@ -1,7 +1,8 @@
 """The `vprobot` command line.
 
 One module per command group builds that group's subcommands and runs them (`cell`, `planning`,
-`export`, `training`, `benchmark`, `objects`, `stop`, `report`; `common` holds what they share).
+`view`, `export`, `training`, `benchmark`, `objects`, `stop`, `report`; `common` holds what they
+share).
 The package imports what a command runs when it runs (planners, the renderer, training, the
 benchmarks), inside the command functions, and builds the parser from light modules only, so
 that `vprobot --help` and a bad option answer at once; those imports inside the command
@@ -26,14 +27,15 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from vprobot import plugins, processes
-from vprobot.cli import benchmark, cell, export, objects, planning, report, stop, training
+from vprobot.cli import benchmark, cell, export, objects, planning, report, stop, training, view
 from vprobot.cli.common import Commands, Parser
 
 INTERRUPTED = 130
 BROKEN_PIPE = 141
 """A shell's status of a command that SIGPIPE ended (128 + 13): its reader closed the pipe."""
 COMMANDS: tuple[Callable[[Commands], None], ...] = (
-    cell.add_reach, cell.add_cell, planning.add_plan, planning.add_render, export.add_export,
+    cell.add_reach, cell.add_cell, planning.add_plan, planning.add_render, view.add_view,
+    export.add_export,
     export.add_check, planning.add_evaluate, training.add_train, training.add_teacher,
     training.add_sweep, training.add_curves, benchmark.add_benchmark, cell.add_sensors,
     objects.add_motors, objects.add_objects, stop.add_stop_commands, cell.add_robots,

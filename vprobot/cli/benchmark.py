@@ -11,7 +11,7 @@ from vprobot.cli.common import POSITIVE_INT, Commands, add, add_robot, config_of
 from vprobot.outputs import check_output_file
 
 SUITES = ("kinematics", "sensor", "env", "planners", "mesh", "render", "train", "cluster",
-          "objects", "motion", "cli", "optimum", "grid")
+          "objects", "motion", "cli", "optimum", "grid", "viewer")
 
 
 def add_benchmark(commands: Commands) -> None:
@@ -80,6 +80,10 @@ def command_benchmark(args: argparse.Namespace) -> int:
         from vprobot.benchmarks.grid import run_grid_benchmark
 
         results = run_grid_benchmark(config)
+    elif args.suite == "viewer":
+        from vprobot.benchmarks.viewer import run_viewer_benchmark
+
+        results = run_viewer_benchmark(config)
     elif args.suite == "cli":
         from vprobot.benchmarks.cli import run_cli_benchmark
 

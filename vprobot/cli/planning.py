@@ -68,7 +68,8 @@ def _add_planning(sub: argparse.ArgumentParser) -> None:
     sub.add_argument("--carrier", choices=["robot", "free"],
                      help="robot in the loop (default), or a free-flying sensor (the paper)")
     add_stop(sub)
-    sub.add_argument("--summary", help="also write a summary PNG here")
+    sub.add_argument("--summary", help="write a summary still here (.png): coverage and views; "
+                     "`plan` writes one beside --out by default")
     sub.add_argument("--width", type=POSITIVE_INT, default=640, help="video width (pixels)")
     sub.add_argument("--height", type=POSITIVE_INT, default=480,
                      help="video height (pixels)")
@@ -83,6 +84,9 @@ def add_plan(commands: Commands) -> None:
     plan.add_argument("--picture", help="also write a still of the cell to this .png: the robot "
                       "at its start pose, the part placed, static objects see-through "
                       "(docs/your-cell.md)")
+    plan.add_argument("--no-summary", action="store_true",
+                      help="write no summary still (by default beside --out: plan.png for "
+                      "plan.json)")
     plan.add_argument("--no-timing", action="store_true",
                       help="leave the timing block out of the plan JSON, so that the same "
                       "inputs give the same file byte for byte")
@@ -142,6 +146,10 @@ def command_plan(args: argparse.Namespace) -> int:
     from vprobot.progress import showing_progress
 
     check_output_file(args.out, "--out", (".json",))
+    if args.no_summary and args.summary:
+        raise ValueError("--summary and --no-summary contradict each other; give one")
+    if args.summary is None and not args.no_summary:
+        args.summary = str(Path(args.out).with_suffix(".png"))
     _check_render_outputs(args, args.video, "--video")
     check_output_file(args.picture, "--picture", (".png",))
     options = _planning(args)

@@ -380,6 +380,17 @@ def summary(result: EpisodeResult, config: Config) -> str:
     return "\n".join(lines)
 
 
+def result_document(scene: MotorScene, result: EpisodeResult) -> dict[str, Any]:
+    """The plan JSON of a finished episode (`episode_document`), with the planner, seed, goal,
+    why it stopped and how long planning took."""
+    return episode_document(scene, result.record, metadata={
+        "planner": result.planner, "seed": result.seed, "goal": result.goal,
+        "stop_rule": result.stop_rule, "stop_reason": result.stop_reason,
+        # Wall-clock figures in a block of their own, which `plan --no-timing` leaves out.
+        "timing": {"plan_s": result.plan_seconds, "episode_s": result.episode_seconds},
+    }, estimates=result.estimates)
+
+
 def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float = 1.0,
                planner: str = "bscp", views: int | None = None,
                carrier: CarrierName = "robot", seed: int = 0, stop: str = "goal",
@@ -429,12 +440,7 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
     result = run(config, scene, planner, spec, carrier, views, stop, estimator, estimates=True)
     if result.stop_reason is not None and result.stop_reason.startswith(NO_INITIAL_VIEW):
         raise ValueError(result.stop_reason.removeprefix(f"{NO_INITIAL_VIEW}: "))
-    document = episode_document(scene, result.record, metadata={
-        "planner": result.planner, "seed": seed, "goal": result.goal,
-        "stop_rule": result.stop_rule, "stop_reason": result.stop_reason,
-        # Wall-clock figures in a block of their own, which `plan --no-timing` leaves out.
-        "timing": {"plan_s": result.plan_seconds, "episode_s": result.episode_seconds},
-    }, estimates=result.estimates)
+    document = result_document(scene, result)
     text = summary(result, config)
     if scene.mesh.simplification is not None:
         text += f"\n  mesh {scene.mesh.simplification.describe()}"

@@ -29,15 +29,29 @@ def arm_length(cell: Cell) -> float:
     return length
 
 
+def _overview_target(cell: Cell) -> np.ndarray:
+    base = cell.robot_base.position
+    return base + OVERVIEW_FOCUS * (cell.object_center - base) + [0.0, 0.0, OVERVIEW_RAISE_M]
+
+
 def aim_overview(camera: mujoco.MjvCamera, cell: Cell) -> None:
     """Frame the object and the arm around it from the front left, slightly above."""
-    base = cell.robot_base.position
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-    camera.lookat[:] = (base + OVERVIEW_FOCUS * (cell.object_center - base)
-                        + [0.0, 0.0, OVERVIEW_RAISE_M])
+    camera.lookat[:] = _overview_target(cell)
     camera.distance = OVERVIEW_DISTANCE * arm_length(cell)
     camera.azimuth = OVERVIEW_AZIMUTH_DEG
     camera.elevation = OVERVIEW_ELEVATION_DEG
+
+
+def overview_eye(cell: Cell) -> tuple[np.ndarray, np.ndarray]:
+    """Where `aim_overview`'s camera is and the point it looks at (world), for a viewer that
+    places its camera by those two points."""
+    target = _overview_target(cell)
+    azimuth, elevation = np.deg2rad(OVERVIEW_AZIMUTH_DEG), np.deg2rad(OVERVIEW_ELEVATION_DEG)
+    # MuJoCo's free camera looks along this direction from `distance` behind its look-at point.
+    forward = np.array([np.cos(elevation) * np.cos(azimuth),
+                        np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+    return target - OVERVIEW_DISTANCE * arm_length(cell) * forward, target
 
 
 def aim_at_sphere(camera: mujoco.MjvCamera, model: mujoco.MjModel, center: np.ndarray,

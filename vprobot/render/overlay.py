@@ -120,17 +120,18 @@ def draw_swatch(draw: ImageDraw.ImageDraw, x: int, y: int, text: str,
     return x + int(font(size_px).getlength(text)) + size_px
 
 
-def inset(frame: np.ndarray, panel: np.ndarray, label: str) -> np.ndarray:
-    """Return a copy of `frame` with `panel` in its bottom-right corner, framed and labelled.
+def inset(frame: np.ndarray, panel: np.ndarray, label: str, left: bool = False) -> np.ndarray:
+    """Return a copy of `frame` with `panel` in its bottom-right (or bottom-left) corner, framed
+    and labelled.
 
-    Bottom right, because the overview camera has the floor there and the arm above.
+    At the bottom, because the overview camera has the floor there and the arm above.
     """
     out = frame.copy()
     panel_height, panel_width = panel.shape[:2]
     border = 2
-    x0 = frame.shape[1] - panel_width - border
+    x0 = border if left else frame.shape[1] - panel_width - border
     y0 = frame.shape[0] - panel_height - border
-    out[y0 - border:, x0 - border:] = 200
+    out[y0 - border:, x0 - border: x0 + panel_width + border] = 200
     out[y0: y0 + panel_height, x0: x0 + panel_width] = panel
     image = Image.fromarray(out)
     size = max(8, frame.shape[0] // 36)

@@ -19,12 +19,11 @@ from PIL import Image, ImageDraw
 from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle, episode_cycle
 from vprobot.geometry import Pose
 from vprobot.render.camera import aim_at_sphere, project
+from vprobot.render.closeup import FRAME_MARGIN, draw_coverage, hide_robot
 from vprobot.render.lost import LOST_RGB, frame_losses, lost_in_order
 from vprobot.render.markers import (
-    COVERED_RGBA,
     FRUSTUM_SEGMENTS,
     LOST_RGBA,
-    UNCOVERED_RGBA,
     UNREACHABLE_RGBA,
     add_frustum,
     add_points,
@@ -53,7 +52,6 @@ SMALL_FRUSTUM_M = 0.09
 TRACK_RGBA = np.array([1.0, 1.0, 1.0, 0.5], dtype=np.float32)
 LOST_POINTS_PER_VIEW = 300
 """Lost points drawn per view and cause (a random subset: drawing is per point)."""
-FRAME_MARGIN = 1.1
 MIN_PANEL_PX = 16
 
 
@@ -75,19 +73,6 @@ def _view_poses(record: EpisodeRecord) -> list[Pose]:
             for view in record.views]
 
 
-def _object_only(view: OffscreenView, cell: Cell) -> None:
-    """Hide the robot (it would stand in front of the object) and the sites."""
-    # MuJoCo skips fully transparent geoms; the robot's geom group is not the only one it uses.
-    view.model.geom_rgba[cell.robot_geom_ids, 3] = 0.0
-    view.option.sitegroup[:] = 0
-
-
-def _draw_gt(scene: mujoco.MjvScene, record: EpisodeRecord, size_m: float) -> None:
-    covered = record.covered.astype(bool)
-    add_points(scene, record.gt_points_world[covered], COVERED_RGBA, size_m)
-    add_points(scene, record.gt_points_world[~covered], UNCOVERED_RGBA, size_m)
-
-
 def _overview(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int,
               height: int) -> np.ndarray:
     """The object, the numbered view frusta and the sensor's track."""
@@ -96,7 +81,7 @@ def _overview(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int
     geoms = len(record.gt_points_world) + len(track) + FRUSTUM_SEGMENTS * len(poses)
     sensor = SensorModel.from_config(cell.config.sensor)
     with OffscreenView(cell.model, width, height, fine=True, max_geom=geoms) as view:
-        _object_only(view, cell)
+        hide_robot(view, cell)
         positions = np.array([pose.position for pose in poses] + [record.object_pose.position])
         center = (positions.min(axis=0) + positions.max(axis=0)) / 2.0
         radius = float(np.max(np.linalg.norm(positions - center, axis=1)))
@@ -104,7 +89,7 @@ def _overview(cell: Cell, data: mujoco.MjData, record: EpisodeRecord, width: int
                       *OVERVIEW_DIRECTION_DEG)
 
         def draw(scene: mujoco.MjvScene) -> None:
-            _draw_gt(scene, record, OVERVIEW_POINT_SIZE_M)
+            draw_coverage(scene, record, OVERVIEW_POINT_SIZE_M)
             for start, end in itertools.pairwise(track):
                 add_segment(scene, start, end, TRACK_RGBA, 1.5)
             for index, (pose, view_record) in enumerate(zip(poses, record.views, strict=True)):
@@ -131,14 +116,14 @@ def _close_ups(cell: Cell, data: mujoco.MjData, record: EpisodeRecord,
     lost = _lost_points(losses)
 
     def draw(scene: mujoco.MjvScene) -> None:
-        _draw_gt(scene, record, CLOSE_UP_POINT_SIZE_M)
+        draw_coverage(scene, record, CLOSE_UP_POINT_SIZE_M)
         for cause, points in lost:
             add_points(scene, points, LOST_RGBA[cause], CLOSE_UP_POINT_SIZE_M)
 
     images = []
     geoms = len(record.gt_points_world) + sum(len(points) for _, points in lost)
     with OffscreenView(cell.model, width, height // 2, fine=True, max_geom=geoms) as view:
-        _object_only(view, cell)
+        hide_robot(view, cell)
         for azimuth, elevation in CLOSE_UP_DIRECTIONS_DEG:
             aim_at_sphere(view.camera, view.model, record.object_pose.position,
                           FRAME_MARGIN * radius, azimuth, elevation)

@@ -13,6 +13,7 @@ from tqdm import tqdm
 from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord, timed_episode
 from vprobot.kinematics import TravelCost
 from vprobot.render.camera import aim_overview
+from vprobot.render.closeup import PartCloseUp
 from vprobot.render.lost import frame_losses, lost_legend, paint_lost, point_size_px
 from vprobot.render.markers import (
     FRUSTUM_SEGMENTS,
@@ -72,6 +73,8 @@ class EpisodeRenderer:
             structured-light sensor, while a view the robot took is shown, the points its frame
             lost are painted on it by cause (`vprobot.render.lost`), with a legend.
         points_per_view: Acquired points drawn per view (a random subset; drawing is per point).
+        part_close_up: Inset a close-up of the part with its ground-truth points covered so far
+            (green) and not (red), bottom left (`vprobot.render.closeup`).
 
     Raises:
         ValueError: For a bad size, panel mode or point count, or an episode with no views.
@@ -79,7 +82,7 @@ class EpisodeRenderer:
 
     def __init__(self, scene: MotorScene | Cell, record: EpisodeRecord, width: int = 640,
                  height: int = 480, sensor_panel: PanelMode | None = "color",
-                 points_per_view: int = 200):
+                 points_per_view: int = 200, part_close_up: bool = True):
         width, height = check_size(width, height)
         if points_per_view < 0:
             raise ValueError(f"points_per_view must be >= 0, got {points_per_view}")
@@ -100,6 +103,9 @@ class EpisodeRenderer:
         aim_overview(self.view.camera, self.cell)
         self.panel = (None if sensor_panel is None else
                       SensorPanel(self.cell, max(8, int(PANEL_FRACTION * width)), sensor_panel))
+        self.close_up = (PartCloseUp(self.cell, self.data, record,
+                                     max(8, int(PANEL_FRACTION * width)))
+                         if part_close_up and isinstance(scene, MotorScene) else None)
         # The panel is the robot's sensor camera: it shows a view only where the robot took it.
         self.losses: list[FrameLosses | None] = []
         if self.panel is not None and record.carrier == "robot" and isinstance(scene, MotorScene):
@@ -115,6 +121,9 @@ class EpisodeRenderer:
         frame = self.view.rgb()
         if self.panel is not None:
             frame = inset(frame, self._panel(self.panel, state), f"sensor ({self.panel.mode})")
+        if self.close_up is not None:
+            frame = inset(frame, self.close_up.render(state.shown), "part: covered green",
+                          left=True)
         return draw_status(frame, self.status(state))
 
     def _panel(self, sensor_panel: SensorPanel, state: FrameState) -> np.ndarray:
@@ -194,6 +203,8 @@ class EpisodeRenderer:
         self.view.close()
         if self.panel is not None:
             self.panel.close()
+        if self.close_up is not None:
+            self.close_up.close()
 
     def __enter__(self) -> EpisodeRenderer:
         return self
