@@ -34,6 +34,6 @@ def test_a_plan_writes_nothing_into_home_and_caches_into_the_session_folder(
     assert main(["plan", "--config", str(config), "--out", "plan.json", "--no-timing"]) == 0
 
     assert not list(home.rglob("*"))
-    assert [path.name for path in work.iterdir()] == ["plan.json"]
+    assert sorted(path.name for path in work.iterdir()) == ["plan.json", "plan.png"]
     key = gt_module._cache_key(load_mesh(DEFAULT_MOTOR).mesh, load_config(config))
     assert (session_cache / "ground_truth" / f"{key}.npz").is_file()

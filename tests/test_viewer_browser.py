@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from vprobot.benchmarks.viewer import CHROMIUM_ARGS, TWO_FRAMES
 from vprobot.cli import main
 from vprobot.config import load_config
 from vprobot.episode import timed_episode
@@ -24,10 +25,6 @@ from vprobot.render import episode_from_plan
 
 playwright = pytest.importorskip("playwright.sync_api")
 
-CHROMIUM_ARGS = ["--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
-                 # This machine's closed network refuses Chromium's own connections.
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync", "--no-first-run", "--disable-quic"]
 VIEWPORT = {"width": 800, "height": 600}
 
 
@@ -40,7 +37,7 @@ def browser() -> Iterator[object]:
             pytest.fail(message)
         pytest.skip(message)
     with playwright.sync_playwright() as driver:
-        launched = driver.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS,
+        launched = driver.chromium.launch(executable_path=executable, args=list(CHROMIUM_ARGS),
                                           headless=True)
         yield launched
         launched.close()
@@ -104,8 +101,12 @@ class Opened:
         field = self.page.locator("input.mantine-NumberInput-input")
         field.fill(f"{seconds}")
         field.press("Enter")
-        self.page.wait_for_timeout(500)
+        self.drawn()
         return self.canvas()
+
+    def drawn(self) -> None:
+        """Wait until the browser has drawn what changed (two animation frames later)."""
+        self.page.evaluate(TWO_FRAMES)
 
 
 def _changed_pixels(first: np.ndarray, second: np.ndarray) -> int:
@@ -157,6 +158,7 @@ def test_moving_the_slider_moves_the_robot_and_nothing_else(
     # With the robot hidden the same two times look alike: what moved was the robot.
     opened.scene_nodes("/robot")
     opened.page.locator('[data-scene-node="/robot"] .tabler-icon-eye').first.click()
+    opened.drawn()
     assert _changed_pixels(opened.at_time(0.0), opened.at_time(moving)) == 0
     opened.page.close()
 
