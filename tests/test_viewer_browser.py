@@ -20,7 +20,7 @@ from PIL import Image
 from vprobot.benchmarks.viewer import CHROMIUM_ARGS, TWO_FRAMES
 from vprobot.cli import main
 from vprobot.config import load_config
-from vprobot.episode import timed_episode
+from vprobot.episode import EpisodeRecord, MotorScene, timed_episode
 from vprobot.render import episode_from_plan
 
 playwright = pytest.importorskip("playwright.sync_api")
@@ -67,6 +67,7 @@ class Opened:
                      if message.type == "error" else None)
         self.page.on("pageerror", lambda error: self.errors.append(str(error)))
         self.page.on("request", lambda request: self.requests.append(request.url))
+        self.nodes: list[str] = []
         self.page.goto(url)
         self.page.wait_for_selector("canvas")
 
@@ -113,54 +114,60 @@ def _changed_pixels(first: np.ndarray, second: np.ndarray) -> int:
     return int(np.count_nonzero(np.abs(first - second).sum(axis=2) > 30))
 
 
-def test_the_page_loads_offline_without_console_errors_and_draws(
-        browser: object, pages: dict[str, Path]) -> None:
+@pytest.fixture(scope="module")
+def robot_page(browser: object, pages: dict[str, Path]) -> Iterator[Opened]:
+    """The robot plan's page, opened once for the tests below (a load costs seconds in
+    software), paused, its scene tree open with the cell, the robot and the views expanded."""
     opened = Opened(browser, pages["robot.html"].as_uri())
     opened.pause()
-    assert opened.errors == []
+    opened.nodes = opened.scene_nodes("/cell", "/robot", "/views")
+    yield opened
+    opened.page.close()
+
+
+@pytest.fixture(scope="module")
+def robot_episode(pages: dict[str, Path]) -> tuple[MotorScene, EpisodeRecord]:
+    return episode_from_plan(load_config(), pages["robot"])
+
+
+def test_the_page_loads_offline_without_console_errors_and_draws(
+        robot_page: Opened, pages: dict[str, Path]) -> None:
+    assert robot_page.errors == []
     # Self-contained: the page itself is all it asks for.
-    assert opened.requests == [pages["robot.html"].as_uri()]
-    pixels = opened.canvas()
+    assert robot_page.requests == [pages["robot.html"].as_uri()]
+    pixels = robot_page.canvas()
     colours = np.unique(pixels.reshape(-1, 3), axis=0)
     assert len(colours) > 100 and pixels.std() > 10
-    assert "cycle time" in opened.page.locator("#vprobot-caption").inner_text()
-    opened.page.close()
+    assert "cycle time" in robot_page.page.locator("#vprobot-caption").inner_text()
 
 
 def test_the_scene_holds_the_robot_the_part_and_one_frustum_per_view(
-        browser: object, pages: dict[str, Path]) -> None:
-    scene, record = episode_from_plan(load_config(), pages["robot"])
+        robot_page: Opened, robot_episode: tuple[MotorScene, EpisodeRecord]) -> None:
+    scene, record = robot_episode
     model = scene.cell.model
-    opened = Opened(browser, pages["robot.html"].as_uri())
-    opened.pause()
-    nodes = opened.scene_nodes("/cell", "/robot", "/views")
     # Every body that carries one of the robot's joints, and the sensor.
     moved = {model.body(model.jnt_bodyid[joint]).name for joint in range(model.njnt)}
-    assert {f"/robot/{name}" for name in (*moved, "sensor_body")} <= set(nodes)
-    assert "/cell/object" in nodes
-    views = [node for node in nodes if re.fullmatch(r"/views/\d+", node)]
+    assert {f"/robot/{name}" for name in (*moved, "sensor_body")} <= set(robot_page.nodes)
+    assert "/cell/object" in robot_page.nodes
+    views = [node for node in robot_page.nodes if re.fullmatch(r"/views/\d+", node)]
     assert views == [f"/views/{number}" for number in range(1, len(record.views) + 1)]
-    opened.page.close()
 
 
 def test_moving_the_slider_moves_the_robot_and_nothing_else(
-        browser: object, pages: dict[str, Path]) -> None:
-    scene, record = episode_from_plan(load_config(), pages["robot"])
+        robot_page: Opened, robot_episode: tuple[MotorScene, EpisodeRecord]) -> None:
+    scene, record = robot_episode
     timed = timed_episode(record, scene.cell)
     assert timed is not None
     # Halfway through the approach to the first view the arm is on its way.
     moving = timed.acquisitions[0].start_s / 2.0
-    opened = Opened(browser, pages["robot.html"].as_uri())
-    opened.pause()
-    start, again, halfway = opened.at_time(0.0), opened.at_time(0.0), opened.at_time(moving)
+    start, again = robot_page.at_time(0.0), robot_page.at_time(0.0)
+    halfway = robot_page.at_time(moving)
     assert _changed_pixels(start, again) == 0
     assert _changed_pixels(start, halfway) > 1000
     # With the robot hidden the same two times look alike: what moved was the robot.
-    opened.scene_nodes("/robot")
-    opened.page.locator('[data-scene-node="/robot"] .tabler-icon-eye').first.click()
-    opened.drawn()
-    assert _changed_pixels(opened.at_time(0.0), opened.at_time(moving)) == 0
-    opened.page.close()
+    robot_page.page.locator('[data-scene-node="/robot"] .tabler-icon-eye').first.click()
+    robot_page.drawn()
+    assert _changed_pixels(robot_page.at_time(0.0), robot_page.at_time(moving)) == 0
 
 
 def test_a_free_flying_plan_shows_the_sensor_poses_only(
