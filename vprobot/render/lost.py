@@ -14,18 +14,12 @@ from PIL import Image, ImageDraw
 
 from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.render.camera import project
-from vprobot.render.markers import LOST_RGBA
+from vprobot.render.markers import LOST_RGBA, rgb8
 from vprobot.render.overlay import draw_swatch
 from vprobot.scene import Cell
 from vprobot.sensor import LOSS_CAUSES, FrameLosses
 
-
-def _rgb8(rgba: np.ndarray) -> tuple[int, int, int]:
-    red, green, blue = (round(255 * float(channel)) for channel in rgba[:3])
-    return red, green, blue
-
-
-LOST_RGB = {cause: _rgb8(rgba) for cause, rgba in LOST_RGBA.items()}
+LOST_RGB = {cause: rgb8(rgba) for cause, rgba in LOST_RGBA.items()}
 """`LOST_RGBA` as 8-bit RGB, for painting images."""
 
 

@@ -34,6 +34,12 @@ def view_rgba(index: int, alpha: float = 1.0) -> np.ndarray:
     return np.append(VIEW_COLORS[index % len(VIEW_COLORS)], alpha).astype(np.float32)
 
 
+def rgb8(rgba: np.ndarray) -> tuple[int, int, int]:
+    """An RGBA colour of floats in [0, 1] as 8-bit RGB, for images and web pages."""
+    red, green, blue = (round(255 * float(channel)) for channel in rgba[:3])
+    return red, green, blue
+
+
 def subsample(points: np.ndarray, count: int, seed: int = 0) -> np.ndarray:
     """At most `count` of `points` (n, 3), chosen at random but reproducibly."""
     if len(points) <= count:

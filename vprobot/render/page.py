@@ -27,8 +27,7 @@ import numpy as np
 import trimesh
 import viser
 
-from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle
-from vprobot.episode.cycle import timed_episode
+from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle, timed_episode
 from vprobot.files import write_text
 from vprobot.render.camera import overview_eye
 from vprobot.render.lost import frame_losses, lost_in_order
@@ -36,6 +35,7 @@ from vprobot.render.markers import (
     LOST_RGBA,
     UNCOVERED_RGBA,
     UNREACHABLE_RGBA,
+    rgb8,
     subsample,
     view_rgba,
 )
@@ -80,11 +80,6 @@ class Page:
     html: str
     duration_s: float
     views: int
-
-
-def _rgb8(rgba: np.ndarray) -> tuple[int, int, int]:
-    red, green, blue = (round(255 * float(channel)) for channel in rgba[:3])
-    return red, green, blue
 
 
 def geom_surface(model: mujoco.MjModel, geom: int) -> trimesh.Trimesh | None:
@@ -189,7 +184,7 @@ class _PlanScene:
                 rgba = _geom_rgba(model, geom)
                 self.server.scene.add_mesh_simple(
                     f"{name}/geom{geom}", np.asarray(mesh.vertices, dtype=np.float32),
-                    np.asarray(mesh.faces, dtype=np.uint32), color=_rgb8(rgba),
+                    np.asarray(mesh.faces, dtype=np.uint32), color=rgb8(rgba),
                     opacity=float(rgba[3]) if rgba[3] < 1.0 else None)
         self.pose_bodies()
 
@@ -208,7 +203,8 @@ class _PlanScene:
             name = f"{VIEWS_PREFIX}/{index + 1}"
             self.server.scene.add_camera_frustum(
                 name, fov=float(np.deg2rad(sensor.fov_deg[1])), aspect=width / height,
-                scale=FRUSTUM_DEPTH_M, thickness=2.0, thickness_units="screen", color=_rgb8(rgba),
+                scale=FRUSTUM_DEPTH_M, thickness=2.0, thickness_units="screen",
+                color=rgb8(rgba),
                 wxyz=pose.quaternion, position=pose.position)
             mark = "" if view.reachable else " (unreachable)"
             self.server.scene.add_label(f"{name}/number", f"{index + 1}{mark}",
@@ -234,7 +230,7 @@ class _PlanScene:
                 self.lost_points = True
 
     def _cloud(self, name: str, points: np.ndarray, rgba: np.ndarray) -> None:
-        self.server.scene.add_point_cloud(name, points.astype(np.float32), colors=_rgb8(rgba),
+        self.server.scene.add_point_cloud(name, points.astype(np.float32), colors=rgb8(rgba),
                                           point_size=POINT_SIZE_M)
 
 
@@ -258,7 +254,7 @@ def _quiet_server() -> Iterator[viser.ViserServer]:
 
 
 def _swatch(rgba: np.ndarray, text: str) -> str:
-    red, green, blue = _rgb8(rgba)
+    red, green, blue = rgb8(rgba)
     return (f'<span style="color:rgb({red},{green},{blue})">&#9632;</span> '
             f"{html.escape(text)}")
 
