@@ -121,7 +121,8 @@ def test_missing_or_corrupt_agents_are_clear_errors(run: Path, tmp_path: Path) -
 def test_cli_plans_with_an_agent_for_a_fixed_view_count(run: Path, tmp_path: Path,
                                                         capsys: pytest.CaptureFixture) -> None:
     plan = tmp_path / "plan.json"
-    assert main(["plan", "--planner", f"agent:{run}", "--views", "3", "--out", str(plan)]) == 0
+    assert main(["plan", "--no-summary", "--planner", f"agent:{run}", "--views", "3", "--out",
+                 str(plan)]) == 0
     assert len(json.loads(plan.read_text())["views"]) == 3
     assert main(["plan", "--planner", f"agent:{tmp_path / 'nothing'}", "--out",
                  str(plan)]) == 2
@@ -148,7 +149,8 @@ def test_a_run_whose_config_is_empty_or_no_mapping_names_the_file(
     run = tmp_path / "run"
     shutil.copytree(AGENTS_DIR / "generalist", run)
     (run / "config.yaml").write_text(text)
-    code = main(["plan", "--planner", f"agent:{run}", "--out", str(tmp_path / "plan.json")])
+    code = main(["plan", "--no-summary", "--planner", f"agent:{run}", "--out",
+                 str(tmp_path / "plan.json")])
     note, line = capsys.readouterr().err.splitlines()
     assert code == 2 and note == f"loading agent {run} ..."
     assert line == (f"vprobot plan: error: {run / 'config.yaml'}: a run's config must be a "
@@ -191,7 +193,8 @@ def test_the_bundled_agent_plans_a_part_of_no_family_end_to_end_in_the_realistic
     from vprobot.paths import CONFIGS_DIR
 
     plan = tmp_path / "plan.json"
-    code = main(["plan", "--config", str(CONFIGS_DIR / "cell_real.yaml"), "--planner", "agent",
+    code = main(["plan", "--no-summary", "--config", str(CONFIGS_DIR / "cell_real.yaml"),
+                 "--planner", "agent",
                  "--mesh", str(OBJECTS_DIR / "pipe_tee.stl"), "--out", str(plan)])
     assert code == 0, capsys.readouterr().err
     document = json.loads(plan.read_text())

@@ -98,7 +98,8 @@ def test_worked_example_plans_exports_and_checks_from_its_file_alone(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture) -> None:
     monkeypatch.chdir(tmp_path)  # the part's mesh is found relative to the cell file
     plan, picture = tmp_path / "plan.json", tmp_path / "cell.png"
-    assert main(["plan", "--cell", str(EXAMPLE), "--planner", "nbv", "--stop", "views:3",
+    assert main(["plan", "--no-summary", "--cell", str(EXAMPLE), "--planner", "nbv", "--stop",
+                 "views:3",
                  "--out", str(plan), "--picture", str(picture)]) == 0
     document = json.loads(plan.read_text())
     example = read_yaml(EXAMPLE)["cell"]
@@ -162,7 +163,8 @@ def test_a_bad_cell_file_is_one_line_naming_file_key_and_fault(
     change, words = BAD_CELLS[case]
     path = _broken(tmp_path, change)
     out = tmp_path / "plan.json"
-    assert main(["plan", "--cell", str(path), "--planner", "nbv", "--stop", "views:1",
+    assert main(["plan", "--no-summary", "--cell", str(path), "--planner", "nbv", "--stop",
+                 "views:1",
                  "--out", str(out)]) == 2
     error = _error_line(capsys.readouterr().err)
     assert error.startswith("vprobot plan: error: ") and str(path) in error
@@ -176,13 +178,15 @@ def test_a_cell_error_names_the_config_file_that_holds_the_cell(
     cell_path = _broken(tmp_path, BAD_CELLS["a part sunk into its plate"][0])
     config = tmp_path / "config.yaml"
     config.write_text(f"cell: {cell_path}\n")
-    assert main(["plan", "--config", str(config), "--planner", "nbv", "--stop", "views:1",
+    assert main(["plan", "--no-summary", "--config", str(config), "--planner", "nbv", "--stop",
+                 "views:1",
                  "--out", str(tmp_path / "plan.json")]) == 2
     assert _error_line(capsys.readouterr().err).startswith(
         f"vprobot plan: error: {cell_path}: cell.static_objects: plate")
     inline = tmp_path / "inline.yaml"
     inline.write_text(yaml.safe_dump(read_yaml(cell_path)))
-    assert main(["plan", "--config", str(inline), "--planner", "nbv", "--stop", "views:1",
+    assert main(["plan", "--no-summary", "--config", str(inline), "--planner", "nbv", "--stop",
+                 "views:1",
                  "--out", str(tmp_path / "plan.json")]) == 2
     assert _error_line(capsys.readouterr().err).startswith(
         f"vprobot plan: error: {inline}: cell.static_objects: plate")

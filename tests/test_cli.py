@@ -101,6 +101,8 @@ def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.Captu
     assert document["coverage"] >= 0.9
     assert all(view["reachable"] for view in document["views"])
     assert video.stat().st_size > 0
+    # The summary still beside the plan, unasked (--no-summary leaves it out).
+    assert plan.with_suffix(".png").stat().st_size > 0
 
 
 @pytest.mark.parametrize(

@@ -171,7 +171,8 @@ def test_an_empty_or_cut_estimator_file_is_one_line_naming_it_and_exit_2(
         size: int, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     path = tmp_path / "cut.npz"
     path.write_bytes(BUNDLED_ESTIMATOR.read_bytes()[:size])
-    assert main(["plan", "--planner", "nbv", "--carrier", "free", "--stop", "estimate",
+    assert main(["plan", "--no-summary", "--planner", "nbv", "--carrier", "free", "--stop",
+                 "estimate",
                  "--estimator", str(path), "--out", str(tmp_path / "plan.json")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"cannot read coverage estimator {path}: " in err
@@ -187,7 +188,8 @@ def test_a_refused_estimate_is_null_in_the_plan(tmp_path: Path,
         estimator.domain, sensor=(40.0, 30.0, 0.3, 0.5, 0.47)))
     path = other.save(tmp_path / "other.npz")
     plan = tmp_path / "plan.json"
-    assert main(["plan", "--planner", "nbv", "--carrier", "free", "--stop", "estimate",
+    assert main(["plan", "--no-summary", "--planner", "nbv", "--carrier", "free", "--stop",
+                 "estimate",
                  "--estimator", str(path), "--out", str(plan)]) == 0
     document = json.loads(plan.read_text())
     assert not document["stop_reason"].startswith("estimate")

@@ -800,7 +800,7 @@ def test_an_episode_without_a_reachable_initial_view_is_scored_and_plan_says_why
     assert ("note: 2 episode(s) requested no view, covering nothing (the robot reached no "
             "initial view, or no candidate view was usable): nbv (robot) on episode 0; random2 "
             "(robot) on episode 0") in capsys.readouterr().out
-    assert main(["plan", "--config", str(config), "--planner", "nbv",
+    assert main(["plan", "--no-summary", "--config", str(config), "--planner", "nbv",
                  "--out", str(tmp_path / "plan.json")]) == 2
     (line,) = capsys.readouterr().err.splitlines()
     assert "none of the 25 initial views is reachable" in line

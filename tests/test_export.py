@@ -30,7 +30,8 @@ pure-Python one 20 s."""
 def plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A 10-view nbv plan of the bundled motor with the UR10 (some moves go around obstacles)."""
     path = tmp_path_factory.mktemp("export") / "plan.json"
-    assert main(["plan", "--planner", "nbv", "--stop", f"views:{VIEWS}", "--no-timing",
+    assert main(["plan", "--no-summary", "--planner", "nbv", "--stop", f"views:{VIEWS}",
+                 "--no-timing",
                  "--out", str(path)]) == 0
     return path
 
@@ -494,7 +495,8 @@ def test_check_fails_on_a_plan_timed_beyond_the_robots_limits(
 def test_a_free_flying_plan_has_no_return_nor_cycle_and_no_program(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     path = tmp_path / "free.json"
-    assert main(["plan", "--planner", "uniform4", "--carrier", "free", "--no-timing", "--out",
+    assert main(["plan", "--no-summary", "--planner", "uniform4", "--carrier", "free",
+                 "--no-timing", "--out",
                  str(path)]) == 0
     document = json.loads(path.read_text())
     assert document["return"] is None and document["cycle_time"] is None
@@ -507,7 +509,8 @@ def test_a_free_flying_plan_has_no_return_nor_cycle_and_no_program(
 def test_check_holds_on_a_panda_plan_which_gets_no_urscript(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     path = tmp_path / "panda.json"
-    assert main(["plan", "--planner", "bscp", "--views", "2", "--robot", "panda", "--no-timing",
+    assert main(["plan", "--no-summary", "--planner", "bscp", "--views", "2", "--robot", "panda",
+                 "--no-timing",
                  "--out", str(path)]) == 0
     capsys.readouterr()
     assert main(["check", str(path)]) == 0

@@ -180,7 +180,8 @@ def test_a_plugin_stop_rule_is_described_by_the_help_and_stops_a_plan(
         capsys, "--plugin", str(plugin), "plan")
     plan = tmp_path / "plan.json"
     # The toy planner plans three views; the toy rule stops it after two.
-    assert main(["--plugin", str(plugin), "plan", "--planner", "toptoy", "--stop", "twotoy",
+    assert main(["--plugin", str(plugin), "plan", "--no-summary", "--planner", "toptoy", "--stop",
+                 "twotoy",
                  "--carrier", "free", "--out", str(plan)]) == 0
     document = json.loads(plan.read_text())
     assert (len(document["views"]), document["stop_rule"], document["stop_reason"]) == (
@@ -245,7 +246,8 @@ def test_a_plugin_export_format_writes_a_plan_through_the_cli(
     assert "jointstoy (.txt): each view and its joints" in help_text(
         capsys, "--plugin", str(plugin), "export")
     plan = tmp_path / "plan.json"
-    assert main(["--plugin", str(plugin), "plan", "--planner", "toptoy", "--stop", "twotoy",
+    assert main(["--plugin", str(plugin), "plan", "--no-summary", "--planner", "toptoy", "--stop",
+                 "twotoy",
                  "--no-timing", "--out", str(plan)]) == 0
     # The format's suffix, from its registration.
     assert main(["--plugin", str(plugin), "export", str(plan), "--format", "jointstoy",

@@ -144,5 +144,6 @@ def test_malformed_meshes_are_one_line_errors(mesh: tuple[str, bytes], tmp_path:
     suffix, data = mesh
     path = tmp_path / f"fuzz{suffix}"
     path.write_bytes(data)
-    _one_line_or_success(["plan", "--mesh", str(path), "--planner", "hrec", "--carrier", "free",
+    _one_line_or_success(["plan", "--no-summary", "--mesh", str(path), "--planner", "hrec",
+                          "--carrier", "free",
                           "--out", str(tmp_path / "plan.json")], capsys, (0, 2))

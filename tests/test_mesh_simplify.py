@@ -85,7 +85,7 @@ def test_plan_shows_every_long_stage(tmp_path: Path, capsys: pytest.CaptureFixtu
     monkeypatch.setattr(progress, "DELAY_S", 0.0)
     monkeypatch.setenv(CACHE_ENV_VAR, str(tmp_path / "cache"))
     bracket = ASSETS_DIR / "objects" / "bracket.stl"
-    assert main(["plan", "--mesh", str(bracket), "--views", "1", "--out",
+    assert main(["plan", "--no-summary", "--mesh", str(bracket), "--views", "1", "--out",
                  str(tmp_path / "plan.json")]) == 0
     err = capsys.readouterr().err
     for stage in ("ground truth", "reachability of the candidates", "visibility"):

@@ -484,7 +484,8 @@ def test_plan_with_a_self_stopped_nbv_says_why_it_stopped(tmp_path: Path,
     from vprobot.cli import main
 
     plan = tmp_path / "plan.json"
-    assert main(["plan", "--planner", "nbv@grid", "--carrier", "free", "--out", str(plan)]) == 0
+    assert main(["plan", "--no-summary", "--planner", "nbv@grid", "--carrier", "free", "--out",
+                 str(plan)]) == 0
     document = json.loads(plan.read_text())
     assert document["planner"] == "nbv@grid"
     assert document["stop_reason"].startswith("grid: the latest 2 views")

@@ -83,7 +83,8 @@ def cell_config(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def cell_plan(cell_config: Path) -> Path:
     """A 3-view nbv plan made in `CELL`."""
     path = cell_config.parent / "plan.json"
-    assert main(["plan", "--config", str(cell_config), "--planner", "nbv", "--stop", "views:3",
+    assert main(["plan", "--no-summary", "--config", str(cell_config), "--planner", "nbv",
+                 "--stop", "views:3",
                  "--no-timing", "--out", str(path)]) == 0
     return path
 
@@ -218,7 +219,8 @@ def test_a_plan_without_a_cell_block_checks_in_the_default_cell(
     """Plans written before the `cell` block replay in the config's cell: the default's
     fixture and the part are measured."""
     path = tmp_path / "plan.json"
-    assert main(["plan", "--planner", "nbv", "--stop", "views:2", "--no-timing", "--out",
+    assert main(["plan", "--no-summary", "--planner", "nbv", "--stop", "views:2", "--no-timing",
+                 "--out",
                  str(path)]) == 0
     document = json.loads(path.read_text())
     del document["cell"]

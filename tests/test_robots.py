@@ -396,7 +396,8 @@ def test_a_plan_of_every_bundled_robot_reads_its_description_once_and_replays(
     monkeypatch.setattr(RobotDescription, "load", classmethod(counting))
     _load_description.cache_clear()  # as in a fresh process
     plan = tmp_path / "plan.json"
-    assert main(["plan", "--robot", robot, "--planner", "hrec", "--carrier", "robot",
+    assert main(["plan", "--no-summary", "--robot", robot, "--planner", "hrec", "--carrier",
+                 "robot",
                  "--out", str(plan)]) == 0, capsys.readouterr().err
     # The config, the cell and the fit checks of the plan share one read of robot.yaml (the
     # default config's ur10 is read too, when the config is loaded before --robot replaces it).
@@ -411,7 +412,8 @@ def test_a_plan_of_an_imported_robot_replays_from_another_folder(
         capsys: pytest.CaptureFixture) -> None:
     monkeypatch.chdir(imported_ur5.parent.parent)
     plan = tmp_path / "plan.json"
-    assert main(["plan", "--robot", "robots/six", "--planner", "hrec", "--out", str(plan)]) == 0
+    assert main(["plan", "--no-summary", "--robot", "robots/six", "--planner", "hrec", "--out",
+                 str(plan)]) == 0
     robot = json.loads(plan.read_text())["robot"]
     assert robot["name"] == "six" and robot["folder"] == str(imported_ur5.resolve())
     monkeypatch.chdir(tmp_path)

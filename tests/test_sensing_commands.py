@@ -32,7 +32,8 @@ def zivid(tmp_path: Path) -> Path:
 
 
 def _plan(config: Path, out: Path, *sensing: str) -> dict:
-    assert main(["plan", "--config", str(config), "--planner", "random2", "--seed", "3",
+    assert main(["plan", "--no-summary", "--config", str(config), "--planner", "random2", "--seed",
+                 "3",
                  "--out", str(out), *sensing]) == 0
     return json.loads(out.read_text())
 

@@ -70,7 +70,7 @@ def test_the_agent_rule_needs_a_planner_with_a_learned_stop(
     learned = types.SimpleNamespace(name="agent", decides_stop=True)
     rule.bind(learned)  # type: ignore[arg-type]
     assert learned.decides_stop  # the agent rule leaves its stop action in charge
-    assert main(["plan", "--planner", "nbv", "--stop", "agent", "--carrier", "free",
+    assert main(["plan", "--no-summary", "--planner", "nbv", "--stop", "agent", "--carrier", "free",
                  "--out", str(tmp_path / "plan.json")]) == 2
     err = capsys.readouterr().err
     assert "stop rule 'agent' needs an agent planner whose action has a stop" in err
@@ -180,7 +180,8 @@ def test_plan_with_the_estimate_rule_says_why_and_the_estimate_at_each_view(
     plan = tmp_path / "plan.json"
     estimator = tmp_path / "copy.npz"
     shutil.copy(BUNDLED_ESTIMATOR, estimator)
-    assert main(["plan", "--planner", "nbv", "--carrier", "free", "--stop", "estimate:0.9",
+    assert main(["plan", "--no-summary", "--planner", "nbv", "--carrier", "free", "--stop",
+                 "estimate:0.9",
                  "--estimator", str(estimator), "--out", str(plan)]) == 0
     out = capsys.readouterr().out
     document = json.loads(plan.read_text())
