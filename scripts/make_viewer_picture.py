@@ -14,7 +14,7 @@ from pathlib import Path
 
 from playwright.sync_api import sync_playwright
 
-from vprobot.benchmarks.viewer import CHROMIUM_ARGS
+from vprobot.benchmarks.viewer import CHROMIUM_ARGS, PAUSE_ICON, TIME_FIELD
 from vprobot.cli import main as vprobot
 from vprobot.paths import CONFIGS_DIR
 
@@ -38,10 +38,10 @@ def main() -> None:
                                              args=list(CHROMIUM_ARGS))
             page = browser.new_page(viewport={"width": 1200, "height": 720})
             page.goto(page_file.as_uri())
-            field = page.locator("input.mantine-NumberInput-input")
+            field = page.locator(TIME_FIELD)
             field.wait_for()
             page.get_by_role("button").filter(
-                has=page.locator(".tabler-icon-player-pause-filled")).click()
+                has=page.locator(PAUSE_ICON)).click()
             field.fill("5")
             field.press("Enter")
             # The software-rendering notice of a browser without a GPU is not the viewer's.

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from vprobot.benchmarks.viewer import CHROMIUM_ARGS, TWO_FRAMES
+from vprobot.benchmarks.viewer import CHROMIUM_ARGS, PAUSE_ICON, TIME_FIELD, TWO_FRAMES
 from vprobot.cli import main
 from vprobot.config import load_config
 from vprobot.episode import EpisodeRecord, MotorScene, timed_episode
@@ -75,7 +75,7 @@ class Opened:
         """Stop the playback: a playing recording redraws every frame, which in software
         takes the browser's time (a screenshot waits seconds for a still frame)."""
         self.page.get_by_role("button").filter(
-            has=self.page.locator(".tabler-icon-player-pause-filled")).click()
+            has=self.page.locator(PAUSE_ICON)).click()
 
     def canvas(self) -> np.ndarray:
         # A screenshot of the page, cut to the canvas: an element's screenshot first waits for
@@ -99,7 +99,7 @@ class Opened:
 
     def at_time(self, seconds: float) -> np.ndarray:
         """The canvas with the playback at `seconds` (typed into the playback bar's field)."""
-        field = self.page.locator("input.mantine-NumberInput-input")
+        field = self.page.locator(TIME_FIELD)
         field.fill(f"{seconds}")
         field.press("Enter")
         self.drawn()

@@ -643,9 +643,8 @@ def _job_rows(config: Config, jobs: Sequence[Job],
             scene = _scene(config, spec.motor_path, spec.scale)
             result = run(config, scene, name, spec, carrier, views, stop, estimator,
                          shared=shared)
-            document = result_document(scene, result)
-            # The ground truth (thousands of points) is the episode's again when it is replayed.
-            document.pop("ground_truth")
+            # Without the ground truth (thousands of points): a replay computes it again.
+            document = result_document(scene, result, ground_truth=False)
             yield {**episode_row(index, result), "planner": label,
                    PLAN_KEY: {**document, "planner": label}}
 

@@ -12,10 +12,11 @@ import numpy as np
 
 from vprobot.cell_config import Solid
 from vprobot.config import config_document
-from vprobot.episode import EpisodeRecord, MotorScene, timed_episode
+from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.files import file_sha256, write_text
 from vprobot.geometry import Pose, quat_to_matrix
 from vprobot.kinematics import TravelCost
+from vprobot.kinematics.trajectory import CycleTime
 from vprobot.robots import is_bundled
 from vprobot.scene import ENVIRONMENT_BIT, STATIC_PREFIX, Cell
 
@@ -251,9 +252,10 @@ def return_block(record: EpisodeRecord) -> dict[str, Any] | None:
     return {"waypoints": _corners(record.return_waypoints), "reason": reason}
 
 
-def episode_document(scene: MotorScene, record: EpisodeRecord,
+def episode_document(scene: MotorScene, record: EpisodeRecord, cycle: CycleTime | None,
                      metadata: dict[str, Any] | None = None,
-                     estimates: np.ndarray | None = None) -> dict[str, Any]:
+                     estimates: np.ndarray | None = None,
+                     ground_truth: bool = True) -> dict[str, Any]:
     """The plan JSON of an episode: object placement, robot, sensor, views, final coverage,
     travel, and the ground truth to re-check the coverage.
 
@@ -266,9 +268,11 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
     Args:
         scene: The motor scene the episode ran in.
         record: The episode.
+        cycle: Its cycle time (`episode_cycle`, which its caller has timed already), or None.
         metadata: Extra top-level entries (planner, carrier, seed, ...).
         estimates: The model-free coverage estimate (mean, std) after each view, written as
             `views[i].estimate` when given.
+        ground_truth: Whether to write the ground-truth block (a replay computes it again).
     """
     document = plan_document(scene.cell, planned_views(record),
                              scene.object_block(record.object_pose), record.coverage)
@@ -277,9 +281,9 @@ def episode_document(scene: MotorScene, record: EpisodeRecord,
     document["approach"] = record.approach.as_dict()
     document["travel_sum"] = record.travel_sum.as_dict()
     document["return"] = return_block(record)
-    timed = timed_episode(record, scene.cell)
-    document["cycle_time"] = None if timed is None else timed.cycle.as_dict()
-    document["ground_truth"] = ground_truth_block(record)
+    document["cycle_time"] = None if cycle is None else cycle.as_dict()
+    if ground_truth:
+        document["ground_truth"] = ground_truth_block(record)
     if estimates is not None:
         for view, (mean, std) in zip(document["views"], estimates, strict=True):
             # A refused estimate (NaN) is null: JSON has no NaN.

@@ -36,6 +36,10 @@ CHROMIUM_ARGS = ("--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swi
                  "--disable-sync", "--no-first-run", "--disable-quic")
 """Headless Chromium without a GPU (WebGL in SwiftShader) on a machine with no network."""
 VIEWPORT_PX = (1280, 720)
+TIME_FIELD = "input.mantine-NumberInput-input"
+PAUSE_ICON = ".tabler-icon-player-pause-filled"
+"""The playback bar's time field and pause button's icon in viser's client (its DOM), which
+the benchmark, the browser tests and the README's picture drive."""
 
 
 def _browser_page(html: Path, duration_s: float) -> dict[str, Any]:
@@ -59,7 +63,7 @@ def _browser_page(html: Path, duration_s: float) -> dict[str, Any]:
             page.goto(html.as_uri())
             # The playback bar appears once the embedded recording is decoded and its scene
             # built; two animation frames later the browser has drawn it.
-            page.locator("input.mantine-NumberInput-input").wait_for()
+            page.locator(TIME_FIELD).wait_for()
             page.evaluate(TWO_FRAMES)
             loads.append(time.perf_counter() - start)
             pixels = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("L"))
@@ -68,8 +72,8 @@ def _browser_page(html: Path, duration_s: float) -> dict[str, Any]:
                 raise RuntimeError(f"the page of {html} drew no cell (pixel spread "
                                    f"{pixels.std():.1f})")
         page.get_by_role("button").filter(
-            has=page.locator(".tabler-icon-player-pause-filled")).click()
-        field = page.locator("input.mantine-NumberInput-input")
+            has=page.locator(PAUSE_ICON)).click()
+        field = page.locator(TIME_FIELD)
         seeks = []
         for fraction in np.linspace(0.05, 0.95, SEEKS):
             begin = time.perf_counter()
@@ -97,7 +101,7 @@ def run_viewer_benchmark(config: Config) -> dict[str, Any]:
     timed = timed_episode(record, scene.cell)
     with tempfile.TemporaryDirectory() as folder:
         plan, html = Path(folder) / "plan.json", Path(folder) / "plan.html"
-        write_json(plan, episode_document(scene, record))
+        write_json(plan, episode_document(scene, record, None if timed is None else timed.cycle))
         writes = []
         for _ in range(RUNS):
             start = time.perf_counter()

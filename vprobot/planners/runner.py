@@ -380,15 +380,17 @@ def summary(result: EpisodeResult, config: Config) -> str:
     return "\n".join(lines)
 
 
-def result_document(scene: MotorScene, result: EpisodeResult) -> dict[str, Any]:
-    """The plan JSON of a finished episode (`episode_document`), with the planner, seed, goal,
-    why it stopped and how long planning took."""
-    return episode_document(scene, result.record, metadata={
+def result_document(scene: MotorScene, result: EpisodeResult,
+                    ground_truth: bool = True) -> dict[str, Any]:
+    """The plan JSON of a finished episode (`episode_document`, with the cycle the episode
+    timed), with the planner, seed, goal, why it stopped and how long planning took; without
+    the ground-truth block unless `ground_truth`."""
+    return episode_document(scene, result.record, result.cycle, metadata={
         "planner": result.planner, "seed": result.seed, "goal": result.goal,
         "stop_rule": result.stop_rule, "stop_reason": result.stop_reason,
         # Wall-clock figures in a block of their own, which `plan --no-timing` leaves out.
         "timing": {"plan_s": result.plan_seconds, "episode_s": result.episode_seconds},
-    }, estimates=result.estimates)
+    }, estimates=result.estimates, ground_truth=ground_truth)
 
 
 def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float = 1.0,

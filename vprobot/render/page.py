@@ -29,6 +29,7 @@ import viser
 
 from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle, timed_episode
 from vprobot.files import write_text
+from vprobot.geometry import quat_to_matrix
 from vprobot.render.camera import overview_eye
 from vprobot.render.lost import frame_losses, lost_in_order
 from vprobot.render.markers import (
@@ -61,8 +62,6 @@ ROBOT_PREFIX = "/robot"
 """Scene names of the robot's bodies (`/robot/<body>`): the nodes the slider moves."""
 VIEWS_PREFIX = "/views"
 """Scene names of the view frusta (`/views/<number>`, 1-based in execution order)."""
-PART_NAME = "/cell/object"
-"""Scene name of the part's body."""
 _VISIBLE_GROUPS = (0, 1, GEOM_GROUP_ROBOT)
 """The geom groups MuJoCo's own viewer shows by default."""
 
@@ -111,15 +110,9 @@ def geom_surface(model: mujoco.MjModel, geom: int) -> trimesh.Trimesh | None:
     else:
         return None
     transform = np.eye(4)
-    transform[:3, :3] = _matrix(model.geom_quat[geom])
+    transform[:3, :3] = quat_to_matrix(model.geom_quat[geom])
     transform[:3, 3] = model.geom_pos[geom]
     return mesh.apply_transform(transform)
-
-
-def _matrix(quaternion: np.ndarray) -> np.ndarray:
-    matrix = np.zeros(9)
-    mujoco.mju_quat2Mat(matrix, np.asarray(quaternion, dtype=float))
-    return matrix.reshape(3, 3)
 
 
 def _geom_rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
@@ -128,16 +121,11 @@ def _geom_rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
 
 
 def _moving_bodies(model: mujoco.MjModel) -> set[int]:
-    """The bodies a joint moves: those with a joint on their way to the world."""
-    moving = set()
-    for body in range(1, model.nbody):
-        walk = body
-        while walk != 0:
-            if model.body_jntnum[walk] > 0:
-                moving.add(body)
-                break
-            walk = model.body_parentid[walk]
-    return moving
+    """The bodies a joint moves: welded to a body other than the world (MuJoCo's
+    `body_weldid`), and not mocap bodies (the part and the fixture), which are welded to
+    themselves."""
+    return {body for body in range(1, model.nbody)
+            if model.body_weldid[body] != 0 and model.body_mocapid[body] < 0}
 
 
 def _body_name(model: mujoco.MjModel, body: int) -> str:
