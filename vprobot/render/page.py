@@ -40,8 +40,10 @@ from vprobot.render.markers import (
     subsample,
     view_rgba,
 )
+from vprobot.render.picture import STATIC_ALPHA
 from vprobot.render.timeline import TimingSettings, episode_timeline
 from vprobot.robots.description import GEOM_GROUP_ROBOT
+from vprobot.scene import STATIC_PREFIX
 from vprobot.sensor import LOSS_CAUSES
 from vprobot.sensor_model import SensorModel
 
@@ -169,9 +171,15 @@ class _PlanScene:
                 mesh = geom_surface(model, geom)
                 if mesh is None:
                     continue
-                rgba = _geom_rgba(model, geom)
+                rgba = _geom_rgba(model, geom).copy()
+                geom_name = model.geom(geom).name
+                if geom_name.startswith(STATIC_PREFIX):
+                    # See-through, as in the cell's picture: a guard wall or a column would
+                    # hide the part from the page's camera.
+                    rgba[3] = min(rgba[3], STATIC_ALPHA)
                 self.server.scene.add_mesh_simple(
-                    f"{name}/geom{geom}", np.asarray(mesh.vertices, dtype=np.float32),
+                    f"{name}/{geom_name or f'geom{geom}'}",
+                    np.asarray(mesh.vertices, dtype=np.float32),
                     np.asarray(mesh.faces, dtype=np.uint32), color=rgb8(rgba),
                     opacity=float(rgba[3]) if rgba[3] < 1.0 else None)
         self.pose_bodies()
