@@ -333,7 +333,7 @@ prints the modules its entries come from."""
 
 
 def test_a_bundled_module_that_registers_is_found_by_its_registry_alone() -> None:
-    """One file per bundled extension: no list imports it, its registry finds it."""
+    """One file per bundled extension, declared in its registry: the registry imports it."""
     found = json.loads(subprocess.run([sys.executable, "-c", ENTRY_MODULES, json.dumps(BUNDLED)],
                                       check=True, capture_output=True, text=True).stdout)
     for kind, (module, _, decorator, _) in BUNDLED.items():

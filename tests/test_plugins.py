@@ -18,8 +18,7 @@ import pytest
 from vprobot import plugins
 from vprobot.cli import main
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.planners.base import PLANNERS
-from vprobot.planners.runner import planner_names
+from vprobot.planners.base import PLANNERS, planner_names
 
 ROOT = Path(__file__).resolve().parents[1]
 TOY = '''"""A user's own planner: NAME, two views straight down onto the object."""

@@ -4,7 +4,9 @@ run through the same config and CLI paths as the bundled ones, with no edit else
 from __future__ import annotations
 
 import csv
+import json
 import re
+import subprocess
 import sys
 import types
 from collections.abc import Iterator
@@ -25,9 +27,16 @@ from vprobot.config import ConfigError, load_config
 from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.planners.base import PLANNERS, PlanPlanner, register_planner
-from vprobot.planners.runner import evaluated_planners, make_planner, planner_names
-from vprobot.registry import Registry, UnknownNameError
+from vprobot.planners.base import (
+    PLANNERS,
+    Planner,
+    PlanPlanner,
+    evaluated_planners,
+    planner_names,
+    register_planner,
+)
+from vprobot.planners.runner import make_planner
+from vprobot.registry import Bundled, Registry, UnknownNameError
 
 
 class TopViews(PlanPlanner):
@@ -114,44 +123,146 @@ def test_a_registry_lists_its_entries_in_name_order_and_names_what_it_allows() -
     assert registry.unregister("b") == 2 and list(registry) == ["a"]
 
 
-def test_a_registry_imports_the_modules_of_its_package_when_first_read(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def _widgets(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, modules: dict[str, str],
+             bundled: dict[str, Bundled]) -> Registry[int]:
+    """A registry of widgets declared in a package `toy_widgets` of `modules` (name -> code,
+    where `WIDGETS` is the registry), the modules forgotten afterwards."""
     package = tmp_path / "toy_widgets"
     package.mkdir()
-    (package / "__init__.py").write_text("")
-    registration = ("from vprobot.registry import Registry\n"
-                    "import sys\n"
-                    "WIDGETS = sys.modules['toy_widgets_registry'].WIDGETS\n"
-                    "WIDGETS.register({name!r}, {value})\n")
-    (package / "zeta.py").write_text(registration.format(name="zeta", value=1))
-    (package / "alpha.py").write_text(registration.format(name="alpha", value=2))
-    (package / "_private.py").write_text("raise RuntimeError('a private module is no entry')")
+    (package / "__init__.py").write_text(
+        "import sys\nWIDGETS = sys.modules['toy_widgets_registry'].WIDGETS\n")
+    for module, code in modules.items():
+        (package / f"{module}.py").write_text(f"from toy_widgets import WIDGETS\n{code}")
     holder = types.ModuleType("toy_widgets_registry")
-    holder.WIDGETS = Registry("widget", package="toy_widgets")  # type: ignore[attr-defined]
+    widgets: Registry[int] = Registry("widget", bundled=bundled, facts={"size": 0})
+    holder.WIDGETS = widgets  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, "toy_widgets_registry", holder)
     monkeypatch.syspath_prepend(str(tmp_path))
-    widgets = holder.WIDGETS
-    # Registering does not import the package; the first read does, once.
-    widgets.register("mine", 3)
-    assert "toy_widgets.zeta" not in sys.modules
-    assert list(widgets) == ["alpha", "mine", "zeta"] and widgets["zeta"] == 1
-    assert "toy_widgets.alpha" in sys.modules and "toy_widgets._private" not in sys.modules
-    for module in ("toy_widgets", "toy_widgets.alpha", "toy_widgets.zeta"):
-        monkeypatch.delitem(sys.modules, module)
+    for module in ("toy_widgets", *(f"toy_widgets.{name}" for name in modules)):
+        monkeypatch.delitem(sys.modules, module, raising=False)
+    return widgets
 
 
-def test_a_bundled_module_that_fails_to_import_fails_every_read_of_its_registry(
+def test_a_registry_lists_its_declared_entries_and_imports_one_on_its_first_lookup(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    package = tmp_path / "broken_widgets"
-    package.mkdir()
-    (package / "__init__.py").write_text("")
-    (package / "bad.py").write_text("raise ImportError('bad widget')")
-    widgets: Registry[int] = Registry("widget", package="broken_widgets")
-    monkeypatch.syspath_prepend(str(tmp_path))
+    widgets = _widgets(tmp_path, monkeypatch, {
+        "zeta": "ZETA = WIDGETS.register('zeta', 1)\n",
+        "alpha": "ALPHA = WIDGETS.register('alpha', 2)\n",
+    }, {"zeta": Bundled("toy_widgets.zeta:ZETA", size=5),
+        "alpha": Bundled("toy_widgets.alpha:ALPHA")})
+    widgets.register("mine", 3)
+    # Names, `in`, facts and the message of an unknown name import no declared module.
+    assert list(widgets) == ["alpha", "mine", "zeta"] and "zeta" in widgets and len(widgets) == 3
+    assert widgets.fact("zeta", "size") == 5 and widgets.fact("alpha", "size") == 0
+    with pytest.raises(UnknownNameError, match="allowed: alpha, mine, zeta"):
+        widgets["omega"]
+    assert "toy_widgets.zeta" not in sys.modules and "toy_widgets.alpha" not in sys.modules
+    assert widgets["zeta"] == 1
+    assert "toy_widgets.zeta" in sys.modules and "toy_widgets.alpha" not in sys.modules
+
+
+def test_a_name_taken_from_a_bundled_entry_is_refused_at_once(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    widgets = _widgets(tmp_path, monkeypatch, {"zeta": "ZETA = WIDGETS.register('zeta', 1)\n"},
+                       {"zeta": Bundled("toy_widgets.zeta:ZETA")})
+    with pytest.raises(ValueError, match="widget 'zeta' is already registered; give it another"):
+        widgets.register("zeta", 7)
+    assert widgets["zeta"] == 1
+    with pytest.raises(ValueError, match="widget 'zeta' is already registered"):
+        widgets.register("zeta", 7)
+
+
+def test_a_declaration_its_module_does_not_register_fails_its_lookup(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    widgets = _widgets(tmp_path, monkeypatch, {"zeta": "ZETA = 1\n"},
+                       {"zeta": Bundled("toy_widgets.zeta:ZETA")})
+    with pytest.raises(ImportError, match=re.escape(
+            "widget 'zeta' is declared as toy_widgets.zeta:ZETA, which does not register it")):
+        widgets["zeta"]
+    with pytest.raises(ValueError, match=re.escape(
+            "an entry string is 'package.module:attribute', got 'toy_widgets.zeta'")):
+        Bundled("toy_widgets.zeta")
+
+
+def test_a_bundled_module_that_fails_to_import_fails_every_lookup_of_its_entry(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    widgets = _widgets(tmp_path, monkeypatch, {"bad": "raise ImportError('bad widget')\n"},
+                       {"bad": Bundled("toy_widgets.bad:BAD")})
+    assert list(widgets) == ["bad"]
     for _ in range(2):
         with pytest.raises(ImportError, match="bad widget"):
-            list(widgets)
-    monkeypatch.delitem(sys.modules, "broken_widgets")
+            widgets["bad"]
+
+
+def test_an_abstract_class_is_refused_at_its_registration_naming_what_it_lacks() -> None:
+    class Half(Planner):
+        name = "half"
+
+        def reset(self, episode: Episode, rng: np.random.Generator) -> None:
+            pass
+
+    class Empty(Planner):
+        name = "empty"
+
+    with pytest.raises(TypeError, match=r"planner 'half' is abstract: it does not define "
+                                        r"next_view$"):
+        register_planner(Half)
+    with pytest.raises(TypeError, match=r"planner 'empty' is abstract: it does not define "
+                                        r"reset, next_view$"):
+        register_planner(Empty)
+    assert "half" not in PLANNERS and "empty" not in PLANNERS
+
+
+REGISTRIES = {
+    "PLANNERS": ("vprobot.planners.base", "vprobot.planners"),
+    "STOPS": ("vprobot.stopping.rules.base", "vprobot.stopping.rules"),
+    "REWARDS": ("vprobot.rewards.base", "vprobot.rewards"),
+    "SENSING_MODELS": ("vprobot.sensing.base", "vprobot.sensing"),
+    "ENCODERS": ("vprobot.agents.encoders", "vprobot.agents.extractors"),
+    "FAMILIES": ("vprobot.families.base", "vprobot.families"),
+    "FORMATS": ("vprobot.export.formats.base", "vprobot.export.formats"),
+}
+"""Each registry (module, name) and the package of its bundled entries."""
+
+_DRIFT = """
+import importlib, json, pkgutil, sys, types
+registries = json.loads(sys.argv[1])
+found = {}
+for name, (module, package) in registries.items():
+    registry = getattr(importlib.import_module(module), name)
+    for info in pkgutil.iter_modules(importlib.import_module(package).__path__):
+        importlib.import_module(f"{package}.{info.name}")
+    entries = dict(registry._entries)
+    declared = {}
+    for entry, bundled in registry.bundled.items():
+        target = getattr(importlib.import_module(bundled.module), bundled.attribute)
+        value = entries.get(entry)
+        # What an entry string names: the entry, the class of it (a part family) or the
+        # function it wraps (an export format's writer).
+        declared[entry] = {
+            "target": value is target or type(value) is target
+                      or getattr(value, "write", None) is target,
+            # A class or function there, not one imported into the module.
+            "defined_there": not isinstance(target, (type, types.FunctionType))
+                             or target.__module__ == bundled.module,
+            "facts": all(getattr(value, key) == bundled.facts.get(key, default)
+                         for key, default in registry.facts.items())}
+    found[name] = {"registered": sorted(entries), "declared": declared}
+print(json.dumps(found))
+"""
+
+
+def test_each_registrys_declared_bundled_entries_are_what_its_package_registers() -> None:
+    """The lazy index cannot drift from the code: in a fresh process, every module of each
+    registry's package imported registers exactly the declared names, each where its entry
+    string says, with the declared facts."""
+    child = subprocess.run([sys.executable, "-c", _DRIFT, json.dumps(REGISTRIES)],
+                           capture_output=True, text=True, check=True)
+    found = json.loads(child.stdout.splitlines()[-1])
+    for name, report in found.items():
+        assert report["registered"] == sorted(report["declared"]), name
+        for entry, checks in report["declared"].items():
+            assert checks == {"target": True, "defined_there": True, "facts": True}, (name, entry)
 
 
 def test_a_planner_registered_elsewhere_is_built_by_name_and_evaluated(
@@ -170,12 +281,11 @@ def test_a_planner_registered_elsewhere_is_built_by_name_and_evaluated(
     assert 0.0 < float(row["coverage_pct"]) < 100.0
 
 
-def test_planners_are_listed_in_name_order_whichever_registered_first() -> None:
-    # The planners' modules register when first imported, which one first depends on the
-    # caller (the stop rules import nbv); register nbv again last.
-    PLANNERS.register("nbv", PLANNERS.unregister("nbv"))
+def test_planners_are_listed_in_name_order_whichever_registered_first(
+        toy_planner: type[TopViews]) -> None:
+    # The toy registered after every bundled planner was declared.
     names = planner_names()
-    assert names.index("nbv") < names.index("uniform<k>")
+    assert names.index("nbv") < names.index("toy<k>") < names.index("uniform<k>")
     assert names == [PLANNERS[name].usage or name for name in sorted(PLANNERS)]
 
 

@@ -21,8 +21,6 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from vprobot.registry import bundled_entries_first
-
 ENTRY_POINT_GROUP = "vprobot.plugins"
 """The entry-point group whose modules every `vprobot` command imports."""
 
@@ -76,8 +74,7 @@ def load(plugins: Sequence[str]) -> None:
         if key in _loaded:
             continue
         try:
-            with bundled_entries_first():
-                _import(key)
+            _import(key)
         except (Exception, SystemExit) as error:  # whatever the plugin's code raised
             message = str(error).splitlines()[0] if str(error) else ""
             raise ValueError(f"plugin {plugin!r} failed to import: {type(error).__name__}"

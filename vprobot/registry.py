@@ -2,17 +2,20 @@
 rules, sensing models, export formats): a new one is a module that registers itself, and the
 config, the CLI and the error messages read the names from the registry (docs/extending.md).
 
-A registry knows the package of its bundled entries and imports every module of it the first
-time it is read, so that a bundled extension is one file in that package; one from outside is a
-plugin (`vprobot.plugins`), registered by being imported.
+A registry declares its bundled entries by name, each with an entry string
+`"package.module:attribute"` (as Gymnasium registers environments) and the facts that listing
+them needs (a planner's `usage`), without importing them: listing names, `in` and the messages
+that say what is allowed import nothing, and an entry's module is imported on the first lookup
+of its name, where it registers the entry. One from outside is a plugin (`vprobot.plugins`),
+registered by being imported.
 """
 
 from __future__ import annotations
 
-import contextlib
 import importlib
-import pkgutil
+import inspect
 import re
+import sys
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Generic, Protocol, TypeVar, overload
 
@@ -30,10 +33,6 @@ class _Named(Protocol):
 N = TypeVar("N", bound=_Named)
 
 
-_REGISTRIES: list[Registry[Any]] = []
-"""Every registry made, for `bundled_entries_first`."""
-
-
 class UnknownNameError(KeyError, ValueError):
     """A name no entry of a registry has: a user error (ValueError) and a failed lookup
     (KeyError, so that the registry behaves as a mapping)."""
@@ -43,10 +42,42 @@ class UnknownNameError(KeyError, ValueError):
         return str(self.args[0])
 
 
+class Bundled:
+    """A bundled entry, declared without importing it.
+
+    Args:
+        target: Where it is defined, `"package.module:attribute"`: importing the module
+            registers the entry (the attribute is what it registers, or the class of it or the
+            function it wraps).
+        facts: Those of the registry's facts whose value is not the default (a planner's
+            `usage`), so that a listing imports no module; tests/test_registries.py checks them
+            against the entry.
+    """
+
+    def __init__(self, target: str, **facts: Any):
+        module, _, attribute = target.partition(":")
+        if not module or not attribute:
+            raise ValueError(f"an entry string is 'package.module:attribute', got {target!r}")
+        self.target = target
+        self.module = module
+        self.attribute = attribute
+        self.facts: Mapping[str, Any] = facts
+
+    def __repr__(self) -> str:
+        return f"Bundled({self.target!r})"
+
+
 def _natural(name: str) -> list[tuple[int, str | int]]:
     """Sort key of a name in natural order: `R2` before `R10`."""
     return [(1, int(part)) if part.isdigit() else (0, part)
             for part in re.split(r"(\d+)", name) if part]
+
+
+def abstract_methods(cls: type) -> list[str]:
+    """The abstract methods a class leaves undefined, in the order its bases declare them."""
+    missing: frozenset[str] = getattr(cls, "__abstractmethods__", frozenset())
+    ordered = [name for base in reversed(cls.__mro__) for name in vars(base) if name in missing]
+    return list(dict.fromkeys(ordered))
 
 
 class Registry(Mapping[str, T], Generic[T]):
@@ -55,9 +86,11 @@ class Registry(Mapping[str, T], Generic[T]):
 
     Args:
         kind: What an entry is, as error messages name it (`planner`, `reward`).
-        package: The package whose modules register the bundled entries: the first read of the
-            registry (a lookup, `in`, iteration, `len`) imports each of its modules whose name
-            does not start with `_`, in name order. None: entries come only from `register`.
+        bundled: The bundled entries by name, each imported on the first lookup of its name
+            (a lookup through `values()` or `items()` imports them all); listing the names,
+            `in` and `len` import none.
+        facts: The attributes of an entry that listings read (`fact`), with their defaults: a
+            bundled entry declares those that differ.
 
     Example:
         >>> GREETINGS: Registry[str] = Registry("greeting")
@@ -70,35 +103,37 @@ class Registry(Mapping[str, T], Generic[T]):
         ['hello', 'shout']
     """
 
-    def __init__(self, kind: str, package: str | None = None):
+    def __init__(self, kind: str, bundled: Mapping[str, Bundled] | None = None,
+                 facts: Mapping[str, Any] | None = None):
         self.kind = kind
-        self.package = package
+        self.facts: Mapping[str, Any] = dict(facts or {})
+        self._bundled: dict[str, Bundled] = dict(bundled or {})
+        for name, declared in self._bundled.items():
+            if unknown := declared.facts.keys() - self.facts.keys():
+                raise ValueError(f"bundled {kind} {name!r} declares {sorted(unknown)}, not "
+                                 f"facts of the registry ({sorted(self.facts)})")
         self._entries: dict[str, T] = {}
-        self._discovered = package is None
-        _REGISTRIES.append(self)
-
-    def _discover(self) -> None:
-        """Import the modules of `package` once, which register the bundled entries."""
-        if self._discovered:
-            return
-        # Set first: a module imported here may read the registry while it registers.
-        self._discovered = True
-        assert self.package is not None
-        try:
-            folder = importlib.import_module(self.package).__path__
-            for module in sorted(info.name for info in pkgutil.iter_modules(folder)):
-                if not module.startswith("_"):
-                    importlib.import_module(f"{self.package}.{module}")
-        except BaseException:
-            # A bundled module that fails to import must fail every read, not leave the
-            # registry silently short of its entries.
-            self._discovered = False
-            raise
 
     @property
-    def _sorted(self) -> dict[str, T]:
-        self._discover()
-        return {name: self._entries[name] for name in sorted(self._entries, key=_natural)}
+    def bundled(self) -> Mapping[str, Bundled]:
+        """The declared bundled entries by name."""
+        return self._bundled
+
+    def _names(self) -> list[str]:
+        return sorted(self._bundled.keys() | self._entries.keys(), key=_natural)
+
+    def _load(self, name: str) -> T:
+        """Import the module of the bundled entry `name`, which registers it.
+
+        Raises:
+            ImportError: If the module does not register it (its declaration went stale).
+        """
+        declared = self._bundled[name]
+        module = importlib.import_module(declared.module)
+        if name not in self._entries or not hasattr(module, declared.attribute):
+            raise ImportError(f"bundled {self.kind} {name!r} is declared as {declared.target}, "
+                              f"which does not register it")
+        return self._entries[name]
 
     @overload
     def register(self, name: str) -> Callable[[V], V]: ...
@@ -111,20 +146,39 @@ class Registry(Mapping[str, T], Generic[T]):
         decorates (a class or a function) and returns it unchanged.
 
         Raises:
-            ValueError: If `name` is already registered.
+            ValueError: If `name` is already registered, or is a bundled entry's name and this
+                is not the import of its module.
+            TypeError: If `value` is an abstract class (naming the methods it leaves undefined).
         """
         if value is ...:
             return lambda decorated: self.register(name, decorated)
-        if name in self._entries:
+        declared = self._bundled.get(name)
+        # A bundled entry registers while its module is being imported, the one moment the
+        # module is in sys.modules and the name not yet registered.
+        if name in self._entries or (declared is not None
+                                     and declared.module not in sys.modules):
             raise ValueError(f"{self.kind} {name!r} is already registered; give it another name")
+        if inspect.isclass(value):
+            self.check_concrete(name, value)
         self._entries[name] = value
         return value
+
+    def check_concrete(self, name: str, cls: type) -> None:
+        """Refuse an abstract class at its registration, not when it is first used.
+
+        Raises:
+            TypeError: If `cls` is abstract, naming the methods it leaves undefined.
+        """
+        if inspect.isabstract(cls):
+            raise TypeError(f"{self.kind} {name!r} is abstract: it does not define "
+                            f"{', '.join(abstract_methods(cls))}")
 
     def register_named(self, cls: N) -> N:
         """Class decorator: registers `cls` under its `name` attribute and returns it.
 
         Raises:
             ValueError: If a class of that name is already registered.
+            TypeError: If `cls` is abstract.
         """
         return self.register(cls.name)(cls)
 
@@ -136,42 +190,37 @@ class Registry(Mapping[str, T], Generic[T]):
         """
         entry = self[name]
         del self._entries[name]
+        self._bundled.pop(name, None)
         return entry
 
+    def fact(self, name: str, key: str) -> Any:
+        """The attribute `key` (one of `facts`) of the entry `name`: from its declaration for a
+        bundled entry (no import), else from the entry.
+
+        Raises:
+            UnknownNameError: If no entry has that name.
+        """
+        declared = self._bundled.get(name)
+        if declared is not None and name not in self._entries:
+            return declared.facts.get(key, self.facts[key])
+        return getattr(self[name], key)
+
     def __getitem__(self, name: str) -> T:
-        self._discover()
-        try:
+        if isinstance(name, str) and name in self._entries:
             return self._entries[name]
-        except (KeyError, TypeError):
-            raise UnknownNameError(f"unknown {self.kind} {name!r}; allowed: "
-                                   f"{', '.join(self._sorted)}") from None
+        if isinstance(name, str) and name in self._bundled:
+            return self._load(name)
+        raise UnknownNameError(f"unknown {self.kind} {name!r}; allowed: "
+                               f"{', '.join(self._names())}")
 
     def __contains__(self, name: object) -> bool:
-        self._discover()
-        return isinstance(name, str) and name in self._entries
+        return isinstance(name, str) and (name in self._entries or name in self._bundled)
 
     def __iter__(self) -> Iterator[str]:
-        return iter(list(self._sorted))
+        return iter(self._names())
 
     def __len__(self) -> int:
-        self._discover()
-        return len(self._entries)
+        return len(self._names())
 
     def __repr__(self) -> str:
-        return f"Registry({self.kind!r}: {', '.join(self._sorted)})"
-
-
-@contextlib.contextmanager
-def bundled_entries_first() -> Iterator[None]:
-    """Around the import of entries from outside the bundled packages (a plugin's): at its end,
-    each registry it added to reads its bundled entries, so that a bundled name it took is
-    refused now, while its import is the one running, rather than later, in a bundled module.
-
-    Raises:
-        ValueError: If a bundled entry has a name registered in the block.
-    """
-    sizes = {id(registry): len(registry._entries) for registry in _REGISTRIES}
-    yield
-    for registry in list(_REGISTRIES):
-        if len(registry._entries) != sizes.get(id(registry), 0):
-            registry._discover()
+        return f"Registry({self.kind!r}: {', '.join(self._names())})"

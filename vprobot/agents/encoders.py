@@ -2,10 +2,10 @@
 
 An entry says which network an encoder is, which of its settings it takes and which algorithms
 it serves. A bundled encoder is a module of `vprobot.agents.extractors` holding its network and
-its registration (`ENCODERS` imports them all when first read, and with them torch); one from
-outside is a plugin (`vprobot.plugins`). This module itself imports no torch, and the config
-does not read `ENCODERS`: `check_encoder` checks `agent.encoder` wherever the agent section is
-used, before any work starts.
+its registration (declared in `ENCODERS`, which imports the module, and with it torch, on the
+first lookup of its name); one from outside is a plugin (`vprobot.plugins`). This module itself
+imports no torch, and the config does not read `ENCODERS`: `check_encoder` checks
+`agent.encoder` wherever the agent section is used, before any work starts.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from vprobot.config import check_registered
-from vprobot.registry import Registry
+from vprobot.registry import Bundled, Registry
 from vprobot.schema import ConfigError
 
 if TYPE_CHECKING:
@@ -44,7 +44,12 @@ class Encoder:
     algorithms: tuple[str, ...] = ("sac", "ppo")
 
 
-ENCODERS: Registry[Encoder] = Registry("encoder", package="vprobot.agents.extractors")
+ENCODERS: Registry[Encoder] = Registry("encoder", bundled={
+    "candidates": Bundled("vprobot.agents.extractors.candidates:CANDIDATES"),
+    "pcn": Bundled("vprobot.agents.extractors.pcn:PCN"),
+    "pointnet": Bundled("vprobot.agents.extractors.pointnet:POINTNET"),
+    "sphere": Bundled("vprobot.agents.extractors.sphere_map:SPHERE"),
+})
 """Every encoder by name, one module each in `vprobot.agents.extractors`."""
 
 

@@ -3,8 +3,10 @@
 Each command runs `RUNS` times in a fresh interpreter, as the `vprobot` script runs it
 (`from vprobot.cli import main`), timed from start to exit; the figures are the medians, beside
 that of a bare interpreter (`python -c pass`), the floor no command goes below. The target is
-`vprobot --help` in at most 0.3 s: the parser is built from light modules only
-(`tests/test_cli.py` checks that it imports neither MuJoCo nor torch, trimesh or Ray).
+`vprobot --help`, `plan --help` and `evaluate --help` in at most 0.3 s: the parser is built
+from light modules only, and the registries list their bundled entries without importing them
+(`tests/test_cli.py` checks that these import neither MuJoCo nor torch, trimesh, scipy.spatial
+or Ray).
 """
 
 from __future__ import annotations
@@ -17,10 +19,11 @@ from collections.abc import Sequence
 from typing import Any
 
 RUNS = 7
-COMMANDS = {"help": (("--help",), 0), "evaluate_help": (("evaluate", "--help"), 0),
-            "unknown_command": (("evalute",), 2)}
-"""What is timed, with the exit code it must end with: the overview, a command's help (which
-lists the stop rules, and so imports them) and a mistyped command (an error before any work)."""
+COMMANDS = {"help": (("--help",), 0), "plan_help": (("plan", "--help"), 0),
+            "evaluate_help": (("evaluate", "--help"), 0), "unknown_command": (("evalute",), 2)}
+"""What is timed, with the exit code it must end with: the overview, the helps of the commands
+that list the planners and stop rules (from their registries' declarations, importing none)
+and a mistyped command (an error before any work)."""
 _SCRIPT = "import sys\nfrom vprobot.cli import main\nsys.exit(main())\n"
 """What the `vprobot` console script runs."""
 

@@ -230,8 +230,8 @@ def add_stop(sub: argparse.ArgumentParser,
         from vprobot.stopping.rules import STOPS, stop_names
 
         rules = many() if callable(many) else many
-        described = [f"{name}: {cls.description}" for name, cls in STOPS.items()
-                     if cls.description]
+        described = [f"{name}: {STOPS.fact(name, 'description')}" for name in STOPS
+                     if STOPS.fact(name, "description")]
         return (f"when to stop{'' if rules is None else ' (each rule in turn)'}: "
                 f"{', '.join(stop_names())}; {', '.join(described)} "
                 f"(docs/planners.md#stop-rules); default: "

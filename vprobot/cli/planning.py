@@ -22,14 +22,13 @@ from vprobot.cli.common import (
     planner_name,
 )
 from vprobot.outputs import VIDEO_SUFFIXES, check_output_file, check_output_folder
+from vprobot.planners.base import MAX_VIEWS, counted_planners, evaluated_planners, planner_names
 
 PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
 """Options that choose what `plan` or `render` plans; a replayed `--plan` fixes them all."""
 
 
 def _planner_help() -> str:
-    from vprobot.planners.runner import planner_names
-
     return (f"{', '.join(planner_names())}: agent is the bundled trained "
             f"agent, agent:NAME another bundled one (cpu: motors only), "
             f"agent:PATH a training run or model .zip, agent~K the nearest of "
@@ -38,8 +37,6 @@ def _planner_help() -> str:
 
 
 def _planners_help() -> str:
-    from vprobot.planners.runner import counted_planners, evaluated_planners, planner_names
-
     return (f"planner names: {', '.join(planner_names())}; uniform<k>: k fixed views, "
             f"{' / '.join(f'{name}<N>' for name in counted_planners())} with N views, nbv:GAIN "
             f"nbv ranking by another gain, nbv@RULE nbv stopping itself by a --stop rule, "
@@ -49,8 +46,6 @@ def _planners_help() -> str:
 
 
 def _views_help() -> str:
-    from vprobot.planners.runner import counted_planners
-
     return (f"fixed number of views ({', '.join(counted_planners())}); "
             f"default: until the coverage goal")
 
@@ -126,8 +121,6 @@ def add_evaluate(commands: Commands) -> None:
 
 def _view_count(text: str) -> int:
     """An argparse type: a fixed number of views, 1..MAX_VIEWS."""
-    from vprobot.planners.base import MAX_VIEWS
-
     return number(int, 0, True, f"an integer in 1..{MAX_VIEWS}", MAX_VIEWS)(text)
 
 
@@ -222,7 +215,6 @@ def command_evaluate(args: argparse.Namespace) -> int:
     """Compare planners on one episode list; write evaluation.md, .csv, episodes.json and the
     coverage curves plot."""
     from vprobot.evaluation import EPISODES_NAME, PLOT_NAME, evaluate, evaluation_episodes
-    from vprobot.planners.runner import evaluated_planners
 
     check_output_folder(args.out, "--out")
     config = config_of(args)

@@ -1,7 +1,8 @@
 """Seeded, parametric families of mechanical parts besides starter motors (issue 20).
 
 Each family is one module with a `PartFamily` subclass that registers itself in `FAMILIES`
-(`@register_family`), which imports every module of this package when first read. An instance
+(`@register_family`), which declares them and imports one on the first lookup of its name. An
+instance
 is fixed by (family, seed): `FAMILIES[name].instance(seed)`.
 """
 

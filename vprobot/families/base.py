@@ -16,7 +16,7 @@ from typing import ClassVar, TypeVar
 import numpy as np
 import trimesh
 
-from vprobot.registry import Registry
+from vprobot.registry import Bundled, Registry
 
 Values = Mapping[str, float]
 """Parameter values of one instance by name (integer parameters hold ints)."""
@@ -110,9 +110,22 @@ class PartFamily(abc.ABC):
         return Instance(self.name, seed, values, mesh)
 
 
-FAMILIES: Registry[PartFamily] = Registry("part family", package="vprobot.families")
-"""Every family by name (one instance each), in name order: the bundled ones (the modules of
-this package) and those of plugins."""
+FAMILIES: Registry[PartFamily] = Registry("part family", bundled={
+    "bracket": Bundled("vprobot.families.bracket:Bracket"),
+    "flange": Bundled("vprobot.families.flange:Flange"),
+    "housing": Bundled("vprobot.families.housing:Housing"),
+    "lever": Bundled("vprobot.families.lever:Lever"),
+    "manifold": Bundled("vprobot.families.manifold:Manifold"),
+    "pipe_fitting": Bundled("vprobot.families.pipe_fitting:PipeFitting"),
+    "procedural": Bundled("vprobot.families.procedural:Procedural"),
+    "pulley": Bundled("vprobot.families.pulley:Pulley"),
+    "spur_gear": Bundled("vprobot.families.spur_gear:SpurGear"),
+    "stepped_shaft": Bundled("vprobot.families.stepped_shaft:SteppedShaft"),
+    "valve_body": Bundled("vprobot.families.valve_body:ValveBody"),
+})
+"""Every family by name (one instance each), in name order: the bundled ones (declared here,
+each a module of this package; tests/test_registries.py checks this index against the modules)
+and those of plugins."""
 
 F = TypeVar("F", bound=type[PartFamily])
 
@@ -122,6 +135,8 @@ def register_family(cls: F) -> F:
 
     Raises:
         ValueError: If a family of that name is already registered.
+        TypeError: If the family is abstract.
     """
+    FAMILIES.check_concrete(cls.name, cls)
     FAMILIES.register(cls.name, cls())
     return cls

@@ -1,8 +1,8 @@
 """View planners behind one interface: random agents, H_rec, B_SCP, uniform views, NBV, an agent
 and a greedy oracle.
 
-`base` holds the interface and the registry `PLANNERS`, which imports every module of this
-package when first read, so that a bundled planner is one module that registers itself;
+`base` holds the interface and the registry `PLANNERS`, which declares the bundled planners
+(one module each, which registers itself) and imports one on the first lookup of its name;
 `runner` builds planners by name (`make_planner`), plays one episode of a planner (`run`) and
 plans one motor end to end (`plan_motor`, the `vprobot plan` job).
 

@@ -6,8 +6,9 @@ goal, view budget); planners that compute a whole plan up front (`PlanPlanner`) 
 view by view.
 
 Every planner registers its class in `PLANNERS` under its `name` (`register_planner`): a bundled
-one is a module of this package, which the registry imports when first read; the runner builds
-planners by name from there (`vprobot.planners.runner.make_planner`).
+one is a module of this package, declared in `PLANNERS` with what listing it needs and imported
+on the first lookup of its name; the runner builds planners by name from there
+(`vprobot.planners.runner.make_planner`).
 """
 
 from __future__ import annotations
@@ -16,14 +17,15 @@ import abc
 import dataclasses
 from typing import TYPE_CHECKING, ClassVar
 
-import numpy as np
-
-from vprobot.config import Config
-from vprobot.episode import Episode, ViewRequest
-from vprobot.registry import Registry
+from vprobot.registry import Bundled, Registry
 
 if TYPE_CHECKING:
-    # candidates builds on this module's interface.
+    # Types only: the planners' names are listed (`vprobot plan --help`) without the episode's
+    # simulation, and candidates builds on this module's interface.
+    import numpy as np
+
+    from vprobot.config import Config
+    from vprobot.episode import Episode, ViewRequest
     from vprobot.planners.candidates import CandidateViews
 
 
@@ -123,9 +125,54 @@ class PlanPlanner(Planner):
         return self._queue.pop(0) if self._queue else None
 
 
-PLANNERS: Registry[type[Planner]] = Registry("planner", package="vprobot.planners")
-"""Every planner class by name, in name order: the bundled ones (the modules of this package)
-and those of plugins."""
+_NBV_PATTERN = r"(?::(?P<gain>\w+))?(?:@(?P<stop>.+))?"
+
+PLANNERS: Registry[type[Planner]] = Registry(
+    "planner",
+    facts={"pattern": "", "usage": "", "counted": False, "evaluated": ()},
+    bundled={
+        "agent": Bundled("vprobot.planners.agent:AgentPlanner",
+                         pattern=r"(?:~(?P<nearest>[1-9]\d*))?(?::(?P<source>.+))?",
+                         usage="agent, agent:NAME, agent:PATH, agent~K", counted=True,
+                         evaluated=("agent",)),
+        "bscp": Bundled("vprobot.planners.bscp:SetCoverPlanner", counted=True,
+                        evaluated=("bscp", "bscp4", "bscp5")),
+        "hrec": Bundled("vprobot.planners.hrec:BoxFacesPlanner", evaluated=("hrec",)),
+        "nbv": Bundled("vprobot.planners.nbv:VolumetricPlanner", pattern=_NBV_PATTERN,
+                       evaluated=("nbv", "nbv@grid")),
+        "nbv_camera": Bundled("vprobot.planners.nbv_camera:CameraVolumetricPlanner",
+                              pattern=_NBV_PATTERN),
+        "optimum": Bundled("vprobot.planners.optimum:OptimumPlanner", counted=True),
+        "oracle": Bundled("vprobot.planners.oracle:OraclePlanner", evaluated=("oracle",)),
+        "random1": Bundled("vprobot.planners.random_views:Random1Planner",
+                           evaluated=("random1",)),
+        "random2": Bundled("vprobot.planners.random_views:Random2Planner",
+                           evaluated=("random2",)),
+        "uniform": Bundled("vprobot.planners.uniform:UniformPlanner",
+                           pattern=r"(?P<count>[1-9]\d*)", usage="uniform<k>",
+                           evaluated=("uniform4", "uniform5", "uniform6")),
+    })
+"""Every planner class by name, in name order: the bundled ones (declared here, each a module of
+this package; tests/test_registries.py checks this index against the modules) and those of
+plugins."""
 
 register_planner = PLANNERS.register_named
 """Class decorator: registers a planner under its `name`."""
+
+
+def planner_names() -> list[str]:
+    """The planners as messages list them, in name order (`uniform<k>` stands for uniform1,
+    uniform2, ...: k fixed views); imports no planner."""
+    return [PLANNERS.fact(name, "usage") or name for name in PLANNERS]
+
+
+def counted_planners() -> list[str]:
+    """The planners that take a fixed number of views (`bscp5`, `--views 5`)."""
+    return [name for name in PLANNERS if PLANNERS.fact(name, "counted")]
+
+
+def evaluated_planners() -> list[str]:
+    """What `vprobot evaluate` runs by default: each planner's `evaluated` names, in the
+    planners' name order."""
+    return list(dict.fromkeys(default for name in PLANNERS
+                              for default in PLANNERS.fact(name, "evaluated")))

@@ -30,37 +30,27 @@ from vprobot.kinematics.trajectory import CycleTime
 from vprobot.occupancy import GridSettings
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan_export import episode_document
-from vprobot.planners.base import PLANNERS, Planner, Proof, check_views
+from vprobot.planners.base import (
+    PLANNERS,
+    Planner,
+    Proof,
+    check_views,
+    counted_planners,
+    planner_names,
+)
 from vprobot.planners.candidates import CandidateViews
 from vprobot.stopping.estimator import load_estimator
 from vprobot.stopping.rules import StopRule, make_stop_rule
 from vprobot.stopping.rules.estimate import view_estimates
 
 
-def planner_names() -> list[str]:
-    """The planners as messages list them, in name order (`uniform<k>` stands for uniform1,
-    uniform2, ...: k fixed views)."""
-    return [cls.usage or name for name, cls in PLANNERS.items()]
-
-
-def counted_planners() -> list[str]:
-    """The planners that take a fixed number of views (`bscp5`, `--views 5`)."""
-    return [name for name, cls in PLANNERS.items() if cls.counted]
-
-
-def evaluated_planners() -> list[str]:
-    """What `vprobot evaluate` runs by default: each planner's `evaluated` names, in the
-    planners' name order."""
-    return list(dict.fromkeys(name for cls in PLANNERS.values() for name in cls.evaluated))
-
-
 def _match(name: str) -> tuple[type[Planner], dict[str, str]] | None:
     """The planner class a name (without a view count) selects and its pattern's groups."""
-    for registered, cls in PLANNERS.items():
-        match = re.fullmatch(re.escape(registered) + cls.pattern, name)
+    for registered in PLANNERS:
+        match = re.fullmatch(re.escape(registered) + PLANNERS.fact(registered, "pattern"), name)
         if match is not None:
-            return cls, {key: value for key, value in match.groupdict().items()
-                         if value is not None}
+            return PLANNERS[registered], {key: value for key, value
+                                         in match.groupdict().items() if value is not None}
     return None
 
 

@@ -3,8 +3,8 @@
 Dense rewards are paid every step from the coverage gain dCOV_t, the remaining coverage before
 the step COV_rem and the travel cost k_t; sparse rewards pay 0 until the episode's last step T
 and then a function of the final coverage COV_T, T and the summed travel k_cum. A new reward is
-a module of this package (or a plugin, `vprobot.plugins`) that registers one more
-`RewardFormula` in `REWARDS` (docs/extending.md#reward).
+a module of this package, declared in `REWARDS` (or a plugin, `vprobot.plugins`), that registers
+one more `RewardFormula` in `REWARDS` (docs/extending.md#reward).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-from vprobot.registry import Registry
+from vprobot.registry import Bundled, Registry
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,5 +37,6 @@ class RewardFormula:
     goal_only: bool = False
 
 
-REWARDS: Registry[RewardFormula] = Registry("reward", package="vprobot.rewards")
+REWARDS: Registry[RewardFormula] = Registry("reward", bundled={
+    f"R{number}": Bundled(f"vprobot.rewards.r{number}:R{number}") for number in range(1, 15)})
 """Every reward by name (`env.reward`): R1-R14 of the paper's Table 3, one module each here."""

@@ -2,5 +2,5 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R1", RewardFormula(
+R1 = REWARDS.register("R1", RewardFormula(
     True, lambda delta, remaining, travel: delta))

@@ -2,5 +2,5 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R10", RewardFormula(
+R10 = REWARDS.register("R10", RewardFormula(
     False, lambda coverage, steps, travel_sum: coverage / steps))

@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R11", RewardFormula(
+R11 = REWARDS.register("R11", RewardFormula(
     False, lambda coverage, steps, travel_sum: coverage / travel_sum,
     uses_travel=True))

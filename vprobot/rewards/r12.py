@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R12", RewardFormula(
+R12 = REWARDS.register("R12", RewardFormula(
     False, lambda coverage, steps, travel_sum: coverage / (steps * travel_sum),
     uses_travel=True))

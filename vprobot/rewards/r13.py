@@ -2,5 +2,5 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R13", RewardFormula(
+R13 = REWARDS.register("R13", RewardFormula(
     False, lambda coverage, steps, travel_sum: 1.0 / steps, goal_only=True))

@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R14", RewardFormula(
+R14 = REWARDS.register("R14", RewardFormula(
     False, lambda coverage, steps, travel_sum: 1.0 / (steps * travel_sum),
     uses_travel=True, goal_only=True))

@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R2", RewardFormula(
+R2 = REWARDS.register("R2", RewardFormula(
     True, lambda delta, remaining, travel: delta,
     no_gain_penalty=True))

@@ -2,5 +2,5 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R3", RewardFormula(
+R3 = REWARDS.register("R3", RewardFormula(
     True, lambda delta, remaining, travel: delta / remaining))

@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R4", RewardFormula(
+R4 = REWARDS.register("R4", RewardFormula(
     True, lambda delta, remaining, travel: delta / remaining,
     no_gain_penalty=True))

@@ -2,5 +2,5 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R5", RewardFormula(
+R5 = REWARDS.register("R5", RewardFormula(
     True, lambda delta, remaining, travel: delta / travel, uses_travel=True))

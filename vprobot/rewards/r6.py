@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R6", RewardFormula(
+R6 = REWARDS.register("R6", RewardFormula(
     True, lambda delta, remaining, travel: delta / remaining / travel,
     uses_travel=True))

@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R7", RewardFormula(
+R7 = REWARDS.register("R7", RewardFormula(
     True, lambda delta, remaining, travel: delta / travel, uses_travel=True,
     no_gain_penalty=True))

@@ -2,6 +2,6 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R8", RewardFormula(
+R8 = REWARDS.register("R8", RewardFormula(
     True, lambda delta, remaining, travel: delta / remaining / travel,
     uses_travel=True, no_gain_penalty=True))

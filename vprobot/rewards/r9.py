@@ -2,5 +2,5 @@
 
 from vprobot.rewards.base import REWARDS, RewardFormula
 
-REWARDS.register("R9", RewardFormula(
+R9 = REWARDS.register("R9", RewardFormula(
     False, lambda coverage, steps, travel_sum: coverage))

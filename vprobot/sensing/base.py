@@ -6,9 +6,9 @@ meets first within range, exactly where it lies. The model then decides which of
 points and where (`SensingModel.measure`); its other methods say what the rest of vprobot needs
 of it: the figures it takes from the `sensor` section, its deterministic part (what the ground
 truth measures with), what of it joins the ground truth's cache key and the reductions that tell
-a frame's lost points apart. A new model is a module of this package (or a plugin,
-`vprobot.plugins`) with a `SensingModel` subclass registered in `SENSING_MODELS`
-(docs/extending.md#sensing-model).
+a frame's lost points apart. A new model is a module of this package, declared in
+`SENSING_MODELS` (or a plugin, `vprobot.plugins`), with a `SensingModel` subclass registered
+there (docs/extending.md#sensing-model).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
-from vprobot.registry import Registry
+from vprobot.registry import Bundled, Registry
 from vprobot.schema import ConfigError
 
 if TYPE_CHECKING:
@@ -125,7 +125,10 @@ class SensingModel:
         return ()
 
 
-SENSING_MODELS: Registry[type[SensingModel]] = Registry("sensing model", package="vprobot.sensing")
+SENSING_MODELS: Registry[type[SensingModel]] = Registry("sensing model", bundled={
+    "ideal": Bundled("vprobot.sensing.ideal:IdealSensing"),
+    "structured_light": Bundled("vprobot.sensing.structured_light:StructuredLight"),
+})
 """Every sensing model by name (`sensor.sensing`, `--sensing`), one module each here."""
 
 

@@ -1,5 +1,6 @@
 """The encoders' networks, one module each, registering itself in
-`vprobot.agents.encoders.ENCODERS` (which imports every module here when first read): the
+`vprobot.agents.encoders.ENCODERS` (which declares them and imports one on the first lookup of
+its name): the
 point-cloud feature extractors of `sac` and `ppo` (stable-baselines3's `BaseFeaturesExtractor`,
 on `base.PointCloudExtractor`) and DQN's `candidates` policy.
 

@@ -8,7 +8,7 @@ so far load only from there.
 from vprobot.agents.candidate_q import CandidatePolicy
 from vprobot.agents.encoders import ENCODERS, Encoder
 
-ENCODERS.register("candidates", Encoder(
+CANDIDATES = ENCODERS.register("candidates", Encoder(
     CandidatePolicy,
     # The head of the views left where the fit has their labels: a cover's (issue 46).
     settings=lambda agent: {"net_arch": list(agent.net_arch),

@@ -31,4 +31,4 @@ class PCNExtractor(PointCloudExtractor):
         return self.second(torch.cat([local, pooled], dim=1)).max(dim=2).values
 
 
-ENCODERS.register("pcn", Encoder(PCNExtractor))
+PCN = ENCODERS.register("pcn", Encoder(PCNExtractor))

@@ -55,4 +55,4 @@ class PointNetExtractor(PointCloudExtractor):
         return self.encoder(points.transpose(1, 2)).max(dim=2).values
 
 
-ENCODERS.register("pointnet", Encoder(PointNetExtractor))
+POINTNET = ENCODERS.register("pointnet", Encoder(PointNetExtractor))

@@ -116,6 +116,6 @@ class SphereMapExtractor(PointCloudExtractor):
         return maps
 
 
-ENCODERS.register("sphere", Encoder(
+SPHERE = ENCODERS.register("sphere", Encoder(
     SphereMapExtractor,
     settings=lambda agent: {"bins": agent.sphere_bins, "features": agent.sphere_features}))

@@ -1,5 +1,5 @@
-"""The export formats, one module each, registered in `FORMATS` (`base`), which imports every
-module of this package when first read: `trajectory` (JSON), `csv`, `urscript`, `ros2`,
+"""The export formats, one module each, registered in `FORMATS` (`base`), which declares them
+and imports one on the first lookup of its name: `trajectory` (JSON), `csv`, `urscript`, `ros2`,
 `acquisitions`."""
 
 from vprobot.export.formats.base import (

@@ -10,7 +10,7 @@ from typing import Any
 from vprobot.config import load_config, replace
 from vprobot.export import EXPORT_DT_S
 from vprobot.export.motion import PlanMotion, plan_motion, require_robot
-from vprobot.registry import Registry
+from vprobot.registry import Bundled, Registry
 from vprobot.render.replay import plan_robot, read_plan
 from vprobot.scene import Cell
 
@@ -35,9 +35,26 @@ class ExportFormat:
     write: Writer
 
 
-FORMATS: Registry[ExportFormat] = Registry("export format", package="vprobot.export.formats")
-"""Every export format by name, in name order: the bundled ones (the modules of this package)
-and those of plugins."""
+_PACKAGE = "vprobot.export.formats"
+
+FORMATS: Registry[ExportFormat] = Registry(
+    "export format",
+    facts={"suffix": "", "description": ""},
+    bundled={
+        "acquisitions": Bundled(f"{_PACKAGE}.acquisitions:acquisitions_json", suffix=".json",
+                                description="the acquisitions' times, joints and sensor poses"),
+        "csv": Bundled(f"{_PACKAGE}.csv:trajectory_csv", suffix=".csv",
+                       description="the sampled joint trajectory as CSV"),
+        "ros2": Bundled(f"{_PACKAGE}.ros2:follow_joint_trajectory_yaml", suffix=".yaml",
+                        description="a ROS 2 FollowJointTrajectory goal as YAML"),
+        "trajectory": Bundled(f"{_PACKAGE}.trajectory:trajectory_json", suffix=".json",
+                              description="the sampled joint trajectory as JSON"),
+        "urscript": Bundled(f"{_PACKAGE}.urscript:urscript", suffix=".script",
+                            description="a URScript program (UR robots)"),
+    })
+"""Every export format by name, in name order: the bundled ones (declared here, each a module of
+this package; tests/test_registries.py checks this index against the modules) and those of
+plugins."""
 
 
 def register_format(name: str, suffix: str, description: str) -> Callable[[Writer], Writer]:

@@ -3,27 +3,30 @@
 `goal` is the simulator's stop at the coverage goal (the default); `estimate` stops when the
 model-free coverage estimate says the goal is reached with a chosen confidence; `grid` when the
 surface seen stops growing; `views:N` after N acquisitions; `agent` leaves it to an agent's
-learned stop action. One module per rule, registered in `STOPS` (`base`), which imports every
-module of this package when first read; the runner asks the rule before each request
-(`vprobot.planners.runner`), and `nbv@RULE` asks its rule itself before each view
-(`vprobot.planners.nbv`).
+learned stop action. One module per rule, registered in `STOPS` (`base`), which declares the
+bundled ones and imports a rule's module on the first lookup of its name; the runner asks the
+rule before each request (`vprobot.planners.runner`), and `nbv@RULE` asks its rule itself
+before each view (`vprobot.planners.nbv`).
 """
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from vprobot.config import Config
 from vprobot.stopping.rules.base import STOPS, StopRule, register_stop
+
+if TYPE_CHECKING:
+    # Types only: the rules are listed (`--help`) without the config's imports.
+    from vprobot.config import Config
 
 __all__ = ["STOPS", "StopRule", "make_stop_rule", "parse_stop", "register_stop", "stop_names"]
 
 
 def stop_names() -> list[str]:
     """The stop rules as messages list them, in name order."""
-    return [cls.usage or name for name, cls in STOPS.items()]
+    return [STOPS.fact(name, "usage") or name for name in STOPS]
 
 
 def parse_stop(text: str) -> tuple[type[StopRule], dict[str, Any]]:
@@ -33,10 +36,11 @@ def parse_stop(text: str) -> tuple[type[StopRule], dict[str, Any]]:
         ValueError: For an unknown rule or a bad value; the message names it and lists the
             accepted forms.
     """
-    for name, cls in STOPS.items():
-        match = re.fullmatch(re.escape(name) + cls.pattern, text)
+    for name in STOPS:
+        match = re.fullmatch(re.escape(name) + STOPS.fact(name, "pattern"), text)
         if match is None:
             continue
+        cls = STOPS[name]
         groups = {key: value for key, value in match.groupdict().items() if value is not None}
         try:
             return cls, cls.options(**groups)

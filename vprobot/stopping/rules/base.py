@@ -13,11 +13,12 @@ import abc
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from vprobot.config import Config
-from vprobot.registry import Registry
+from vprobot.registry import Bundled, Registry
 
 if TYPE_CHECKING:
-    # The planners' runner builds on this interface.
+    # Types only: the rules are listed (`--help`) without the config's imports, and the
+    # planners' runner builds on this interface.
+    from vprobot.config import Config
     from vprobot.episode import Episode
     from vprobot.planners.base import Planner
 
@@ -84,9 +85,27 @@ class StopRule(abc.ABC):
         by `nbv@RULE` before each of its views)."""
 
 
-STOPS: Registry[type[StopRule]] = Registry("stop rule", package="vprobot.stopping.rules")
-"""Every stop rule class by name, in name order: the bundled ones (the modules of this package)
-and those of plugins."""
+STOPS: Registry[type[StopRule]] = Registry(
+    "stop rule",
+    facts={"pattern": "", "usage": "", "description": ""},
+    bundled={
+        "agent": Bundled("vprobot.stopping.rules.agent:AgentStop",
+                         description="the agent's learned stop action"),
+        "estimate": Bundled(
+            "vprobot.stopping.rules.estimate:EstimateStop", pattern=r"(?::(?P<confidence>.*))?",
+            usage="estimate[:C] (0 < C < 1, default 0.95)",
+            description="the model-free coverage estimate reaches the goal with confidence C"),
+        "goal": Bundled("vprobot.stopping.rules.goal:GoalStop",
+                        description="the simulator's stop at the coverage goal"),
+        "grid": Bundled("vprobot.stopping.rules.grid:GridStop",
+                        description="the seen surface stops growing"),
+        "views": Bundled("vprobot.stopping.rules.views:ViewsStop",
+                         pattern=r"(?::(?P<count>.*))?", usage="views:N (N >= 1)",
+                         description="after N acquisitions"),
+    })
+"""Every stop rule class by name, in name order: the bundled ones (declared here, each a module
+of this package; tests/test_registries.py checks this index against the modules) and those of
+plugins."""
 
 register_stop = STOPS.register_named
 """Class decorator: registers a stop rule under its `name`."""
