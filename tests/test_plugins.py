@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import importlib.metadata
+import json
 import os
 import signal
 import subprocess
@@ -13,10 +14,12 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from vprobot import plugins
 from vprobot.cli import main
+from vprobot.config import load_config
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.base import PLANNERS, planner_names
 
@@ -184,3 +187,26 @@ def test_an_interrupt_while_a_plugin_loads_is_the_commands_interruption(
         check=False, timeout=120,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert (ran.returncode, ran.stderr) == (130, "vprobot: interrupted\n")
+
+
+def test_the_planner_of_docs_extending_runs_as_a_plugin_through_plan(
+        tmp_path: Path, fresh_plugins: list[str]) -> None:
+    """The whole planner docs/extending.md shows, copied from its Planner section, plans."""
+    section = (ROOT / "docs" / "extending.md").read_text().split("\n## Planner\n")[1]
+    code = section.split("\n## ")[0].split("```python\n")[1].split("```")[0]
+    plugin = tmp_path / "circle.py"
+    plugin.write_text(code)
+    fresh_plugins.append("circle")
+    out = tmp_path / "plan.json"
+    assert main(["--plugin", str(plugin), "plan", "--planner", "circle", "--carrier", "free",
+                 "--no-summary", "--out", str(out)]) == 0
+    views = json.loads(out.read_text())["views"]
+    # Four views on a level circle of radius d / sqrt(2) (d: the working distance), each
+    # adding coverage.
+    positions = np.array([view["position"] for view in views])
+    radius = load_config().sensor.working_distance_m / np.sqrt(2.0)
+    assert positions.shape == (4, 3)
+    np.testing.assert_allclose(positions[:, 2], positions[0, 2])
+    np.testing.assert_allclose(np.linalg.norm(positions[:, :2] - positions[:, :2].mean(axis=0),
+                                              axis=1), radius)
+    assert np.all(np.diff([view["coverage"] for view in views]) > 0)
