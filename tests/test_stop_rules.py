@@ -21,11 +21,11 @@ from vprobot.config import Config, replace
 from vprobot.episode import MotorScene, episode_list, seeded_episode, write_episode_list
 from vprobot.occupancy import OccupancyGrid
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.planners.runner import PLAN_RAN_OUT, run
+from vprobot.planners.runner import PLAN_RAN_OUT, run, run_episode
 from vprobot.stop_studies.study import combinations, study_row
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, EstimateTracker, load_estimator
 from vprobot.stopping.features import FEATURES
-from vprobot.stopping.rules import make_stop_rule, parse_stop, stop_names
+from vprobot.stopping.rules import StopSubject, make_stop_rule, parse_stop, stop_names
 from vprobot.stopping.rules.estimate import EstimateStop
 
 RESOLUTION = (107, 75)
@@ -67,9 +67,8 @@ def test_parse_stop_reads_each_form() -> None:
 def test_the_agent_rule_needs_a_planner_with_a_learned_stop(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     rule = make_stop_rule("agent", CONFIG)
-    learned = types.SimpleNamespace(name="agent", decides_stop=True)
-    rule.bind(learned)  # type: ignore[arg-type]
-    assert learned.decides_stop  # the agent rule leaves its stop action in charge
+    rule.bind(StopSubject("agent", stops_at_goal=False, decides_stop=True))
+    assert rule.keeps_learned_stop  # the agent rule leaves its stop action in charge
     assert main(["plan", "--no-summary", "--planner", "nbv", "--stop", "agent", "--carrier", "free",
                  "--out", str(tmp_path / "plan.json")]) == 2
     err = capsys.readouterr().err
@@ -77,12 +76,29 @@ def test_the_agent_rule_needs_a_planner_with_a_learned_stop(
     assert "planner 'nbv' has none" in err and not (tmp_path / "plan.json").exists()
 
 
-def test_a_rule_other_than_goal_and_agent_takes_the_stop_from_a_learned_stop() -> None:
+class _Stopped(Exception):
+    """Ends a run at the planner's reset, once the rule has taken the planner on."""
+
+
+def test_a_rule_other_than_goal_and_agent_takes_the_stop_from_a_learned_stop(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Through the runner, which turns the planner's learned stop off (a rule sees the planner
+    only as a read-only `StopSubject`)."""
     for text, keeps in (("goal", True), ("agent", True), ("views:3", False), ("grid", False),
                         ("estimate", False)):
         planner = types.SimpleNamespace(name="agent", decides_stop=True, stops_at_goal=False)
-        make_stop_rule(text, CONFIG).bind(planner)  # type: ignore[arg-type]
-        assert planner.decides_stop == keeps, text
+        seen: list[bool] = []
+
+        def reset(episode: object, rng: object, planner: Any = planner,
+                  seen: list[bool] = seen) -> None:
+            seen.append(planner.decides_stop)
+            raise _Stopped
+
+        planner.reset = reset
+        with pytest.raises(_Stopped):
+            run_episode(planner, None, None, CONFIG, None,  # type: ignore[arg-type]
+                        make_stop_rule(text, CONFIG))
+        assert seen == [keeps], text
 
 
 def test_views_counts_acquisitions_only() -> None:

@@ -77,7 +77,7 @@ from vprobot.planners.runner import (
     run,
 )
 from vprobot.progress import showing_progress
-from vprobot.stopping.rules import make_stop_rule
+from vprobot.stopping.rules import StopSubject, make_stop_rule
 
 CURVE_VIEWS = 10
 """Requests (the initial view included) over which the coverage curve and its area run."""
@@ -447,7 +447,7 @@ def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
             _checked[motor] = mesh
     for label, name, views, stop in planners:
         if not make_stop_rule(stop, config, estimator).applies_to(
-                make_planner(name, config, views)):
+                StopSubject.of(make_planner(name, config, views))):
             raise ValueError(f"stop rule {stop!r} does not apply to planner {name!r} ({label})")
 
 

@@ -35,7 +35,7 @@ from vprobot.kinematics import SensorTarget
 from vprobot.occupancy import GAINS, VOXEL_M, Gain, GridSettings
 from vprobot.planners.base import Planner, register_planner
 from vprobot.planners.candidates import arm_hides_view
-from vprobot.stopping.rules import StopRule, make_stop_rule
+from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
 from vprobot.views import EXCLUDE_DEG as EXCLUDE_DEG
 from vprobot.views import band_candidates, offered, request_directions
 
@@ -81,7 +81,7 @@ class VolumetricPlanner(Planner):
         if stop != "goal":
             try:
                 self.stop_rule = make_stop_rule(stop, config)
-                self.stop_rule.bind(self)
+                self.stop_rule.bind(StopSubject.of(self))
             except ValueError as error:
                 raise ValueError(f"nbv@{stop}: {error}") from None
         self.stops_at_goal = self.stop_rule is None

@@ -40,7 +40,7 @@ from vprobot.planners.base import (
 )
 from vprobot.planners.candidates import CandidateViews
 from vprobot.stopping.estimator import load_estimator
-from vprobot.stopping.rules import StopRule, make_stop_rule
+from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
 from vprobot.stopping.rules.estimate import view_estimates
 
 
@@ -231,8 +231,11 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
     """
     if stop is None:
         stop = make_stop_rule("goal", config)
-    stop.bind(planner)
-    governed = stop.governs(planner)
+    stop.bind(StopSubject.of(planner))
+    if not stop.keeps_learned_stop:
+        # The rule decides: a learned stop action is no longer used.
+        planner.decides_stop = False
+    governed = stop.governs(StopSubject.of(planner))
     stop.reset()
     env = config.env
     planning = 0.0

@@ -15,13 +15,14 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from vprobot.stopping.rules.base import STOPS, StopRule, register_stop
+from vprobot.stopping.rules.base import STOPS, StopRule, StopSubject, register_stop
 
 if TYPE_CHECKING:
     # Types only: the rules are listed (`--help`) without the config's imports.
     from vprobot.config import Config
 
-__all__ = ["STOPS", "StopRule", "make_stop_rule", "parse_stop", "register_stop", "stop_names"]
+__all__ = ["STOPS", "StopRule", "StopSubject", "make_stop_rule", "parse_stop", "register_stop",
+           "stop_names"]
 
 
 def stop_names() -> list[str]:

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from vprobot.stopping.rules.base import StopRule, register_stop
+from vprobot.stopping.rules.base import StopRule, StopSubject, register_stop
 
 if TYPE_CHECKING:
     from vprobot.episode import Episode
-    from vprobot.planners.base import Planner
 
 
 @register_stop
@@ -17,11 +16,12 @@ class AgentStop(StopRule):
 
     name = "agent"
     description = "the agent's learned stop action"
+    keeps_learned_stop = True
 
-    def applies_to(self, planner: Planner) -> bool:
+    def applies_to(self, planner: StopSubject) -> bool:
         return planner.decides_stop
 
-    def bind(self, planner: Planner) -> None:
+    def bind(self, planner: StopSubject) -> None:
         if not self.applies_to(planner):
             raise ValueError(f"stop rule 'agent' needs an agent planner whose action has a stop "
                              f"(trained with env.stop_action, e.g. "

@@ -10,8 +10,9 @@ requests after the initial view). Every rule registers its class in `STOPS` unde
 from __future__ import annotations
 
 import abc
+import dataclasses
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from vprobot.registry import Bundled, Registry
 
@@ -20,7 +21,40 @@ if TYPE_CHECKING:
     # planners' runner builds on this interface.
     from vprobot.config import Config
     from vprobot.episode import Episode
-    from vprobot.planners.base import Planner
+
+
+class _Stoppable(Protocol):
+    """What `StopSubject.of` reads: a planner (`vprobot.planners.base.Planner`)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def stops_at_goal(self) -> bool: ...
+
+    @property
+    def decides_stop(self) -> bool: ...
+
+
+@dataclasses.dataclass(frozen=True)
+class StopSubject:
+    """What a stop rule reads of the planner it stops: a read-only view, so that a rule neither
+    changes the planner nor depends on the planners' layer above it.
+
+    Attributes:
+        name: The planner's name.
+        stops_at_goal: Whether the runner stops it at the coverage goal (a fixed plan runs out).
+        decides_stop: Whether it decides itself when to stop (an agent with a stop action).
+    """
+
+    name: str
+    stops_at_goal: bool
+    decides_stop: bool
+
+    @classmethod
+    def of(cls, planner: _Stoppable) -> StopSubject:
+        """The view of a planner as it is now."""
+        return cls(planner.name, planner.stops_at_goal, planner.decides_stop)
 
 
 class StopRule(abc.ABC):
@@ -32,12 +66,16 @@ class StopRule(abc.ABC):
             `options` (`views` takes `:(?P<count>.*)`: `views:5`); empty: the bare name only.
         usage: The rule as messages list it (`views:N (N >= 1)`); empty: `name`.
         description: When it stops, for `--help` (`after N acquisitions`).
+        keeps_learned_stop: Whether a planner's learned stop action stays in use under the rule
+            (`goal`, `agent`); under the others the rule decides, and the runner turns the
+            planner's off.
     """
 
     name: ClassVar[str]
     pattern: ClassVar[str] = ""
     usage: ClassVar[str] = ""
     description: ClassVar[str] = ""
+    keeps_learned_stop: ClassVar[bool] = False
 
     @classmethod
     def options(cls, **groups: str) -> dict[str, Any]:
@@ -55,13 +93,13 @@ class StopRule(abc.ABC):
         rules that estimate (None: the bundled one), `options` come from `options`."""
         return cls(**options)
 
-    def applies_to(self, planner: Planner) -> bool:
+    def applies_to(self, planner: StopSubject) -> bool:
         """Whether the rule can stop this planner (`agent` needs a learned stop)."""
         return True
 
-    def bind(self, planner: Planner) -> None:
-        """Take charge of the planner's stopping: a learned stop action is no longer used, the
-        rule decides (`goal` and `agent` keep it).
+    def bind(self, planner: StopSubject) -> None:
+        """Take on a planner for its episodes: refuse one the rule cannot stop (a rule that
+        keeps something of the planner notes it here).
 
         Raises:
             ValueError: If the rule does not apply to the planner.
@@ -69,9 +107,8 @@ class StopRule(abc.ABC):
         if not self.applies_to(planner):
             raise ValueError(f"stop rule {self.name!r} does not apply to planner "
                              f"{planner.name!r}")
-        planner.decides_stop = False
 
-    def governs(self, planner: Planner) -> bool:
+    def governs(self, planner: StopSubject) -> bool:
         """Whether the runner stops the planner (by this rule and the view budget) or leaves
         stopping to it."""
         return True

@@ -25,11 +25,10 @@ from vprobot.config import Config
 from vprobot.occupancy import EpisodeGrid
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, Stated, load_estimator
 from vprobot.stopping.features import CoverageFeatures, episode_features
-from vprobot.stopping.rules.base import StopRule, register_stop
+from vprobot.stopping.rules.base import StopRule, StopSubject, register_stop
 
 if TYPE_CHECKING:
     from vprobot.episode import Episode, ViewRecord
-    from vprobot.planners.base import Planner
 
 DEFAULT_CONFIDENCE = 0.95
 
@@ -83,7 +82,7 @@ class EstimateStop(StopRule):
               **options: Any) -> StopRule:
         return cls(config, load_estimator(estimator, config.sensor), **options)
 
-    def bind(self, planner: Planner) -> None:
+    def bind(self, planner: StopSubject) -> None:
         super().bind(planner)
         # The tracker notes a planner the estimate was not fit on.
         self.tracker = EstimateTracker(self.estimator, self.config, planner.name)

@@ -7,11 +7,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vprobot.config import Config
-from vprobot.stopping.rules.base import StopRule, register_stop
+from vprobot.stopping.rules.base import StopRule, StopSubject, register_stop
 
 if TYPE_CHECKING:
     from vprobot.episode import Episode
-    from vprobot.planners.base import Planner
 
 
 @register_stop
@@ -22,6 +21,7 @@ class GoalStop(StopRule):
 
     name = "goal"
     description = "the simulator's stop at the coverage goal"
+    keeps_learned_stop = True
 
     def __init__(self, goal: float):
         self.goal = goal
@@ -31,10 +31,7 @@ class GoalStop(StopRule):
               **options: Any) -> StopRule:
         return cls(config.env.coverage_goal)
 
-    def bind(self, planner: Planner) -> None:
-        """Leave the planner as it is."""
-
-    def governs(self, planner: Planner) -> bool:
+    def governs(self, planner: StopSubject) -> bool:
         return planner.stops_at_goal
 
     def check(self, episode: Episode) -> str | None:
