@@ -50,10 +50,12 @@ from vprobot.evaluation import (
 from vprobot.geometry import Pose
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
-from vprobot.planners.base import Proof
+from vprobot.planners.base import PLANNERS, Planner, Proof
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.optimum import OptimumPlanner
-from vprobot.planners.runner import EpisodeResult, run
+from vprobot.planners.runner import EpisodeResult, make_planner, run
+from vprobot.report.compare import moved_cells
+from vprobot.stopping.rules import StopRule, make_stop_rule
 
 CONFIG = Config()
 
@@ -804,3 +806,38 @@ def test_an_episode_without_a_reachable_initial_view_is_scored_and_plan_says_why
                  "--out", str(tmp_path / "plan.json")]) == 2
     (line,) = capsys.readouterr().err.splitlines()
     assert "none of the 25 initial views is reachable" in line
+
+
+def test_each_planner_is_built_once_per_run_and_gives_the_rows_of_fresh_ones(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`evaluate` builds each planner once (by its check) and runs it episode after episode,
+    reset each time: its rows (timing aside) are those of planners built afresh per episode,
+    as before (random2 draws from the episode's rng, nbv keeps its failed candidates, bscp its
+    candidates and picks, the agent its observer)."""
+    names = ["random2", "hrec", "nbv", "bscp", "agent"]
+    built: dict[str, int] = dict.fromkeys(names, 0)
+    for name in names:
+        original = PLANNERS[name].from_name
+
+        def counted(config: Config, views: int | None = None, *, _name: str = name,
+                    _original: Any = original, **params: str) -> Planner:
+            built[_name] += 1
+            return _original(config, views, **params)
+
+        monkeypatch.setattr(PLANNERS[name], "from_name", counted)
+    specs = evaluation_episodes(CONFIG, motors=[DEFAULT_MOTOR], seeds=[0, 1])
+    evaluate(CONFIG, names, specs, tmp_path / "once", progress=False, carriers=["free"])
+    assert built == dict.fromkeys(names, 1)
+
+    def fresh(run_id: str, config: Config, name: str, views: int | None, stop: str,
+              estimator: str | Path | None) -> tuple[Planner, StopRule]:
+        return make_planner(name, config, views), make_stop_rule(stop, config, estimator)
+
+    monkeypatch.setattr(evaluation_module, "_built", fresh)
+    evaluate(CONFIG, names, specs, tmp_path / "fresh", progress=False, carriers=["free"])
+    # The check's, then one per episode.
+    assert built == dict.fromkeys(names, 1 + 1 + len(specs))
+    once, again = (finished_rows(tmp_path / folder / evaluation_module.EPISODES_NAME)
+                   for folder in ("once", "fresh"))
+    assert len(once) == len(names) * len(specs)
+    assert moved_cells(again, once, ("episode", "planner", "carrier"))[0] == []

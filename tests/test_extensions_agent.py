@@ -133,6 +133,18 @@ def test_a_plugin_reward_and_encoder_train_an_agent_that_two_ray_workers_evaluat
     assert all(int(row["acquisitions"]) >= 1 for row in rows)
 
 
+def test_a_plugin_reward_reaches_the_envs_of_subprocesses(
+        toys: tuple[Path, Path], tmp_path: Path) -> None:
+    """At `agent.n_envs: 2` each env is made in a `SubprocVecEnv` child (forkserver), a fresh
+    process that looks the reward up by name: it must have loaded the plugin first."""
+    run = tmp_path / "run"
+    assert main(["--plugin", str(toys[0]), "train", str(PROFILE), "--steps", "8", "--set",
+                 *TINY_TRAINING, "env.reward=twice_gain", "agent.n_envs=2",
+                 "--out", str(run)]) == 0
+    # Each child wrote its monitor's header once it had made its env.
+    assert (run / "monitor.csv").is_file() and (run / "monitor_1.monitor.csv").is_file()
+
+
 def test_an_unknown_encoder_is_refused_where_the_agent_is_used_before_any_work(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "run"

@@ -1,6 +1,7 @@
 """Plugins: a planner in a module outside the package, loaded by `--plugin` or an entry point.
 (In the Ray workers: tests/test_extensions.py's evaluation loads a `.py` file given relative to
-the command's folder, tests/test_extensions_agent.py's a module on PYTHONPATH and a file.)"""
+the command's folder, tests/test_extensions_agent.py's a module on PYTHONPATH and a file; in
+`SubprocVecEnv`'s children: tests/test_extensions_agent.py's training at `agent.n_envs: 2`.)"""
 
 from __future__ import annotations
 
@@ -22,6 +23,8 @@ from vprobot.cli import main
 from vprobot.config import load_config
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.base import PLANNERS, planner_names
+from vprobot.processes import worker_pool
+from vprobot.report import check
 
 ROOT = Path(__file__).resolve().parents[1]
 TOY = '''"""A user's own planner: NAME, two views straight down onto the object."""
@@ -84,6 +87,38 @@ def test_a_py_file_plugin_registers_its_planner_for_the_command(
     # Imported once, under the file's name, and listed as Ray tasks take it.
     assert plugins.loaded() == (str(toy.resolve()),)
     assert sys.modules["filetop_plugin"].__file__ == str(toy.resolve())
+
+
+def test_the_workers_of_a_pool_load_the_plugins_before_their_tasks(
+        tmp_path: Path, fresh_plugins: list[str]) -> None:
+    """`worker_pool` (the teacher's shards) spawns fresh processes: each imports the plugins
+    this process loaded, once, before it takes a task."""
+    imports = tmp_path / "imports.txt"
+    marker = tmp_path / "marker_plugin.py"
+    marker.write_text(f"import os\nwith open({str(imports)!r}, 'a') as log:\n"
+                      f"    log.write(f'{{os.getpid()}}\\n')\n")
+    fresh_plugins.append("marker_plugin")
+    plugins.load([str(marker)])
+    with worker_pool(2) as pool:
+        workers = {pool.submit(os.getpid).result() for _ in range(4)}
+    imported = [int(line) for line in imports.read_text().split()]
+    # This process first; then each worker once (a worker started but given no task may too).
+    assert imported[0] == os.getpid() and len(set(imported)) == len(imported)
+    assert workers <= set(imported[1:])
+
+
+def test_report_check_regenerates_a_plugin_planners_rows_in_its_child(
+        tmp_path: Path, fresh_plugins: list[str], session_cache: Path) -> None:
+    """`report check` runs `vprobot evaluate` as a child command, which loads the plugins of
+    the checking process through its `--plugin` options."""
+    toy = _toy(tmp_path, "checktop_plugin", "checktop")
+    fresh_plugins.append("checktop_plugin")
+    assert main(["--plugin", str(toy), "evaluate", "--planners", "checktop", *ONE_FREE_EPISODE,
+                 "--seeds", "0", "--out", str(tmp_path / "out")]) == 0
+    regenerated = tmp_path / "regenerated"
+    check.regenerate(tmp_path / "out", regenerated, cache=session_cache)
+    assert check.differences(tmp_path / "out", regenerated, None) == []
+    assert [row["planner"] for row in _rows(regenerated / "tables")] == ["checktop"]
 
 
 def test_an_entry_point_plugin_is_imported_without_an_option(

@@ -14,7 +14,7 @@ import socket
 import sys
 import threading
 import time
-from collections.abc import Callable, Generator, Iterable, Sequence
+from collections.abc import Callable, Generator, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -97,6 +97,7 @@ def start(address: str | None, cpus: int) -> Any:
 
 
 def _one_thread(function: Callable[..., Any], *args: Any) -> Any:
+    """A Ray task: `function(*args)` on one thread."""
     # One CPU per task. Torch takes its thread count from OMP_NUM_THREADS when first imported;
     # it is not imported here, since evaluation tasks never need it and its import costs each
     # worker seconds.
@@ -105,13 +106,6 @@ def _one_thread(function: Callable[..., Any], *args: Any) -> Any:
     if torch is not None:
         torch.set_num_threads(1)
     return function(*args)
-
-
-def _task(plugin_modules: Sequence[str], function: Callable[..., Any], *args: Any) -> Any:
-    """A Ray task: the driver's plugins imported (`vprobot.plugins`), then `function(*args)` on
-    one thread."""
-    plugins.load(plugin_modules)
-    return _one_thread(function, *args)
 
 
 def _result(ray: Any, reference: Any) -> Any:
@@ -138,9 +132,9 @@ def parallel_map(function: Callable[..., Any], items: Iterable[tuple[Any, ...]],
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     ray = start(address, workers)
-    remote = ray.remote(num_cpus=1)(_task)
-    loaded = plugins.loaded()
-    pending = {remote.remote(loaded, function, *item): index for index, item in enumerate(items)}
+    remote = ray.remote(num_cpus=1)(_one_thread)
+    task = plugins.in_child(function)
+    pending = {remote.remote(task, *item): index for index, item in enumerate(items)}
     try:
         while pending:
             (ready,), _ = ray.wait(list(pending), num_returns=1)

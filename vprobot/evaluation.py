@@ -33,6 +33,7 @@ import itertools
 import json
 import statistics
 import sys
+import uuid
 import warnings
 from collections.abc import Generator, Iterator, Sequence
 from pathlib import Path
@@ -69,6 +70,7 @@ from vprobot.generated import is_generated
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
 from vprobot.plan_export import write_json
+from vprobot.planners.base import Planner
 from vprobot.planners.runner import (
     EpisodeResult,
     make_planner,
@@ -77,7 +79,7 @@ from vprobot.planners.runner import (
     run,
 )
 from vprobot.progress import showing_progress
-from vprobot.stopping.rules import StopSubject, make_stop_rule
+from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
 
 CURVE_VIEWS = 10
 """Requests (the initial view included) over which the coverage curve and its area run."""
@@ -436,18 +438,19 @@ def stop_label(planner: str, stop: str) -> str:
 
 def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
                   planners: Sequence[tuple[str, str, int | None, str]],
-                  estimator: str | Path | None, keep: bool) -> None:
+                  estimator: str | Path | None, keep: bool, run_id: str) -> None:
     """Every motor of the list, every planner (an agent's files) and stop rule (an
     estimator) loads, and every rule applies to its planner, before the first episode runs;
-    with `keep`, the motors stay loaded for the episodes this process runs (`_scene`)."""
+    with `keep`, the motors stay loaded for the episodes this process runs (`_scene`). The
+    planners and rules are those the run `run_id` then runs in this process (`_built`)."""
     _checked.clear()  # left by an earlier evaluation whose scenes were already built
     for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
         mesh = load_mesh(*motor)
         if keep:
             _checked[motor] = mesh
     for label, name, views, stop in planners:
-        if not make_stop_rule(stop, config, estimator).applies_to(
-                StopSubject.of(make_planner(name, config, views))):
+        planner, rule = _built(run_id, config, name, views, stop, estimator)
+        if not rule.applies_to(StopSubject.of(planner)):
             raise ValueError(f"stop rule {stop!r} does not apply to planner {name!r} ({label})")
 
 
@@ -624,6 +627,26 @@ _checked: dict[tuple[Path, float], LoadedMesh] = {}
 """The motors `_check_inputs` loaded in this process, until `_scene` builds on them."""
 
 
+_planners: dict[tuple[str, str, int | None, str], tuple[Planner, StopRule]] = {}
+"""The planners and stop rules this process built, by (run id, name, views, stop rule): those
+of the latest run only."""
+
+
+def _built(run_id: str, config: Config, name: str, views: int | None, stop: str,
+           estimator: str | Path | None) -> tuple[Planner, StopRule]:
+    """A job's planner and stop rule, built once per run in this process (`_check_inputs` in
+    the evaluating process, the first job in a Ray worker) and run episode after episode: each
+    episode resets them (`run_episode`), and an agent's model loads once."""
+    if any(key[0] != run_id for key in _planners):
+        # Another run's (its config, or an agent file since rewritten): built anew.
+        _planners.clear()
+    key = (run_id, name, views, stop)
+    if key not in _planners:
+        _planners[key] = (make_planner(name, config, views),
+                          make_stop_rule(stop, config, estimator))
+    return _planners[key]
+
+
 @functools.lru_cache(maxsize=2)
 def _scene(config: Config, path: Path, scale: float) -> MotorScene:
     # Kept across calls: a Ray worker runs many episodes, mostly of the motors it has loaded.
@@ -632,42 +655,45 @@ def _scene(config: Config, path: Path, scale: float) -> MotorScene:
             else MotorScene.build(config, mesh))
 
 
-def _job_rows(config: Config, jobs: Sequence[Job],
-              estimator: str | Path | None) -> Iterator[dict[str, Any]]:
-    """Run episodes in this process (the latest motors stay loaded), one row per job as it
-    finishes, under the job's label. Consecutive jobs of one episode and carrier share their
-    work (`SharedWork`: the candidate views of the model-based planners)."""
+def _job_rows(config: Config, jobs: Sequence[Job], estimator: str | Path | None,
+              run_id: str) -> Iterator[dict[str, Any]]:
+    """Run episodes of the run `run_id` in this process (the latest motors stay loaded, its
+    planners are built once: `_built`), one row per job as it finishes, under the job's label.
+    Consecutive jobs of one episode and carrier share their work (`SharedWork`: the candidate
+    views of the model-based planners)."""
     for _, group in itertools.groupby(jobs, key=lambda job: (job[0], job[2])):
         shared = SharedWork()
         for index, spec, carrier, label, name, views, stop in group:
             scene = _scene(config, spec.motor_path, spec.scale)
             result = run(config, scene, name, spec, carrier, views, stop, estimator,
-                         shared=shared)
+                         shared=shared,
+                         built=_built(run_id, config, name, views, stop, estimator))
             # Without the ground truth (thousands of points): a replay computes it again.
             document = result_document(scene, result, ground_truth=False)
             yield {**episode_row(index, result), "planner": label,
                    PLAN_KEY: {**document, "planner": label}}
 
 
-def run_jobs(config: Config, jobs: Sequence[Job],
-             estimator: str | Path | None = None) -> list[dict[str, Any]]:
-    """Run episodes in this process (`_job_rows`); one row per job, under the job's label;
-    `estimator` is the coverage estimator of `estimate` (None: bundled)."""
-    return list(_job_rows(config, jobs, estimator))
+def run_jobs(config: Config, jobs: Sequence[Job], estimator: str | Path | None,
+             run_id: str) -> list[dict[str, Any]]:
+    """Run episodes of the run `run_id` in this process (`_job_rows`); one row per job, under
+    the job's label; `estimator` is the coverage estimator of `estimate` (None: bundled)."""
+    return list(_job_rows(config, jobs, estimator, run_id))
 
 
 def _rows(config: Config, jobs: Sequence[Job], workers: int, address: str | None,
-          estimator: str | Path | None) -> Generator[dict[str, Any], None, None]:
+          estimator: str | Path | None, run_id: str) -> Generator[dict[str, Any], None, None]:
     """The jobs' rows as they finish: in order in this process, or per episode (all its
     carriers and planners, one motor load) as Ray tasks."""
     if workers == 1 and address is None:
-        yield from _job_rows(config, jobs, estimator)
+        yield from _job_rows(config, jobs, estimator, run_id)
         return
     groups: dict[int, list[Job]] = {}
     for job in jobs:
         groups.setdefault(job[0], []).append(job)
-    with contextlib.closing(parallel_map(run_jobs, [(config, group, estimator) for group in
-                                                    groups.values()], workers, address)) as tasks:
+    with contextlib.closing(parallel_map(run_jobs, [(config, group, estimator, run_id)
+                                                    for group in groups.values()],
+                                         workers, address)) as tasks:
         for _, rows in tasks:
             yield from rows
 
@@ -728,9 +754,12 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
         raise ValueError("evaluate needs at least one planner, episode, carrier and stop rule")
     if workers > 1 or address is not None:
         require_ray()
+    # Each planner is built once per run and process (`_built`), first by this check.
+    run_id = uuid.uuid4().hex
     # Loading an agent takes seconds: its note says so rather than a silent start.
     with showing_progress() if progress else contextlib.nullcontext():
-        _check_inputs(config, specs, parsed, estimator, keep=workers == 1 and address is None)
+        _check_inputs(config, specs, parsed, estimator, keep=workers == 1 and address is None,
+                      run_id=run_id)
     out = Path(out_dir)
     rows_path = out / EPISODES_NAME
     wanted = {(index, carrier, label) for index in range(len(specs)) for carrier in carriers
@@ -762,7 +791,7 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
                 # Closed at once on an interrupt: Ray's pending episodes are cancelled before
                 # the partial tables are written.
                 with contextlib.closing(_rows(config, jobs, workers, address,
-                                              estimator)) as finished:
+                                              estimator, run_id)) as finished:
                     for row in finished:
                         # The plan before its row: a row on file has its plan.
                         plan = plan_path(out, row["episode"], row["carrier"], row["planner"])

@@ -6,23 +6,31 @@ A plugin is a module that registers what it defines when it is imported (docs/ex
 `vprobot --help` lists the commands, which no plugin changes), then each `--plugin`: a module
 name importable on `sys.path` (`mypkg.planners`), or a path to a `.py` file (`./mytop.py`).
 
-A Ray worker is a fresh process that imports only what its task's function needs, so
-`vprobot.cluster.parallel_map` hands each task the list this process loaded (`loaded`), and the
-worker loads it before running the task: passed with the task, it reaches a Ray started by
-someone else or a cluster as surely as a local Ray, and loading again is a no-op.
+A child process (a Ray worker, a `vprobot.processes.worker_pool` worker, a `SubprocVecEnv`
+env) is a fresh process that imports only what its function needs, so every function handed to
+one is wrapped by `in_child`: it carries the list this process loaded (`loaded`), and the child
+loads it before running the function. Passed with the function, it reaches a Ray started by
+someone else or a cluster as surely as a local process, and loading again is a no-op. A vprobot
+command run as a child (`report check`'s `evaluate`) gets the list as its `--plugin` options
+(`command_options`).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import importlib.util
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import ParamSpec, TypeVar
 
 ENTRY_POINT_GROUP = "vprobot.plugins"
 """The entry-point group whose modules every `vprobot` command imports."""
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
 
 _loaded: list[str] = []
 """What `load` imported in this process, in order: module names and absolute `.py` paths."""
@@ -107,3 +115,21 @@ def _import(key: str) -> None:
 def loaded() -> tuple[str, ...]:
     """What `load` imported in this process, in order, as `load` takes it in another process."""
     return tuple(_loaded)
+
+
+def command_options() -> list[str]:
+    """The global options that load, in a vprobot command run as a child, the plugins this
+    process has loaded (`loaded`)."""
+    return [option for plugin in _loaded for option in ("--plugin", plugin)]
+
+
+def in_child(function: Callable[_P, _R]) -> Callable[_P, _R]:
+    """`function`, for another process to call: there it first loads the plugins this process
+    has loaded (`loaded`, taken now). Picklable when `function` is."""
+    return functools.partial(_load_then, loaded(), function)
+
+
+def _load_then(plugins: Sequence[str], function: Callable[_P, _R], /, *args: _P.args,
+               **kwargs: _P.kwargs) -> _R:
+    load(plugins)
+    return function(*args, **kwargs)

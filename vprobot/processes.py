@@ -26,6 +26,8 @@ from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from vprobot import plugins
+
 POLL_S = 0.2
 """How often a child checks that its parent is still there."""
 GRACE_S = 10.0
@@ -81,7 +83,8 @@ def end_with_environment() -> None:
 
 @contextlib.contextmanager
 def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
-    """A pool of `workers` spawned processes that end with this one (`end_with_parent`).
+    """A pool of `workers` spawned processes that end with this one (`end_with_parent`), each
+    with this process's plugins loaded (`vprobot.plugins.in_child`) before it takes a task.
 
     Leaving the block by an exception (Ctrl-C, SIGTERM, a task's error) cancels the tasks not
     started and ends the workers at once, rather than waiting for every task to finish. The
@@ -90,8 +93,9 @@ def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     # Spawned: MuJoCo's and torch's threads do not survive a fork.
     context = multiprocessing.get_context("spawn")
     others = set(multiprocessing.active_children())
-    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_start_worker,
-                               initargs=(os.getpid(),))
+    # Loaded by the initializer, so that a task's arguments may hold a plugin's classes.
+    pool = ProcessPoolExecutor(workers, mp_context=context,
+                               initializer=plugins.in_child(_start_worker), initargs=(os.getpid(),))
     try:
         yield pool
     except BaseException:

@@ -38,6 +38,7 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
+from vprobot import plugins
 from vprobot.agents.callbacks import (
     ResumableCheckpoint,
     SharedEpisodeEvaluation,
@@ -169,12 +170,15 @@ def monitor_file(rank: int) -> str:
 
 def make_vec_env(config: Config, seed: int, starts: Sequence[int],
                  monitor_dir: Path | None) -> VecEnv:
-    """The run's envs: one in-process, several in subprocesses (one monitor file each)."""
+    """The run's envs: one in-process, several in subprocesses (one monitor file each), which
+    load this process's plugins (`vprobot.plugins.in_child`) before they make their env."""
     factories: list[Callable[[], gym.Env]] = [
         env_factory(config, seed, rank, start,
                     None if monitor_dir is None else monitor_dir / monitor_file(rank))
         for rank, start in enumerate(starts)]
-    return DummyVecEnv(factories) if len(factories) == 1 else SubprocVecEnv(factories)
+    if len(factories) == 1:
+        return DummyVecEnv(factories)
+    return SubprocVecEnv([plugins.in_child(factory) for factory in factories])
 
 
 def _commit() -> str:

@@ -12,6 +12,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import SubprocVecEnv
 from tqdm import tqdm
 
+from vprobot import plugins
 from vprobot.config import Config, replace
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.sensor import TRAINING_RESOLUTION
@@ -72,7 +73,7 @@ def run_env_benchmark(config: Config, steps: int = 300, progress: bool = True) -
         results[f"steps_per_s_{name}"] = rate
         if settings.env.carrier == "robot" and name != "grid_train":
             resets += reset_ms
-    vec = SubprocVecEnv([lambda: _make_train_env(train)] * 2)
+    vec = SubprocVecEnv([plugins.in_child(lambda: _make_train_env(train))] * 2)
     vec.seed(0)
     vec.reset()
     rng = np.random.default_rng(1)

@@ -267,7 +267,8 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
 def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
         carrier: CarrierName = "robot", views: int | None = None, stop: str = "goal",
         estimator: str | Path | None = None, estimates: bool = False,
-        shared: SharedWork | None = None) -> EpisodeResult:
+        shared: SharedWork | None = None,
+        built: tuple[Planner, StopRule] | None = None) -> EpisodeResult:
     """One episode of a planner on a loaded motor, as the spec fixes it.
 
     Args:
@@ -284,6 +285,9 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
             does (`EpisodeResult.estimates`).
         shared: The work shared with the other planners of this spec and carrier
             (`SharedWork`); the episode's own when omitted.
+        built: The planner and stop rule that `planner`, `views` and `stop` name, already
+            built (an evaluation runs one per planner through its episodes: each episode
+            resets them); built here when omitted.
 
     Raises:
         ValueError: For an unknown planner, carrier or stop rule, a rule that does not apply
@@ -291,8 +295,8 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
     """
     if carrier not in CARRIERS:
         raise ValueError(f"carrier must be one of {list(CARRIERS)}, got {carrier!r}")
-    chosen = make_planner(planner, config, views)
-    rule = make_stop_rule(stop, config, estimator)
+    chosen, rule = built or (make_planner(planner, config, views),
+                             make_stop_rule(stop, config, estimator))
     estimate = load_estimator(estimator, config.sensor) if estimates else None
     episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable, shared)
     start = time.perf_counter()

@@ -22,6 +22,7 @@ from typing import Any
 
 import yaml
 
+from vprobot import plugins
 from vprobot.evaluation import EPISODES_NAME, SETTINGS_NAME
 from vprobot.paths import PACKAGE_DIR
 from vprobot.processes import child_environment
@@ -47,7 +48,7 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
                carriers: Sequence[str] | None = None, scratch: Path | None = None,
                cache: Path | None = None) -> None:
     """Run `vprobot evaluate` for (a subset of) a committed evaluation folder into `out`, in a
-    child that ends with this process (`vprobot.processes`).
+    child that ends with this process (`vprobot.processes`) and loads its plugins.
 
     Args:
         folder: The committed folder (`episodes.json`, `evaluation.csv`).
@@ -76,8 +77,8 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
     env["VPROBOT_CACHE_DIR"] = str(cache if cache is not None else out / "cache")
     root = PACKAGE_DIR.parent
     env["PYTHONPATH"] = os.pathsep.join(filter(None, (str(root), env.get("PYTHONPATH"))))
-    subprocess.run([sys.executable, "-m", "vprobot.cli", "evaluate", "--config",
-                    str(out / "config.yaml"), "--episodes", str(out / "list.json"),
+    subprocess.run([sys.executable, "-m", "vprobot.cli", *plugins.command_options(), "evaluate",
+                    "--config", str(out / "config.yaml"), "--episodes", str(out / "list.json"),
                     "--planners", *planners, "--carriers", *carriers,
                     *(["--estimator", estimator] if (estimator := recorded_estimator(folder))
                       else []),
