@@ -5,7 +5,9 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -13,6 +15,7 @@ from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.cli import main
 from vprobot.config import Config
+from vprobot.kinematics import trajectory
 from vprobot.paths import available_robots
 from vprobot.planners.base import counted_planners
 
@@ -90,14 +93,42 @@ def test_unknown_robot_is_one_line_listing_the_bundled_ones(capsys: pytest.Captu
     assert "ur10" in available_robots()
 
 
-def test_plan_writes_json_and_a_small_video(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+def _count_calls(monkeypatch: pytest.MonkeyPatch, function: Callable[..., Any]) -> list[int]:
+    """Count the calls of `function` wherever it is reached: the module that defines it and
+    every loaded module that imported it by name (modules imported later take the counter
+    from the defining module)."""
+    calls = [0]
+
+    def counting(*args: Any, **kwargs: Any) -> Any:
+        calls[0] += 1
+        return function(*args, **kwargs)
+
+    for module in list(sys.modules.values()):
+        if getattr(module, function.__name__, None) is function:
+            monkeypatch.setattr(module, function.__name__, counting)
+    return calls
+
+
+def test_plan_writes_json_and_a_small_video_timing_each_move_once(
+        tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`plan` with its summary still and a video times each move of the cycle once, when the
+    episode executes it: the plan JSON, the summary and the video read the record's timing."""
+    moves = _count_calls(monkeypatch, trajectory.time_move)
+    segments = _count_calls(monkeypatch, trajectory.time_segment)
     plan, video = tmp_path / "plan.json", tmp_path / "rollout.gif"
     code = main(["plan", "--out", str(plan), "--video", str(video), "--width", "96",
                  "--height", "72"])
     assert code == 0
+    document = json.loads(plan.read_text())
+    # The cycle's moves as the plan states them: the approach and the moves between views
+    # (a view's corners; null where the robot stayed), and the way back to the start.
+    executed = [view["waypoints"] for view in document["views"]
+                if view["waypoints"] is not None] + [document["return"]["waypoints"]]
+    assert len(executed) >= 3 and moves[0] == len(executed)
+    # ... and no segment is timed outside them (a corner pair is one segment).
+    assert segments[0] == sum(len(corners) - 1 for corners in executed)
     out = capsys.readouterr().out
     assert "goal 90% reached" in out
-    document = json.loads(plan.read_text())
     assert document["coverage"] >= 0.9
     assert all(view["reachable"] for view in document["views"])
     assert video.stat().st_size > 0

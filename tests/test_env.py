@@ -16,7 +16,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
 from vprobot.env import ENV_ID, inspect_env
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.episode import EpisodeSpec, timed_episode
+from vprobot.episode import EpisodeSpec
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.rewards import REWARDS
 
@@ -200,7 +200,7 @@ def test_every_reward_matches_its_formula(reward: str) -> None:
 def test_cycle_time_as_the_travel_cost_pays_coverage_per_second_of_the_cells_cycle() -> None:
     """With `travel_cost: cycle_time`, R5 pays ΔCOV_t / k_t where k_t is the time from the end
     of one acquisition to the end of the next on the clock of the episode's cycle timed whole
-    (`timed_episode`): the move's duration under the robot's limits plus its acquisition. The
+    (`EpisodeRecord.timed`): the move's duration under the robot's limits plus its acquisition. The
     last step's info has the cycle time: approach + steps + return home."""
     env = make(reward="R5", travel_cost="cycle_time", action="A_2S0R")
     _, start = env.reset(seed=5)
@@ -215,7 +215,7 @@ def test_cycle_time_as_the_travel_cost_pays_coverage_per_second_of_the_cells_cyc
             break
     assert done and all("cycle_time" not in info for info in infos[:-1])
     record = env.episode_record()
-    timed = timed_episode(record, env.episode.scene.cell)
+    timed = record.timed
     ends = iter(stop.end_s for stop in timed.acquisitions)
     previous = next(ends)  # the initial view's: the approach is no step
     assert start["approach_cycle_time"] == pytest.approx(previous)

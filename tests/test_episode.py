@@ -14,9 +14,7 @@ from vprobot.episode import (
     MotorScene,
     ViewRequest,
     describe_cycle,
-    episode_cycle,
     seeded_episode,
-    timed_episode,
 )
 from vprobot.episode.specs import FALLBACK_INITIAL_VIEWS
 from vprobot.geometry import rotation_about_x, rotation_about_z
@@ -132,7 +130,7 @@ def test_the_cycle_time_is_the_sum_of_the_steps_and_the_return_home(scene: Motor
     assert len(acquired) >= 2
     np.testing.assert_array_equal(record.return_waypoints[0], acquired[-1].joints)
     np.testing.assert_array_equal(record.return_waypoints[-1], record.start_joints)
-    timed = timed_episode(record, scene.cell)
+    timed = record.timed
     acquisition = scene.cell.config.sensor.acquisition_time_s
     back = scene.arm.move_time(record.return_waypoints)
     assert timed.cycle.total_s == pytest.approx(
@@ -145,8 +143,7 @@ def test_the_cycle_time_is_the_sum_of_the_steps_and_the_return_home(scene: Motor
     # No robot, no cycle.
     free = Episode(scene, np.eye(3), carrier="free")
     free.request(_requests(free)[0])
-    assert free.record().return_waypoints is None and timed_episode(free.record(),
-                                                                    scene.cell) is None
+    assert free.record().return_waypoints is None and free.record().timed is None
 
 
 def test_plans_summary_reports_the_cycle_time_and_its_parts(scene: MotorScene) -> None:
@@ -168,9 +165,9 @@ def test_plans_summary_reports_the_cycle_time_and_its_parts(scene: MotorScene) -
             f"{cycle.return_s:.2f} s")
     assert line in summary(result, CONFIG).splitlines()
     # Without a path home there is no cycle, and the summary says why; a free sensor has none.
-    stranded = dataclasses.replace(record, return_waypoints=None)
-    assert episode_cycle(stranded, scene.cell) is None
-    assert describe_cycle(stranded, None) == (
+    stranded = dataclasses.replace(record, return_waypoints=None, timed=None)
+    assert stranded.cycle is None
+    assert describe_cycle(stranded) == (
         "cycle time: none (no path back to the start was found)")
     free = run(CONFIG, scene, "hrec", spec, "free")
     assert free.cycle is None and "cycle time" not in summary(free, CONFIG)

@@ -27,7 +27,6 @@ from vprobot.episode import (
     ViewRecord,
     episode_list,
     read_episode_list,
-    timed_episode,
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_SHAPE_EPISODES
@@ -48,7 +47,7 @@ from vprobot.evaluation import (
     versus_optimum,
 )
 from vprobot.geometry import Pose
-from vprobot.kinematics.trajectory import CycleTime
+from vprobot.kinematics.trajectory import CycleTime, TimedPlan
 from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.planners.base import PLANNERS, Planner, Proof
 from vprobot.planners.bscp import SetCoverPlanner
@@ -190,11 +189,12 @@ def _result(coverages: list[float], reachable: list[bool] | None = None,
                                      strict=True)]
     record = EpisodeRecord(carrier="free", object_pose=pose, start_joints=np.zeros(6),
                            views=views, gt_points_world=np.zeros((0, 3)),
-                           first_covered_by=np.zeros(0, dtype=int), epsilon_m=0.001)
+                           first_covered_by=np.zeros(0, dtype=int), epsilon_m=0.001,
+                           timed=None if cycle is None else TimedPlan((), (), cycle, ()))
     spec = EpisodeSpec(motor="test/motor_000.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
                        initial_views=((1.42, 0.71),), seed=0)
     return EpisodeResult(planner="nbv", carrier="free", spec=spec, record=record, goal=0.9,
-                         plan_seconds=0.1, episode_seconds=0.2, cycle=cycle)
+                         plan_seconds=0.1, episode_seconds=0.2)
 
 
 def test_a_robot_episode_without_a_request_has_no_reachable_share() -> None:
@@ -382,7 +382,7 @@ def test_a_policys_episode_rows_have_the_cycle_time_of_their_episode() -> None:
             return rng.uniform(-1.0, 1.0, 2).astype(np.float32), None
 
     (row,) = evaluate_policy(RandomPolicy(), env, episode_list(CONFIG, [DEFAULT_MOTOR], [0]))
-    timed = timed_episode(env.episode_record(), env.episode.scene.cell)
+    timed = env.episode_record().timed
     assert row["cycle_time_s"] == pytest.approx(timed.cycle.total_s)
     assert row["cycle_time_s"] > row["joint_time_s"]
 

@@ -430,6 +430,23 @@ def test_export_refuses_what_has_no_program_in_one_line(
     assert not (tmp_path / "x.script").exists()
 
 
+def test_a_plan_without_its_object_exports_but_is_not_checked(
+        document: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """The robot's motion needs no object: reading the plan does not refuse it for export
+    (the object block is what the replay of `check` and `render` need, and they say so)."""
+    expected = export_plan(document, "trajectory")
+    document["object"] = None
+    path = write(document, tmp_path)
+    out = tmp_path / "trajectory.json"
+    assert main(["export", str(path), "--format", "trajectory", "--out", str(out)]) == 0
+    assert out.read_text() == expected
+    capsys.readouterr()
+    assert main(["check", str(path)]) == 2
+    error = capsys.readouterr().err
+    assert "has no object block (mesh and pose)" in error
+    assert len(error.strip().splitlines()) == 1
+
+
 def test_export_never_writes_over_the_plan(plan: Path, capsys: pytest.CaptureFixture) -> None:
     before = plan.read_text()
     assert main(["export", str(plan), "--format", "trajectory", "--out", str(plan)]) == 2

@@ -153,7 +153,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
               "vprobot.sensor", "vprobot.ground_truth", "vprobot.coverage", "vprobot.occupancy",
               "vprobot.view_gains")),
     ("episode", ("vprobot.episode", "vprobot.views")),
-    ("files in and out", ("vprobot.plan_export", "vprobot.export", "vprobot.render",
+    ("files in and out", ("vprobot.plan", "vprobot.export", "vprobot.render",
                           "vprobot.robots.urdf_import")),
     ("what planners use", ("vprobot.env", "vprobot.agents", "vprobot.stopping")),
     ("planners", ("vprobot.planners",)),

@@ -19,7 +19,7 @@ from vprobot.benchmarks.optimum import print_table as print_optimum_table
 from vprobot.benchmarks.optimum import run_optimum_benchmark
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.episode import Episode, MotorScene, ViewRequest, episode_cycle, seeded_episode
+from vprobot.episode import Episode, MotorScene, ViewRequest, seeded_episode
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.base import Proof
 from vprobot.planners.bscp import SetCoverPlanner
@@ -401,7 +401,7 @@ def test_the_cycle_order_gives_the_shortest_executed_cycle() -> None:
         episode = Episode.from_spec(scene, spec, "robot")
         for request in order:
             episode.request(request)
-        cycle = episode_cycle(episode.record(), scene.cell)
+        cycle = episode.record().cycle
         assert cycle is not None
         return cycle.total_s
 

@@ -34,8 +34,8 @@ from vprobot.evaluation import _append_row, episode_row, finished_rows
 from vprobot.export.check import _cell, check_plan
 from vprobot.kinematics.motion_planner import densify
 from vprobot.paths import DEFAULT_MOTOR
+from vprobot.plan import read_plan
 from vprobot.planners.runner import run
-from vprobot.render.replay import read_plan
 from vprobot.scene import HOUSING_GEOM, Cell
 
 CELL = {

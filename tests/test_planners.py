@@ -18,7 +18,7 @@ from vprobot.geometry import Pose
 from vprobot.kinematics import TRAVEL_COSTS, SensorTarget, TravelCost
 from vprobot.kinematics.travel import joint_time
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.plan_export import write_json
+from vprobot.plan import write_json
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.hrec import BoxFacesPlanner

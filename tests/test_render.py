@@ -13,16 +13,15 @@ import pytest
 from matplotlib.colors import rgb_to_hsv
 
 from vprobot.config import load_config, with_sensor
-from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest, timed_episode
+from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.plan_export import plan_document, planned_views, write_json
-from vprobot.render import EpisodeRenderer, render_episode
+from vprobot.plan import plan_document, planned_views, write_json
+from vprobot.render import EpisodeRenderer, episode_from_plan, render_episode
 from vprobot.render.lost import LOST_RGB
 from vprobot.render.markers import LOST_RGBA
 from vprobot.render.output import VideoWriter
 from vprobot.render.overlay import OverlayStatus, draw_status, inset
-from vprobot.render.replay import episode_from_plan
 from vprobot.render.summary import OVERVIEW_FRACTION, render_summary
 from vprobot.render.timeline import (
     TimingSettings,
@@ -104,7 +103,7 @@ def test_the_video_keeps_the_cells_clock(scene, record):
     arm on the timed trajectory), the clock stands at the end of each acquisition while it is
     shown and at the cycle time once the arm is back home; `time_scale` and the cap change the
     frames, not the clock."""
-    timed = timed_episode(record, scene.cell)
+    timed = record.timed
     settings = TimingSettings(fps=30.0, max_seconds_per_move=100.0)
     states = episode_timeline(record, settings, timed)
     clocks = [state.clock_s for state in states]
@@ -147,10 +146,10 @@ def test_the_overlay_shows_the_cells_clock_and_a_free_sensor_keeps_the_untimed_v
         states = renderer.timeline(TimingSettings(**FAST))
         assert [state.clock_s for state in states] == [
             state.clock_s for state in episode_timeline(record, TimingSettings(**FAST),
-                                                        timed_episode(record, scene.cell))]
+                                                        record.timed)]
         status = renderer.status(states[-1])
     assert status.caption == "done" and status.cycle_s == status.clock_s == pytest.approx(
-        timed_episode(record, scene.cell).cycle.total_s)
+        record.timed.cycle.total_s)
     frame = np.full((HEIGHT, WIDTH, 3), 90, dtype=np.uint8)
     assert np.any(draw_status(frame, status) != draw_status(
         frame, dataclasses.replace(status, clock_s=status.clock_s / 2)))
@@ -159,7 +158,7 @@ def test_the_overlay_shows_the_cells_clock_and_a_free_sensor_keeps_the_untimed_v
     free.request(ViewRequest(SensorTarget.look_at(center + 0.47 * _direction(0.0, 35.0),
                                                   center)))
     with EpisodeRenderer(scene, free.record(), WIDTH, HEIGHT, sensor_panel=None) as renderer:
-        assert renderer.timed is None
+        assert renderer.record.timed is None
         states = renderer.timeline(TimingSettings(**FAST))
     assert [state.phase for state in states] == ["start", "acquire", "end"]
     assert all(state.clock_s is None for state in states)

@@ -20,7 +20,7 @@ from vprobot.config import CellConfig, Config, ConfigError, load_config, replace
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR
-from vprobot.render.replay import episode_from_plan
+from vprobot.render import episode_from_plan
 from vprobot.robots import load_robot
 from vprobot.scene import Cell
 

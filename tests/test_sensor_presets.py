@@ -32,7 +32,7 @@ from vprobot.config import (
 )
 from vprobot.geometry import Pose
 from vprobot.paths import SENSORS_DIR
-from vprobot.render.replay import plan_config
+from vprobot.plan import plan_config
 from vprobot.schema import read_yaml
 from vprobot.sensor import DepthSensor
 from vprobot.sensor_model import SensorModel

@@ -16,7 +16,6 @@ import pytest
 
 from vprobot.cli import main
 from vprobot.config import load_config
-from vprobot.episode import timed_episode
 from vprobot.evaluation import EPISODES_NAME, plan_path
 from vprobot.render import episode_from_plan
 from vprobot.render.closeup import PartCloseUp
@@ -68,7 +67,7 @@ def plans(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 def test_the_page_records_the_robots_timed_cycle(plans: dict[str, Path]) -> None:
     scene, record = episode_from_plan(load_config(), plans["robot"])
     page = plan_page(scene, record, "robot")
-    timed = timed_episode(record, scene.cell)
+    timed = record.timed
     assert timed is not None
     # Sampled at PAGE_FPS, each hold rounded to whole samples.
     slack = (len(record.views) + 2) / PAGE_FPS

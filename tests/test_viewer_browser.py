@@ -20,7 +20,7 @@ from PIL import Image
 from vprobot.benchmarks.viewer import CHROMIUM_ARGS, PAUSE_ICON, TIME_FIELD, TWO_FRAMES
 from vprobot.cli import main
 from vprobot.config import load_config
-from vprobot.episode import EpisodeRecord, MotorScene, timed_episode
+from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.render import episode_from_plan
 
 playwright = pytest.importorskip("playwright.sync_api")
@@ -176,8 +176,8 @@ def test_the_scene_holds_the_robot_the_part_and_one_frustum_per_view(
 
 def test_moving_the_slider_moves_the_robot_and_nothing_else(
         robot_page: Opened, robot_episode: tuple[MotorScene, EpisodeRecord]) -> None:
-    scene, record = robot_episode
-    timed = timed_episode(record, scene.cell)
+    _, record = robot_episode
+    timed = record.timed
     assert timed is not None
     # Halfway through the approach to the first view the arm is on its way.
     moving = timed.acquisitions[0].start_s / 2.0

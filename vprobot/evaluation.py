@@ -69,7 +69,7 @@ from vprobot.files import (
 from vprobot.generated import is_generated
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.paths import MOTORS_DIR, bundled_or_path
-from vprobot.plan_export import write_json
+from vprobot.plan import write_json
 from vprobot.planners.base import Planner
 from vprobot.planners.runner import (
     EpisodeResult,

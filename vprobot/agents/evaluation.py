@@ -16,7 +16,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from vprobot.cell_check import episode_clearances
 from vprobot.config import Config, replace
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.episode import EpisodeSpec, episode_cycle
+from vprobot.episode import EpisodeSpec
 from vprobot.evaluation import (
     COLUMNS,
     OPTIMUM_COLUMNS,
@@ -60,7 +60,6 @@ def evaluate_policy(model: BaseAlgorithm, env: InspectEnv, specs: Sequence[Episo
             planner=POLICY, carrier=env.config.env.carrier, spec=spec, record=record,
             goal=env.config.env.coverage_goal, plan_seconds=thinking,
             episode_seconds=time.perf_counter() - start,
-            cycle=episode_cycle(record, env.episode.scene.cell),
             clearances=episode_clearances(record, env.episode.scene.cell))))
     return rows
 

@@ -31,7 +31,7 @@ from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlanner
 from vprobot.kinematics.survey import view_sphere_targets
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.plan_export import write_json
+from vprobot.plan import write_json
 from vprobot.planners.runner import plan_motor
 from vprobot.robots import available_robots
 

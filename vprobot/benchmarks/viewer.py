@@ -17,9 +17,9 @@ import numpy as np
 from PIL import Image
 
 from vprobot.config import Config
-from vprobot.episode import MotorScene, timed_episode
+from vprobot.episode import MotorScene
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.plan_export import episode_document, write_json
+from vprobot.plan import episode_document, write_json
 from vprobot.render.demo import ring_inspection
 
 VIEWS = 10
@@ -98,10 +98,10 @@ def run_viewer_benchmark(config: Config) -> dict[str, Any]:
     """
     scene = MotorScene.load(config, DEFAULT_MOTOR)
     record = ring_inspection(scene, VIEWS)
-    timed = timed_episode(record, scene.cell)
+    timed = record.timed
     with tempfile.TemporaryDirectory() as folder:
         plan, html = Path(folder) / "plan.json", Path(folder) / "plan.html"
-        write_json(plan, episode_document(scene, record, None if timed is None else timed.cycle))
+        write_json(plan, episode_document(scene, record))
         writes = []
         for _ in range(RUNS):
             start = time.perf_counter()

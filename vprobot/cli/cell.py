@@ -76,7 +76,7 @@ def command_reach(args: argparse.Namespace) -> int:
     """Answer "can the cell reach this view?" and optionally write the plan JSON."""
     from vprobot.geometry import Pose
     from vprobot.kinematics import OUT_OF_REACH, RobotArm, SensorTarget
-    from vprobot.plan_export import plan_document, view_entry
+    from vprobot.plan import plan_document, view_entry
     from vprobot.scene import Cell
 
     check_output_file(args.json, "--json", (".json",))

@@ -126,7 +126,7 @@ def sensor_option(config: Config, args: argparse.Namespace) -> Config:
 def write_json(path: str | None, document: dict[str, Any]) -> None:
     """Write `document` to `path` when one is given, and say so."""
     if path:
-        from vprobot.plan_export import write_json as write
+        from vprobot.plan import write_json as write
 
         print(f"wrote {write(path, document)}")
 

@@ -134,7 +134,7 @@ def _planning(args: argparse.Namespace) -> dict[str, Any]:
 
 def command_plan(args: argparse.Namespace) -> int:
     """Plan the inspection of a motor, write the plan JSON and optionally a video."""
-    from vprobot.plan_export import write_json
+    from vprobot.plan import write_json
     from vprobot.planners.runner import plan_motor
     from vprobot.progress import showing_progress
 

@@ -33,7 +33,6 @@ from vprobot.episode import (
     EpisodeSpec,
     MotorScene,
     ViewRecord,
-    episode_cycle,
     sample_episode,
 )
 from vprobot.generated import generated_path, is_generated
@@ -349,7 +348,7 @@ class InspectEnv(gym.Env):
             info["reward_terms"] = dataclasses.asdict(terms)
         if self._done:
             # At the end only: the cycle closes with the way home, a path to plan.
-            cycle = episode_cycle(episode.record(), episode.scene.cell)
+            cycle = episode.record().cycle
             info["cycle_time"] = None if cycle is None else cycle.total_s
         return info
 

@@ -1,7 +1,7 @@
 """The inspection engine: motor scenes, sensor carriers, episodes, their specs and records."""
 
 from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
-from vprobot.episode.cycle import describe_cycle, episode_cycle, episode_moves, timed_episode
+from vprobot.episode.cycle import describe_cycle, episode_moves, timed_cycle
 from vprobot.episode.engine import Episode, make_carrier
 from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
@@ -36,7 +36,6 @@ __all__ = [
     "ViewRecord",
     "ViewRequest",
     "describe_cycle",
-    "episode_cycle",
     "episode_list",
     "episode_moves",
     "make_carrier",
@@ -44,6 +43,6 @@ __all__ = [
     "read_episode_list",
     "sample_episode",
     "seeded_episode",
-    "timed_episode",
+    "timed_cycle",
     "write_episode_list",
 ]

@@ -14,6 +14,7 @@ import numpy as np
 
 from vprobot.coverage import CoverageTracker
 from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
+from vprobot.episode.cycle import timed_cycle
 from vprobot.episode.free_carrier import FreeCarrier
 from vprobot.episode.motor_scene import MotorScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest
@@ -22,6 +23,7 @@ from vprobot.episode.shared import SharedWork
 from vprobot.episode.specs import EpisodeSpec
 from vprobot.geometry import Pose
 from vprobot.kinematics import TravelCost
+from vprobot.kinematics.trajectory import TimedMove, time_move
 from vprobot.occupancy import EpisodeGrid, GridSettings
 
 
@@ -83,8 +85,8 @@ class Episode:
         self.travel_sum = TravelCost()
         self._first_covered_by = np.full(len(scene.ground_truth.points), -1)
         self._grids: dict[GridSettings, EpisodeGrid] = {}
-        # The way back to the start, planned once per configuration it leaves from.
-        self._return: tuple[np.ndarray, np.ndarray | None] | None = None
+        # The way back to the start, planned and timed once per configuration it leaves from.
+        self._return: tuple[np.ndarray, TimedMove | None] | None = None
 
     @classmethod
     def from_spec(cls, scene: MotorScene, spec: EpisodeSpec, carrier: CarrierName = "robot",
@@ -222,8 +224,9 @@ class Episode:
         return grid
 
     def record(self) -> EpisodeRecord:
-        """The episode so far, for rendering and export."""
+        """The episode so far, for rendering and export, with its cycle timed (`timed_cycle`)."""
         gt = self.scene.ground_truth.points
+        back = self._return_move()
         return EpisodeRecord(
             carrier=self.carrier.name,
             object_pose=self.object_pose,
@@ -233,14 +236,16 @@ class Episode:
             first_covered_by=self._first_covered_by.copy(),
             epsilon_m=self.tracker.epsilon,
             mesh_path=str(self.scene.mesh.path),
-            return_waypoints=self._return_waypoints(),
+            return_waypoints=None if back is None else back.waypoints,
+            timed=timed_cycle(self.views, back, self.scene.cell),
         )
 
-    def _return_waypoints(self) -> np.ndarray | None:
-        """The corners of the robot's move back to its start (`EpisodeRecord.return_waypoints`)."""
+    def _return_move(self) -> TimedMove | None:
+        """The robot's move back to its start, timed (`EpisodeRecord.return_waypoints`)."""
         if not isinstance(self.carrier, RobotCarrier) or not any(v.acquired for v in self.views):
             return None
         if self._return is None or not np.array_equal(self._return[0], self.q):
             motion = self.carrier.plan(self.q, self.start_joints)
-            self._return = (self.q.copy(), None if motion is None else motion.waypoints)
+            self._return = (self.q.copy(), None if motion is None
+                            else time_move(motion.waypoints, self.scene.arm.limits))
         return self._return[1]

@@ -13,6 +13,7 @@ import numpy as np
 
 from vprobot.geometry import Pose
 from vprobot.kinematics import SensorTarget, TravelCost
+from vprobot.kinematics.trajectory import CycleTime, TimedMove, TimedPlan
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,6 +59,8 @@ class ViewRecord:
         waypoints: The corners of `path` (m, dof), m >= 2, from the previous configuration to
             `joints`; consecutive corners are joined by straight joint-space segments, each
             collision-free (two corners: the straight line was free). None when `path` is.
+        timed: The move along `waypoints` timed under the robot's limits (`time_move`), once,
+            when the carrier executed it; None when `waypoints` is.
     """
 
     requested: Pose
@@ -73,6 +76,7 @@ class ViewRecord:
     blocked_pixels: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(0, dtype=np.int64))
     waypoints: np.ndarray | None = None
+    timed: TimedMove | None = None
 
     @property
     def acquired(self) -> bool:
@@ -97,6 +101,9 @@ class EpisodeRecord:
         return_waypoints: The corners (m, dof) of the robot's collision-free move from its last
             configuration back to `start_joints`, the cycle's return; None without a robot,
             before the first acquisition, or when no path back was found.
+        timed: The cycle (docs/motion.md#cycle-time): the approach, the moves between views and
+            the return, each timed once as it was executed, on the cycle's clock
+            (`timed_cycle`); None where `return_waypoints` is, or where a move is untimed.
     """
 
     carrier: str
@@ -108,6 +115,12 @@ class EpisodeRecord:
     epsilon_m: float
     mesh_path: str | None = None
     return_waypoints: np.ndarray | None = None
+    timed: TimedPlan | None = None
+
+    @property
+    def cycle(self) -> CycleTime | None:
+        """The cycle time of the part and its parts (`timed`'s); None where `timed` is."""
+        return None if self.timed is None else self.timed.cycle
 
     @property
     def covered(self) -> np.ndarray:

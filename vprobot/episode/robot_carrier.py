@@ -14,7 +14,7 @@ from vprobot.geometry import Pose
 from vprobot.kinematics import UNSOLVED, ReachResult
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlan
-from vprobot.kinematics.trajectory import JOIN_TOLERANCE_RAD
+from vprobot.kinematics.trajectory import JOIN_TOLERANCE_RAD, time_move
 from vprobot.sensor import Acquisition
 
 UnreachablePolicy = Literal["skip", "nearest"]
@@ -106,10 +106,14 @@ class RobotCarrier(Carrier):
     def _executed(self, requested: Pose | None, q_from: np.ndarray, joints: np.ndarray,
                   motion: MotionPlan, reachable: bool, reason: str | None) -> ViewRecord:
         pose = self.arm.fk(joints)
+        # Timed here, once: its travel's cycle time and the episode's cycle read this timing.
+        timed = time_move(motion.waypoints, self.arm.limits)
         return ViewRecord(requested=pose if requested is None else requested,
                           reachable=reachable, reason=reason, joints=joints.copy(),
                           path=motion.path, waypoints=motion.waypoints, sensor_pose=pose,
-                          travel=self.arm.travel(q_from, joints, self.center, motion))
+                          travel=self.arm.travel(q_from, joints, self.center, motion,
+                                                 timed=timed),
+                          timed=timed)
 
     def _feasible_nearest(self, result: ReachResult, q_from: np.ndarray) -> MotionPlan | None:
         """The move to the configuration a failed IK ended in, when it can be driven to and

@@ -21,7 +21,7 @@ from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
 from vprobot.kinematics.motion_planner import densify
 from vprobot.kinematics.trajectory import Trajectory
-from vprobot.render.replay import plan_array, plan_field, plan_number, plan_object, read_plan
+from vprobot.plan import plan_array, plan_field, plan_number, plan_object, read_plan
 from vprobot.robots.description import MotionLimits
 from vprobot.scene import Cell, JointSpace
 from vprobot.schema import brief

@@ -20,7 +20,7 @@ from vprobot.cell_config import ProgramConfig
 from vprobot.config import SensorConfig
 from vprobot.geometry import Pose, quat_to_matrix
 from vprobot.kinematics.trajectory import TimedPlan, time_plan
-from vprobot.render.replay import plan_array, plan_number, plan_quaternion
+from vprobot.plan import plan_array, plan_carrier, plan_number, plan_quaternion
 from vprobot.robots.description import MotionLimits
 from vprobot.schema import ConfigError, brief, from_mapping
 
@@ -182,8 +182,9 @@ def plan_motion(document: dict[str, Any]) -> PlanMotion:
             back to the start, with a view's joints not where its move ends, or with malformed
             fields (the `cell` block's too: `program_cell`).
     """
-    if document.get("carrier", "robot") != "robot":
-        raise ValueError(f"the plan's carrier is {document.get('carrier')!r}: a free-flying "
+    carrier = plan_carrier(document)
+    if carrier != "robot":
+        raise ValueError(f"the plan's carrier is {carrier!r}: a free-flying "
                          f"sensor has no robot program to export or check")
     robot = document.get("robot")
     if not isinstance(robot, dict) or not isinstance(robot.get("joint_names"), list):

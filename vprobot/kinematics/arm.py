@@ -24,7 +24,7 @@ from vprobot.kinematics.ik import (
 )
 from vprobot.kinematics.motion_planner import MotionPlan, MotionPlanner
 from vprobot.kinematics.path import joint_path
-from vprobot.kinematics.trajectory import time_segment
+from vprobot.kinematics.trajectory import TimedMove, time_move
 from vprobot.kinematics.travel import (
     TravelCost,
     joint_path_length,
@@ -304,12 +304,12 @@ class RobotArm:
 
     def move_time(self, waypoints: np.ndarray) -> float:
         """Duration of a move along `waypoints` (m, dof) under the robot's velocity,
-        acceleration and jerk limits, stopping at each corner (the time law of docs/motion.md)."""
-        return sum(segment.duration_s for a, b in itertools.pairwise(waypoints)
-                   if (segment := time_segment(a, b, self.limits)) is not None)
+        acceleration and jerk limits, stopping at each corner (`time_move`)."""
+        return time_move(waypoints, self.limits).duration_s
 
     def travel(self, q_from: np.ndarray, q_to: np.ndarray, center: np.ndarray,
-               motion: MotionPlan | None = None, acquires: bool = True) -> TravelCost:
+               motion: MotionPlan | None = None, acquires: bool = True,
+               timed: TimedMove | None = None) -> TravelCost:
         """All travel costs of the joint-space move `q_from` -> `q_to`, measured along the
         executed path: `motion`'s corners and samples, or the straight line when omitted.
 
@@ -324,6 +324,8 @@ class RobotArm:
             motion: The executed move from `q_from` to `q_to`, when it is not the straight line.
             acquires: Whether the move ends at a view, where the robot stands still while the
                 sensor acquires.
+            timed: The move already timed (`time_move` of its corners), so that it is not
+                timed again; timed here when omitted.
         """
         if motion is None:
             corners, path = np.array([q_from, q_to], dtype=float), self.path(q_from, q_to)
@@ -337,6 +339,6 @@ class RobotArm:
             joint_path=sum(joint_path_length(a, b) for a, b in segments),
             cartesian=polyline_length(positions),
             paper=paper_travel(positions[0], positions[-1], np.asarray(center, dtype=float)),
-            cycle_time=self.move_time(corners) + (self.cell.config.sensor.acquisition_time_s
-                                                  if acquires else 0.0),
+            cycle_time=(timed.duration_s if timed is not None else self.move_time(corners))
+            + (self.cell.config.sensor.acquisition_time_s if acquires else 0.0),
         )

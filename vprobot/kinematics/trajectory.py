@@ -140,21 +140,43 @@ class Trajectory:
 
 
 @dataclasses.dataclass(frozen=True)
+class TimedMove:
+    """One move timed (`time_move`): its corners and its straight segments, on the move's own
+    clock (the first segment starts at 0 s).
+
+    Attributes:
+        waypoints: The corners (m, dof), m >= 2.
+        segments: The segments that have a length, in order.
+    """
+
+    waypoints: np.ndarray
+    segments: tuple[Segment, ...]
+
+    @property
+    def duration_s(self) -> float:
+        """How long the move takes, stopping at each corner."""
+        return float(sum(segment.duration_s for segment in self.segments))
+
+
+@dataclasses.dataclass(frozen=True)
 class TimedPlan:
     """A plan's moves timed, with its acquisitions: the exact trajectory, to sample or query.
 
     Attributes:
-        segments: The straight segments in order of time; between two of them the robot is at
-            rest (at a corner or acquiring).
+        segments: The straight segments in order of time, on the cycle's clock; between two of
+            them the robot is at rest (at a corner or acquiring).
         acquisitions: The stops at the views, in view order.
         cycle: The cycle time and its parts.
         joint_names: The joints.
+        moves: The moves as they were timed (approach, moves between views, return), each on
+            its own clock.
     """
 
     segments: tuple[Segment, ...]
     acquisitions: tuple[Acquisition, ...]
     cycle: CycleTime
     joint_names: tuple[str, ...]
+    moves: tuple[TimedMove, ...] = ()
 
     @property
     def duration_s(self) -> float:
@@ -264,6 +286,53 @@ def time_segment(start: npt.ArrayLike, end: npt.ArrayLike, limits: MotionLimits,
     return Segment(start_s, start, end, direction, length, profile)
 
 
+def time_move(waypoints: npt.ArrayLike, limits: MotionLimits) -> TimedMove:
+    """Time one move along its corners (m, dof), stopping at each: the time law of a move, the
+    one function every move's duration comes from (docs/motion.md#the-time-law).
+
+    Raises:
+        ValueError: If Ruckig finds no profile for a segment (`time_segment`).
+    """
+    corners = np.asarray(waypoints, dtype=float)
+    segments: list[Segment] = []
+    clock = 0.0
+    for start, end in itertools.pairwise(corners):
+        segment = time_segment(start, end, limits, clock)
+        if segment is not None:
+            segments.append(segment)
+            clock = segment.end_s
+    return TimedMove(corners, tuple(segments))
+
+
+def chain_moves(moves: Sequence[TimedMove], acquisition_time_s: float,
+                joint_names: Sequence[str]) -> TimedPlan:
+    """The cycle of timed moves, each starting where the one before ends: the approach, the
+    moves between views and the return, with a stop of `acquisition_time_s` at every view.
+
+    The moves are timed already (`time_move`); this only puts them on the cycle's clock, so a
+    cycle costs no more timing than its moves did. The checks are `time_plan`'s (an episode's
+    moves join by construction).
+    """
+    segments: list[Segment] = []
+    acquisitions: list[Acquisition] = []
+    durations = []
+    clock = 0.0
+    for index, move in enumerate(moves):
+        started = clock
+        for segment in move.segments:
+            segments.append(dataclasses.replace(segment, start_s=clock))
+            clock = segments[-1].end_s
+        durations.append(clock - started)
+        if index < len(moves) - 1:
+            acquisitions.append(Acquisition(clock, clock + acquisition_time_s, index,
+                                            move.waypoints[-1]))
+            clock += acquisition_time_s
+    cycle = (CycleTime(durations[0], sum(durations[1:-1]), acquisition_time_s * len(acquisitions),
+                       durations[-1]) if moves else CycleTime(0.0, 0.0, 0.0, 0.0))
+    return TimedPlan(tuple(segments), tuple(acquisitions), cycle, tuple(joint_names),
+                     tuple(moves))
+
+
 def time_plan(moves: Sequence[npt.ArrayLike], limits: MotionLimits, acquisition_time_s: float,
               joint_names: Sequence[str]) -> TimedPlan:
     """Time a plan's moves: approach, the moves between views, return; a stop at every view.
@@ -298,24 +367,8 @@ def time_plan(moves: Sequence[npt.ArrayLike], limits: MotionLimits, acquisition_
                     if index == len(paths) - 1 else f"move {index + 1} must start where move "
                     f"{index} ends")
             raise ValueError(f"{what}: {path[-1].tolist()} vs {following[0].tolist()}")
-    segments: list[Segment] = []
-    acquisitions: list[Acquisition] = []
-    durations = []
-    clock = 0.0
-    for index, path in enumerate(paths):
-        started = clock
-        for start, end in itertools.pairwise(path):
-            segment = time_segment(start, end, limits, clock)
-            if segment is not None:
-                segments.append(segment)
-                clock = segment.end_s
-        durations.append(clock - started)
-        if index < len(paths) - 1:
-            acquisitions.append(Acquisition(clock, clock + acquisition_time_s, index, path[-1]))
-            clock += acquisition_time_s
-    cycle = (CycleTime(durations[0], sum(durations[1:-1]), acquisition_time_s * len(acquisitions),
-                       durations[-1]) if paths else CycleTime(0.0, 0.0, 0.0, 0.0))
-    return TimedPlan(tuple(segments), tuple(acquisitions), cycle, tuple(joint_names))
+    return chain_moves([time_move(path, limits) for path in paths], acquisition_time_s,
+                       joint_names)
 
 
 def _waypoints(move: npt.ArrayLike, dof: int, index: int) -> np.ndarray:

@@ -21,7 +21,6 @@ from vprobot.episode import (
     MotorScene,
     SharedWork,
     describe_cycle,
-    episode_cycle,
     seeded_episode,
 )
 from vprobot.geometry import matrix_to_quat
@@ -29,7 +28,7 @@ from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import CycleTime
 from vprobot.occupancy import GridSettings
 from vprobot.paths import DEFAULT_MOTOR
-from vprobot.plan_export import episode_document
+from vprobot.plan import episode_document
 from vprobot.planners.base import (
     PLANNERS,
     Planner,
@@ -115,9 +114,6 @@ class EpisodeResult:
         goal: The coverage goal.
         plan_seconds: Time spent inside the planner (reset and next-view calls).
         episode_seconds: Wall time of the whole episode (planning and executing views).
-        cycle: The cell's cycle time of the part and its parts (docs/motion.md#cycle-time):
-            approach, moves, acquisitions, return; None without a robot, without an
-            acquisition, or when no path back to the start was found (`episode_cycle`).
         candidates: The candidate views of a model-based planner (bscp, oracle), else None.
         stop_reason: Why the episode ended (`goal reached`, `max views`, the stop rule's or the
             planner's own reason, e.g. `nbv@grid`'s).
@@ -139,7 +135,6 @@ class EpisodeResult:
     goal: float
     plan_seconds: float
     episode_seconds: float
-    cycle: CycleTime | None
     candidates: CandidateViews | None = None
     stop_reason: str | None = None
     stop_rule: str = "goal"
@@ -148,6 +143,14 @@ class EpisodeResult:
     estimate_notes: tuple[str, ...] = ()
     proof: Proof | None = None
     clearances: tuple[Clearance, ...] | None = None
+
+    @property
+    def cycle(self) -> CycleTime | None:
+        """The cell's cycle time of the part and its parts (docs/motion.md#cycle-time), as the
+        episode timed it (`EpisodeRecord.cycle`): approach, moves, acquisitions, return; None
+        without a robot, without an acquisition, or when no path back to the start was
+        found."""
+        return self.record.cycle
 
     @property
     def mesh(self) -> str:
@@ -310,7 +313,6 @@ def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
                          carrier=carrier, spec=spec, record=played.record,
                          goal=config.env.coverage_goal, plan_seconds=played.plan_seconds,
                          episode_seconds=seconds,
-                         cycle=episode_cycle(played.record, scene.cell),
                          candidates=chosen.candidates, stop_reason=played.stop_reason,
                          stop_rule=stop, planner_stopped=played.planner_stopped,
                          estimates=estimated, estimate_notes=tuple(notes), proof=chosen.proof,
@@ -335,7 +337,7 @@ def summary(result: EpisodeResult, config: Config) -> str:
     ]
     approach = record.approach
     if robot:
-        lines.append(f"  {describe_cycle(record, result.cycle)}")
+        lines.append(f"  {describe_cycle(record)}")
         lines.append(f"  approach from the start {approach.joint_time:.2f} s joint time")
         lines.append(f"  travel {travel.joint_time:.2f} s joint time, {travel.joint_path:.2f} rad "
                      f"joint path, {travel.cartesian:.2f} m sensor path, {travel.paper:.2f} m "
@@ -382,7 +384,7 @@ def result_document(scene: MotorScene, result: EpisodeResult,
     """The plan JSON of a finished episode (`episode_document`, with the cycle the episode
     timed), with the planner, seed, goal, why it stopped and how long planning took; without
     the ground-truth block unless `ground_truth`."""
-    return episode_document(scene, result.record, result.cycle, metadata={
+    return episode_document(scene, result.record, metadata={
         "planner": result.planner, "seed": result.seed, "goal": result.goal,
         "stop_rule": result.stop_rule, "stop_reason": result.stop_reason,
         # Wall-clock figures in a block of their own, which `plan --no-timing` leaves out.

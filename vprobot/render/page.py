@@ -4,8 +4,9 @@ The page holds the cell as MuJoCo compiled it (robot, sensor housing, fixture, s
 the part where the episode placed it), the views as numbered frusta in execution order, the
 measured points coloured by view, the ground-truth points no view covered, and, under a
 structured-light sensor, the points each frame lost by cause (`vprobot.render.lost`). With the
-robot in the loop the page is a recording of the robot's timed cycle (`timed_episode`, the clock
-of the video: `vprobot.render.timeline`): its playback bar plays it and its slider scrubs it.
+robot in the loop the page is a recording of the robot's timed cycle (`EpisodeRecord.timed`, on
+the clock of the video: `vprobot.render.timeline`): its playback bar plays it and its slider
+scrubs it.
 A free-flying plan shows the sensor poses only. The cycle time and its parts are written over the
 scene. viser's client is bundled in its wheel, and the scene is embedded in the page: opening it
 fetches nothing.
@@ -27,7 +28,7 @@ import numpy as np
 import trimesh
 import viser
 
-from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle, timed_episode
+from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle
 from vprobot.files import write_text
 from vprobot.geometry import quat_to_matrix
 from vprobot.render.camera import overview_eye
@@ -302,8 +303,8 @@ def plan_page(scene: MotorScene, record: EpisodeRecord, title: str) -> Page:
         server.initial_camera.look_at = target
         built = _PlanScene(server, scene, record)
         serializer = server.get_scene_serializer()
-        timed = timed_episode(record, scene.cell) if built.robot else None
-        cycle = describe_cycle(record, None if timed is None else timed.cycle)
+        timed = record.timed if built.robot else None
+        cycle = describe_cycle(record)
         duration = 0.0
         if timed is not None:
             # The video's timeline on the cell's clock: the hold of a view is its acquisition.

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 from PIL import Image, ImageDraw
 
-from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle, episode_cycle
+from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle
 from vprobot.geometry import Pose
 from vprobot.render.camera import aim_at_sphere, project
 from vprobot.render.closeup import FRAME_MARGIN, draw_coverage, hide_robot
@@ -219,5 +219,5 @@ def render_summary(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str
         _overview(cell, data, record, overview_width, height),
         _close_ups(cell, data, record, losses, width - overview_width, height),
     ], axis=1)
-    cycle = describe_cycle(record, episode_cycle(record, cell))
+    cycle = describe_cycle(record)
     return write_png(out_png, _caption(image, record, losses, cycle))

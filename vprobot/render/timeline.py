@@ -1,7 +1,7 @@
 """The frames of an episode video: where the arm is and how far the episode has got, per frame.
 
 Pure bookkeeping, no OpenGL. The video's clock is the cell's: with the robot's timed cycle
-(`vprobot.episode.timed_episode`, docs/motion.md#cycle-time) the arm follows the timed trajectory,
+(`EpisodeRecord.timed`, docs/motion.md#cycle-time) the arm follows the timed trajectory,
 each move's frames spanning its duration under the robot's velocity, acceleration and jerk limits
 (times `time_scale`, capped at `max_seconds_per_move`), holds while the acquisition is shown, and
 returns home at the end; every frame carries the elapsed cycle time. Without a cycle (a free-flying
@@ -132,7 +132,7 @@ def episode_timeline(record: EpisodeRecord, settings: TimingSettings,
     Args:
         record: The episode.
         settings: How its time maps to frames.
-        timed: The episode's timed cycle (`timed_episode(record, cell)`), whose clock the video
+        timed: The episode's timed cycle (`record.timed`), whose clock the video
             keeps; None for the untimed video (a free-flying sensor, no path home).
     """
     states: list[FrameState] = []

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
-from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord, timed_episode
+from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord
 from vprobot.kinematics import TravelCost
 from vprobot.render.camera import aim_overview
 from vprobot.render.closeup import PartCloseUp
@@ -90,8 +90,6 @@ class EpisodeRenderer:
             raise ValueError("the episode has no views to render")
         self.cell = cell_of(scene)
         self.record = record
-        # The robot's cycle, whose clock the video keeps (None: the untimed video).
-        self.timed = timed_episode(record, self.cell)
         self.sensor = SensorModel.from_config(self.cell.config.sensor)
         self.data = self.cell.make_data()
         self.cell.place_object(self.data, record.object_pose.rotation)
@@ -171,7 +169,7 @@ class EpisodeRenderer:
             unreachable=tuple((index + 1, view.reason or "unreachable")
                               for index, view in enumerate(done) if not view.reachable),
             clock_s=state.clock_s,
-            cycle_s=None if self.timed is None else self.timed.duration_s,
+            cycle_s=None if self.record.timed is None else self.record.timed.duration_s,
         )
 
     def _caption(self, state: FrameState) -> str:
@@ -191,7 +189,7 @@ class EpisodeRenderer:
     def timeline(self, settings: TimingSettings) -> list[FrameState]:
         """The episode's frame states (`episode_timeline`), on the cell's clock where the robot's
         cycle is timed."""
-        return episode_timeline(self.record, settings, self.timed)
+        return episode_timeline(self.record, settings, self.record.timed)
 
     def frames(self, settings: TimingSettings) -> Iterator[tuple[np.ndarray, int]]:
         """Each distinct frame of the episode with how many times it repeats."""

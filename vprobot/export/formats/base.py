@@ -10,8 +10,8 @@ from typing import Any
 from vprobot.config import load_config, replace
 from vprobot.export import EXPORT_DT_S
 from vprobot.export.motion import PlanMotion, plan_motion, require_robot
+from vprobot.plan import plan_robot, read_plan
 from vprobot.registry import Bundled, Registry
-from vprobot.render.replay import plan_robot, read_plan
 from vprobot.scene import Cell
 
 Writer = Callable[[PlanMotion, float], str]

@@ -1,4 +1,4 @@
-"""View plans as JSON for a real cell (docs/plan-format.md)."""
+"""Writing the plan JSON of an episode, for a real cell (docs/plan-format.md)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,6 @@ from vprobot.episode import EpisodeRecord, MotorScene
 from vprobot.files import file_sha256, write_text
 from vprobot.geometry import Pose, quat_to_matrix
 from vprobot.kinematics import TravelCost
-from vprobot.kinematics.trajectory import CycleTime
 from vprobot.robots import is_bundled
 from vprobot.scene import ENVIRONMENT_BIT, STATIC_PREFIX, Cell
 
@@ -252,7 +251,7 @@ def return_block(record: EpisodeRecord) -> dict[str, Any] | None:
     return {"waypoints": _corners(record.return_waypoints), "reason": reason}
 
 
-def episode_document(scene: MotorScene, record: EpisodeRecord, cycle: CycleTime | None,
+def episode_document(scene: MotorScene, record: EpisodeRecord,
                      metadata: dict[str, Any] | None = None,
                      estimates: np.ndarray | None = None,
                      ground_truth: bool = True) -> dict[str, Any]:
@@ -262,13 +261,12 @@ def episode_document(scene: MotorScene, record: EpisodeRecord, cycle: CycleTime 
     `views[i].travel` is the move from the previous view (for the first view: the approach from
     `start_joints`); `approach` repeats the approach and `travel` sums the moves between views
     (k_cum, docs/states-actions-rewards.md#travel-costs), which exclude it. With the robot,
-    `return` holds the way back to the start and `cycle_time` the cycle timed once
-    (docs/motion.md#cycle-time); null where the cycle cannot be closed.
+    `return` holds the way back to the start and `cycle_time` the cycle the episode timed
+    (`EpisodeRecord.cycle`, docs/motion.md#cycle-time); null where the cycle cannot be closed.
 
     Args:
         scene: The motor scene the episode ran in.
         record: The episode.
-        cycle: Its cycle time (`episode_cycle`, which its caller has timed already), or None.
         metadata: Extra top-level entries (planner, carrier, seed, ...).
         estimates: The model-free coverage estimate (mean, std) after each view, written as
             `views[i].estimate` when given.
@@ -281,7 +279,7 @@ def episode_document(scene: MotorScene, record: EpisodeRecord, cycle: CycleTime 
     document["approach"] = record.approach.as_dict()
     document["travel_sum"] = record.travel_sum.as_dict()
     document["return"] = return_block(record)
-    document["cycle_time"] = None if cycle is None else cycle.as_dict()
+    document["cycle_time"] = None if record.cycle is None else record.cycle.as_dict()
     if ground_truth:
         document["ground_truth"] = ground_truth_block(record)
     if estimates is not None:
