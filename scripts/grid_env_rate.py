@@ -23,7 +23,7 @@ def main(config_path: str, steps: int) -> float:
     config = replace(load_config(config_path), "env", state="s_grid", action="A_view",
                      reward="R2", motors="train", resolution=TRAINING_RESOLUTION)
     env = InspectEnv(config)
-    for path in env.motor_files:
+    for path in env.part_files:
         env.scene(path)
     rng = np.random.default_rng(0)
     observation, _ = env.reset(seed=0)

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from vprobot.config import load_config
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.geometry import rotation_about_z
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.render import render_episode
@@ -42,7 +42,7 @@ def main() -> None:
     args = parser.parse_args()
     args.out_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    scene = MotorScene.load(load_config(), DEFAULT_MOTOR)
+    scene = PartScene.load(load_config(), DEFAULT_MOTOR)
     record = ring_inspection(scene, args.views, rotation_about_z(OBJECT_YAW_RAD), MAX_POLAR_DEG)
     video = render_episode(scene, record, args.out_dir / "rollout.mp4", width=args.width,
                            height=args.height, fps=args.fps, time_scale=TIME_SCALE,

@@ -21,7 +21,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import load_config
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.evaluation import evaluation_episodes
 from vprobot.occupancy import OCCUPIED
 from vprobot.planners import nbv
@@ -65,7 +65,7 @@ def main() -> None:
     nbv.VolumetricPlanner.next_view = counted  # type: ignore[method-assign]
     for index, spec in enumerate(tqdm(evaluation_episodes(config, episodes=args.episodes))):
         current.update(episode=index, object=str(spec.motor))
-        scene = MotorScene.load(config, spec.motor_path, spec.scale)
+        scene = PartScene.load(config, spec.part_path, spec.scale)
         run(config, scene, "nbv", spec, stop=f"views:{args.views}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with args.out.open("w", newline="") as file:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from vprobot.config import Config, load_config, replace
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.evaluation import evaluation_episodes
 from vprobot.files import append_line, folder_lock, write_text
 from vprobot.kinematics.motion_planner import MotionPlan, MotionPlanner
@@ -57,7 +57,7 @@ def timed_queries() -> Iterator[dict[str, list[float]]]:
 
 
 def episode_line(config: Config, path_planner: str, planner: str, index: int,
-                 scene: MotorScene, spec: Any) -> dict[str, Any]:
+                 scene: PartScene, spec: Any) -> dict[str, Any]:
     """Run one episode and count its requests by outcome."""
     name, views = parse_planner(planner)
     with timed_queries() as times:
@@ -129,7 +129,7 @@ def main() -> None:
                         if (path_planner, planner, index) not in done]
                 if not todo:
                     continue
-                scene = MotorScene.load(config, spec.motor_path, spec.scale)
+                scene = PartScene.load(config, spec.part_path, spec.scale)
                 for planner in todo:
                     line = episode_line(config, path_planner, planner, index, scene, spec)
                     append_line(lines_path, json.dumps(line) + "\n")

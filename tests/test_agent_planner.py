@@ -17,7 +17,7 @@ from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.paths import AGENTS_DIR, OBJECTS_DIR
 from vprobot.planners.agent import AgentPlanner
-from vprobot.planners.runner import plan_motor
+from vprobot.planners.runner import plan_part
 
 CONFIG = Config()
 
@@ -31,7 +31,7 @@ def run(smoke_runs: SmokeRuns) -> Path:
 def test_bundled_agent_plans_a_part_of_no_training_family_end_to_end() -> None:
     # The pipe tee is no motor and of no generated family: the agent never saw its like.
     assert (BUNDLED_AGENT / "model.zip").stat().st_size <= 20 * 1024**2
-    _, record, document, text = plan_motor(CONFIG, OBJECTS_DIR / "pipe_tee.stl",
+    _, record, document, text = plan_part(CONFIG, OBJECTS_DIR / "pipe_tee.stl",
                                            planner="agent", seed=0)
     assert "agent on pipe_tee.stl" in text
     assert len(document["views"]) == len(record.views) >= 2
@@ -55,10 +55,10 @@ def test_agent_is_handed_acquired_points_only(run: Path,
         return predict(observation, **kwargs)
 
     monkeypatch.setattr(planner.agent.model, "predict", recording)
-    from vprobot.episode import Episode, MotorScene
+    from vprobot.episode import Episode, PartScene
     from vprobot.paths import DEFAULT_MOTOR
 
-    scene = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75))
+    scene = PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75))
     episode = Episode(scene, np.eye(3))
     planner.reset(episode, np.random.default_rng(0))
     episode.begin(planner_initial(episode))

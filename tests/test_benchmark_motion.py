@@ -57,7 +57,7 @@ def test_benchmark_motion_records_a_planner_that_cannot_plan_with_its_message(
     def refuse(*args: Any, **kwargs: Any) -> None:
         raise ValueError(message)
 
-    monkeypatch.setattr(motion, "plan_motor", refuse)
+    monkeypatch.setattr(motion, "plan_part", refuse)
     row, scene, record = motion.replay_one(Config(), held_out_motors()[0], "nbv", tmp_path)
     assert row["failures"] == [message] and not row["planned"] and not row["holds"]
     assert scene is None and record is None

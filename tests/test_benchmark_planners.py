@@ -6,7 +6,7 @@ from __future__ import annotations
 from vprobot.benchmarks.planners import _timed_screenings
 from vprobot.config import Config
 from vprobot.env.grid_state import GridState
-from vprobot.episode import MotorScene, seeded_episode
+from vprobot.episode import PartScene, seeded_episode
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import run
 
@@ -14,7 +14,7 @@ CONFIG = Config()
 
 
 def test_the_agents_screening_is_timed_once_per_episode_within_its_planning() -> None:
-    scene = MotorScene.load(CONFIG, DEFAULT_MOTOR)
+    scene = PartScene.load(CONFIG, DEFAULT_MOTOR)
     screening = GridState.screening
     with _timed_screenings() as seconds:
         played = run(CONFIG, scene, "agent", seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0),

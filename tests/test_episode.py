@@ -11,7 +11,7 @@ from vprobot.config import Config, replace
 from vprobot.episode import (
     Episode,
     EpisodeSpec,
-    MotorScene,
+    PartScene,
     ViewRequest,
     describe_cycle,
     seeded_episode,
@@ -30,8 +30,8 @@ DIRECTIONS = [(0.0, 1.0), (2.0, 1.1), (4.0, 0.8), (1.0, 1.9)]
 
 
 @pytest.fixture(scope="module")
-def scene() -> MotorScene:
-    return MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75))
+def scene() -> PartScene:
+    return PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75))
 
 
 def _requests(episode: Episode) -> list[ViewRequest]:
@@ -47,7 +47,7 @@ def _trace(episode: Episode) -> list[tuple]:
             for view in episode.views]
 
 
-def test_interleaved_episodes_do_not_share_state(scene: MotorScene) -> None:
+def test_interleaved_episodes_do_not_share_state(scene: PartScene) -> None:
     """Two episodes of one scene, object turned differently, stepped in turn, give what each
     gives alone: no consumer reads another episode's object placement or configuration."""
     rotations = [np.eye(3), rotation_about_x(0.4) @ rotation_about_z(2.0)]
@@ -68,14 +68,14 @@ def test_interleaved_episodes_do_not_share_state(scene: MotorScene) -> None:
     assert [_trace(episode) for episode in together] == alone
 
 
-def test_only_a_robot_episode_has_a_robot(scene: MotorScene) -> None:
+def test_only_a_robot_episode_has_a_robot(scene: PartScene) -> None:
     robot = Episode(scene, np.eye(3))
     assert robot.robot is robot.carrier and robot.robot.collisions is not None
     with pytest.raises(RuntimeError, match="the free carrier has no robot"):
         _ = Episode(scene, np.eye(3), carrier="free").robot
 
 
-def test_free_carrier_acquires_exactly_at_every_request(scene: MotorScene) -> None:
+def test_free_carrier_acquires_exactly_at_every_request(scene: PartScene) -> None:
     episode = Episode(scene, np.eye(3), carrier="free")
     below = SensorTarget.look_at(episode.center + [0.0, 0.0, -0.47], episode.center)
     for request in [*_requests(episode), ViewRequest(below)]:
@@ -91,7 +91,7 @@ def test_free_carrier_acquires_exactly_at_every_request(scene: MotorScene) -> No
         episode.replay(scene.cell.joints.start)
 
 
-def test_record_reports_the_first_covering_view(scene: MotorScene) -> None:
+def test_record_reports_the_first_covering_view(scene: PartScene) -> None:
     episode = Episode(scene, np.eye(3))
     for request in _requests(episode):
         episode.request(request)
@@ -106,7 +106,7 @@ def test_record_reports_the_first_covering_view(scene: MotorScene) -> None:
 
 def test_spec_round_trip_and_clear_errors() -> None:
     spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 4)
-    assert spec.motor == "test/motor_000.stl" and spec.motor_path == DEFAULT_MOTOR
+    assert spec.motor == "test/motor_000.stl" and spec.part_path == DEFAULT_MOTOR
     assert EpisodeSpec.from_dict(spec.as_dict()) == spec
     assert seeded_episode(CONFIG.env, DEFAULT_MOTOR, 5) != spec
     bad = {**spec.as_dict(), "initial_views": [[1.0]]}
@@ -118,7 +118,7 @@ def test_spec_round_trip_and_clear_errors() -> None:
         EpisodeSpec.from_dict({**spec.as_dict(), "seed": -1})
 
 
-def test_the_cycle_time_is_the_sum_of_the_steps_and_the_return_home(scene: MotorScene) -> None:
+def test_the_cycle_time_is_the_sum_of_the_steps_and_the_return_home(scene: PartScene) -> None:
     """The cycle (docs/motion.md#cycle-time) timed as a whole equals what the steps' `cycle_time`
     costs add up to (each move timed alone plus its acquisition) plus the return, timed alone;
     the return closes the loop at the start."""
@@ -146,7 +146,7 @@ def test_the_cycle_time_is_the_sum_of_the_steps_and_the_return_home(scene: Motor
     assert free.record().return_waypoints is None and free.record().timed is None
 
 
-def test_plans_summary_reports_the_cycle_time_and_its_parts(scene: MotorScene) -> None:
+def test_plans_summary_reports_the_cycle_time_and_its_parts(scene: PartScene) -> None:
     """`plan`'s summary gives the robot's cycle time (docs/motion.md#cycle-time) with its parts,
     each as the cycle timed whole has it: the approach and the return are the moves from and to
     the start alone, the acquisitions a stop per acquired view."""
@@ -177,7 +177,7 @@ def test_a_robot_that_misses_the_spec_initial_view_starts_from_the_nearest_it_re
     """The UR5 does not reach the paper's fixed initial view around the default motor; the
     fallbacks after it are the band's directions nearest it, and the episode begins there."""
     config = replace(CONFIG, "cell", robot="ur5")
-    scene = MotorScene.load(config, DEFAULT_MOTOR, resolution=(107, 75))
+    scene = PartScene.load(config, DEFAULT_MOTOR, resolution=(107, 75))
     spec = seeded_episode(config.env, DEFAULT_MOTOR, 0)
     episode = Episode.from_spec(scene, spec)
     requests = spec.initial_requests(episode.center, config.sensor.working_distance_m)
@@ -215,7 +215,7 @@ def _travel_from_scratch(views: list) -> tuple[dict[str, float], dict[str, float
 
 @pytest.mark.parametrize("carrier", ["robot", "free"])
 def test_the_running_travel_sums_equal_the_sums_over_the_views_from_scratch(
-        scene: MotorScene, carrier: str) -> None:
+        scene: PartScene, carrier: str) -> None:
     episode = Episode(scene, np.eye(3), carrier)
     requests = _requests(episode)
     # A request skipped before the first acquisition, and one skipped between acquisitions.
@@ -231,7 +231,7 @@ def test_the_running_travel_sums_equal_the_sums_over_the_views_from_scratch(
 
 
 def test_the_episodes_grid_after_each_view_and_its_features_are_those_integrated_from_scratch(
-        scene: MotorScene) -> None:
+        scene: PartScene) -> None:
     """The episode integrates each frame once and reads the grid after any earlier view back
     from what each frame changed; the grid, the share of occupied voxels a frame added and the
     share of its voxels that were new are those of a grid integrated here frame by frame, and

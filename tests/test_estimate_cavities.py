@@ -12,7 +12,7 @@ import pytest
 from helpers import COVERAGE_CPU_MARGIN
 
 from vprobot.config import Config, replace
-from vprobot.episode import MotorScene, seeded_episode
+from vprobot.episode import PartScene, seeded_episode
 from vprobot.planners.runner import run, summary
 from vprobot.stop_studies.dataset import read_dataset
 from vprobot.stopping.estimator import (
@@ -75,7 +75,7 @@ def test_the_estimate_rule_does_not_stop_below_the_goal_on_unseen_cavities(
     config = replace(replace(CONFIG, "kinematics", path_planner="line"), "cell", safety={
         "clearance_m": 0.0, "part_clearance_m": 0.0, "joint_limit_margin_deg": 0.0})
     path = RESULTS / part
-    scene = MotorScene.load(config, path, 0.001)
+    scene = PartScene.load(config, path, 0.001)
     spec = seeded_episode(config.env, path, seed, 0.001)
     result = run(config, scene, "nbv", spec, "robot", stop="estimate", estimates=True)
     views = result.record.views

@@ -13,7 +13,7 @@ import pytest
 
 from vprobot.cli import main
 from vprobot.config import Config, replace, with_sensor
-from vprobot.episode import MotorScene, seeded_episode
+from vprobot.episode import PartScene, seeded_episode
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import run, summary
 from vprobot.stopping.estimator import (
@@ -33,12 +33,12 @@ Z = 1.6448536  # one-sided 95 %
 
 
 @pytest.fixture(scope="module")
-def motor() -> MotorScene:
-    return MotorScene.load(CONFIG, DEFAULT_MOTOR)
+def motor() -> PartScene:
+    return PartScene.load(CONFIG, DEFAULT_MOTOR)
 
 
 def test_a_repeated_view_never_raises_the_estimate_nor_its_lower_bound(
-        motor: MotorScene) -> None:
+        motor: PartScene) -> None:
     spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
     views = list(run(CONFIG, motor, "nbv", spec, "free", stop="views:3").record.views)
     repeated = views + [views[-1]] * 8
@@ -53,12 +53,12 @@ def test_a_repeated_view_never_raises_the_estimate_nor_its_lower_bound(
 
 
 def test_another_sensor_refuses_the_estimate_and_the_summary_says_why(
-        motor: MotorScene) -> None:
+        motor: PartScene) -> None:
     # phoxi_m's geometry at a small resolution, to keep the test fast: the features count per
     # pixel, so the check compares the opening angles, the range and the working distance.
     config = replace(replace(with_sensor(CONFIG, "phoxi_m"), "sensor", resolution=(107, 80)),
                      "env", max_acquisitions=2)
-    scene = MotorScene.load(config, DEFAULT_MOTOR)
+    scene = PartScene.load(config, DEFAULT_MOTOR)
     spec = seeded_episode(config.env, DEFAULT_MOTOR, 0)
     result = run(config, scene, "nbv", spec, "free", stop="estimate:0.5", estimates=True)
     assert result.stop_reason == "max views"

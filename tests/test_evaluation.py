@@ -134,7 +134,7 @@ def test_every_planner_sees_the_same_object_pose(tmp_path: Path,
     rotation = Rotation.from_quat(spec.object_quaternion, scalar_first=True).as_matrix()
     center = np.asarray(CONFIG.cell.object_center_m)
     # The mesh file centred on its bounds (the loader's convention), placed by the spec.
-    mesh = trimesh.load_mesh(spec.motor_path)
+    mesh = trimesh.load_mesh(spec.part_path)
     mesh.apply_translation(-mesh.bounds.mean(axis=0))
     for result in results:
         pose = result.record.object_pose
@@ -168,7 +168,7 @@ def test_shapes_episode_list_is_what_the_sampler_draws_and_loads_from_anywhere(
     # Bundled objects are named inside the assets, not by a path that only works in the repo.
     monkeypatch.chdir(tmp_path)
     assert bundled[0].motor == "objects/bracket.stl"
-    assert {spec.motor_path for spec in bundled} == set(objects)
+    assert {spec.part_path for spec in bundled} == set(objects)
 
 
 def test_an_unknown_episode_list_names_the_bundled_ones(tmp_path: Path) -> None:

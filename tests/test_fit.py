@@ -11,16 +11,16 @@ import numpy as np
 import pytest
 import trimesh
 
-import vprobot.episode.motor_scene as motor_scene
+import vprobot.episode.part_scene as part_scene
 import vprobot.ground_truth
 import vprobot.kinematics.arm as arm_module
 from vprobot.config import Config
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.fit import check_fits, fit_limit, sensor_limit_m
 from vprobot.kinematics import RobotArm
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import CACHE_ENV_VAR
-from vprobot.planners.runner import plan_motor
+from vprobot.planners.runner import plan_part
 from vprobot.scene import Cell
 
 CONFIG = Config()
@@ -43,8 +43,8 @@ def no_ground_truth(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
         raise AssertionError("reached past the fit check")
 
     monkeypatch.setattr(vprobot.ground_truth, "build_ground_truth", forbidden)
-    monkeypatch.setattr(motor_scene, "ground_truth", forbidden)
-    monkeypatch.setattr(motor_scene, "Cell", forbidden)
+    monkeypatch.setattr(part_scene, "ground_truth", forbidden)
+    monkeypatch.setattr(part_scene, "Cell", forbidden)
     return cache
 
 
@@ -67,7 +67,7 @@ def test_oversized_object_fails_before_ground_truth(tmp_path: Path, no_ground_tr
     path = _box(tmp_path / "big.stl", 0.8) if name == "box" else MOTOR
     message = rf"{path.name} does not fit the cell: at scale={scale:g} it measures {size}"
     with pytest.raises(ValueError, match=rf"{message}.*allows 0\.189 m.*{hint}") as raised:
-        MotorScene.load(CONFIG, path, scale)
+        PartScene.load(CONFIG, path, scale)
     assert "\n" not in str(raised.value)
     assert not no_ground_truth.exists() or not any(no_ground_truth.rglob("*"))
 
@@ -79,7 +79,7 @@ def test_millimetre_mesh_with_the_wrong_scale(tmp_path: Path, no_ground_truth: P
     motor.export(path)
     with pytest.raises(ValueError, match=r"motor_mm\.stl does not fit the cell: at scale=0\.01 "
                                          r".*did you mean scale=0\.001 \(file in millimetres\)\?$"):
-        MotorScene.load(CONFIG, path, 0.01)
+        PartScene.load(CONFIG, path, 0.01)
 
 
 def test_limit_is_the_bounding_sphere(tmp_path: Path) -> None:
@@ -170,14 +170,14 @@ def test_unit_hints_name_the_scale_setting_the_caller_gave(
         fit_hint: str) -> None:
     path = _millimetre_motor(tmp_path / "motor_mm.stl")
     with pytest.raises(ValueError, match=re.escape(unit_hint)):
-        MotorScene.load(CONFIG, path, scale_option=option)
+        PartScene.load(CONFIG, path, scale_option=option)
     with pytest.raises(ValueError, match=re.escape(fit_hint)):
-        MotorScene.load(CONFIG, path, 0.01, scale_option=option)
+        PartScene.load(CONFIG, path, 0.01, scale_option=option)
 
 
 def test_plan_hints_name_the_scale_option(tmp_path: Path, no_ground_truth: Path) -> None:
     path = _millimetre_motor(tmp_path / "motor_mm.stl")
     with pytest.raises(ValueError, match=r"with --scale 1, .* use --scale 0\.001$"):
-        plan_motor(CONFIG, path)
+        plan_part(CONFIG, path)
     with pytest.raises(ValueError, match=r"at --scale 2 it .* did you mean --scale 1 \(file in "):
-        plan_motor(CONFIG, MOTOR, 2.0)
+        plan_part(CONFIG, MOTOR, 2.0)

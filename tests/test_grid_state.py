@@ -263,7 +263,7 @@ def test_the_agent_planner_builds_the_env_observation_of_the_same_episode(
     monkeypatch.setattr("vprobot.agents.trained.load_agent", load)
     planner = AgentPlanner("stub")
     spec = env.spec_of_episode
-    episode = Episode.from_spec(env.scene(spec.motor_path, spec.scale), spec)
+    episode = Episode.from_spec(env.scene(spec.part_path, spec.scale), spec)
     planner.reset(episode, np.random.default_rng(0))
     episode.begin(spec.initial_requests(episode.center, CONFIG.sensor.working_distance_m))
     for _ in actions:

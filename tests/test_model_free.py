@@ -26,7 +26,7 @@ from vprobot.config import Config, replace, with_sensing, with_sensor
 from vprobot.env.grid_state import FEATURES as GRID_FEATURES
 from vprobot.env.grid_state import candidate_count
 from vprobot.env.observations import observation_space
-from vprobot.episode import Episode, MotorScene, seeded_episode
+from vprobot.episode import Episode, PartScene, seeded_episode
 from vprobot.geometry import Pose
 from vprobot.occupancy import (
     FREE,
@@ -59,7 +59,7 @@ what it measured, never the coverage."""
 
 
 @pytest.fixture(scope="module")
-def bracket(tmp_path_factory: pytest.TempPathFactory) -> MotorScene:
+def bracket(tmp_path_factory: pytest.TempPathFactory) -> PartScene:
     """An L-shaped part (two boxes)."""
     folder = tmp_path_factory.mktemp("model_free")
     mesh = trimesh.boolean.union([
@@ -70,7 +70,7 @@ def bracket(tmp_path_factory: pytest.TempPathFactory) -> MotorScene:
     ])
     path = folder / "bracket.stl"
     mesh.export(path)
-    return MotorScene.load(CONFIG, path, resolution=RESOLUTION)
+    return PartScene.load(CONFIG, path, resolution=RESOLUTION)
 
 
 class Guarded:
@@ -118,7 +118,7 @@ def planner_view(episode: Episode) -> Guarded:
                    robot=Guarded("robot", **robot))
 
 
-def guarded_run(planner: Planner, scene: MotorScene, carrier: str, seed: int = 0,
+def guarded_run(planner: Planner, scene: PartScene, carrier: str, seed: int = 0,
                 views: int = 6) -> Episode:
     """Run a planner for at most `views` requests, handing it only `planner_view`s."""
     spec = seeded_episode(CONFIG.env, scene.mesh.path, seed)
@@ -137,7 +137,7 @@ def guarded_run(planner: Planner, scene: MotorScene, carrier: str, seed: int = 0
 @pytest.mark.parametrize("carrier", ["robot", "free"])
 @pytest.mark.parametrize("name", ["uniform4", "nbv", "nbv@grid"])
 def test_model_free_planners_never_read_mesh_ground_truth_or_coverage(
-        bracket: MotorScene, name: str, carrier: str) -> None:
+        bracket: PartScene, name: str, carrier: str) -> None:
     # uniform's band screened with straight-line moves: seconds, where the default cell's takes
     # a minute of motion planning (test_results_regenerate's uniform4 screens that one); the
     # episode's robot still plans its moves.
@@ -157,7 +157,7 @@ class MaskedGreedy:
 # With the robot: test_the_candidate_agent_never_requests_within_5_deg_of_an_earlier_request.
 @pytest.mark.parametrize("carrier", ["free"])
 def test_an_a_view_s_grid_agent_reads_no_model_and_never_asks_near_an_earlier_view(
-        bracket: MotorScene, carrier: str, monkeypatch: pytest.MonkeyPatch) -> None:
+        bracket: PartScene, carrier: str, monkeypatch: pytest.MonkeyPatch) -> None:
     # Frames at the scene's resolution, which the planner takes for the sensor's.
     config = replace(replace(CONFIG, "sensor", resolution=RESOLUTION), "env",
                      action="A_view", state="s_grid")
@@ -195,7 +195,7 @@ def drawn_to_earlier_requests(model: CandidateDQN) -> None:
 
 
 def test_the_candidate_agent_never_requests_within_5_deg_of_an_earlier_request(
-        bracket: MotorScene, monkeypatch: pytest.MonkeyPatch) -> None:
+        bracket: PartScene, monkeypatch: pytest.MonkeyPatch) -> None:
     """The issue's target, on every episode: with the robot, from a Q-network that would rather
     repeat a view (the mask and the masked Q-values forbid it)."""
     config = replace(replace(replace(CONFIG, "sensor", resolution=RESOLUTION), "env",
@@ -218,7 +218,7 @@ def test_the_candidate_agent_never_requests_within_5_deg_of_an_earlier_request(
 
 
 def test_the_coverage_estimate_features_never_read_mesh_ground_truth_or_coverage(
-        bracket: MotorScene) -> None:
+        bracket: PartScene) -> None:
     episode = guarded_run(make_planner("nbv", CONFIG), bracket, "robot")
     views = planner_view(episode).views
     features = CoverageFeatures(CONFIG)
@@ -230,7 +230,7 @@ def test_the_coverage_estimate_features_never_read_mesh_ground_truth_or_coverage
 @pytest.mark.parametrize(("rule", "decides"), [("estimate:0.5", True), ("grid", False),
                                                ("views:3", True)])
 def test_the_model_free_stop_rules_never_read_mesh_ground_truth_or_coverage(
-        bracket: MotorScene, rule: str, decides: bool) -> None:
+        bracket: PartScene, rule: str, decides: bool) -> None:
     # A goal the estimate can pass, so that the rule runs to its decision, not only up to it
     # (the grid rule needs more quiet views than the episode has: it reads every frame anyway).
     config = replace(CONFIG, "env", coverage_goal=0.3)
@@ -244,21 +244,21 @@ def test_the_model_free_stop_rules_never_read_mesh_ground_truth_or_coverage(
     assert decisions[0] is None and any(decisions) == decides
 
 
-def test_the_guard_catches_the_goal_rule_reading_the_coverage(bracket: MotorScene) -> None:
+def test_the_guard_catches_the_goal_rule_reading_the_coverage(bracket: PartScene) -> None:
     views = planner_view(guarded_run(make_planner("nbv", CONFIG), bracket, "robot")).views
     with pytest.raises(AssertionError, match=r"read episode\.coverage"):
         make_stop_rule("goal", CONFIG).check(Guarded("episode", views=views))  # type: ignore
 
 
 @pytest.mark.parametrize("name", ["hrec", "optimum"])
-def test_the_guard_catches_a_planner_that_reads_the_model(bracket: MotorScene, name: str) -> None:
+def test_the_guard_catches_a_planner_that_reads_the_model(bracket: PartScene, name: str) -> None:
     with pytest.raises(AssertionError, match="the planner read"):
         guarded_run(make_planner(name, CONFIG), bracket, "free")
 
 
 def test_uniform_views_are_the_same_whatever_the_object_and_its_pose(
-        bracket: MotorScene) -> None:
-    motor = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
+        bracket: PartScene) -> None:
+    motor = PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
     seen, rotations = [], []
     for scene, seed in ((bracket, 0), (bracket, 1), (motor, 2)):
         episode = guarded_run(make_planner("uniform5", CONFIG), scene, "free", seed)
@@ -280,7 +280,7 @@ def test_uniform8_with_the_robot_and_a_real_sensor_takes_8_reachable_views_of_th
     # Reachability does not depend on the sensing model; the ideal one builds the GT faster.
     config = with_sensing(with_sensor(CONFIG, sensor), "ideal")
     assert len(view_band(config, True)[0]) == 0
-    scene = MotorScene.load(config, DEFAULT_MOTOR, resolution=RESOLUTION)
+    scene = PartScene.load(config, DEFAULT_MOTOR, resolution=RESOLUTION)
     episode = guarded_run(make_planner("uniform8", config), scene, "robot", views=9)
     assert len(episode.views) == 8
     assert all(view.reachable and view.acquired for view in episode.views)
@@ -288,7 +288,7 @@ def test_uniform8_with_the_robot_and_a_real_sensor_takes_8_reachable_views_of_th
     assert np.allclose(np.linalg.norm(offsets, axis=1), config.sensor.working_distance_m)
 
 
-def test_nbv_never_asks_again_for_a_view_near_an_earlier_one(bracket: MotorScene) -> None:
+def test_nbv_never_asks_again_for_a_view_near_an_earlier_one(bracket: PartScene) -> None:
     episode = guarded_run(make_planner("nbv", CONFIG), bracket, "free", views=8)
     directions = np.array([view.requested.position - episode.center for view in episode.views])
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
@@ -471,7 +471,7 @@ def test_parse_accepts_every_model_free_form() -> None:
 
 
 def test_the_arm_blocks_a_point_behind_its_own_links_but_not_one_in_front_of_the_sensor(
-        bracket: MotorScene) -> None:
+        bracket: PartScene) -> None:
     home = bracket.cell.joints.start
     sensor = bracket.arm.fk(home)
     base = bracket.cell.robot_base.position

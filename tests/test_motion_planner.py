@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from vprobot.config import CellConfig, Config, ConfigError, KinematicsConfig, replace
-from vprobot.episode import Episode, MotorScene
+from vprobot.episode import Episode, PartScene
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import SEARCHES, MotionPlanner, densify
@@ -179,7 +179,7 @@ def test_travel_adds_up_along_the_waypoints(arm: RobotArm) -> None:
 
 
 def test_driving_around_the_fixture_records_the_waypoints() -> None:
-    scene = MotorScene.load(Config(), DEFAULT_MOTOR, resolution=(107, 75))
+    scene = PartScene.load(Config(), DEFAULT_MOTOR, resolution=(107, 75))
     episode = Episode(scene, np.eye(3), start_joints=Q_FROM)
     q_to = np.array([-1.2, -0.6, 2.1, -2.9, -0.7, -2.5])  # Q_TO's arm would touch the motor
     checker = episode.carrier.collisions

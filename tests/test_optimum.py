@@ -19,7 +19,7 @@ from vprobot.benchmarks.optimum import print_table as print_optimum_table
 from vprobot.benchmarks.optimum import run_optimum_benchmark
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.episode import Episode, MotorScene, ViewRequest, seeded_episode
+from vprobot.episode import Episode, PartScene, ViewRequest, seeded_episode
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.base import Proof
 from vprobot.planners.bscp import SetCoverPlanner
@@ -364,7 +364,7 @@ def test_the_time_safety_net_cuts_the_rounds_and_states_no_proof() -> None:
 
 
 def test_the_optimum_on_a_motor_needs_no_more_views_than_bscp() -> None:
-    scene = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
+    scene = PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
     spec = seeded_episode(CONFIG.env, scene.mesh.path, 4, scene.mesh.scale)
     episode = Episode.from_spec(scene, spec, "free")
     visibility = candidate_views(episode, CANDIDATES, RESOLUTION).visibility
@@ -389,7 +389,7 @@ def test_the_cycle_order_is_the_shortest_of_every_order(nodes: int) -> None:
 
 
 def test_the_cycle_order_gives_the_shortest_executed_cycle() -> None:
-    scene = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
+    scene = PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
     spec = seeded_episode(CONFIG.env, scene.mesh.path, 2, scene.mesh.scale)
     candidates = candidate_views(Episode.from_spec(scene, spec, "robot"), CANDIDATES, RESOLUTION)
     usable = np.flatnonzero(candidates.usable)
@@ -416,7 +416,7 @@ def test_the_cycle_order_gives_the_shortest_executed_cycle() -> None:
 @pytest.mark.filterwarnings("ignore:optimum. the 5 s safety net")
 def test_the_optimum_with_the_robot_confirms_its_views_and_needs_no_more_than_bscp(
         views: int | None, time_limit_s: float) -> None:
-    scene = MotorScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
+    scene = PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=RESOLUTION)
     spec = seeded_episode(CONFIG.env, scene.mesh.path, 1, scene.mesh.scale)
     optimum = OptimumPlanner(views, candidate_count=CANDIDATES, resolution=RESOLUTION,
                              node_limit=1, time_limit_s=time_limit_s)

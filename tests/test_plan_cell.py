@@ -29,7 +29,7 @@ from vprobot.cell_check import (
 from vprobot.cell_config import StaticObject, rotation_rpy_deg, rpy_rotation
 from vprobot.cli import main
 from vprobot.config import Config, load_config, replace
-from vprobot.episode import MotorScene, seeded_episode
+from vprobot.episode import PartScene, seeded_episode
 from vprobot.evaluation import _append_row, episode_row, finished_rows
 from vprobot.export.check import _cell, check_plan
 from vprobot.kinematics.motion_planner import densify
@@ -312,7 +312,7 @@ def test_clearances_along_a_path_skip_only_what_cannot_come_closer(
 def test_an_episode_row_has_its_least_clearance_and_whether_every_margin_held(
         tmp_path: Path) -> None:
     config = Config()
-    scene = MotorScene.load(config, DEFAULT_MOTOR)
+    scene = PartScene.load(config, DEFAULT_MOTOR)
     result = run(config, scene, "nbv", seeded_episode(config.env, DEFAULT_MOTOR, 0),
                  stop="views:2")
     row = episode_row(0, result)

@@ -13,7 +13,7 @@ from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.config import Config, replace, with_sensing, with_sensor
 from vprobot.coverage import CoverageTracker
-from vprobot.episode import Episode, EpisodeSpec, MotorScene, ViewRequest, seeded_episode
+from vprobot.episode import Episode, EpisodeSpec, PartScene, ViewRequest, seeded_episode
 from vprobot.geometry import Pose
 from vprobot.kinematics import TRAVEL_COSTS, SensorTarget, TravelCost
 from vprobot.kinematics.travel import joint_time
@@ -29,7 +29,7 @@ from vprobot.planners.runner import (
     counted_planners,
     make_planner,
     parse_planner,
-    plan_motor,
+    plan_part,
     run_episode,
 )
 from vprobot.planners.visibility import VisibilityRenderer
@@ -49,11 +49,11 @@ def millimetre_cube(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def motor() -> MotorScene:
-    return MotorScene.load(CONFIG, DEFAULT_MOTOR)
+def motor() -> PartScene:
+    return PartScene.load(CONFIG, DEFAULT_MOTOR)
 
 
-def episode_of(scene: MotorScene, seed: int, robot: bool) -> tuple[Episode, EpisodeSpec,
+def episode_of(scene: PartScene, seed: int, robot: bool) -> tuple[Episode, EpisodeSpec,
                                                                   np.random.Generator]:
     spec = seeded_episode(CONFIG.env, scene.mesh.path, seed, scene.mesh.scale)
     return (Episode.from_spec(scene, spec, "robot" if robot else "free"), spec,
@@ -61,7 +61,7 @@ def episode_of(scene: MotorScene, seed: int, robot: bool) -> tuple[Episode, Epis
 
 
 def test_bscp_free_flying_covers_a_cube(millimetre_cube: Path) -> None:
-    scene = MotorScene.load(CONFIG, millimetre_cube, scale=0.001)
+    scene = PartScene.load(CONFIG, millimetre_cube, scale=0.001)
     episode, spec, rng = episode_of(scene, seed=0, robot=False)
     planner = SetCoverPlanner(goal=0.95, max_views=6, candidate_count=300)
     record = run_episode(planner, episode, spec, CONFIG, rng).record
@@ -72,7 +72,7 @@ def test_bscp_free_flying_covers_a_cube(millimetre_cube: Path) -> None:
 
 
 def test_five_set_cover_views_free_flying_cover_the_motor_as_in_the_paper(
-        motor: MotorScene) -> None:
+        motor: PartScene) -> None:
     # The paper's B_SCP,5 covers 98.17 % of its motors; docs/benchmarks.md#measured-figures
     # holds ours to that within 3 pp.
     episode, spec, rng = episode_of(motor, seed=0, robot=False)
@@ -120,7 +120,7 @@ def test_ordering_never_lengthens_travel() -> None:
             assert path_cost(cost, start, order) <= path_cost(cost, start, nodes) + 1e-12
 
 
-def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: MotorScene) -> None:
+def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: PartScene) -> None:
     episode, spec, rng = episode_of(motor, seed=1, robot=True)
     planner = SetCoverPlanner(views=5, candidate_count=300)
     record = run_episode(planner, episode, spec, CONFIG, rng).record
@@ -134,7 +134,7 @@ def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: MotorScene) -> 
 
 @pytest.fixture(scope="module")
 def bscp_plan() -> tuple[object, object, dict, str]:
-    return plan_motor(CONFIG, planner="bscp", seed=0)
+    return plan_part(CONFIG, planner="bscp", seed=0)
 
 
 def test_exported_plan_reproduces_sensor_poses_by_fk(bscp_plan: tuple, tmp_path: Path) -> None:
@@ -197,7 +197,7 @@ def _placed_file_bounds(document: dict) -> np.ndarray:
     return np.array([placed.min(axis=0), placed.max(axis=0)])
 
 
-def test_object_block_places_the_file_as_stored(bscp_plan: tuple, motor: MotorScene) -> None:
+def test_object_block_places_the_file_as_stored(bscp_plan: tuple, motor: PartScene) -> None:
     _, record, document, _ = bscp_plan
     world = motor.mesh.mesh.vertices @ record.object_pose.rotation.T + record.object_pose.position
     np.testing.assert_allclose(_placed_file_bounds(document),
@@ -215,7 +215,7 @@ PLANNERS = {
 
 @pytest.mark.parametrize("name", PLANNERS)
 def test_no_planner_reports_an_unreachable_view_as_executed(name: str,
-                                                            motor: MotorScene) -> None:
+                                                            motor: PartScene) -> None:
     episode, spec, rng = episode_of(motor, seed=2, robot=True)
     record = run_episode(PLANNERS[name](), episode, spec, CONFIG, rng).record
     arm = motor.arm
@@ -239,18 +239,18 @@ def test_no_planner_reports_an_unreachable_view_as_executed(name: str,
 
 
 def test_user_mesh_in_millimetres_plans(millimetre_cube: Path) -> None:
-    _, record, document, text = plan_motor(CONFIG, mesh_path=millimetre_cube, scale=0.001)
+    _, record, document, text = plan_part(CONFIG, mesh_path=millimetre_cube, scale=0.001)
     assert document["object"]["scale"] == 0.001
     assert record.coverage >= CONFIG.env.coverage_goal
     assert all(view.reachable for view in record.views)
-    world = (MotorScene.load(CONFIG, millimetre_cube, scale=0.001).mesh.mesh.vertices
+    world = (PartScene.load(CONFIG, millimetre_cube, scale=0.001).mesh.mesh.vertices
              @ record.object_pose.rotation.T + record.object_pose.position)
     np.testing.assert_allclose(_placed_file_bounds(document),
                                [world.min(axis=0), world.max(axis=0)], atol=1e-6)
     assert "cube_mm.stl" in text
 
 
-def test_predicted_visibility_agrees_with_the_sensor(motor: MotorScene) -> None:
+def test_predicted_visibility_agrees_with_the_sensor(motor: PartScene) -> None:
     episode, _, _ = episode_of(motor, seed=3, robot=False)
     tracker = CoverageTracker.from_ground_truth(motor.ground_truth)
     renderer = VisibilityRenderer(motor.mesh.mesh, SensorModel.from_config(CONFIG.sensor),
@@ -277,7 +277,7 @@ def test_predicted_visibility_follows_the_structured_light_limits() -> None:
     that they do: a GT point on a grazing facet within ε of a measured neighbouring facet
     counts as measured, whereas the prediction judges its own facet; 0.76 overall.)"""
     config = with_sensing(with_sensor(CONFIG, "zivid2plus_mr60"), "structured_light")
-    scene = MotorScene.load(config, DEFAULT_MOTOR)
+    scene = PartScene.load(config, DEFAULT_MOTOR)
     episode, _, _ = episode_of(scene, seed=3, robot=False)
     epsilon = CoverageTracker.from_ground_truth(scene.ground_truth).epsilon
     center, to_mesh = episode.center, episode.object_pose.inverse()
@@ -378,7 +378,7 @@ def test_uniform_targets_beyond_the_usable_band_name_the_count_and_the_way_out()
 
     config = replace(with_sensing(with_sensor(CONFIG, "phoxi_m"), "ideal"), "cell",
                      robot="panda")
-    episode = Episode.from_spec(MotorScene.load(config, DEFAULT_MOTOR, resolution=(43, 30)),
+    episode = Episode.from_spec(PartScene.load(config, DEFAULT_MOTOR, resolution=(43, 30)),
                                 seeded_episode(config.env, DEFAULT_MOTOR, 0), "robot")
     enveloped, usable = len(view_band(config, True)[0]), len(episode_band(config, episode)[0])
     assert enveloped < 4 and usable < 4

@@ -13,7 +13,7 @@ import pytest
 from matplotlib.colors import rgb_to_hsv
 
 from vprobot.config import load_config, with_sensor
-from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
+from vprobot.episode import Episode, EpisodeRecord, PartScene, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import plan_document, planned_views, write_json
@@ -43,7 +43,7 @@ def config():
 
 @pytest.fixture(scope="module")
 def scene(config):
-    return MotorScene.load(config, DEFAULT_MOTOR, resolution=(86, 60))
+    return PartScene.load(config, DEFAULT_MOTOR, resolution=(86, 60))
 
 
 def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
@@ -282,7 +282,7 @@ def structured_light(config):
     views from the side the robot reaches; and the same scene with its sensor measuring
     ideally."""
     config = with_sensor(config, "zivid2plus_mr60")
-    scene = MotorScene.load(config, DEFAULT_MOTOR, resolution=(96, 80))
+    scene = PartScene.load(config, DEFAULT_MOTOR, resolution=(96, 80))
     episode = Episode(scene, np.eye(3))
     center = episode.center
     for azimuth in (70.0, 110.0, 150.0):

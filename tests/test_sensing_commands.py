@@ -14,7 +14,7 @@ from helpers import TINY_TRAINING
 from vprobot import render
 from vprobot.cli import main
 from vprobot.config import load_config
-from vprobot.episode import EpisodeRecord, MotorScene, episode_list, write_episode_list
+from vprobot.episode import EpisodeRecord, PartScene, episode_list, write_episode_list
 from vprobot.evaluation import SETTINGS_NAME
 from vprobot.paths import CONFIGS_DIR, DEFAULT_MOTOR
 from vprobot.render import episode_from_plan
@@ -59,7 +59,7 @@ def test_render_replays_a_plan_with_the_model_it_was_made_with(
     document = _plan(zivid, plan)
     replayed: list[EpisodeRecord] = []
 
-    def recording_replay(*args: Any, **kwargs: Any) -> tuple[MotorScene, EpisodeRecord]:
+    def recording_replay(*args: Any, **kwargs: Any) -> tuple[PartScene, EpisodeRecord]:
         scene, record = episode_from_plan(*args, **kwargs)
         replayed.append(record)
         return scene, record

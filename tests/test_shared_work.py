@@ -14,7 +14,7 @@ import pytest
 import vprobot.evaluation as evaluation
 from vprobot import mesh_loading
 from vprobot.config import Config
-from vprobot.episode import Episode, MotorScene, SharedWork, ViewRequest, episode_list
+from vprobot.episode import Episode, PartScene, SharedWork, ViewRequest, episode_list
 from vprobot.evaluation import evaluate
 from vprobot.geometry import rotation_about_z
 from vprobot.kinematics import SensorTarget
@@ -94,12 +94,12 @@ def test_sharing_the_candidates_leaves_every_row_as_each_planner_alone_and_scree
 
 
 @pytest.fixture(scope="module")
-def motor() -> MotorScene:
-    return MotorScene.load(CONFIG, DEFAULT_MOTOR)
+def motor() -> PartScene:
+    return PartScene.load(CONFIG, DEFAULT_MOTOR)
 
 
 def test_candidates_are_built_once_per_episode_and_robot_configuration(
-        motor: MotorScene, calls: Counter[str]) -> None:
+        motor: PartScene, calls: Counter[str]) -> None:
     shared = SharedWork()
     first = Episode(motor, np.eye(3), shared=shared)
     views = candidate_views(first, 30, (24, 18))
@@ -119,7 +119,7 @@ def test_candidates_are_built_once_per_episode_and_robot_configuration(
     assert calls["screen_reachability"] == 4
 
 
-def test_shared_work_refuses_an_episode_that_starts_otherwise(motor: MotorScene) -> None:
+def test_shared_work_refuses_an_episode_that_starts_otherwise(motor: PartScene) -> None:
     shared = SharedWork()
     Episode(motor, np.eye(3), shared=shared)
     turned = rotation_about_z(0.5)
@@ -159,7 +159,7 @@ def test_a_copys_confirmations_are_its_own_and_simulated_once_for_all() -> None:
 
 
 def test_a_move_is_planned_and_a_frame_taken_once_for_the_episodes_that_start_alike(
-        motor: MotorScene, calls: Counter[str]) -> None:
+        motor: PartScene, calls: Counter[str]) -> None:
     shared = SharedWork()
     first, second = (Episode(motor, np.eye(3), shared=shared) for _ in range(2))
     views = candidate_views(first, 30, (24, 18))

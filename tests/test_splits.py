@@ -13,7 +13,7 @@ from vprobot.config import Config, ConfigError, replace
 from vprobot.episode import EpisodeSpec, read_episode_list
 from vprobot.episode.specs import (
     bundled_episode_list,
-    motor_name,
+    part_name,
     split_lists,
     validation_episodes,
 )
@@ -35,7 +35,7 @@ def cache(session_cache: Path) -> Path:
 
 
 def names(objects: list) -> set[str]:
-    return {motor_name(item) for item in objects}
+    return {part_name(item) for item in objects}
 
 
 def episode_key(spec: EpisodeSpec) -> tuple:
@@ -105,10 +105,10 @@ def test_a_split_giving_seeds_to_a_family_it_does_not_train_on_is_refused(
 
 
 def test_env_split_picks_the_split_that_training_and_validation_draw_from() -> None:
-    from vprobot.env.inspect_env import motor_files
+    from vprobot.env.inspect_env import part_files
 
     config = replace(CONFIG, "env", objects=("motors", "procedural"), split=2)
-    objects = motor_files(config)
+    objects = part_files(config)
     assert len(objects) == 2 * 5000
     assert {family_of(str(item)) for item in objects} == {None, "procedural"}
     assert "generated/procedural_4999.stl" in objects
@@ -148,9 +148,9 @@ def test_a_generated_motor_of_seed_0_is_the_bundled_training_motor_byte_for_byte
 
 def test_a_generated_instance_is_made_once_then_read_back(cache: Path) -> None:
     spec = read_episode_list(bundled_episode_list("families-test-v1"))[0]
-    first = spec.motor_path
+    first = spec.part_path
     made = first.stat().st_mtime_ns
-    assert spec.motor_path == first and first.stat().st_mtime_ns == made
+    assert spec.part_path == first and first.stat().st_mtime_ns == made
     family, seed = first.stem.rsplit("_", 1)
     expected = FAMILIES[family].instance(int(seed)).mesh.export(file_type="stl")
     assert first.read_bytes() == expected
@@ -174,7 +174,7 @@ def test_env_draws_family_instances_and_builds_them_on_first_use(cache: Path) ->
                              state_points=64))
     env.reset(seed=0)
     assert family_of(env.spec_of_episode.motor) == "spur_gear"
-    assert env.spec_of_episode.motor_path.is_relative_to(cache)
+    assert env.spec_of_episode.part_path.is_relative_to(cache)
     observation, *_ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
     assert np.isfinite(observation).all()
 

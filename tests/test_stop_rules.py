@@ -18,7 +18,7 @@ import pytest
 from vprobot.agents.trained import TrainedAgent
 from vprobot.cli import main
 from vprobot.config import Config, replace
-from vprobot.episode import MotorScene, episode_list, seeded_episode, write_episode_list
+from vprobot.episode import PartScene, episode_list, seeded_episode, write_episode_list
 from vprobot.occupancy import OccupancyGrid
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, run, run_episode
@@ -33,8 +33,8 @@ CONFIG = replace(Config(), "sensor", resolution=RESOLUTION)
 
 
 @pytest.fixture(scope="module")
-def motor() -> MotorScene:
-    return MotorScene.load(CONFIG, DEFAULT_MOTOR)
+def motor() -> PartScene:
+    return PartScene.load(CONFIG, DEFAULT_MOTOR)
 
 
 @pytest.mark.parametrize(("value", "problem"), [
@@ -143,7 +143,7 @@ def test_the_estimate_rule_stops_when_mean_minus_z_std_reaches_the_goal(
         views=[types.SimpleNamespace(acquired=False)])) is None
 
 
-def test_the_runner_says_why_it_stopped(motor: MotorScene) -> None:
+def test_the_runner_says_why_it_stopped(motor: PartScene) -> None:
     spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
     ran_out = run(CONFIG, motor, "uniform3", spec, "free")
     assert (len(ran_out.record.views), ran_out.stop_reason, ran_out.planner_stopped) == (
@@ -157,7 +157,7 @@ def test_the_runner_says_why_it_stopped(motor: MotorScene) -> None:
         3, "max views", "views:20")
 
 
-def test_nbv_at_grid_makes_the_requests_of_nbv_under_the_grid_rule(motor: MotorScene) -> None:
+def test_nbv_at_grid_makes_the_requests_of_nbv_under_the_grid_rule(motor: PartScene) -> None:
     spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
     self_stopped = run(CONFIG, motor, "nbv@grid", spec, "free")
     governed = run(CONFIG, motor, "nbv", spec, "free", stop="grid")
@@ -171,7 +171,7 @@ def test_nbv_at_grid_makes_the_requests_of_nbv_under_the_grid_rule(motor: MotorS
     assert (self_stopped.planner_stopped, governed.planner_stopped) == (True, False)
 
 
-def test_nbv_at_any_rule_stops_itself_by_that_rule(motor: MotorScene) -> None:
+def test_nbv_at_any_rule_stops_itself_by_that_rule(motor: PartScene) -> None:
     spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
     result = run(CONFIG, motor, "nbv:frontier@views:2", spec, "free")
     assert (len(result.record.views), result.stop_reason, result.planner_stopped) == (
@@ -320,7 +320,7 @@ class FirstOffered:
 
 @pytest.mark.parametrize(("planner", "stop"), [("agent:stub", "estimate"), ("nbv", "grid")])
 def test_every_frame_is_integrated_once_however_many_read_the_episodes_grid(
-        motor: MotorScene, planner: str, stop: str, monkeypatch: pytest.MonkeyPatch) -> None:
+        motor: PartScene, planner: str, stop: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """The `s_grid` agent's state or nbv, the rule and the estimate after each view each read
     an occupancy grid of the same settings: the episode's, into which each acquired frame is
     integrated once (each of them integrated every frame into its own before)."""

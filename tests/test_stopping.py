@@ -336,7 +336,7 @@ class FakeRollouts:
 def fake_rollouts(monkeypatch: pytest.MonkeyPatch) -> FakeRollouts:
     """Rollouts in no time (`FakeRollouts`), and tiny estimator fits."""
     fake = FakeRollouts()
-    monkeypatch.setattr(dataset_module, "MotorScene",
+    monkeypatch.setattr(dataset_module, "PartScene",
                         types.SimpleNamespace(load=lambda *args: None))
     monkeypatch.setattr(dataset_module, "play", fake.play)
     monkeypatch.setattr(dataset_module, "episode_features", fake.features)
@@ -468,7 +468,7 @@ def hold(*args, **kwargs):
     time.sleep(600)
 
 
-dataset.MotorScene = types.SimpleNamespace(load=lambda *args: None)
+dataset.PartScene = types.SimpleNamespace(load=lambda *args: None)
 dataset.play = study.evaluate = hold
 sys.exit(main(sys.argv[2:]))
 """
@@ -491,7 +491,7 @@ def test_a_stop_folder_in_use_by_a_running_command_is_refused_naming_its_pid(
     def reached(*args: object, **kwargs: object) -> None:
         raise Reached
 
-    monkeypatch.setattr(dataset_module, "MotorScene",
+    monkeypatch.setattr(dataset_module, "PartScene",
                         types.SimpleNamespace(load=lambda *args: None))
     monkeypatch.setattr(dataset_module, "play", reached)
     monkeypatch.setattr(study_module, "evaluate", reached)

@@ -62,7 +62,7 @@ def refuse_work(monkeypatch: pytest.MonkeyPatch) -> None:
     def started(*args: Any, **kwargs: Any) -> None:
         raise AssertionError("the work started before the error was found")
 
-    monkeypatch.setattr(runner, "plan_motor", started)
+    monkeypatch.setattr(runner, "plan_part", started)
     monkeypatch.setattr(kinematics, "RobotArm", started)
     monkeypatch.setattr(env_benchmark, "run_env_benchmark", started)
 
@@ -150,7 +150,7 @@ def test_config_bounds_and_contradictions() -> None:
         replace(Config(), "env", motors="train", mesh=str(DEFAULT_MOTOR))
     # Naming a mesh in the env means using it.
     env = InspectEnv(mesh=str(DEFAULT_MOTOR))
-    assert env.motor_files == [DEFAULT_MOTOR]
+    assert env.part_files == [DEFAULT_MOTOR]
     assert load_config().env.motors == "train"
 
 

@@ -20,7 +20,7 @@ from PIL import Image
 from vprobot.benchmarks.viewer import CHROMIUM_ARGS, PAUSE_ICON, TIME_FIELD, TWO_FRAMES
 from vprobot.cli import main
 from vprobot.config import load_config
-from vprobot.episode import EpisodeRecord, MotorScene
+from vprobot.episode import EpisodeRecord, PartScene
 from vprobot.render import episode_from_plan
 
 playwright = pytest.importorskip("playwright.sync_api")
@@ -147,7 +147,7 @@ def robot_page(browser: object, pages: dict[str, Path]) -> Iterator[Opened]:
 
 
 @pytest.fixture(scope="module")
-def robot_episode(pages: dict[str, Path]) -> tuple[MotorScene, EpisodeRecord]:
+def robot_episode(pages: dict[str, Path]) -> tuple[PartScene, EpisodeRecord]:
     return episode_from_plan(load_config(), pages["robot"])
 
 
@@ -163,7 +163,7 @@ def test_the_page_loads_offline_without_console_errors_and_draws(
 
 
 def test_the_scene_holds_the_robot_the_part_and_one_frustum_per_view(
-        robot_page: Opened, robot_episode: tuple[MotorScene, EpisodeRecord]) -> None:
+        robot_page: Opened, robot_episode: tuple[PartScene, EpisodeRecord]) -> None:
     scene, record = robot_episode
     model = scene.cell.model
     # Every body that carries one of the robot's joints, and the sensor.
@@ -175,7 +175,7 @@ def test_the_scene_holds_the_robot_the_part_and_one_frustum_per_view(
 
 
 def test_moving_the_slider_moves_the_robot_and_nothing_else(
-        robot_page: Opened, robot_episode: tuple[MotorScene, EpisodeRecord]) -> None:
+        robot_page: Opened, robot_episode: tuple[PartScene, EpisodeRecord]) -> None:
     _, record = robot_episode
     timed = record.timed
     assert timed is not None

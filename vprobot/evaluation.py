@@ -49,7 +49,7 @@ from vprobot.episode import (
     CARRIERS,
     CarrierName,
     EpisodeSpec,
-    MotorScene,
+    PartScene,
     SharedWork,
     episode_list,
     read_episode_list,
@@ -444,7 +444,7 @@ def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
     with `keep`, the motors stay loaded for the episodes this process runs (`_scene`). The
     planners and rules are those the run `run_id` then runs in this process (`_built`)."""
     _checked.clear()  # left by an earlier evaluation whose scenes were already built
-    for motor in dict.fromkeys((spec.motor_path, spec.scale) for spec in specs):
+    for motor in dict.fromkeys((spec.part_path, spec.scale) for spec in specs):
         mesh = load_mesh(*motor)
         if keep:
             _checked[motor] = mesh
@@ -474,7 +474,7 @@ def _settings(config: Config, specs: Sequence[EpisodeSpec],
     JSON data: the config, the estimator file and the content of it and of the mesh files
     (a file overwritten between a kill and the resume would mix two parts in one table; a
     generated object's content is named by its name)."""
-    files = [spec.motor_path for spec in specs if not is_generated(spec.motor)]
+    files = [spec.part_path for spec in specs if not is_generated(spec.motor)]
     if estimator is not None:
         files.append(Path(estimator))
     return {"config": config_document(config),
@@ -648,11 +648,11 @@ def _built(run_id: str, config: Config, name: str, views: int | None, stop: str,
 
 
 @functools.lru_cache(maxsize=2)
-def _scene(config: Config, path: Path, scale: float) -> MotorScene:
+def _scene(config: Config, path: Path, scale: float) -> PartScene:
     # Kept across calls: a Ray worker runs many episodes, mostly of the motors it has loaded.
     mesh = _checked.pop((path, scale), None)
-    return (MotorScene.load(config, path, scale) if mesh is None
-            else MotorScene.build(config, mesh))
+    return (PartScene.load(config, path, scale) if mesh is None
+            else PartScene.build(config, mesh))
 
 
 def _job_rows(config: Config, jobs: Sequence[Job], estimator: str | Path | None,
@@ -664,7 +664,7 @@ def _job_rows(config: Config, jobs: Sequence[Job], estimator: str | Path | None,
     for _, group in itertools.groupby(jobs, key=lambda job: (job[0], job[2])):
         shared = SharedWork()
         for index, spec, carrier, label, name, views, stop in group:
-            scene = _scene(config, spec.motor_path, spec.scale)
+            scene = _scene(config, spec.part_path, spec.scale)
             result = run(config, scene, name, spec, carrier, views, stop, estimator,
                          shared=shared,
                          built=_built(run_id, config, name, views, stop, estimator))

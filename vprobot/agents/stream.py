@@ -40,7 +40,7 @@ class EpisodeStream(gym.Wrapper):
             rng = np.random.default_rng([self.seed_, self.rank, self.episodes_started])
             env = self.inspect.config.env
             options["episode"] = sample_episode(
-                env, self.inspect.motor_files, rng, seed=int(rng.integers(SEED_BOUND)),
+                env, self.inspect.part_files, rng, seed=int(rng.integers(SEED_BOUND)),
                 scale=env.mesh_scale if env.motors == "mesh" else 1.0)
         self.episodes_started += 1
         return self.env.reset(seed=seed, options=options)

@@ -208,7 +208,7 @@ def check_environment(config: Config) -> None:
         check_teacher_reward(env)
     # Generated objects fit by construction (their families' tests check it) and are made only
     # when an episode draws them.
-    for path in inspect_env.motor_files:
+    for path in inspect_env.part_files:
         if not is_generated(str(path)):
             check_fits(load_mesh(path, scale, scale_option=MESH_SCALE_KEY), config,
                        scale_option=MESH_SCALE_KEY)

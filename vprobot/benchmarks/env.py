@@ -66,7 +66,7 @@ def run_env_benchmark(config: Config, steps: int = 300, progress: bool = True) -
     for name, settings in (("full", full), ("train", train), ("free_train", free),
                            ("grid_train", grid)):
         env = InspectEnv(settings)
-        for path in tqdm(env.motor_files, desc=f"load motors ({name})", disable=not progress,
+        for path in tqdm(env.part_files, desc=f"load motors ({name})", disable=not progress,
                          leave=False):
             env.scene(path)
         rate, reset_ms = _steps_per_second(env, steps, seed=0, progress=progress, label=name)

@@ -29,7 +29,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import Config
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.evaluation import evaluation_episodes
 from vprobot.geometry import Pose
 from vprobot.occupancy import FREE, OCCUPIED, VOXEL_M, GridSettings, OccupancyGrid
@@ -101,7 +101,7 @@ def run_grid_benchmark(config: Config, lists: tuple[str, ...] = LISTS,
         specs = evaluation_episodes(config, episodes=name)
         shares: list[float] = []
         for spec in tqdm(specs, desc=f"grid {name}", disable=not progress):
-            scene = MotorScene.load(config, spec.motor_path, spec.scale)
+            scene = PartScene.load(config, spec.part_path, spec.scale)
             views = run(config, scene, "uniform6", spec, "robot").record.views
             grids = {"projected": settings.new_grid(), "sampled": settings.new_grid()}
             frames = [view for view in views if view.sensor_pose is not None]

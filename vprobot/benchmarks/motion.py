@@ -21,7 +21,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import Config, replace
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.episode.cycle import episode_moves
 from vprobot.episode.records import EpisodeRecord
 from vprobot.evaluation import held_out_motors
@@ -32,7 +32,7 @@ from vprobot.kinematics.motion_planner import MotionPlanner
 from vprobot.kinematics.survey import view_sphere_targets
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import write_json
-from vprobot.planners.runner import plan_motor
+from vprobot.planners.runner import plan_part
 from vprobot.robots import available_robots
 
 PLANNERS: tuple[str, ...] = ("bscp", "nbv", "agent")
@@ -50,7 +50,7 @@ TARGETS = {"line_median_ms": 1.0, "rrt_connect_median_ms": 50.0, "export_10_view
 Move = tuple[np.ndarray, np.ndarray]
 
 
-def _random_view_moves(scene: MotorScene, count: int, seed: int) -> list[Move]:
+def _random_view_moves(scene: PartScene, count: int, seed: int) -> list[Move]:
     """Consecutive configurations of `count` + 1 random reachable view-sphere targets, in the
     order drawn: moves between views as a next-best-view planner makes them."""
     arm = scene.arm
@@ -122,7 +122,7 @@ def time_export(document: dict[str, Any], repeats: int = EXPORT_REPEATS) -> dict
 
 
 def replay_one(config: Config, motor: Path, planner: str, folder: Path
-               ) -> tuple[dict[str, Any], MotorScene | None, EpisodeRecord | None]:
+               ) -> tuple[dict[str, Any], PartScene | None, EpisodeRecord | None]:
     """Plan one motor, write its plan JSON and run the replay check on it.
 
     Returns:
@@ -133,7 +133,7 @@ def replay_one(config: Config, motor: Path, planner: str, folder: Path
     row: dict[str, Any] = {"robot": config.cell.robot, "planner": planner, "motor": motor.stem}
     start = time.perf_counter()
     try:
-        scene, record, document, _ = plan_motor(config, motor, planner=planner)
+        scene, record, document, _ = plan_part(config, motor, planner=planner)
     except ValueError as error:
         return {**row, "planned": False, "holds": False, "failures": [str(error)]}, None, None
     row.update(planned=True, plan_s=time.perf_counter() - start,
@@ -172,7 +172,7 @@ def run_motion_benchmark(config: Config, robots: Sequence[str] | None = None,
     """
     robots = available_robots() if robots is None else robots
     paths = [Path(path) for path in motors] if motors is not None else held_out_motors()
-    scene = MotorScene.load(config, DEFAULT_MOTOR)
+    scene = PartScene.load(config, DEFAULT_MOTOR)
     arm = scene.arm
     random_moves = _random_view_moves(scene, samples, seed=32)
     random_times = time_moves(MotionPlanner(arm.collisions, arm.joints, arm.settings),
@@ -180,7 +180,7 @@ def run_motion_benchmark(config: Config, robots: Sequence[str] | None = None,
                                    leave=False))
 
     try:
-        _, record, document, _ = plan_motor(config, DEFAULT_MOTOR, planner="nbv",
+        _, record, document, _ = plan_part(config, DEFAULT_MOTOR, planner="nbv",
                                             stop=f"views:{EXPORT_VIEWS}")
         export = {"views": sum(view.acquired for view in record.views), **time_export(document)}
     except ValueError as error:  # e.g. the UR5 reaches no fixed initial view

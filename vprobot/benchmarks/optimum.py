@@ -21,7 +21,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import Config
-from vprobot.episode import CarrierName, Episode, MotorScene
+from vprobot.episode import CarrierName, Episode, PartScene
 from vprobot.episode.carrier import CARRIERS
 from vprobot.evaluation import evaluation_episodes
 from vprobot.planners.optimum import PREDICTED_ROUNDS, OptimumPlanner
@@ -50,7 +50,7 @@ def run_optimum_benchmark(config: Config, episodes: Sequence[int] = HARDEST,
     with tqdm(total=len(episodes) * len(carriers), desc="optimum", disable=not progress) as bar:
         for index in episodes:
             spec = specs[index]
-            scene = MotorScene.load(config, spec.motor_path, spec.scale)
+            scene = PartScene.load(config, spec.part_path, spec.scale)
             for carrier in carriers:
                 planner = make_planner("optimum", config)
                 assert isinstance(planner, OptimumPlanner)

@@ -24,7 +24,7 @@ from tqdm import tqdm
 
 from vprobot.config import Config
 from vprobot.env.grid_state import GridState
-from vprobot.episode import CarrierName, Episode, MotorScene, seeded_episode
+from vprobot.episode import CarrierName, Episode, PartScene, seeded_episode
 from vprobot.evaluation import PAPER_TABLE_9, held_out_motors
 from vprobot.planners.runner import EpisodeResult, run
 
@@ -105,7 +105,7 @@ def run_planners_benchmark(config: Config, motors: Sequence[str | Path] | None =
     with tqdm(total=len(paths) * len(seeds) * len(RUNS), desc="planners",
               disable=not progress) as bar, _timed_screenings() as screenings:
         for path in paths:
-            scene = MotorScene.load(config, path)
+            scene = PartScene.load(config, path)
             for seed in seeds:
                 spec = seeded_episode(config.env, path, seed)
                 for key, planner, views, carrier in RUNS:

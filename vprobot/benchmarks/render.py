@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.render.camera import aim_overview
 from vprobot.render.demo import ring_inspection
@@ -25,7 +25,7 @@ TARGET_FPS = 30.0
 TARGET_ROLLOUT_S = 30.0
 
 
-def _moving_configurations(scene: MotorScene, frames: int) -> np.ndarray:
+def _moving_configurations(scene: PartScene, frames: int) -> np.ndarray:
     """Configurations sweeping the arm from home towards the first views (so frames differ)."""
     joints = scene.cell.joints
     turn = np.zeros(joints.dof)
@@ -34,7 +34,7 @@ def _moving_configurations(scene: MotorScene, frames: int) -> np.ndarray:
     return np.clip(joints.start + fractions * turn, joints.lower, joints.upper)
 
 
-def measure_cell_fps(scene: MotorScene, frames: int) -> float:
+def measure_cell_fps(scene: PartScene, frames: int) -> float:
     """Frames per second of the bare cell at 640x480 (scene update, render, read-back)."""
     data = scene.cell.make_data()
     configurations = _moving_configurations(scene, frames)
@@ -50,7 +50,7 @@ def measure_cell_fps(scene: MotorScene, frames: int) -> float:
         return frames / (time.perf_counter() - start)
 
 
-def measure_video_frame_fps(scene: MotorScene, frames: int) -> float:
+def measure_video_frame_fps(scene: PartScene, frames: int) -> float:
     """Frames per second of complete video frames (markers, sensor panel, overlay) at 640x480,
     for the moves of a 10-view episode (holds are rendered once, so they are left out)."""
     record = ring_inspection(scene, ROLLOUT_VIEWS)
@@ -67,7 +67,7 @@ def measure_video_frame_fps(scene: MotorScene, frames: int) -> float:
 def measure_rollout(config: Config, directory: Path) -> dict[str, Any]:
     """Load the bundled motor, run a 10-view inspection, write its 640x480 video; timed."""
     start = time.perf_counter()
-    scene = MotorScene.load(config, DEFAULT_MOTOR)
+    scene = PartScene.load(config, DEFAULT_MOTOR)
     loaded = time.perf_counter()
     record = ring_inspection(scene, ROLLOUT_VIEWS)
     inspected = time.perf_counter()
@@ -100,7 +100,7 @@ def run_render_benchmark(config: Config, frames: int = 150) -> dict[str, Any]:
     """
     with tempfile.TemporaryDirectory() as directory:
         rollout = measure_rollout(config, Path(directory))
-    scene = MotorScene.load(config, DEFAULT_MOTOR)
+    scene = PartScene.load(config, DEFAULT_MOTOR)
     results: dict[str, Any] = {
         "render_fps_640x480": measure_cell_fps(scene, frames),
         "video_frame_fps_640x480": measure_video_frame_fps(scene, frames),

@@ -17,7 +17,7 @@ import numpy as np
 from PIL import Image
 
 from vprobot.config import Config
-from vprobot.episode import MotorScene
+from vprobot.episode import PartScene
 from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import episode_document, write_json
 from vprobot.render.demo import ring_inspection
@@ -96,7 +96,7 @@ def run_viewer_benchmark(config: Config) -> dict[str, Any]:
         playback bar shown and two frames drawn after it), their largest of `RUNS`, the scrub
         times, the targets and whether they are met.
     """
-    scene = MotorScene.load(config, DEFAULT_MOTOR)
+    scene = PartScene.load(config, DEFAULT_MOTOR)
     record = ring_inspection(scene, VIEWS)
     timed = record.timed
     with tempfile.TemporaryDirectory() as folder:

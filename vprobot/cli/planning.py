@@ -135,7 +135,7 @@ def _planning(args: argparse.Namespace) -> dict[str, Any]:
 def command_plan(args: argparse.Namespace) -> int:
     """Plan the inspection of a motor, write the plan JSON and optionally a video."""
     from vprobot.plan import write_json
-    from vprobot.planners.runner import plan_motor
+    from vprobot.planners.runner import plan_part
     from vprobot.progress import showing_progress
 
     check_output_file(args.out, "--out", (".json",))
@@ -148,7 +148,7 @@ def command_plan(args: argparse.Namespace) -> int:
     options = _planning(args)
     config = config_of(args)
     with showing_progress(), naming_the_cell(args):
-        scene, record, document, summary = plan_motor(
+        scene, record, document, summary = plan_part(
             config, options["mesh"], options["scale"], options["planner"],
             options["views"], options["carrier"], options["seed"], options["stop"],
             options["estimator"])
@@ -166,7 +166,7 @@ def command_plan(args: argparse.Namespace) -> int:
 
 def command_render(args: argparse.Namespace) -> int:
     """Render an inspection (a plan JSON, or a planner's run) as a video."""
-    from vprobot.planners.runner import plan_motor
+    from vprobot.planners.runner import plan_part
     from vprobot.progress import showing_progress
     from vprobot.render import episode_from_plan
 
@@ -185,7 +185,7 @@ def command_render(args: argparse.Namespace) -> int:
     else:
         options = _planning(args)
         with showing_progress(), naming_the_cell(args):
-            scene, record, _, summary = plan_motor(
+            scene, record, _, summary = plan_part(
                 config, options["mesh"], options["scale"], options["planner"],
                 options["views"], options["carrier"], options["seed"], options["stop"],
                 options["estimator"])

@@ -31,7 +31,7 @@ from vprobot.episode import (
     Episode,
     EpisodeRecord,
     EpisodeSpec,
-    MotorScene,
+    PartScene,
     ViewRecord,
     sample_episode,
 )
@@ -57,7 +57,7 @@ SEED_BOUND = 2**31
 """Episode specs drawn by the env carry a seed below this, drawn from np_random."""
 
 
-def motor_files(config: Config) -> list[str | Path]:
+def part_files(config: Config) -> list[str | Path]:
     """The objects episodes draw from: mesh files, or generated objects' names (made when an
     episode first draws them, `vprobot.generated`).
 
@@ -90,7 +90,7 @@ def build_training_objects(config: Config, progress: bool = True) -> int:
 
     env = config.env
     scale = env.mesh_scale if env.motors == "mesh" else 1.0  # as the env's episodes draw them
-    names = list(dict.fromkeys(motor_files(config)))
+    names = list(dict.fromkeys(part_files(config)))
     for name in tqdm(names, desc="objects", unit="object", disable=not progress):
         path = generated_path(str(name)) if is_generated(str(name)) else name
         ground_truth(load_mesh(path, scale).mesh, config)
@@ -188,7 +188,7 @@ class InspectEnv(gym.Env):
             config = replace(config, "env", **env_overrides)
         self.config = config
         self.render_mode = render_mode
-        self.motor_files = motor_files(config)
+        self.part_files = part_files(config)
         self.actions = ActionMapping(config.env, config.sensor.working_distance_m)
         self.reward_function = Reward(config.env.reward, config.env.travel_cost_floor,
                                       config.env.unreachable_penalty)
@@ -196,7 +196,7 @@ class InspectEnv(gym.Env):
         self.observation_space = observation_space(config)
         self.observer = Observer(config, config.env.resolution)
         self.step_limit = step_limit(config.env)
-        self._scenes: dict[tuple[Path, float], MotorScene] = {}
+        self._scenes: dict[tuple[Path, float], PartScene] = {}
         self._renderer: OffscreenView | None = None
         self._renderer_cell: Cell | None = None
         self._renderer_data: Any = None  # the renderer's mujoco.MjData
@@ -212,7 +212,7 @@ class InspectEnv(gym.Env):
     def __setstate__(self, state: dict[str, Any]) -> None:
         type(self).__init__(self, state["config"], state["render_mode"])
 
-    def scene(self, path: str | Path, scale: float = 1.0) -> MotorScene:
+    def scene(self, path: str | Path, scale: float = 1.0) -> PartScene:
         """The (cached) scene of one motor file; the `SCENES_KEPT` latest stay loaded."""
         key = (Path(path), scale)
         if key in self._scenes:
@@ -223,7 +223,7 @@ class InspectEnv(gym.Env):
                 # The evicted scene's native memory would otherwise stay in glibc's heaps,
                 # fragmented: an env process grew ~100 MB a minute on the family mix.
                 release_freed_memory()
-            self._scenes[key] = MotorScene.load(self.config, path, scale,
+            self._scenes[key] = PartScene.load(self.config, path, scale,
                                                 self.config.env.resolution)
         return self._scenes[key]
 
@@ -234,7 +234,7 @@ class InspectEnv(gym.Env):
         Args:
             seed: Seeds `self.np_random`, from which everything random is drawn.
             options: `episode`: an `EpisodeSpec` (or its dict form) to run instead of a drawn
-                one; `motor`: index into `motor_files` of the motor to draw an episode for.
+                one; `motor`: index into `part_files` of the motor to draw an episode for.
 
         Raises:
             ValueError: For a bad spec or motor index.
@@ -245,7 +245,7 @@ class InspectEnv(gym.Env):
         spec = options.get("episode")
         if spec is None:
             env = self.config.env
-            spec = sample_episode(env, self.motor_files, self.np_random,
+            spec = sample_episode(env, self.part_files, self.np_random,
                                   seed=int(self.np_random.integers(SEED_BOUND)),
                                   motor=options.get("motor"),
                                   scale=env.mesh_scale if env.motors == "mesh" else 1.0)
@@ -256,7 +256,7 @@ class InspectEnv(gym.Env):
                              f"{type(spec).__name__}")
         self.spec_of_episode = spec
         self.observer.reset()
-        scene = self.scene(spec.motor_path, spec.scale)
+        scene = self.scene(spec.part_path, spec.scale)
         self.episode = Episode.from_spec(scene, spec, self.config.env.carrier,
                                          self.config.env.unreachable)
         view = self.episode.begin(spec.initial_requests(

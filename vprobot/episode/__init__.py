@@ -4,7 +4,7 @@ from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
 from vprobot.episode.cycle import describe_cycle, episode_moves, timed_cycle
 from vprobot.episode.engine import Episode, make_carrier
 from vprobot.episode.free_carrier import FreeCarrier
-from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.part_scene import PartScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest
 from vprobot.episode.robot_carrier import RobotCarrier
 from vprobot.episode.shared import SharedWork
@@ -30,7 +30,7 @@ __all__ = [
     "EpisodeRecord",
     "EpisodeSpec",
     "FreeCarrier",
-    "MotorScene",
+    "PartScene",
     "RobotCarrier",
     "SharedWork",
     "ViewRecord",

@@ -14,7 +14,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
-from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.part_scene import PartScene
 from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.sensor import Acquisition
@@ -36,7 +36,7 @@ class Carrier(abc.ABC):
     name: ClassVar[CarrierName]
     uses_robot: ClassVar[bool]
 
-    def __init__(self, scene: MotorScene, object_rotation: np.ndarray):
+    def __init__(self, scene: PartScene, object_rotation: np.ndarray):
         self.scene = scene
         self.object_pose = Pose(scene.cell.object_center.copy(),
                                 np.asarray(object_rotation, dtype=float))

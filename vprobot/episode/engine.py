@@ -16,7 +16,7 @@ from vprobot.coverage import CoverageTracker
 from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
 from vprobot.episode.cycle import timed_cycle
 from vprobot.episode.free_carrier import FreeCarrier
-from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.part_scene import PartScene
 from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest
 from vprobot.episode.robot_carrier import RobotCarrier
 from vprobot.episode.shared import SharedWork
@@ -27,7 +27,7 @@ from vprobot.kinematics.trajectory import TimedMove, time_move
 from vprobot.occupancy import EpisodeGrid, GridSettings
 
 
-def make_carrier(name: CarrierName, scene: MotorScene, object_rotation: np.ndarray,
+def make_carrier(name: CarrierName, scene: PartScene, object_rotation: np.ndarray,
                  unreachable: str = "skip", shared: SharedWork | None = None) -> Carrier:
     """The carrier by name; the robot keeps its planned moves in `shared` (`RobotCarrier`).
 
@@ -65,7 +65,7 @@ class Episode:
             an episode that starts otherwise.
     """
 
-    def __init__(self, scene: MotorScene, object_rotation: np.ndarray,
+    def __init__(self, scene: PartScene, object_rotation: np.ndarray,
                  carrier: CarrierName = "robot", unreachable: str = "skip",
                  start_joints: np.ndarray | None = None, shared: SharedWork | None = None):
         self.scene = scene
@@ -89,7 +89,7 @@ class Episode:
         self._return: tuple[np.ndarray, TimedMove | None] | None = None
 
     @classmethod
-    def from_spec(cls, scene: MotorScene, spec: EpisodeSpec, carrier: CarrierName = "robot",
+    def from_spec(cls, scene: PartScene, spec: EpisodeSpec, carrier: CarrierName = "robot",
                   unreachable: str = "skip", shared: SharedWork | None = None) -> Episode:
         """The episode of a spec (its initial view is not taken yet: see `begin`); `shared` as
         in `Episode`."""

@@ -7,7 +7,7 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from vprobot.episode.carrier import Carrier, CarrierName
-from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.part_scene import PartScene
 from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.episode.shared import SharedWork
 from vprobot.geometry import Pose
@@ -42,7 +42,7 @@ class RobotCarrier(Carrier):
     name: ClassVar[CarrierName] = "robot"
     uses_robot: ClassVar[bool] = True
 
-    def __init__(self, scene: MotorScene, object_rotation: np.ndarray,
+    def __init__(self, scene: PartScene, object_rotation: np.ndarray,
                  unreachable: str = "skip", shared: SharedWork | None = None):
         if unreachable not in UNREACHABLE_POLICIES:
             raise ValueError(f"unreachable must be one of {list(UNREACHABLE_POLICIES)}, got "

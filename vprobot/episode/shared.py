@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from vprobot.episode.motor_scene import MotorScene
+from vprobot.episode.part_scene import PartScene
 
 T = TypeVar("T")
 
@@ -24,10 +24,10 @@ class SharedWork:
     """Results computed from an episode's start, by key, for every episode that starts alike."""
 
     def __init__(self) -> None:
-        self._start: tuple[MotorScene, bytes, str, bytes] | None = None
+        self._start: tuple[PartScene, bytes, str, bytes] | None = None
         self._results: dict[Hashable, Any] = {}
 
-    def bind(self, scene: MotorScene, object_rotation: np.ndarray, carrier: str,
+    def bind(self, scene: PartScene, object_rotation: np.ndarray, carrier: str,
              start_joints: np.ndarray) -> None:
         """Serve an episode that starts as these say (the first one fixes them).
 

@@ -79,7 +79,7 @@ _BUNDLED_MESH_DIRS = (MOTORS_DIR, ASSETS_DIR)
 """Where a spec's relative mesh name is looked up, in this order (first match names it)."""
 
 
-def motor_name(path: str | Path) -> str:
+def part_name(path: str | Path) -> str:
     """How a spec names a mesh file: relative to the bundled motors folder when inside it
     (`test/motor_000.stl`), else relative to the bundled assets (`objects/bracket.stl`), so that
     a list of bundled meshes works from any folder; any other file keeps the path as given."""
@@ -119,7 +119,7 @@ class EpisodeSpec:
         return quat_to_matrix(self.object_quaternion)
 
     @property
-    def motor_path(self) -> Path:
+    def part_path(self) -> Path:
         """The mesh file: a generated object (made on first use), a bundled motor or object,
         else the path as given."""
         if is_generated(self.motor):
@@ -229,7 +229,7 @@ def sample_episode(env: EnvConfig, motors: Sequence[str | Path], rng: np.random.
         chosen = directions[rng.choice(len(directions), RANDOM_INITIAL_VIEWS, replace=False)]
         views = tuple((float(np.arctan2(y, x) % (2.0 * np.pi)),
                        float(np.arccos(np.clip(z, -1.0, 1.0)))) for x, y, z in chosen)
-    return EpisodeSpec(motor=motor_name(motors[index]),
+    return EpisodeSpec(motor=part_name(motors[index]),
                        object_quaternion=_quaternion(quaternion),
                        initial_views=views, seed=seed, scale=scale)
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from vprobot.cell_config import Solid
 from vprobot.config import config_document
-from vprobot.episode import EpisodeRecord, MotorScene
+from vprobot.episode import EpisodeRecord, PartScene
 from vprobot.files import file_sha256, write_text
 from vprobot.geometry import Pose, quat_to_matrix
 from vprobot.kinematics import TravelCost
@@ -251,7 +251,7 @@ def return_block(record: EpisodeRecord) -> dict[str, Any] | None:
     return {"waypoints": _corners(record.return_waypoints), "reason": reason}
 
 
-def episode_document(scene: MotorScene, record: EpisodeRecord,
+def episode_document(scene: PartScene, record: EpisodeRecord,
                      metadata: dict[str, Any] | None = None,
                      estimates: np.ndarray | None = None,
                      ground_truth: bool = True) -> dict[str, Any]:

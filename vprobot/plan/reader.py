@@ -198,6 +198,6 @@ def plan_object(config: Config, document: dict[str, Any], plan_path: Path
     mesh = load_mesh(mesh_path, plan_number(block.get("scale", 1.0), "object.scale",
                                             positive=True))
     # The block places the file's vertices; the cell places the centred mesh (see
-    # MotorScene.object_block), so the centre is the file origin moved by the centring offset.
+    # PartScene.object_block), so the centre is the file origin moved by the centring offset.
     center = plan_vector(block, "position", 3, "object") + rotation @ mesh.offset
     return plan_config(config, document, center, plan_path), mesh, rotation

@@ -18,7 +18,7 @@ from vprobot.episode import (
     Episode,
     EpisodeRecord,
     EpisodeSpec,
-    MotorScene,
+    PartScene,
     SharedWork,
     describe_cycle,
     seeded_episode,
@@ -154,7 +154,7 @@ class EpisodeResult:
 
     @property
     def mesh(self) -> str:
-        return str(self.spec.motor_path)
+        return str(self.spec.part_path)
 
     @property
     def seed(self) -> int:
@@ -267,7 +267,7 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
         episode.request(view)
 
 
-def run(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec,
+def run(config: Config, scene: PartScene, planner: str, spec: EpisodeSpec,
         carrier: CarrierName = "robot", views: int | None = None, stop: str = "goal",
         estimator: str | Path | None = None, estimates: bool = False,
         shared: SharedWork | None = None,
@@ -379,7 +379,7 @@ def summary(result: EpisodeResult, config: Config) -> str:
     return "\n".join(lines)
 
 
-def result_document(scene: MotorScene, result: EpisodeResult,
+def result_document(scene: PartScene, result: EpisodeResult,
                     ground_truth: bool = True) -> dict[str, Any]:
     """The plan JSON of a finished episode (`episode_document`, with the cycle the episode
     timed), with the planner, seed, goal, why it stopped and how long planning took; without
@@ -392,11 +392,11 @@ def result_document(scene: MotorScene, result: EpisodeResult,
     }, estimates=result.estimates, ground_truth=ground_truth)
 
 
-def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float = 1.0,
+def plan_part(config: Config, mesh_path: str | Path | None = None, scale: float = 1.0,
                planner: str = "bscp", views: int | None = None,
                carrier: CarrierName = "robot", seed: int = 0, stop: str = "goal",
                estimator: str | Path | None = None
-               ) -> tuple[MotorScene, EpisodeRecord, dict[str, Any], str]:
+               ) -> tuple[PartScene, EpisodeRecord, dict[str, Any], str]:
     """Plan the inspection of one motor (`vprobot plan`).
 
     Args:
@@ -427,12 +427,12 @@ def plan_motor(config: Config, mesh_path: str | Path | None = None, scale: float
                              f"places its part, so give one or the other")
         config, mesh = placed_part(config)
         mesh_path, scale = part.mesh, part.scale
-        scene = MotorScene.build(config, mesh, scale_option="cell.part.scale")
+        scene = PartScene.build(config, mesh, scale_option="cell.part.scale")
         spec = dataclasses.replace(seeded_episode(config.env, mesh_path, seed, scale),
                                    object_quaternion=tuple(matrix_to_quat(part.rotation)))
     else:
         mesh_path = mesh_path if mesh_path is not None else DEFAULT_MOTOR
-        scene = MotorScene.load(config, mesh_path, scale, scale_option="--scale")
+        scene = PartScene.load(config, mesh_path, scale, scale_option="--scale")
         spec = seeded_episode(config.env, mesh_path, seed, scale)
     # Nothing is planned in a cell that fails its own check.
     data = scene.cell.make_data()

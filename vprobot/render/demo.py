@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
+from vprobot.episode import Episode, EpisodeRecord, PartScene, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.viewsphere import sphere_directions
 
@@ -13,7 +13,7 @@ MAX_POLAR_DEG = 110.0
 """By default the views come from the top down to 20 degrees below the equator."""
 
 
-def ring_inspection(scene: MotorScene, views: int, rotation: np.ndarray | None = None,
+def ring_inspection(scene: PartScene, views: int, rotation: np.ndarray | None = None,
                     max_polar_deg: float = MAX_POLAR_DEG) -> EpisodeRecord:
     """Request `views` look-at views spread over the view sphere at the working distance.
 

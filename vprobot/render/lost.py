@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 from PIL import Image, ImageDraw
 
-from vprobot.episode import EpisodeRecord, MotorScene
+from vprobot.episode import EpisodeRecord, PartScene
 from vprobot.render.camera import project
 from vprobot.render.markers import LOST_RGBA, rgb8
 from vprobot.render.overlay import draw_swatch
@@ -23,7 +23,7 @@ LOST_RGB = {cause: rgb8(rgba) for cause, rgba in LOST_RGBA.items()}
 """`LOST_RGBA` as 8-bit RGB, for painting images."""
 
 
-def frame_losses(scene: MotorScene | Cell, record: EpisodeRecord) -> list[FrameLosses | None]:
+def frame_losses(scene: PartScene | Cell, record: EpisodeRecord) -> list[FrameLosses | None]:
     """Per view of `record`, what its frame lost and why (None where nothing was acquired).
 
     The frames are measured again with the sensor that took them (the free-flying sensor's for
@@ -34,7 +34,7 @@ def frame_losses(scene: MotorScene | Cell, record: EpisodeRecord) -> list[FrameL
         ideal one: `SensingModel.loss_stages`), or for a bare cell, which has no sensor of its
         own.
     """
-    if not isinstance(scene, MotorScene):
+    if not isinstance(scene, PartScene):
         return []
     sensor = scene.free_sensor if record.carrier == "free" else scene.sensor
     if not sensor.sensing.loss_stages():

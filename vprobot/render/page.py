@@ -28,7 +28,7 @@ import numpy as np
 import trimesh
 import viser
 
-from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle
+from vprobot.episode import EpisodeRecord, PartScene, describe_cycle
 from vprobot.files import write_text
 from vprobot.geometry import quat_to_matrix
 from vprobot.render.camera import overview_eye
@@ -138,7 +138,7 @@ def _body_name(model: mujoco.MjModel, body: int) -> str:
 class _PlanScene:
     """The scene of one episode on a viser server: the cell's bodies, the views, the points."""
 
-    def __init__(self, server: viser.ViserServer, scene: MotorScene, record: EpisodeRecord):
+    def __init__(self, server: viser.ViserServer, scene: PartScene, record: EpisodeRecord):
         self.server = server
         self.cell = scene.cell
         self.record = record
@@ -207,7 +207,7 @@ class _PlanScene:
             self.server.scene.add_label(f"{name}/number", f"{index + 1}{mark}",
                                         position=(0.0, 0.0, 0.0))
 
-    def _add_points(self, scene: MotorScene) -> None:
+    def _add_points(self, scene: PartScene) -> None:
         for index, view in enumerate(self.record.views):
             points = subsample(view.points_world, POINTS_PER_VIEW, seed=index)
             if len(points):
@@ -277,7 +277,7 @@ OVERLAY_STYLE = ("position:fixed;left:0.6em;bottom:3.4em;z-index:10;max-width:40
                  "font:12px/1.4 system-ui,sans-serif;pointer-events:none")
 
 
-def plan_page(scene: MotorScene, record: EpisodeRecord, title: str) -> Page:
+def plan_page(scene: PartScene, record: EpisodeRecord, title: str) -> Page:
     """The page of an episode (`episode_from_plan`, or a planner's run), self-contained.
 
     Args:

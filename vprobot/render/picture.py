@@ -12,7 +12,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from vprobot.episode import EpisodeRecord, MotorScene
+from vprobot.episode import EpisodeRecord, PartScene
 from vprobot.render.camera import aim_overview
 from vprobot.render.offscreen import OffscreenView, check_size
 from vprobot.render.output import check_output_path, write_png
@@ -25,7 +25,7 @@ TOP_ELEVATION_DEG = -89.0
 """The second panel looks straight down (MuJoCo's free camera turns about -90 exactly)."""
 
 
-def render_cell_picture(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str | Path,
+def render_cell_picture(scene: PartScene | Cell, record: EpisodeRecord, out_png: str | Path,
                         width: int = 1280, height: int = 480) -> Path:
     """Write a PNG of the cell: the robot at its start pose, the part as `record` placed it,
     from the front left (left half) and from above (right half).

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.episode import Episode, EpisodeRecord, MotorScene, ViewRequest
+from vprobot.episode import Episode, EpisodeRecord, PartScene, ViewRequest
 from vprobot.geometry import Pose
 from vprobot.kinematics import SensorTarget
 from vprobot.plan import (
@@ -29,7 +29,7 @@ from vprobot.plan import (
 
 def episode_from_plan(config: Config, plan_path: str | Path,
                       resolution: tuple[int, int] | None = None
-                      ) -> tuple[MotorScene, EpisodeRecord]:
+                      ) -> tuple[PartScene, EpisodeRecord]:
     """Rebuild the scene of a plan JSON and replay its views.
 
     Args:
@@ -50,7 +50,7 @@ def episode_from_plan(config: Config, plan_path: str | Path,
         raise ValueError(f"plan {plan_path} has no object block (mesh and pose); nothing to "
                          f"render")
     cell_config, mesh, rotation = plan_object(config, document, plan_path)
-    scene = MotorScene.build(cell_config, mesh, resolution)
+    scene = PartScene.build(cell_config, mesh, resolution)
     carrier = plan_carrier(document)
     episode = Episode(scene, rotation, carrier)
     for index, view in enumerate(document["views"]):

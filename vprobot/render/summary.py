@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 from PIL import Image, ImageDraw
 
-from vprobot.episode import EpisodeRecord, MotorScene, describe_cycle
+from vprobot.episode import EpisodeRecord, PartScene, describe_cycle
 from vprobot.geometry import Pose
 from vprobot.render.camera import aim_at_sphere, project
 from vprobot.render.closeup import FRAME_MARGIN, draw_coverage, hide_robot
@@ -185,7 +185,7 @@ def _caption(image: np.ndarray, record: EpisodeRecord, losses: list[FrameLosses 
     return np.asarray(Image.alpha_composite(canvas, layer).convert("RGB"))
 
 
-def render_summary(scene: MotorScene | Cell, record: EpisodeRecord, out_png: str | Path,
+def render_summary(scene: PartScene | Cell, record: EpisodeRecord, out_png: str | Path,
                    width: int = 1280, height: int = 720) -> Path:
     """Write a PNG summing up an episode: coverage of the ground truth and the view poses,
     with the robot's cycle time and its parts (docs/motion.md#cycle-time).

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
-from vprobot.episode import EpisodeRecord, MotorScene, ViewRecord
+from vprobot.episode import EpisodeRecord, PartScene, ViewRecord
 from vprobot.kinematics import TravelCost
 from vprobot.render.camera import aim_overview
 from vprobot.render.closeup import PartCloseUp
@@ -56,9 +56,9 @@ class RenderedVideo:
     rendered: int
 
 
-def cell_of(scene: MotorScene | Cell) -> Cell:
+def cell_of(scene: PartScene | Cell) -> Cell:
     """The cell of a motor scene, or the cell itself."""
-    return scene.cell if isinstance(scene, MotorScene) else scene
+    return scene.cell if isinstance(scene, PartScene) else scene
 
 
 class EpisodeRenderer:
@@ -80,7 +80,7 @@ class EpisodeRenderer:
         ValueError: For a bad size, panel mode or point count, or an episode with no views.
     """
 
-    def __init__(self, scene: MotorScene | Cell, record: EpisodeRecord, width: int = 640,
+    def __init__(self, scene: PartScene | Cell, record: EpisodeRecord, width: int = 640,
                  height: int = 480, sensor_panel: PanelMode | None = "color",
                  points_per_view: int = 200, part_close_up: bool = True):
         width, height = check_size(width, height)
@@ -103,10 +103,10 @@ class EpisodeRenderer:
                       SensorPanel(self.cell, max(8, int(PANEL_FRACTION * width)), sensor_panel))
         self.close_up = (PartCloseUp(self.cell, self.data, record,
                                      max(8, int(PANEL_FRACTION * width)))
-                         if part_close_up and isinstance(scene, MotorScene) else None)
+                         if part_close_up and isinstance(scene, PartScene) else None)
         # The panel is the robot's sensor camera: it shows a view only where the robot took it.
         self.losses: list[FrameLosses | None] = []
-        if self.panel is not None and record.carrier == "robot" and isinstance(scene, MotorScene):
+        if self.panel is not None and record.carrier == "robot" and isinstance(scene, PartScene):
             self.losses = frame_losses(scene, record)
             if self.losses:
                 self.lost_size_px = point_size_px(self.panel.width, scene.sensor.resolution[0])
@@ -218,7 +218,7 @@ def _gain(views: list[ViewRecord], index: int) -> float:
 
 
 def render_episode(
-    scene: MotorScene | Cell,
+    scene: PartScene | Cell,
     record: EpisodeRecord,
     out_path: str | Path,
     *,

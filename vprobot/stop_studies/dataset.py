@@ -28,12 +28,12 @@ from vprobot.config import Config, replace
 from vprobot.episode import (
     Episode,
     EpisodeSpec,
-    MotorScene,
+    PartScene,
     ViewRecord,
     read_episode_list,
     seeded_episode,
 )
-from vprobot.episode.specs import bundled_episode_list, motor_name
+from vprobot.episode.specs import bundled_episode_list, part_name
 from vprobot.files import (
     append_line,
     csv_text,
@@ -98,7 +98,7 @@ def _draw(objects: Sequence[str | Path], count: int, seed: int
 def _missing_families(objects: Sequence[str | Path], chosen: np.ndarray,
                       families: Sequence[str]) -> list[str]:
     """The families of which the chosen objects hold none."""
-    drawn = {_family(motor_name(objects[index])) for index in chosen}
+    drawn = {_family(part_name(objects[index])) for index in chosen}
     return [family for family in families if family not in drawn]
 
 
@@ -178,14 +178,14 @@ def rollout(config: Config, spec: EpisodeSpec, planner: str) -> list[dict[str, A
     """One episode of `planner` (robot in the loop, no coverage goal): per view, its number,
     features and true coverage."""
     settings = rollout_config(config)
-    scene = MotorScene.load(settings, spec.motor_path, spec.scale)
+    scene = PartScene.load(settings, spec.part_path, spec.scale)
     views, grid = play(settings, scene, planner, spec)
     return [{"view": view, **dict(zip(FEATURES, features.tolist(), strict=True)),
              "coverage": views[view - 1].coverage}
             for view, features in enumerate(episode_features(config, views, grid), start=1)]
 
 
-def play(config: Config, scene: MotorScene, planner: str, spec: EpisodeSpec
+def play(config: Config, scene: PartScene, planner: str, spec: EpisodeSpec
          ) -> tuple[list[ViewRecord], EpisodeGrid]:
     """One episode of `planner` with the robot in the loop, as `vprobot.planners.runner.run`
     plays it: its views, and the episode's grid of the features, which a grid planner (nbv)

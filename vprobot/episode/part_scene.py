@@ -17,7 +17,7 @@ from vprobot.sensor import DepthSensor
 
 
 @dataclasses.dataclass
-class MotorScene:
+class PartScene:
     """One motor mesh in the cell: its cell, robot arm, sensor and ground truth.
 
     Attributes:
@@ -37,7 +37,7 @@ class MotorScene:
     @classmethod
     def load(cls, config: Config, mesh_path: str | Path, scale: float = 1.0,
              resolution: tuple[int, int] | None = None,
-             scale_option: str = "scale") -> MotorScene:
+             scale_option: str = "scale") -> PartScene:
         """Load a mesh file and build its cell, arm, sensor and ground truth.
 
         `scale_option` is how the user set `scale` (`mesh_loading.scale_setting`): the hints
@@ -54,7 +54,7 @@ class MotorScene:
     @classmethod
     def build(cls, config: Config, mesh: LoadedMesh,
               resolution: tuple[int, int] | None = None,
-              scale_option: str = "scale") -> MotorScene:
+              scale_option: str = "scale") -> PartScene:
         """Build the cell, arm, sensor and ground truth of an already loaded mesh (see `load`).
 
         Raises:
