@@ -57,9 +57,9 @@ def rollouts(folder: Path, planners: tuple[str, ...], seeds: tuple[int, ...]) ->
         for seed in seeds:
             spec = seeded_episode(config.env, part, seed, SCALE)
             for planner in planners:
-                if (spec.motor, str(spec.seed), planner) in done:
+                if (spec.part, str(spec.seed), planner) in done:
                     continue
-                rows = [{"episode": 0, "object": spec.motor, "family": "foreign",
+                rows = [{"episode": 0, "object": spec.part, "family": "foreign",
                          "planner": planner, "seed": spec.seed, **row}
                         for row in rollout(config, spec, planner)]
                 # One write per episode: a killed run leaves whole episodes.

@@ -21,7 +21,7 @@ from vprobot.sensor import TRAINING_RESOLUTION
 
 def main(config_path: str, steps: int) -> float:
     config = replace(load_config(config_path), "env", state="s_grid", action="A_view",
-                     reward="R2", motors="train", resolution=TRAINING_RESOLUTION)
+                     reward="R2", parts="train", resolution=TRAINING_RESOLUTION)
     env = InspectEnv(config)
     for path in env.part_files:
         env.scene(path)

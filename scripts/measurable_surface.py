@@ -64,7 +64,7 @@ def main() -> None:
 
     nbv.VolumetricPlanner.next_view = counted  # type: ignore[method-assign]
     for index, spec in enumerate(tqdm(evaluation_episodes(config, episodes=args.episodes))):
-        current.update(episode=index, object=str(spec.motor))
+        current.update(episode=index, object=str(spec.part))
         scene = PartScene.load(config, spec.part_path, spec.scale)
         run(config, scene, "nbv", spec, stop=f"views:{args.views}")
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -62,7 +62,7 @@ def make_scene(mesh: trimesh.Trimesh, boxes: tuple = (), mesh_boxes: tuple = ()
 COVERAGE_CPU_MARGIN = 5 / 2048
 
 
-SERIAL_EVALUATION = ("evaluate", "--planners", "hrec", "random2", "--motors", str(DEFAULT_MOTOR),
+SERIAL_EVALUATION = ("evaluate", "--planners", "hrec", "random2", "--parts", str(DEFAULT_MOTOR),
                      "--seeds", "0", "1", "2")
 """`vprobot evaluate` (without --out) of two planners, three seeds and both carriers: 12
 episodes. The `serial_evaluation` fixture of conftest.py holds its tables, run once per session
@@ -72,7 +72,7 @@ in the test process."""
 TINY_TRAINING = (
     # Training draws from one motor (its ground truth is built once per session, not that of
     # all 20 training motors).
-    "env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
+    "env.parts=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
     "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
     "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=100",
     "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]",

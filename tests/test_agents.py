@@ -464,12 +464,12 @@ def _millimetre_motor(path: Path, factor: float) -> Path:
 
 
 @pytest.mark.parametrize(("options", "message"), [
-    (["--set", "env.motors=mesh", "env.mesh=MM"],
+    (["--set", "env.parts=mesh", "env.mesh=MM"],
      "largest side is 192.6 m with env.mesh_scale=1, outside the allowed 0.01 .. 5 m; looks like "
      "millimetres: use env.mesh_scale=0.001"),
-    (["--set", "env.motors=mesh", "env.mesh=BIG"],
+    (["--set", "env.parts=mesh", "env.mesh=BIG"],
      "does not fit the cell: at env.mesh_scale=1 it measures"),
-    (["--set", "env.motors=mesh", "env.mesh=MISSING"], "env.mesh not found"),
+    (["--set", "env.parts=mesh", "env.mesh=MISSING"], "env.mesh not found"),
     (["--set", "agent.buffer_size=2000000", "env.state_points=2048"], "GiB"),
     (["--device", "cuda"], "--device cuda: no CUDA device on this machine"),
 ], ids=["millimetres", "too-large", "missing-mesh", "memory", "device"])

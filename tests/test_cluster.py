@@ -29,7 +29,7 @@ from vprobot.paths import MOTORS_DIR
 
 # Training draws from one motor (its ground truth is built once per session, not that of all 20
 # training motors).
-ONE_MOTOR = ["env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}"]
+ONE_MOTOR = ["env.parts=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}"]
 TINY = [*ONE_MOTOR, "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=30",
         "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=1000",
         "agent.checkpoint_freq=60", "agent.eval_episodes=1", "agent.net_arch=[16,16]",

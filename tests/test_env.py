@@ -247,19 +247,19 @@ def test_truncated_exactly_at_the_step_limit() -> None:
 
 def test_different_seeds_give_different_episodes() -> None:
     # Three seeds, since every new training motor costs its ground truth on a cold cache.
-    env = make(motors="train", mesh=None)
-    quaternions, motors = set(), set()
+    env = make(parts="train", mesh=None)
+    quaternions, parts = set(), set()
     for seed in range(3):
         _, info = env.reset(seed=seed)
         quaternions.add(tuple(np.round(env.episode.object_pose.quaternion, 6)))
-        motors.add(info["motor"])
-    assert len(quaternions) == 3 and len(motors) >= 2
+        parts.add(info["part"])
+    assert len(quaternions) == 3 and len(parts) >= 2
 
 
 def test_initial_view_attempts_that_fail_leave_no_trace() -> None:
     env = make()
     # Straight from below (inside the fixture) first, then the paper's fixed view.
-    spec = EpisodeSpec(motor=str(DEFAULT_MOTOR), object_quaternion=(1.0, 0.0, 0.0, 0.0),
+    spec = EpisodeSpec(part=str(DEFAULT_MOTOR), object_quaternion=(1.0, 0.0, 0.0, 0.0),
                        initial_views=((0.0, np.pi), (1.42, 0.71)), seed=0)
     _, info = env.reset(options={"episode": spec})
     assert len(env.episode.views) == 1 and env.episode.views[0].reachable
@@ -284,7 +284,7 @@ def test_s_bin_state_has_the_declared_rows(points: int) -> None:
 
 
 def test_a_spec_gives_the_same_episode_to_both_carriers() -> None:
-    spec = EpisodeSpec(motor=str(DEFAULT_MOTOR), object_quaternion=(0.9, 0.1, 0.0, 0.3),
+    spec = EpisodeSpec(part=str(DEFAULT_MOTOR), object_quaternion=(0.9, 0.1, 0.0, 0.3),
                        initial_views=((1.42, 0.71),), seed=3)
     robot, free = make(action="A_2S0R"), make(action="A_2S0R", carrier="free")
     _, robot_info = robot.reset(options={"episode": spec})
@@ -314,7 +314,7 @@ def test_free_carrier_rejects_joint_travel_in_its_reward() -> None:
 def test_bad_episode_option_is_a_clear_error() -> None:
     env = make()
     with pytest.raises(ValueError, match="object_quaternion"):
-        env.reset(options={"episode": {"motor": str(DEFAULT_MOTOR), "seed": 0,
+        env.reset(options={"episode": {"part": str(DEFAULT_MOTOR), "seed": 0,
                                        "object_quaternion": [0, 0, 0, 0],
                                        "initial_views": [[1.42, 0.71]]}})
 

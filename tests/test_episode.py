@@ -36,7 +36,7 @@ def scene() -> PartScene:
 
 def _requests(episode: Episode) -> list[ViewRequest]:
     center = episode.center
-    spec = EpisodeSpec(motor="unused", object_quaternion=(1.0, 0.0, 0.0, 0.0),
+    spec = EpisodeSpec(part="unused", object_quaternion=(1.0, 0.0, 0.0, 0.0),
                        initial_views=tuple(DIRECTIONS), seed=0)
     # The spec's own views, without the fallbacks after them.
     return spec.initial_requests(center, CONFIG.sensor.working_distance_m)[:len(DIRECTIONS)]
@@ -106,8 +106,11 @@ def test_record_reports_the_first_covering_view(scene: PartScene) -> None:
 
 def test_spec_round_trip_and_clear_errors() -> None:
     spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 4)
-    assert spec.motor == "test/motor_000.stl" and spec.part_path == DEFAULT_MOTOR
+    assert spec.part == "test/motor_000.stl" and spec.part_path == DEFAULT_MOTOR
     assert EpisodeSpec.from_dict(spec.as_dict()) == spec
+    # Lists written before any object was called a part name it `motor`.
+    former = {("motor" if key == "part" else key): value for key, value in spec.as_dict().items()}
+    assert "motor" in former and EpisodeSpec.from_dict(former) == spec
     assert seeded_episode(CONFIG.env, DEFAULT_MOTOR, 5) != spec
     bad = {**spec.as_dict(), "initial_views": [[1.0]]}
     with pytest.raises(ValueError, match="initial_views"):

@@ -167,7 +167,7 @@ def test_shapes_episode_list_is_what_the_sampler_draws_and_loads_from_anywhere(
         BUNDLED_TEST_EPISODES)
     # Bundled objects are named inside the assets, not by a path that only works in the repo.
     monkeypatch.chdir(tmp_path)
-    assert bundled[0].motor == "objects/bracket.stl"
+    assert bundled[0].part == "objects/bracket.stl"
     assert {spec.part_path for spec in bundled} == set(objects)
 
 
@@ -191,7 +191,7 @@ def _result(coverages: list[float], reachable: list[bool] | None = None,
                            views=views, gt_points_world=np.zeros((0, 3)),
                            first_covered_by=np.zeros(0, dtype=int), epsilon_m=0.001,
                            timed=None if cycle is None else TimedPlan((), (), cycle, ()))
-    spec = EpisodeSpec(motor="test/motor_000.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
+    spec = EpisodeSpec(part="test/motor_000.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
                        initial_views=((1.42, 0.71),), seed=0)
     return EpisodeResult(planner="nbv", carrier="free", spec=spec, record=record, goal=0.9,
                          plan_seconds=0.1, episode_seconds=0.2)
@@ -372,7 +372,7 @@ def test_an_episode_row_has_the_cycle_time_and_the_summary_its_mean_over_the_tim
 def test_a_policys_episode_rows_have_the_cycle_time_of_their_episode() -> None:
     """`evaluate_policy` (a training's evaluations) rows a policy's episode as `evaluate` does,
     the cycle time included."""
-    env = InspectEnv(motors="mesh", mesh=str(DEFAULT_MOTOR), resolution=(107, 75),
+    env = InspectEnv(parts="mesh", mesh=str(DEFAULT_MOTOR), resolution=(107, 75),
                      action="A_2S0R")
     rng = np.random.default_rng(0)
 
@@ -403,7 +403,7 @@ def test_the_optimum_added_to_a_finished_evaluation_fills_the_comparison(
             original(self, *args, **{**grid, **kwargs})
 
         monkeypatch.setattr(planner, "__init__", small)
-    command = ["evaluate", "--motors", str(DEFAULT_MOTOR), "--seeds", "0", "--carriers",
+    command = ["evaluate", "--parts", str(DEFAULT_MOTOR), "--seeds", "0", "--carriers",
                "robot", "--out", str(tmp_path), "--planners", "bscp"]
     assert main(command) == 0
     assert read_csv(tmp_path / "evaluation_vs_optimum.csv") == []
@@ -446,7 +446,7 @@ def test_an_old_episodes_table_is_a_clear_error(tmp_path: Path,
     rows.write_text(",".join(old) + "\n")
     with pytest.raises(ValueError, match="not an episodes table of this vprobot version"):
         finished_rows(rows)
-    assert main(["evaluate", "--planners", "hrec", "--motors", str(DEFAULT_MOTOR), "--seeds",
+    assert main(["evaluate", "--planners", "hrec", "--parts", str(DEFAULT_MOTOR), "--seeds",
                  "0", "--out", str(tmp_path)]) == 2
     (line,) = capsys.readouterr().err.splitlines()
     assert "use another --out" in line
@@ -619,7 +619,7 @@ def test_a_bad_motor_fails_before_the_first_episode(tmp_path: Path) -> None:
     assert not (tmp_path / "out" / "evaluation_episodes.csv").exists()
 
 
-TINY_FREE = ("evaluate", "--planners", "hrec", "--motors", str(DEFAULT_MOTOR), "--carriers",
+TINY_FREE = ("evaluate", "--planners", "hrec", "--parts", str(DEFAULT_MOTOR), "--carriers",
              "free")
 """A cheap `vprobot evaluate` (one fixed planner, the free sensor); add --seeds and --out."""
 

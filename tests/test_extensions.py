@@ -148,7 +148,7 @@ def test_evaluate_without_planners_runs_the_plugin_planner_it_declares(
     for cls in PLANNERS.values():
         if cls.__module__ != MODULE:
             monkeypatch.setattr(cls, "evaluated", ())
-    assert main(["--plugin", str(plugin), "evaluate", "--motors", str(DEFAULT_MOTOR), "--seeds",
+    assert main(["--plugin", str(plugin), "evaluate", "--parts", str(DEFAULT_MOTOR), "--seeds",
                  "0", "--carriers", "free", "--out", str(tmp_path / "out")]) == 0
     with (tmp_path / "out" / "evaluation_episodes.csv").open() as stream:
         assert [(row["planner"], row["acquisitions"]) for row in csv.DictReader(stream)] == [

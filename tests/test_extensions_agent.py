@@ -52,7 +52,7 @@ ENCODERS.register("maxpool_toy", Encoder(MaxPool, settings=lambda agent: {
     "width": agent.net_arch[1]}))
 '''
 PROFILE = CONFIGS_DIR / "agents" / "cpu.yaml"
-ONE_FREE_EPISODE = ["--motors", str(DEFAULT_MOTOR), "--carriers", "free"]
+ONE_FREE_EPISODE = ["--parts", str(DEFAULT_MOTOR), "--carriers", "free"]
 
 
 @pytest.fixture
@@ -89,7 +89,7 @@ def test_a_plugin_reward_is_named_by_the_config_and_paid_by_the_env(
         load_config(config)
     # The free-flying sensor acquires every request; A_2S0R looks at the centre from
     # (azimuth, polar angle) at the working distance.
-    env = InspectEnv(motors="mesh", mesh=str(DEFAULT_MOTOR), resolution=(107, 75),
+    env = InspectEnv(parts="mesh", mesh=str(DEFAULT_MOTOR), resolution=(107, 75),
                      reward="twice_gain", carrier="free", travel_cost="cartesian",
                      action="A_2S0R")
     env.reset(seed=0)

@@ -65,7 +65,7 @@ def _finite(value: object) -> bool:
                                  min_size=5, max_size=5), min_size=1, max_size=6))
 def test_env_never_leaves_its_spaces(settings_: dict, seed: int,
                                      actions: list[list[float]]) -> None:
-    env = InspectEnv(motors="mesh", mesh=str(DEFAULT_MOTOR), resolution=(64, 45), **settings_)
+    env = InspectEnv(parts="mesh", mesh=str(DEFAULT_MOTOR), resolution=(64, 45), **settings_)
     obs, info = env.reset(seed=seed)
     assert env.observation_space.contains(obs) and _finite(info)
     for raw in actions:

@@ -28,7 +28,7 @@ from vprobot.views import band_directions, offered
 RESOLUTION = (64, 45)
 # The sensor itself at a small resolution: the agent planner integrates frames at the sensor's.
 CONFIG = replace(replace(Config(), "sensor", resolution=RESOLUTION), "env", action="A_view",
-                 state="s_grid", motors="mesh",
+                 state="s_grid", parts="mesh",
                  mesh=str(MOTORS_DIR / "train" / "motor_000.stl"))
 COLUMN = {name: index for index, name in enumerate(FEATURES)}
 

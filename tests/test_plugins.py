@@ -45,7 +45,7 @@ class TopViews(PlanPlanner):
             episode.center + [0.0, 0.0, distance * (1.0 - 0.02 * index)], episode.center))
             for index in range(2)]
 '''
-ONE_FREE_EPISODE = ["--motors", str(DEFAULT_MOTOR), "--carriers", "free"]
+ONE_FREE_EPISODE = ["--parts", str(DEFAULT_MOTOR), "--carriers", "free"]
 
 
 def _toy(folder: Path, module: str, planner: str) -> Path:

@@ -272,7 +272,7 @@ def test_a_planner_registered_elsewhere_is_built_by_name_and_evaluated(
     assert isinstance(planner, TopViews) and planner.count == 3
     with pytest.raises(ValueError, match=r"unknown planner 'toy'; allowed: .*toy<k>"):
         make_planner("toy", load_config())
-    assert main(["evaluate", "--planners", "toy2", "--motors", str(DEFAULT_MOTOR), "--seeds", "0",
+    assert main(["evaluate", "--planners", "toy2", "--parts", str(DEFAULT_MOTOR), "--seeds", "0",
                  "--carriers", "free", "--out", str(tmp_path)]) == 0
     with (tmp_path / "evaluation_episodes.csv").open() as stream:
         (row,) = csv.DictReader(stream)

@@ -38,7 +38,7 @@ def _folder(folder: Path, rows: list[dict[str, Any]], episodes: list[int]) -> No
         writer.writeheader()
         writer.writerows(rows)
     write_episode_list(folder / "episodes.json", [
-        EpisodeSpec(motor="m.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
+        EpisodeSpec(part="m.stl", object_quaternion=(1.0, 0.0, 0.0, 0.0),
                     initial_views=((1.42, 0.71),), seed=seed) for seed in episodes])
 
 

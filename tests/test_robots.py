@@ -253,7 +253,7 @@ def test_config_takes_the_robots_own_placement_unless_given() -> None:
 
 def test_the_seven_joint_panda_runs_the_env_with_its_robot_state() -> None:
     config = replace(replace(Config(), "cell", robot="panda"), "env", robot_state=True,
-                     resolution=(107, 75), motors="mesh", mesh=str(DEFAULT_MOTOR))
+                     resolution=(107, 75), parts="mesh", mesh=str(DEFAULT_MOTOR))
     env = InspectEnv(config)
     observation, _ = env.reset(seed=0)
     assert env.observation_space["robot"].shape == (3 + 6 + 7,)

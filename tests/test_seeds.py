@@ -30,7 +30,7 @@ from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
 PROFILE = str(CONFIGS_DIR / "agents" / "cpu.yaml")
 # A few env steps on one bundled motor at a small resolution, scored on one validation episode.
 TINY = ["sensor.resolution=[64,45]", "env.resolution=[64,45]", "env.state_points=64",
-        "env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
+        "env.parts=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
         "agent.learning_starts=50", "agent.batch_size=32", "agent.buffer_size=400",
         "agent.eval_freq=100", "agent.checkpoint_freq=100", "agent.eval_episodes=1",
         "agent.net_arch=[16,16]", "agent.test_lists=null"]

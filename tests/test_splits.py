@@ -39,7 +39,7 @@ def names(objects: list) -> set[str]:
 
 
 def episode_key(spec: EpisodeSpec) -> tuple:
-    return spec.motor, spec.object_quaternion
+    return spec.part, spec.object_quaternion
 
 
 @pytest.mark.parametrize("version", sorted(SPLITS))
@@ -49,19 +49,19 @@ def test_no_test_object_family_or_episode_reaches_training_or_validation(version
     validation = read_episode_list(bundled_episode_list(split.validation_list))
     tests = [spec for name in split.test_lists
              for spec in read_episode_list(bundled_episode_list(name))]
-    test_objects = {spec.motor for spec in tests}
+    test_objects = {spec.part for spec in tests}
     assert not test_objects & training
-    assert not test_objects & {spec.motor for spec in validation}
+    assert not test_objects & {spec.part for spec in validation}
     assert not {episode_key(spec) for spec in tests} & {episode_key(s) for s in validation}
     # Families: the test families are never trained on or validated on, and the test lists'
     # generated objects all belong to test families.
     assert not set(split.test_families) & set(split.training_families)
     trained_families = {family_of(name) for name in training} - {None}
     assert trained_families == set(split.training_families)
-    assert {family_of(spec.motor) for spec in validation} <= {*split.training_families, "motor"}
-    assert {family_of(spec.motor) for spec in tests} - {None} <= set(split.test_families)
+    assert {family_of(spec.part) for spec in validation} <= {*split.training_families, "motor"}
+    assert {family_of(spec.part) for spec in tests} - {None} <= set(split.test_families)
     # Validation objects are not training objects either (held-out instances, new motors).
-    assert not {spec.motor for spec in validation} & training
+    assert not {spec.part for spec in validation} & training
     # The non-motor shapes are kinds of parts held out of training (a bracket, a pipe tee).
     assert {"bracket", "pipe_fitting"} <= set(split.test_families)
     assert set(split.test_families) | set(split.training_families) <= set(FAMILIES)
@@ -87,8 +87,8 @@ def test_split_v2_is_v1_with_thousands_of_procedural_instances_added() -> None:
     # A run on v1's sources validates on the same episodes under either split.
     first = read_episode_list(bundled_episode_list(v1.validation_list))
     second = read_episode_list(bundled_episode_list(v2.validation_list))
-    assert [spec for spec in second if family_of(spec.motor) != "procedural"] == first
-    assert sorted(spec.motor for spec in second if family_of(spec.motor) == "procedural") == [
+    assert [spec for spec in second if family_of(spec.part) != "procedural"] == first
+    assert sorted(spec.part for spec in second if family_of(spec.part) == "procedural") == [
         f"generated/procedural_{seed}.stl" for seed in range(10000, 10004)]
 
 
@@ -113,7 +113,7 @@ def test_env_split_picks_the_split_that_training_and_validation_draw_from() -> N
     assert {family_of(str(item)) for item in objects} == {None, "procedural"}
     assert "generated/procedural_4999.stl" in objects
     episodes = validation_episodes(config)
-    assert [family_of(spec.motor) for spec in episodes] == ["motor"] * 5 + ["procedural"] * 4
+    assert [family_of(spec.part) for spec in episodes] == ["motor"] * 5 + ["procedural"] * 4
     with pytest.raises(ConfigError, match="unknown source 'procedural'; training sources: "
                                           "motors, flange, housing"):
         replace(CONFIG, "env", objects=("procedural",))
@@ -125,10 +125,10 @@ def test_env_split_picks_the_split_that_training_and_validation_draw_from() -> N
 
 def test_validation_episodes_are_those_of_the_trained_sources() -> None:
     motors_only = validation_episodes(CONFIG)
-    assert {family_of(spec.motor) for spec in motors_only} == {"motor"}
+    assert {family_of(spec.part) for spec in motors_only} == {"motor"}
     assert len(motors_only) == SPLIT.validation_motor_count
     mixed = validation_episodes(replace(CONFIG, "env", objects=("motors", "flange")))
-    assert {family_of(spec.motor) for spec in mixed} == {"motor", "flange"}
+    assert {family_of(spec.part) for spec in mixed} == {"motor", "flange"}
     assert len(mixed) == SPLIT.validation_motor_count + len(SPLIT.validation_instances)
 
 
@@ -162,7 +162,7 @@ def test_bad_training_sources_are_one_line_config_errors() -> None:
     with pytest.raises(ConfigError, match="unknown source 'gears'; training sources: motors"):
         replace(CONFIG, "env", objects=("gears",))
     with pytest.raises(ConfigError, match="applies to training"):
-        replace(CONFIG, "env", objects=("flange",), motors="test")
+        replace(CONFIG, "env", objects=("flange",), parts="test")
     with pytest.raises(ValueError, match="is not a generated object"):
         generated_path("generated/nothing.stl")
 
@@ -173,7 +173,7 @@ def test_env_draws_family_instances_and_builds_them_on_first_use(cache: Path) ->
     env = InspectEnv(replace(CONFIG, "env", objects=("spur_gear",), resolution=(64, 45),
                              state_points=64))
     env.reset(seed=0)
-    assert family_of(env.spec_of_episode.motor) == "spur_gear"
+    assert family_of(env.spec_of_episode.part) == "spur_gear"
     assert env.spec_of_episode.part_path.is_relative_to(cache)
     observation, *_ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
     assert np.isfinite(observation).all()
@@ -196,7 +196,7 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
     # One training motor: the validation list is that of the `motors` source all the same, and
     # every other motor drawn would cost its ground truth.
     config = training.profile_config(CONFIGS_DIR / "agents" / "cpu.yaml", [
-        "env.motors=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
+        "env.parts=mesh", f"env.mesh={MOTORS_DIR / 'train' / 'motor_000.stl'}",
         "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=20",
         "agent.batch_size=16", "agent.buffer_size=200", "agent.eval_freq=30",
         "agent.eval_episodes=1", "agent.checkpoint_freq=1000", "agent.net_arch=[16,16]"],

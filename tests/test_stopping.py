@@ -365,7 +365,7 @@ def test_stop_fit_refuses_a_count_that_draws_no_episode_of_a_family_before_any_r
     assert f"--episodes {FAMILIES_DRAWN} is the least count that draws every family" in error
     assert fake_rollouts.runs == 0 and not out.exists()
     # The count named draws every training family (by the objects' names), none below it does.
-    families = {family_of(spec.motor) for spec, _ in training_jobs(CONFIG, FAMILIES_DRAWN, 0)}
+    families = {family_of(spec.part) for spec, _ in training_jobs(CONFIG, FAMILIES_DRAWN, 0)}
     assert set(Split.load().training_families) <= families
     for count in range(6, FAMILIES_DRAWN):
         with pytest.raises(ValueError, match=f"--episodes {FAMILIES_DRAWN} is the least"):

@@ -12,7 +12,7 @@ import pytest
 
 from vprobot import kinematics
 from vprobot.benchmarks import env as env_benchmark
-from vprobot.cli import main
+from vprobot.cli import build_parser, main
 from vprobot.config import Config, ConfigError, load_config, replace
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.paths import DEFAULT_MOTOR
@@ -146,12 +146,30 @@ def test_config_bounds_and_contradictions() -> None:
         replace(Config(), "sensor", resolution=(100000, 100000))
     with pytest.raises(ConfigError, match=r"env\.resolution"):
         replace(Config(), "env", resolution=(0, 10))
-    with pytest.raises(ConfigError, match=r"env\.motors is 'train'"):
-        replace(Config(), "env", motors="train", mesh=str(DEFAULT_MOTOR))
+    with pytest.raises(ConfigError, match=r"env\.parts is 'train'"):
+        replace(Config(), "env", parts="train", mesh=str(DEFAULT_MOTOR))
     # Naming a mesh in the env means using it.
     env = InspectEnv(mesh=str(DEFAULT_MOTOR))
     assert env.part_files == [DEFAULT_MOTOR]
-    assert load_config().env.motors == "train"
+    assert load_config().env.parts == "train"
+
+
+def test_the_former_names_of_parts_are_read_with_a_note(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """`env.motors` and `evaluate --motors`, from before any object was called a part, still
+    work for a release, saying what they are called now; both names at once are refused."""
+    with pytest.warns(FutureWarning, match=r"env\.motors is now called env\.parts"):
+        assert replace(Config(), "env", motors="test").env.parts == "test"
+    config = tmp_path / "former.yaml"
+    config.write_text(f"env:\n  motors: mesh\n  mesh: {DEFAULT_MOTOR}\n")
+    with pytest.warns(FutureWarning, match=r"env\.motors is now called env\.parts"):
+        assert load_config(config).env.parts == "mesh"
+    config.write_text(f"env:\n  motors: mesh\n  parts: mesh\n  mesh: {DEFAULT_MOTOR}\n")
+    with pytest.raises(ConfigError, match=r"env\.motors and env\.parts are both set"):
+        load_config(config)
+    args = build_parser().parse_args(["evaluate", "--motors", str(DEFAULT_MOTOR)])
+    assert args.parts == [str(DEFAULT_MOTOR)]
+    assert "--motors is now called --parts" in capsys.readouterr().err
 
 
 def test_plans_are_portable_and_reproducible(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
@@ -221,7 +239,7 @@ def test_a_resume_refuses_a_mesh_changed_since_the_evaluation_began(
 
     part, out = tmp_path / "part.stl", tmp_path / "out"
     part.write_bytes(DEFAULT_MOTOR.read_bytes())
-    command = [*TINY_EVALUATION, "--motors", str(part), "--out", str(out)]
+    command = [*TINY_EVALUATION, "--parts", str(part), "--out", str(out)]
 
     def killed(*args: Any) -> None:
         raise Killed

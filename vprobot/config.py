@@ -36,12 +36,14 @@ from vprobot.registry import Registry
 from vprobot.rewards import REWARDS
 from vprobot.robots import load_robot
 from vprobot.schema import (
+    FORMERLY,
     RESOLVE,
     ConfigError,
     Quat,
     Vec3,
     brief,
     check_within,
+    current_names,
     from_mapping,
     read_yaml,
 )
@@ -410,13 +412,14 @@ class EnvConfig:
         stop_reward: Size of the stop decision's reward.
         object_yaw_range_deg: Object rotation about the vertical, uniform in +-this.
         object_tilt_range_deg: Tilt about x or y, uniform in +-this.
-        motors: Bundled split to draw motors from (`train`, `test`) or `mesh` for one file.
-        objects: What training draws from when motors is `train`: `motors` (the bundled
+        parts: What episodes draw their part from: the bundled training or test motors
+            (`train`, `test`), or `mesh` for one file (formerly `motors`).
+        objects: What training draws from when parts is `train`: `motors` (the bundled
             training motors) and/or training families of the split (`vprobot.splits`), e.g.
             `[motors, flange, housing]`; every source is drawn equally often.
         split: Version of that split (`configs/splits/v<N>.yaml`), which also sets the
             validation list: 1 (the committed tables) or 2 (adds the `procedural` family).
-        mesh: Mesh file used when motors is `mesh`.
+        mesh: Mesh file used when parts is `mesh`.
         mesh_scale: Scale applied to that mesh file (e.g. 0.001 for millimetres).
         resolution: Sensor resolution used in the environment; None keeps the sensor's.
         state_scale_m: Object-frame coordinates are divided by this in observations.
@@ -447,7 +450,8 @@ class EnvConfig:
     stop_reward: float = 1.0
     object_yaw_range_deg: float = 180.0
     object_tilt_range_deg: float = 25.0
-    motors: Literal["train", "test", "mesh"] = "train"
+    parts: Literal["train", "test", "mesh"] = dataclasses.field(
+        default="train", metadata={FORMERLY: "motors"})
     objects: tuple[str, ...] = ("motors",)
     split: int = 1
     mesh: str | None = None
@@ -458,23 +462,23 @@ class EnvConfig:
 
     def __post_init__(self) -> None:
         check_registered(self.reward, REWARDS, "env.reward")
-        if self.motors == "mesh" and self.mesh is None:
-            raise ConfigError("env.mesh must name a mesh file when env.motors is 'mesh'")
+        if self.parts == "mesh" and self.mesh is None:
+            raise ConfigError("env.mesh must name a mesh file when env.parts is 'mesh'")
         try:
             split_file(self.split)
         except ValueError as error:
             raise ConfigError(f"env.split: {error}") from None
         if self.objects != ("motors",):
-            if self.motors != "train":
+            if self.parts != "train":
                 raise ConfigError(f"env.objects {list(self.objects)} applies to training "
-                                  f"(env.motors: train), not to env.motors {self.motors!r}")
+                                  f"(env.parts: train), not to env.parts {self.parts!r}")
             try:
                 Split.bundled(self.split).check_sources(self.objects)
             except ValueError as error:
                 raise ConfigError(str(error)) from None
-        if self.motors != "mesh" and self.mesh is not None:
-            raise ConfigError(f"env.mesh is set ({brief(self.mesh)}) but env.motors is "
-                              f"{self.motors!r}, which would ignore it; set env.motors to 'mesh' "
+        if self.parts != "mesh" and self.mesh is not None:
+            raise ConfigError(f"env.mesh is set ({brief(self.mesh)}) but env.parts is "
+                              f"{self.parts!r}, which would ignore it; set env.parts to 'mesh' "
                               f"or drop env.mesh")
         if self.resolution is not None:
             check_resolution(self.resolution, "env.resolution")
@@ -682,7 +686,7 @@ class Config:
 def replace(config: Config, section: str, **changes: Any) -> Config:
     """Return a copy of `config` with fields of one section changed (validated)."""
     current = dataclasses.asdict(getattr(config, section))
-    current.update(changes)
+    current.update(current_names(type(getattr(config, section)), changes, section))
     return dataclasses.replace(config, **{section: from_mapping(type(getattr(config, section)),
                                                                 current, section)})
 

@@ -271,7 +271,7 @@ def _cell(value: Any, digits: int) -> str:
 
 def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: Config) -> str:
     """The Markdown report: settings, the table, and the paper's Table 9 for reference."""
-    motors = sorted({Path(spec.motor).name for spec in specs})
+    parts = sorted({Path(spec.part).name for spec in specs})
     seeds = sorted({spec.seed for spec in specs})
     header = ("| planner | carrier | episodes | coverage % | acquisitions | requested | failed "
               "| success % | area % | views to goal | cycle s | joint_time s | joint_path rad "
@@ -281,7 +281,7 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
     lines = [
         "# Planner evaluation",
         "",
-        f"Episodes: {len(specs)} from `episodes.json` (objects {', '.join(motors)}; seeds "
+        f"Episodes: {len(specs)} from `episodes.json` (objects {', '.join(parts)}; seeds "
         f"{', '.join(map(str, seeds))}: one pose and initial view per object and seed, "
         f"the same for every planner); robot {config.cell.robot}; coverage goal "
         f"{config.env.coverage_goal:.0%}; at most {config.env.max_acquisitions} requests after "
@@ -439,15 +439,15 @@ def stop_label(planner: str, stop: str) -> str:
 def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
                   planners: Sequence[tuple[str, str, int | None, str]],
                   estimator: str | Path | None, keep: bool, run_id: str) -> None:
-    """Every motor of the list, every planner (an agent's files) and stop rule (an
+    """Every part of the list, every planner (an agent's files) and stop rule (an
     estimator) loads, and every rule applies to its planner, before the first episode runs;
-    with `keep`, the motors stay loaded for the episodes this process runs (`_scene`). The
+    with `keep`, the parts stay loaded for the episodes this process runs (`_scene`). The
     planners and rules are those the run `run_id` then runs in this process (`_built`)."""
     _checked.clear()  # left by an earlier evaluation whose scenes were already built
-    for motor in dict.fromkeys((spec.part_path, spec.scale) for spec in specs):
-        mesh = load_mesh(*motor)
+    for part in dict.fromkeys((spec.part_path, spec.scale) for spec in specs):
+        mesh = load_mesh(*part)
         if keep:
-            _checked[motor] = mesh
+            _checked[part] = mesh
     for label, name, views, stop in planners:
         planner, rule = _built(run_id, config, name, views, stop, estimator)
         if not rule.applies_to(StopSubject.of(planner)):
@@ -474,7 +474,7 @@ def _settings(config: Config, specs: Sequence[EpisodeSpec],
     JSON data: the config, the estimator file and the content of it and of the mesh files
     (a file overwritten between a kill and the resume would mix two parts in one table; a
     generated object's content is named by its name)."""
-    files = [spec.part_path for spec in specs if not is_generated(spec.motor)]
+    files = [spec.part_path for spec in specs if not is_generated(spec.part)]
     if estimator is not None:
         files.append(Path(estimator))
     return {"config": config_document(config),
@@ -597,24 +597,24 @@ def _write_tables(out: Path, rows: list[dict[str, Any]], specs: Sequence[Episode
     return table
 
 
-def evaluation_episodes(config: Config, motors: Sequence[str | Path] | None = None,
+def evaluation_episodes(config: Config, parts: Sequence[str | Path] | None = None,
                         seeds: Sequence[int] | None = None,
                         episodes: str | Path | None = None) -> list[EpisodeSpec]:
     """The episode list of an evaluation: a bundled list by name (`BUNDLED_EPISODE_LISTS`) or a
-    list file, the episodes of motors x seeds, or the bundled list over the test motors.
+    list file, the episodes of parts x seeds, or the bundled list over the test motors.
 
     Raises:
-        ValueError: For a list together with motors or seeds, a missing list file that is not a
+        ValueError: For a list together with parts or seeds, a missing list file that is not a
             bundled name, or a bad list.
     """
     if episodes is not None:
-        if motors is not None or seeds is not None:
-            raise ValueError("give either an episode list or motors and seeds, not both")
+        if parts is not None or seeds is not None:
+            raise ValueError("give either an episode list or parts and seeds, not both")
         return read_episode_list(bundled_or_path(episodes, BUNDLED_EPISODE_LISTS,
                                                  "episode list"))
-    if motors is None and seeds is None:
+    if parts is None and seeds is None:
         return read_episode_list(BUNDLED_TEST_EPISODES)
-    return episode_list(config, [Path(path) for path in motors] if motors is not None
+    return episode_list(config, [Path(path) for path in parts] if parts is not None
                         else held_out_motors(), seeds if seeds is not None else (0, 1, 2))
 
 
@@ -624,7 +624,7 @@ rule)."""
 
 
 _checked: dict[tuple[Path, float], LoadedMesh] = {}
-"""The motors `_check_inputs` loaded in this process, until `_scene` builds on them."""
+"""The parts `_check_inputs` loaded in this process, until `_scene` builds on them."""
 
 
 _planners: dict[tuple[str, str, int | None, str], tuple[Planner, StopRule]] = {}
@@ -649,7 +649,7 @@ def _built(run_id: str, config: Config, name: str, views: int | None, stop: str,
 
 @functools.lru_cache(maxsize=2)
 def _scene(config: Config, path: Path, scale: float) -> PartScene:
-    # Kept across calls: a Ray worker runs many episodes, mostly of the motors it has loaded.
+    # Kept across calls: a Ray worker runs many episodes, mostly of the parts it has loaded.
     mesh = _checked.pop((path, scale), None)
     return (PartScene.load(config, path, scale) if mesh is None
             else PartScene.build(config, mesh))
@@ -684,7 +684,7 @@ def run_jobs(config: Config, jobs: Sequence[Job], estimator: str | Path | None,
 def _rows(config: Config, jobs: Sequence[Job], workers: int, address: str | None,
           estimator: str | Path | None, run_id: str) -> Generator[dict[str, Any], None, None]:
     """The jobs' rows as they finish: in order in this process, or per episode (all its
-    carriers and planners, one motor load) as Ray tasks."""
+    carriers and planners, one part load) as Ray tasks."""
     if workers == 1 and address is None:
         yield from _job_rows(config, jobs, estimator, run_id)
         return
@@ -737,7 +737,7 @@ def evaluate(config: Config, planners: Sequence[str], specs: Sequence[EpisodeSpe
 
     Raises:
         ValueError: For an unknown planner, carrier or stop rule, no planners, episodes,
-            carriers or stop rules, a rule that does not apply to a planner, a motor that does
+            carriers or stop rules, a rule that does not apply to a planner, a part that does
             not load, or an output folder holding an evaluation of other episodes or settings
             (`InUseError`: or in use by another process).
         OSError: If a row cannot be written whole (a full disk); the rows before it are kept.

@@ -115,7 +115,7 @@ class Cell:
 
     Args:
         config: Cell and sensor settings.
-        object_mesh: The motor mesh, centred at its bounding-box centre, in metres; `None` builds
+        object_mesh: The part's mesh, centred at its bounding-box centre, in metres; `None` builds
             the empty cell.
 
     Raises:

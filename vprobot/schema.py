@@ -12,6 +12,7 @@ import math
 import reprlib
 import types
 import typing
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -23,6 +24,9 @@ Quat = tuple[float, float, float, float]
 
 RESOLVE = "vprobot.schema.resolve"
 """Field metadata key: a function `(value, key) -> value` applied to the raw value first."""
+
+FORMERLY = "vprobot.schema.formerly"
+"""Field metadata key: the field's former name, still read for one release (with a note)."""
 
 
 class ConfigError(ValueError):
@@ -224,6 +228,30 @@ def _convert(value: Any, annotation: Any, key: str) -> Any:
     raise TypeError(f"unsupported annotation {annotation!r} for {key}")
 
 
+def current_names(cls: type, data: Mapping[str, Any], key: str = "") -> dict[str, Any]:
+    """`data` with each former name of a field of dataclass `cls` (its `FORMERLY` metadata)
+    replaced by the field's name, with a `FutureWarning` that names both.
+
+    Raises:
+        ConfigError: If `data` has both names of a field.
+    """
+    prefix = f"{key}." if key else ""
+    renamed = dict(data)
+    for field in dataclasses.fields(cls):
+        former = field.metadata.get(FORMERLY)
+        if former is None or former not in renamed:
+            continue
+        if field.name in renamed:
+            raise ConfigError(f"{prefix}{former} and {prefix}{field.name} are both set; "
+                              f"{prefix}{former} is the former name of {prefix}{field.name}: "
+                              f"keep {prefix}{field.name} only")
+        # A warning, not an error, for one release: configs and runs written before stay usable.
+        warnings.warn(f"{prefix}{former} is now called {prefix}{field.name}; the old name "
+                      f"will not be read after the next release", FutureWarning, stacklevel=2)
+        renamed[field.name] = renamed.pop(former)
+    return renamed
+
+
 def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
     """Build dataclass `cls` from a mapping, rejecting unknown keys.
 
@@ -237,6 +265,7 @@ def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
     Raises:
         ConfigError: On unknown keys, wrong types or invalid values.
     """
+    data = current_names(cls, data, key)
     hints = typing.get_type_hints(cls)
     resolvers = {field.name: field.metadata.get(RESOLVE, _as_written)
                  for field in dataclasses.fields(cls)}

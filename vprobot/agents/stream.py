@@ -41,6 +41,6 @@ class EpisodeStream(gym.Wrapper):
             env = self.inspect.config.env
             options["episode"] = sample_episode(
                 env, self.inspect.part_files, rng, seed=int(rng.integers(SEED_BOUND)),
-                scale=env.mesh_scale if env.motors == "mesh" else 1.0)
+                scale=env.mesh_scale if env.parts == "mesh" else 1.0)
         self.episodes_started += 1
         return self.env.reset(seed=seed, options=options)

@@ -191,17 +191,17 @@ def _commit() -> str:
 
 def check_environment(config: Config) -> None:
     """Check what the run will need before a run folder is touched: the encoder, the env
-    settings, that the algorithm can act in the env's spaces and every motor file episodes draw
+    settings, that the algorithm can act in the env's spaces and every part file episodes draw
     from (it loads and fits the cell; generated objects are made later).
 
     Raises:
-        FileNotFoundError, ValueError, ConfigError: For a missing or unusable motor file, an
+        FileNotFoundError, ValueError, ConfigError: For a missing or unusable part file, an
             encoder not registered or not serving the algorithm, env settings that do not make
             an env, or an algorithm that cannot act in it.
     """
     check_encoder(config.agent)
     env = config.env
-    scale = env.mesh_scale if env.motors == "mesh" else 1.0
+    scale = env.mesh_scale if env.parts == "mesh" else 1.0
     inspect_env = InspectEnv(config)
     check_spaces(config.agent, inspect_env.observation_space, inspect_env.action_space)
     if config.agent.pretrain_episodes:
@@ -247,7 +247,7 @@ def train(config: Config | None, run_dir: str | Path, seed: int = 0, resume: boo
           argv: Sequence[str] = ()) -> dict[str, Any]:
     """Train (or resume) one run.
 
-    Every check (config, device, buffer memory, motor files) comes before the run directory is
+    Every check (config, device, buffer memory, part files) comes before the run directory is
     created; the directory is then locked (`run.lock`) for the whole run, so a second train or
     resume of it is refused while this one lives.
 
@@ -267,7 +267,7 @@ def train(config: Config | None, run_dir: str | Path, seed: int = 0, resume: boo
 
     Raises:
         ValueError, ConfigError: For a bad config, a run directory in the wrong state or in use
-            by another process, a device that is not there, or an unusable motor file.
+            by another process, a device that is not there, or an unusable part file.
     """
     run_dir = Path(run_dir)
     if resume:

@@ -17,8 +17,8 @@ from vprobot.config import Config, replace
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.sensor import TRAINING_RESOLUTION
 
-BENCHMARK_ENV = {"action": "A_3S2R_lim", "reward": "R2", "motors": "train"}
-GRID_ENV = {"state": "s_grid", "action": "A_view", "reward": "R2", "motors": "train"}
+BENCHMARK_ENV = {"action": "A_3S2R_lim", "reward": "R2", "parts": "train"}
+GRID_ENV = {"state": "s_grid", "action": "A_view", "reward": "R2", "parts": "train"}
 
 
 def _steps_per_second(env: InspectEnv, steps: int, seed: int, progress: bool,

@@ -61,7 +61,7 @@ def run_optimum_benchmark(config: Config, episodes: Sequence[int] = HARDEST,
                 met = (proof is not None and proof.gap_views is not None
                        and proof.gap_views <= TARGET_GAP_VIEWS
                        and planner.solve_seconds <= TARGET_SOLVE_S)
-                rows.append({"episode": index, "motor": spec.motor, "carrier": carrier,
+                rows.append({"episode": index, "motor": spec.part, "carrier": carrier,
                              "bscp_views": len(planner.greedy_picks),
                              "views": len(planner.picks),
                              "bound": None if proof is None else proof.bound,

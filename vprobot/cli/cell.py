@@ -115,7 +115,7 @@ def command_reach(args: argparse.Namespace) -> int:
 
 
 def command_cell(args: argparse.Namespace) -> int:
-    """Report how much of the view sphere around the motor the robot reaches."""
+    """Report how much of the view sphere around the part the robot reaches."""
     from vprobot.cell_check import check_cell
     from vprobot.kinematics import RobotArm
     from vprobot.kinematics.survey import default_cell, view_sphere_survey, view_sphere_targets

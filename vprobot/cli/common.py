@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
@@ -54,6 +55,22 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def add_former(sub: argparse.ArgumentParser, former: str, current: str) -> None:
+    """Accept option `former`, the former name of option `current`, for one release: it stores
+    into `current`'s value and writes a note to stderr; `--help` lists only `current`."""
+
+    class _Former(argparse.Action):
+        def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                     values: Any, option_string: str | None = None) -> None:
+            print(f"note: {former} is now called {current}; the old name will not be read "
+                  f"after the next release", file=sys.stderr)
+            setattr(namespace, self.dest, values)
+
+    action = next(action for action in sub._actions if current in action.option_strings)
+    sub.add_argument(former, dest=action.dest, nargs=action.nargs, type=action.type,
+                     action=_Former, help=argparse.SUPPRESS)
 
 
 def config_of(args: argparse.Namespace) -> Config:

@@ -14,6 +14,7 @@ from vprobot.cli.common import (
     Commands,
     LateHelp,
     add,
+    add_former,
     add_robot,
     add_stop,
     config_of,
@@ -72,7 +73,7 @@ def _add_planning(sub: argparse.ArgumentParser) -> None:
 
 def add_plan(commands: Commands) -> None:
     plan = add(commands, "plan", command_plan,
-               "Plan the inspection of a motor and write the plan JSON.")
+               "Plan the inspection of a part and write the plan JSON.")
     _add_planning(plan)
     plan.add_argument("--out", required=True, help="plan JSON to write")
     plan.add_argument("--video", help="also render the rollout to this .mp4 or .gif")
@@ -103,9 +104,10 @@ def add_evaluate(commands: Commands) -> None:
     evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
                             "the test motors; shapes-v1: the non-motor objects) or a JSON file "
                             "as written into --out; default: test-v1")
-    evaluation.add_argument("--motors", nargs="+",
+    evaluation.add_argument("--parts", nargs="+",
                             help="mesh files to draw episodes for instead (default: the test "
                             "motors)")
+    add_former(evaluation, "--motors", "--parts")
     evaluation.add_argument("--seeds", type=NON_NEGATIVE_INT, nargs="+",
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
@@ -133,7 +135,7 @@ def _planning(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def command_plan(args: argparse.Namespace) -> int:
-    """Plan the inspection of a motor, write the plan JSON and optionally a video."""
+    """Plan the inspection of a part, write the plan JSON and optionally a video."""
     from vprobot.plan import write_json
     from vprobot.planners.runner import plan_part
     from vprobot.progress import showing_progress
@@ -218,7 +220,7 @@ def command_evaluate(args: argparse.Namespace) -> int:
 
     check_output_folder(args.out, "--out")
     config = config_of(args)
-    specs = evaluation_episodes(config, args.motors, args.seeds, args.episodes)
+    specs = evaluation_episodes(config, args.parts, args.seeds, args.episodes)
     evaluate(config, args.planners or evaluated_planners(), specs, args.out, progress=True,
              carriers=args.carriers, workers=args.workers, address=args.address,
              stops=args.stop, estimator=args.estimator)

@@ -1,7 +1,7 @@
 """`vprobot/Inspect-v0`: plan inspection views with the robot in the loop
 (docs/states-actions-rewards.md).
 
-Each episode places a motor (drawn from the train or test split, or one fixed mesh) on the
+Each episode places a part (a motor drawn from the train or test split, or one fixed mesh) on the
 fixture, turns it about the vertical by U[-180, 180] deg and tilts it by U[-25, 25] deg about x
 or y, puts the robot at `home` and makes the initial acquisition; all of it is an episode spec
 (`vprobot.episode.EpisodeSpec`) drawn from `np_random`, or passed with
@@ -65,17 +65,17 @@ def part_files(config: Config) -> list[str | Path]:
         FileNotFoundError: If the split folder holds no STL files or the mesh file is missing.
     """
     env = config.env
-    if env.motors == "mesh":
-        assert env.mesh is not None  # EnvConfig requires it for motors "mesh"
+    if env.parts == "mesh":
+        assert env.mesh is not None  # EnvConfig requires it for parts "mesh"
         path = Path(env.mesh)
         if not path.is_file():
             raise FileNotFoundError(f"env.mesh not found: {path}")
         return [path]
-    if env.motors == "train":
+    if env.parts == "train":
         return Split.bundled(env.split).training_objects(env.objects)
-    files: list[str | Path] = sorted((MOTORS_DIR / env.motors).glob("*.stl"))
+    files: list[str | Path] = sorted((MOTORS_DIR / env.parts).glob("*.stl"))
     if not files:
-        raise FileNotFoundError(f"no motors (*.stl) in {MOTORS_DIR / env.motors}")
+        raise FileNotFoundError(f"no motors (*.stl) in {MOTORS_DIR / env.parts}")
     return files
 
 
@@ -89,7 +89,7 @@ def build_training_objects(config: Config, progress: bool = True) -> int:
     from tqdm import tqdm
 
     env = config.env
-    scale = env.mesh_scale if env.motors == "mesh" else 1.0  # as the env's episodes draw them
+    scale = env.mesh_scale if env.parts == "mesh" else 1.0  # as the env's episodes draw them
     names = list(dict.fromkeys(part_files(config)))
     for name in tqdm(names, desc="objects", unit="object", disable=not progress):
         path = generated_path(str(name)) if is_generated(str(name)) else name
@@ -154,7 +154,7 @@ class InspectEnv(gym.Env):
     ## Info
     coverage, delta_coverage, reachable, reason, carrier, joints, sensor_position,
     sensor_quaternion, acquisitions, reachable_share (of the views requested so far),
-    points_acquired, motor, episode_seed, travel_<cost>,
+    points_acquired, part, episode_seed, travel_<cost>,
     travel_sum_<cost> (k_cum), approach_<cost> for cost in joint_time, joint_path, cartesian,
     paper and cycle_time, and reward_terms (after a step); on the episode's last step also
     cycle_time: the cell's cycle time of the part (approach, moves, acquisitions, return home;
@@ -182,8 +182,8 @@ class InspectEnv(gym.Env):
         if not isinstance(config, Config):
             config = load_config(config)
         if "mesh" in env_overrides and env_overrides["mesh"] is not None:
-            # Naming a mesh means training on it, unless motors says otherwise (then an error).
-            env_overrides.setdefault("motors", "mesh")
+            # Naming a mesh means training on it, unless parts says otherwise (then an error).
+            env_overrides.setdefault("parts", "mesh")
         if env_overrides:
             config = replace(config, "env", **env_overrides)
         self.config = config
@@ -213,7 +213,7 @@ class InspectEnv(gym.Env):
         type(self).__init__(self, state["config"], state["render_mode"])
 
     def scene(self, path: str | Path, scale: float = 1.0) -> PartScene:
-        """The (cached) scene of one motor file; the `SCENES_KEPT` latest stay loaded."""
+        """The (cached) scene of one part file; the `SCENES_KEPT` latest stay loaded."""
         key = (Path(path), scale)
         if key in self._scenes:
             self._scenes[key] = self._scenes.pop(key)
@@ -234,10 +234,10 @@ class InspectEnv(gym.Env):
         Args:
             seed: Seeds `self.np_random`, from which everything random is drawn.
             options: `episode`: an `EpisodeSpec` (or its dict form) to run instead of a drawn
-                one; `motor`: index into `part_files` of the motor to draw an episode for.
+                one; `part`: index into `part_files` of the part to draw an episode for.
 
         Raises:
-            ValueError: For a bad spec or motor index.
+            ValueError: For a bad spec or part index.
             ValueError: If no initial view is reachable.
         """
         super().reset(seed=seed)
@@ -247,8 +247,8 @@ class InspectEnv(gym.Env):
             env = self.config.env
             spec = sample_episode(env, self.part_files, self.np_random,
                                   seed=int(self.np_random.integers(SEED_BOUND)),
-                                  motor=options.get("motor"),
-                                  scale=env.mesh_scale if env.motors == "mesh" else 1.0)
+                                  part=options.get("part"),
+                                  scale=env.mesh_scale if env.parts == "mesh" else 1.0)
         elif isinstance(spec, Mapping):
             spec = EpisodeSpec.from_dict(spec)
         elif not isinstance(spec, EpisodeSpec):
@@ -336,7 +336,7 @@ class InspectEnv(gym.Env):
             "acquisitions": len(episode.tracker.steps),
             "reachable_share": sum(v.reachable for v in episode.views) / len(episode.views),
             "points_acquired": 0 if view is None else len(view.points_world),
-            "motor": str(episode.scene.mesh.path),
+            "part": str(episode.scene.mesh.path),
             "episode_seed": spec.seed,
         }
         travel = view.travel if view is not None and terms is not None else None

@@ -1,4 +1,4 @@
-"""The inspection engine: motor scenes, sensor carriers, episodes, their specs and records."""
+"""The inspection engine: part scenes, sensor carriers, episodes, their specs and records."""
 
 from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
 from vprobot.episode.cycle import describe_cycle, episode_moves, timed_cycle

@@ -24,12 +24,12 @@ CARRIERS: tuple[CarrierName, ...] = ("robot", "free")
 
 
 class Carrier(abc.ABC):
-    """Moves the sensor of one episode: one object pose in one motor scene.
+    """Moves the sensor of one episode: one object pose in one part's scene.
 
     Attributes:
         name: `robot` or `free`.
         uses_robot: Whether views are reached by the robot.
-        scene: The motor scene.
+        scene: The part's scene.
         object_pose: Pose of the object's mesh frame in the world.
     """
 

@@ -42,10 +42,10 @@ def make_carrier(name: CarrierName, scene: PartScene, object_rotation: np.ndarra
 
 
 class Episode:
-    """One inspection of a motor scene in one object pose.
+    """One inspection of a part's scene in one object pose.
 
     Args:
-        scene: The motor scene.
+        scene: The part's scene.
         object_rotation: Rotation of the object about its centre (3x3) for this episode.
         carrier: `robot` (IK, limits, collisions, joint-space paths) or `free` (free-flying
             sensor, every request executed).

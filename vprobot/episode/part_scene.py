@@ -1,4 +1,4 @@
-"""Everything that depends on one motor mesh: built once, reused across episodes."""
+"""Everything that depends on one part's mesh: built once, reused across episodes."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from vprobot.sensor import DepthSensor
 
 @dataclasses.dataclass
 class PartScene:
-    """One motor mesh in the cell: its cell, robot arm, sensor and ground truth.
+    """One part's mesh in the cell: its cell, robot arm, sensor and ground truth.
 
     Attributes:
         mesh: The loaded mesh (centred; `mesh.offset` and `mesh.scale` place the file).

@@ -25,7 +25,7 @@ class RobotCarrier(Carrier):
     """The scene's arm carries the sensor; the arm occludes what it stands in front of.
 
     Args:
-        scene: The motor scene.
+        scene: The part's scene.
         object_rotation: The object's rotation for this episode.
         unreachable: `skip`: an unreachable request leaves the robot where it is and acquires
             nothing; `nearest`: if the IK's closest configuration is collision-free and a

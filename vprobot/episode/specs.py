@@ -1,9 +1,9 @@
 """Episode specs: everything random about an episode, drawn once from a seed and then fixed.
 
-A spec names the motor file, the object's rotation and the initial view, so that the env, every
+A spec names the part's mesh file, the object's rotation and the initial view, so that the env, every
 planner and every agent can be run on exactly the same episodes
 (docs/evaluation.md#episode-lists). `sample_episode` is the one sampler: the env draws from its
-`np_random`, and `episode_list` draws a fixed list over given motors and seeds for
+`np_random`, and `episode_list` draws a fixed list over given parts and seeds for
 `vprobot evaluate`. The list format is versioned (`EPISODE_LIST_VERSION`); the bundled lists
 (`BUNDLED_EPISODE_LISTS`) are `configs/episodes/test-v1.json` over the test motors and
 `configs/episodes/shapes-v1.json` over the non-motor objects, and a test checks that the sampler
@@ -97,7 +97,7 @@ class EpisodeSpec:
     """One episode, fixed.
 
     Attributes:
-        motor: The mesh file; `generated/...` names a generated object (`vprobot.generated`),
+        part: The mesh file; `generated/...` names a generated object (`vprobot.generated`),
             another relative name is looked up in the bundled motors folder
             (`test/motor_000.stl`), then in the bundled assets (`objects/bracket.stl`), then
             taken as a path.
@@ -108,7 +108,7 @@ class EpisodeSpec:
         scale: Factor from the file's units to metres.
     """
 
-    motor: str
+    part: str
     object_quaternion: tuple[float, float, float, float]
     initial_views: tuple[tuple[float, float], ...]
     seed: int
@@ -122,13 +122,13 @@ class EpisodeSpec:
     def part_path(self) -> Path:
         """The mesh file: a generated object (made on first use), a bundled motor or object,
         else the path as given."""
-        if is_generated(self.motor):
-            return generated_path(self.motor)
-        if not Path(self.motor).is_absolute():
+        if is_generated(self.part):
+            return generated_path(self.part)
+        if not Path(self.part).is_absolute():
             for folder in _BUNDLED_MESH_DIRS:
-                if (folder / self.motor).is_file():
-                    return folder / self.motor
-        return Path(self.motor)
+                if (folder / self.part).is_file():
+                    return folder / self.part
+        return Path(self.part)
 
     def initial_requests(self, center: np.ndarray, distance: float) -> list[ViewRequest]:
         """The initial view candidates as look-at requests around `center`: the spec's own
@@ -141,7 +141,7 @@ class EpisodeSpec:
                 for direction in (*own, *band[nearest])]
 
     def as_dict(self) -> dict[str, Any]:
-        return {"motor": self.motor, "scale": self.scale, "seed": self.seed,
+        return {"part": self.part, "scale": self.scale, "seed": self.seed,
                 "object_quaternion": list(self.object_quaternion),
                 "initial_views": [list(view) for view in self.initial_views]}
 
@@ -154,7 +154,10 @@ class EpisodeSpec:
         """
         if not isinstance(block, Mapping):
             raise ValueError(f"an episode spec must be a mapping, got {block!r}")
-        fields = {"motor", "object_quaternion", "initial_views", "seed", "scale"}
+        if "motor" in block and "part" not in block:
+            # The key's name before vprobot called any object a part; lists on file keep it.
+            block = {("part" if key == "motor" else key): value for key, value in block.items()}
+        fields = {"part", "object_quaternion", "initial_views", "seed", "scale"}
         unknown = sorted(set(block) - fields)
         if unknown:
             raise ValueError(f"unknown episode spec key {unknown[0]!r}; allowed: "
@@ -177,7 +180,7 @@ class EpisodeSpec:
             raise ValueError(f"episode spec seed must be a non-negative integer, got {seed!r}")
         if isinstance(scale, bool) or not isinstance(scale, int | float) or not scale > 0:
             raise ValueError(f"episode spec scale must be a positive number, got {scale!r}")
-        return cls(motor=str(block["motor"]),
+        return cls(part=str(block["part"]),
                    object_quaternion=_quaternion(quaternion),
                    initial_views=tuple((float(phi), float(theta)) for phi, theta in views),
                    seed=seed, scale=float(scale))
@@ -200,26 +203,26 @@ def _numbers(value: Any) -> np.ndarray:
         return np.empty(0)
 
 
-def sample_episode(env: EnvConfig, motors: Sequence[str | Path], rng: np.random.Generator,
-                   seed: int, motor: int | None = None, scale: float = 1.0) -> EpisodeSpec:
-    """Draw an episode: the motor (unless given), the object rotation, the initial view(s).
+def sample_episode(env: EnvConfig, parts: Sequence[str | Path], rng: np.random.Generator,
+                   seed: int, part: int | None = None, scale: float = 1.0) -> EpisodeSpec:
+    """Draw an episode: the part (unless given), the object rotation, the initial view(s).
 
     Args:
         env: Object rotation ranges and the initial view setting.
-        motors: The mesh files to draw from.
-        rng: The random stream, drawn from in this order: motor, rotation, initial views.
+        parts: The mesh files to draw from.
+        rng: The random stream, drawn from in this order: part, rotation, initial views.
         seed: Recorded in the spec (it seeds random planners).
-        motor: Index into `motors` instead of a random one.
+        part: Index into `parts` instead of a random one.
         scale: Factor from the files' units to metres.
 
     Raises:
-        ValueError: If there are no motors or the index is out of range.
+        ValueError: If there are no parts or the index is out of range.
     """
-    if not motors:
-        raise ValueError("no motors to draw an episode from")
-    index = int(rng.integers(len(motors))) if motor is None else motor
-    if not 0 <= index < len(motors):
-        raise ValueError(f"motor index must lie in 0..{len(motors) - 1}, got {index}")
+    if not parts:
+        raise ValueError("no parts to draw an episode from")
+    index = int(rng.integers(len(parts))) if part is None else part
+    if not 0 <= index < len(parts):
+        raise ValueError(f"part index must lie in 0..{len(parts) - 1}, got {index}")
     quaternion = matrix_to_quat(random_object_rotation(env, rng))
     views: tuple[tuple[float, float], ...]
     if env.initial_view == "fixed":
@@ -229,31 +232,31 @@ def sample_episode(env: EnvConfig, motors: Sequence[str | Path], rng: np.random.
         chosen = directions[rng.choice(len(directions), RANDOM_INITIAL_VIEWS, replace=False)]
         views = tuple((float(np.arctan2(y, x) % (2.0 * np.pi)),
                        float(np.arccos(np.clip(z, -1.0, 1.0)))) for x, y, z in chosen)
-    return EpisodeSpec(motor=part_name(motors[index]),
+    return EpisodeSpec(part=part_name(parts[index]),
                        object_quaternion=_quaternion(quaternion),
                        initial_views=views, seed=seed, scale=scale)
 
 
-def seeded_episode(env: EnvConfig, motor: str | Path, seed: int,
+def seeded_episode(env: EnvConfig, part: str | Path, seed: int,
                    scale: float = 1.0) -> EpisodeSpec:
-    """The episode of (motor, seed): the same for every planner, agent and run."""
-    rng = np.random.default_rng([seed, zlib.crc32(Path(motor).name.encode())])
-    return sample_episode(env, [motor], rng, seed, scale=scale)
+    """The episode of (part, seed): the same for every planner, agent and run."""
+    rng = np.random.default_rng([seed, zlib.crc32(Path(part).name.encode())])
+    return sample_episode(env, [part], rng, seed, scale=scale)
 
 
-def episode_list(config: Config, motors: Sequence[str | Path],
+def episode_list(config: Config, parts: Sequence[str | Path],
                  seeds: Sequence[int]) -> list[EpisodeSpec]:
-    """The episodes of every motor and seed, motor by motor.
+    """The episodes of every part and seed, part by part.
 
     Raises:
-        ValueError: If there are no motors or seeds, or a seed is negative.
+        ValueError: If there are no parts or seeds, or a seed is negative.
     """
-    if not motors or not seeds:
-        raise ValueError("an episode list needs at least one motor and one seed")
+    if not parts or not seeds:
+        raise ValueError("an episode list needs at least one part and one seed")
     bad = [seed for seed in seeds if seed < 0]
     if bad:
         raise ValueError(f"seeds must be non-negative integers, got {bad[0]}")
-    return [seeded_episode(config.env, motor, seed) for motor in motors for seed in seeds]
+    return [seeded_episode(config.env, part, seed) for part in parts for seed in seeds]
 
 
 def write_episode_list(path: str | Path, specs: Sequence[EpisodeSpec]) -> Path:
@@ -307,4 +310,4 @@ def validation_episodes(config: Config, split: Split | None = None) -> list[Epis
     sources = set(config.env.objects)
     wanted = {"motor" if source == MOTORS else source for source in sources}
     return [spec for spec in read_episode_list(bundled_episode_list(split.validation_list))
-            if family_of(spec.motor) in wanted]
+            if family_of(spec.part) in wanted]

@@ -265,7 +265,7 @@ def episode_document(scene: PartScene, record: EpisodeRecord,
     (`EpisodeRecord.cycle`, docs/motion.md#cycle-time); null where the cycle cannot be closed.
 
     Args:
-        scene: The motor scene the episode ran in.
+        scene: The part's scene the episode ran in.
         record: The episode.
         metadata: Extra top-level entries (planner, carrier, seed, ...).
         estimates: The model-free coverage estimate (mean, std) after each view, written as

@@ -1,4 +1,4 @@
-"""Run a planner through an episode, and plan one motor end to end (`vprobot plan`)."""
+"""Run a planner through an episode, and plan one part end to end (`vprobot plan`)."""
 
 from __future__ import annotations
 
@@ -108,7 +108,7 @@ class EpisodeResult:
     Attributes:
         planner: Planner label (`bscp5` for B_SCP with five views).
         carrier: `robot` (robot in the loop) or `free` (free-flying sensor).
-        spec: The episode (motor, object rotation, initial view; its seed seeds random
+        spec: The episode (part, object rotation, initial view; its seed seeds random
             planners).
         record: What happened, view by view.
         goal: The coverage goal.
@@ -272,11 +272,11 @@ def run(config: Config, scene: PartScene, planner: str, spec: EpisodeSpec,
         estimator: str | Path | None = None, estimates: bool = False,
         shared: SharedWork | None = None,
         built: tuple[Planner, StopRule] | None = None) -> EpisodeResult:
-    """One episode of a planner on a loaded motor, as the spec fixes it.
+    """One episode of a planner on a loaded part, as the spec fixes it.
 
     Args:
         config: The configuration.
-        scene: The loaded motor.
+        scene: The loaded part.
         planner: A planner name (`planner_names`).
         spec: The episode.
         carrier: `robot` or `free`.
@@ -397,7 +397,7 @@ def plan_part(config: Config, mesh_path: str | Path | None = None, scale: float 
                carrier: CarrierName = "robot", seed: int = 0, stop: str = "goal",
                estimator: str | Path | None = None
                ) -> tuple[PartScene, EpisodeRecord, dict[str, Any], str]:
-    """Plan the inspection of one motor (`vprobot plan`).
+    """Plan the inspection of one part (`vprobot plan`).
 
     Args:
         config: The configuration (cell, sensor, kinematics, env goal and budget).
@@ -413,7 +413,7 @@ def plan_part(config: Config, mesh_path: str | Path | None = None, scale: float 
             the estimate after each view.
 
     Returns:
-        The motor scene (for rendering), the episode record, the plan JSON document
+        The part's scene (for rendering), the episode record, the plan JSON document
         (docs/plan-format.md) and a summary text.
 
     Raises:

@@ -20,7 +20,7 @@ def ring_inspection(scene: PartScene, views: int, rotation: np.ndarray | None = 
     The directions are visited in order of azimuth, so the arm sweeps once around the object.
 
     Args:
-        scene: The motor scene.
+        scene: The part's scene.
         views: Number of views requested (unreachable ones stay in the record).
         rotation: Object rotation (3x3); upright when omitted.
         max_polar_deg: Lowest view direction, as the angle from straight above.

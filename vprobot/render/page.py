@@ -281,7 +281,7 @@ def plan_page(scene: PartScene, record: EpisodeRecord, title: str) -> Page:
     """The page of an episode (`episode_from_plan`, or a planner's run), self-contained.
 
     Args:
-        scene: The motor scene the episode ran in.
+        scene: The part's scene the episode ran in.
         record: The episode.
         title: The first line written over the scene (what the plan is).
 

@@ -38,7 +38,7 @@ def episode_from_plan(config: Config, plan_path: str | Path,
         resolution: Sensor resolution of the replayed acquisitions; the plan's when omitted.
 
     Returns:
-        The motor scene and the episode, one view record per plan view, in order.
+        The part's scene and the episode, one view record per plan view, in order.
 
     Raises:
         ValueError: If the plan is unreadable or incomplete, its mesh is missing, or a view's

@@ -194,7 +194,7 @@ def render_summary(scene: PartScene | Cell, record: EpisodeRecord, out_png: str 
     their totals; each frame is measured again for that (`vprobot.render.lost.frame_losses`).
 
     Args:
-        scene: The motor scene (or cell) the episode ran in.
+        scene: The part's scene (or cell) the episode ran in.
         record: The episode.
         out_png: `.png` file in an existing folder (written atomically).
         width: Image width in pixels.

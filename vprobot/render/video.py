@@ -57,7 +57,7 @@ class RenderedVideo:
 
 
 def cell_of(scene: PartScene | Cell) -> Cell:
-    """The cell of a motor scene, or the cell itself."""
+    """The cell of a part's scene, or the cell itself."""
     return scene.cell if isinstance(scene, PartScene) else scene
 
 
@@ -65,7 +65,7 @@ class EpisodeRenderer:
     """Draws the frames of one episode in its cell.
 
     Args:
-        scene: The motor scene (or its cell) the episode ran in.
+        scene: The part's scene (or its cell) the episode ran in.
         record: The episode.
         width: Frame width in pixels.
         height: Frame height in pixels.
@@ -244,7 +244,7 @@ def render_episode(
     is written atomically.
 
     Args:
-        scene: The motor scene (or cell) the episode ran in.
+        scene: The part's scene (or cell) the episode ran in.
         record: The episode (`Episode.record()`, or `episode_from_plan`).
         out_path: `.mp4` or `.gif` file in an existing folder.
         width: Frame width in pixels (even for MP4).

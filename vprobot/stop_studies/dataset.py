@@ -243,7 +243,7 @@ def collect(config: Config, jobs: Sequence[tuple[EpisodeSpec, str]], path: Path,
     try:
         for number in tqdm(missing, desc=path.stem, disable=not progress):
             spec, planner = jobs[number]
-            rows = [{"episode": number, "object": spec.motor, "family": _family(spec.motor),
+            rows = [{"episode": number, "object": spec.part, "family": _family(spec.part),
                      "planner": planner, "seed": spec.seed, **row}
                     for row in rollout(config, spec, planner)]
             # One write per episode: a kill leaves whole episodes and at worst a cut last one.
