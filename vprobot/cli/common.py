@@ -69,8 +69,9 @@ def add_former(sub: argparse.ArgumentParser, former: str, current: str) -> None:
             setattr(namespace, self.dest, values)
 
     action = next(action for action in sub._actions if current in action.option_strings)
-    sub.add_argument(former, dest=action.dest, nargs=action.nargs, type=action.type,
-                     action=_Former, help=argparse.SUPPRESS)
+    former_action = sub.add_argument(former, dest=action.dest, nargs=action.nargs,
+                                     action=_Former, help=argparse.SUPPRESS)
+    former_action.type = action.type
 
 
 def config_of(args: argparse.Namespace) -> Config:

@@ -1,7 +1,7 @@
 """Episode specs: everything random about an episode, drawn once from a seed and then fixed.
 
-A spec names the part's mesh file, the object's rotation and the initial view, so that the env, every
-planner and every agent can be run on exactly the same episodes
+A spec names the part's mesh file, the object's rotation and the initial view, so that the env,
+every planner and every agent can be run on exactly the same episodes
 (docs/evaluation.md#episode-lists). `sample_episode` is the one sampler: the env draws from its
 `np_random`, and `episode_list` draws a fixed list over given parts and seeds for
 `vprobot evaluate`. The list format is versioned (`EPISODE_LIST_VERSION`); the bundled lists
