@@ -43,9 +43,9 @@ from vprobot.schema import (
     Vec3,
     brief,
     check_within,
-    current_names,
     from_mapping,
     read_yaml,
+    with_current_keys,
 )
 from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
 from vprobot.sensing import SENSING_MODELS, SensingModel, StructuredLight, check_sensing
@@ -686,7 +686,7 @@ class Config:
 def replace(config: Config, section: str, **changes: Any) -> Config:
     """Return a copy of `config` with fields of one section changed (validated)."""
     current = dataclasses.asdict(getattr(config, section))
-    current.update(current_names(type(getattr(config, section)), changes, section))
+    current.update(with_current_keys(type(getattr(config, section)), changes, section))
     return dataclasses.replace(config, **{section: from_mapping(type(getattr(config, section)),
                                                                 current, section)})
 

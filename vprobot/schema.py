@@ -228,7 +228,7 @@ def _convert(value: Any, annotation: Any, key: str) -> Any:
     raise TypeError(f"unsupported annotation {annotation!r} for {key}")
 
 
-def current_names(cls: type, data: Mapping[str, Any], key: str = "") -> dict[str, Any]:
+def with_current_keys(cls: type, data: Mapping[str, Any], key: str = "") -> dict[str, Any]:
     """`data` with each former name of a field of dataclass `cls` (its `FORMERLY` metadata)
     replaced by the field's name, with a `FutureWarning` that names both.
 
@@ -265,7 +265,7 @@ def from_mapping(cls: type, data: Mapping[str, Any], key: str = "") -> Any:
     Raises:
         ConfigError: On unknown keys, wrong types or invalid values.
     """
-    data = current_names(cls, data, key)
+    data = with_current_keys(cls, data, key)
     hints = typing.get_type_hints(cls)
     resolvers = {field.name: field.metadata.get(RESOLVE, _as_written)
                  for field in dataclasses.fields(cls)}
