@@ -11,8 +11,8 @@ import csv
 import shutil
 from pathlib import Path
 
-from vprobot.agents.runs import best_evaluation, current_names
 from vprobot.agents.trained import BUNDLED_AGENT, describe_sensor, load_run_config
+from vprobot.training.runs import best_evaluation, current_names
 
 
 def main() -> None:

@@ -4,8 +4,8 @@ Re-run after upgrading example-robot-data:
 
     python scripts/convert_robots.py [--robots panda]
 
-Each robot goes through the same converter as `vprobot robots import` (vprobot/robots/
-urdf_import.py), with the home configuration and cell placement chosen here.
+Each robot goes through the same converter as `vprobot robots import`
+(vprobot/importers/urdf.py), with the home configuration and cell placement chosen here.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import importlib.metadata
 import math
 from pathlib import Path
 
+from vprobot.importers.urdf import Provenance, convert_urdf
 from vprobot.robots.description import ASSUMED_LIMIT_SOURCES
-from vprobot.robots.urdf_import import Provenance, convert_urdf
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 OUT_ROOT = REPO_ROOT / "assets" / "robots"

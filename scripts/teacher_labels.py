@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.agents.pretrain import read_shards
 from vprobot.files import write_text
+from vprobot.training.pretrain import read_shards
 
 
 def main() -> None:

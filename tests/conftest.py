@@ -58,8 +58,8 @@ def smoke_runs(session_cache: Path, tmp_path_factory: pytest.TempPathFactory) ->
     """Trains (once per session) 64 steps of the CPU profile with `TINY_TRAINING`, an
     algorithm, an encoder and a robot state, evaluating and checkpointing at the end; gives its
     config, result and run folder. 64 steps: one rollout of PPO's n_steps."""
-    from vprobot.agents.training import profile_config, train
     from vprobot.paths import CONFIGS_DIR
+    from vprobot.training.train import profile_config, train
 
     runs: dict[tuple[str, str, bool], tuple[Any, dict[str, Any], Path]] = {}
 

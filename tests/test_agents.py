@@ -24,20 +24,23 @@ from helpers import TINY_TRAINING, SmokeRuns
 from PIL import Image
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
-from vprobot.agents import curves as curves_module
-from vprobot.agents.callbacks import (
+from vprobot.agents.encoders import ENCODERS
+from vprobot.agents.extractors.pcn import PCNExtractor
+from vprobot.agents.extractors.pointnet import InputTransform, PointNetExtractor
+from vprobot.agents.extractors.sphere_map import SphereMapExtractor
+from vprobot.config import ConfigError, replace
+from vprobot.files import save_figure
+from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.training import curves as curves_module
+from vprobot.training.callbacks import (
     ResumableCheckpoint,
     SharedEpisodeEvaluation,
     count_lines,
     load_buffer,
     save_buffer,
 )
-from vprobot.agents.curves import plot_curves, read_monitor
-from vprobot.agents.encoders import ENCODERS
-from vprobot.agents.extractors.pcn import PCNExtractor
-from vprobot.agents.extractors.pointnet import InputTransform, PointNetExtractor
-from vprobot.agents.extractors.sphere_map import SphereMapExtractor
-from vprobot.agents.training import (
+from vprobot.training.curves import plot_curves, read_monitor
+from vprobot.training.train import (
     buffer_memory,
     build_model,
     config_document,
@@ -46,9 +49,6 @@ from vprobot.agents.training import (
     profile_config,
     train,
 )
-from vprobot.config import ConfigError, replace
-from vprobot.files import save_figure
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
 PROFILES = CONFIGS_DIR / "agents"
 TINY = list(TINY_TRAINING)
@@ -438,7 +438,7 @@ def test_train_reports_the_selected_best_model_and_where_it_is(
         capsys: pytest.CaptureFixture[str]) -> None:
     """The model kept (best_model.zip, from an earlier evaluation) comes first, with its step
     and file; the final model, which may be worse, second."""
-    import vprobot.agents.training as training
+    import vprobot.training.train as training
     from vprobot.cli import main
 
     final = {"coverage_pct": 39.5, "acquisitions": 4.0, "success_pct": 20.0,

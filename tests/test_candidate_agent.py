@@ -20,7 +20,10 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from vprobot.agents.candidate_q import MASKED_Q, CandidateDQN, CandidateQNetwork
 from vprobot.agents.trained import load_agent
-from vprobot.agents.training import (
+from vprobot.config import Config, ConfigError, replace
+from vprobot.env.inspect_env import InspectEnv
+from vprobot.paths import CONFIGS_DIR
+from vprobot.training.train import (
     buffer_memory,
     build_model,
     check_memory,
@@ -28,9 +31,6 @@ from vprobot.agents.training import (
     profile_config,
     train,
 )
-from vprobot.config import Config, ConfigError, replace
-from vprobot.env.inspect_env import InspectEnv
-from vprobot.paths import CONFIGS_DIR
 
 COUNT, FEATURES = 8, 3
 DQN_AGENT = {"algorithm": "dqn", "encoder": "candidates", "net_arch": (16, 16),

@@ -22,10 +22,10 @@ from vprobot.cli import main
 
 pytest.importorskip("ray")
 
-from vprobot.agents.sweep import read_study, sweep
 from vprobot.cluster import parallel_map, start
 from vprobot.files import exclusive_lock
 from vprobot.paths import MOTORS_DIR
+from vprobot.training.sweep import read_study, sweep
 
 # Training draws from one motor (its ground truth is built once per session, not that of all 20
 # training motors).

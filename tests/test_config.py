@@ -89,10 +89,10 @@ def test_an_unusable_opening_angle_is_refused_by_plan(tmp_path: Path,
 
 
 def test_every_yaml_reader_names_the_file_and_line_of_a_syntax_error(tmp_path: Path) -> None:
-    from vprobot.agents.sweep import read_study
-    from vprobot.agents.training import parse_overrides
     from vprobot.robots import RobotDescription
     from vprobot.splits import Split
+    from vprobot.training.sweep import read_study
+    from vprobot.training.train import parse_overrides
 
     # Line 3 opens a flow sequence that never closes.
     broken = "a: 1\nb: 2\nc: [1, 2\nd: 4\n"

@@ -16,7 +16,6 @@ from PIL import Image
 from scipy.spatial.transform import Rotation
 
 from vprobot import evaluation as evaluation_module
-from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 from vprobot.benchmarks.planners import print_table, run_planners_benchmark
 from vprobot.config import Config, load_config
 from vprobot.env.inspect_env import InspectEnv
@@ -55,6 +54,7 @@ from vprobot.planners.optimum import OptimumPlanner
 from vprobot.planners.runner import EpisodeResult, make_planner, run
 from vprobot.report.compare import moved_cells
 from vprobot.stopping.rules import StopRule, make_stop_rule
+from vprobot.training.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
 
 CONFIG = Config()
 

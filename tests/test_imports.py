@@ -154,7 +154,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
               "vprobot.view_gains")),
     ("episode", ("vprobot.episode", "vprobot.views")),
     ("files in and out", ("vprobot.plan", "vprobot.export", "vprobot.render",
-                          "vprobot.robots.urdf_import")),
+                          "vprobot.importers.urdf")),
     ("what planners use", ("vprobot.env", "vprobot.agents", "vprobot.stopping")),
     ("planners", ("vprobot.planners",)),
     ("evaluation", ("vprobot.evaluation",)),

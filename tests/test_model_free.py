@@ -20,7 +20,6 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.trained import TrainedAgent
-from vprobot.agents.training import build_model
 from vprobot.benchmarks.grid import sampled_integration
 from vprobot.config import Config, replace, with_sensing, with_sensor
 from vprobot.env.grid_state import FEATURES as GRID_FEATURES
@@ -47,6 +46,7 @@ from vprobot.planners.uniform import view_band
 from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
 from vprobot.stopping.rules import make_stop_rule
+from vprobot.training.train import build_model
 from vprobot.view_gains import UNKNOWN_PASS, ViewGains
 from vprobot.views import band_candidates
 

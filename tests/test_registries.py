@@ -21,7 +21,6 @@ from torch import nn
 
 from vprobot.agents.encoders import ENCODERS, Encoder
 from vprobot.agents.extractors import PointCloudExtractor
-from vprobot.agents.training import build_model, profile_config
 from vprobot.cli import main
 from vprobot.config import ConfigError, load_config
 from vprobot.episode import Episode, ViewRequest
@@ -37,6 +36,7 @@ from vprobot.planners.base import (
 )
 from vprobot.planners.runner import make_planner
 from vprobot.registry import Bundled, Registry, UnknownNameError
+from vprobot.training.train import build_model, profile_config
 
 
 class TopViews(PlanPlanner):

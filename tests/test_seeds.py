@@ -13,19 +13,19 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.agents.callbacks import (
-    EVALUATION_COLUMNS,
-    SharedEpisodeEvaluation,
-    upgrade_evaluations,
-)
-from vprobot.agents.runs import best_evaluation, best_validation
-from vprobot.agents.seeds import seeds_table, write_summary
-from vprobot.agents.training import profile_config
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, Selection, replace
 from vprobot.evaluation import COLUMNS
 from vprobot.files import csv_text
 from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
+from vprobot.training.callbacks import (
+    EVALUATION_COLUMNS,
+    SharedEpisodeEvaluation,
+    upgrade_evaluations,
+)
+from vprobot.training.runs import best_evaluation, best_validation
+from vprobot.training.seeds import seeds_table, write_summary
+from vprobot.training.train import profile_config
 
 PROFILE = str(CONFIGS_DIR / "agents" / "cpu.yaml")
 # A few env steps on one bundled motor at a small resolution, scored on one validation episode.
@@ -150,8 +150,8 @@ def test_the_evaluation_callback_keeps_the_best_model_under_agent_select(
     summaries = iter([{"coverage_pct": 100 * coverage, "acquisitions": acquisitions,
                        "success_pct": 100 * success}
                       for _, coverage, acquisitions, success in SELECTION_ROWS])
-    monkeypatch.setattr("vprobot.agents.callbacks.evaluate_policy", lambda *args: None)
-    monkeypatch.setattr("vprobot.agents.callbacks.policy_summary",
+    monkeypatch.setattr("vprobot.training.callbacks.evaluate_policy", lambda *args: None)
+    monkeypatch.setattr("vprobot.training.callbacks.policy_summary",
                         lambda rows: next(summaries))
     model = types.SimpleNamespace(num_timesteps=0, logger=types.SimpleNamespace(
         record=lambda *args: None), save=lambda path: Path(path).write_text(

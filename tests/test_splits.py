@@ -181,8 +181,8 @@ def test_env_draws_family_instances_and_builds_them_on_first_use(cache: Path) ->
 
 def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import vprobot.agents.training as training
     import vprobot.episode.specs as specs
+    import vprobot.training.train as training
     from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
 
     read: list[Path] = []

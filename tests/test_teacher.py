@@ -16,7 +16,14 @@ import torch
 import yaml
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from vprobot.agents.pretrain import (
+from vprobot.agents.trained import load_agent
+from vprobot.config import Config, ConfigError, config_document, replace
+from vprobot.env.grid_state import FEATURES
+from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
+from vprobot.env.inspect_env import InspectEnv
+from vprobot.paths import MOTORS_DIR
+from vprobot.planners.candidates import candidate_views
+from vprobot.training.pretrain import (
     LABELS_VERSION,
     TeacherStates,
     collect,
@@ -25,16 +32,9 @@ from vprobot.agents.pretrain import (
     joined_states,
     more_teacher_states,
 )
-from vprobot.agents.stream import EpisodeStream
-from vprobot.agents.teacher import WASTED, CandidateTeacher
-from vprobot.agents.trained import load_agent
-from vprobot.agents.training import build_model, train
-from vprobot.config import Config, ConfigError, config_document, replace
-from vprobot.env.grid_state import FEATURES
-from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
-from vprobot.env.inspect_env import InspectEnv
-from vprobot.paths import MOTORS_DIR
-from vprobot.planners.candidates import candidate_views
+from vprobot.training.stream import EpisodeStream
+from vprobot.training.teacher import WASTED, CandidateTeacher
+from vprobot.training.train import build_model, train
 from vprobot.views import BAND_COUNT, screen_reachability
 
 ENV = {"action": "A_view", "state": "s_grid", "motors": "mesh",
@@ -286,7 +286,7 @@ def test_a_pretrained_run_evaluates_the_imitation_as_step_0(tmp_path: Path) -> N
 
 def test_teacher_shards_are_the_same_rolled_out_alone_or_in_two_processes_and_are_shared(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    monkeypatch.setattr("vprobot.agents.pretrain.SHARD_EPISODES", 1)
+    monkeypatch.setattr("vprobot.training.pretrain.SHARD_EPISODES", 1)
     cfg = replace(config("free", teacher_seed=7), "env", resolution=(64, 45))
     alone = collect(cfg, episodes=2, seed=0, folder=tmp_path / "alone")
     parallel = collect(cfg, episodes=2, seed=1, folder=tmp_path / "two", workers=2)
@@ -298,7 +298,7 @@ def test_teacher_shards_are_the_same_rolled_out_alone_or_in_two_processes_and_ar
     for key, value in alone.observations.items():
         np.testing.assert_array_equal(value, parallel.observations[key])
     # Another run of the same teacher reads the shards; it rolls out nothing.
-    monkeypatch.setattr("vprobot.agents.pretrain.collect_shard", None)
+    monkeypatch.setattr("vprobot.training.pretrain.collect_shard", None)
     again = collect(cfg, episodes=2, seed=2, folder=tmp_path / "two")
     np.testing.assert_array_equal(again.values, alone.values)
 
@@ -317,11 +317,11 @@ def test_a_teacher_folder_of_another_cell_seed_state_or_labels_version_is_refuse
     refused(replace(cfg, "agent", teacher_seed=4), "teacher_seed")
     refused(replace(cfg, "env", reward="R1"), "env")
     # States stored before a column changed its meaning are not this state's.
-    monkeypatch.setattr("vprobot.agents.pretrain.GRID_STATE_VERSION", GRID_STATE_VERSION + 1)
+    monkeypatch.setattr("vprobot.training.pretrain.GRID_STATE_VERSION", GRID_STATE_VERSION + 1)
     refused(cfg, "grid_state_version")
     monkeypatch.undo()
     # Shards made before they held the remaining cover lack the labels a cover fit needs.
-    monkeypatch.setattr("vprobot.agents.pretrain.LABELS_VERSION", LABELS_VERSION + 1)
+    monkeypatch.setattr("vprobot.training.pretrain.LABELS_VERSION", LABELS_VERSION + 1)
     refused(cfg, "labels_version")
     with pytest.raises(ConfigError, match=re.escape("agent.teacher_seed must be >= 0")):
         config(teacher_seed=-1)
@@ -345,8 +345,8 @@ def test_an_agents_rollouts_follow_its_greedy_choices_and_are_fitted_beside_the_
             requested.append(action)
             return super().step(action)
 
-    monkeypatch.setattr("vprobot.agents.pretrain.EPSILON", 0.0)
-    monkeypatch.setattr("vprobot.agents.pretrain.EpisodeStream", Recorded)
+    monkeypatch.setattr("vprobot.training.pretrain.EPSILON", 0.0)
+    monkeypatch.setattr("vprobot.training.pretrain.EpisodeStream", Recorded)
     dagger = replace(cfg, "agent", rollout_agent=str(run))
     states = collect(dagger, episodes=1, seed=0, folder=tmp_path / "rollouts")
     greedy, _ = model.predict(states.observations, deterministic=True)

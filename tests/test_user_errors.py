@@ -260,7 +260,7 @@ def test_a_resume_refuses_a_mesh_changed_since_the_evaluation_began(
 def test_the_teacher_folder_is_checked_before_any_rollout(
         out: str, tmp_path: Path, capsys: pytest.CaptureFixture,
         monkeypatch: pytest.MonkeyPatch) -> None:
-    from vprobot.agents import pretrain
+    from vprobot.training import pretrain
 
     if out == "unwritable" and UNWRITABLE is None:
         pytest.skip("no unwritable folder on this machine")
@@ -273,7 +273,7 @@ def test_the_teacher_folder_is_checked_before_any_rollout(
 
 
 def test_a_garbage_teacher_shard_is_named(tmp_path: Path) -> None:
-    from vprobot.agents import pretrain
+    from vprobot.training import pretrain
 
     shard = pretrain._shard_file(tmp_path, 0, 1)
     shard.write_bytes(b"not a shard at all")

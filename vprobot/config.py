@@ -548,14 +548,14 @@ class AgentConfig:
         exploration_initial_eps: DQN's epsilon at the start.
         exploration_final_eps: DQN's epsilon after the exploration fraction.
         pretrain_episodes: With `dqn`: episodes of the model-based teacher whose states the
-            Q-network is fitted to before RL (`vprobot.agents.pretrain`; 0: none).
+            Q-network is fitted to before RL (`vprobot.training.pretrain`; 0: none).
         pretrain_epochs: Passes over those states.
         pretrain_target: What the network is fitted to: `values`, the teacher's value of every
             candidate (least squares, a Q-function); `cover`, whether each candidate is in
             some smallest remaining cover (`CandidateTeacher.views_to_goal`; binary
             cross-entropy on logits, members weighted `COVER_POSITIVE_WEIGHT`), the scores of a
             plan's members; `views`, the candidate's value minus its views to the goal beyond
-            the state's fewest (least squares). See `vprobot.agents.pretrain.fit_labels`.
+            the state's fewest (least squares). See `vprobot.training.pretrain.fit_labels`.
             With `cover` and `views` the network also has the head of the views left, fitted
             to the state's fewest views to the goal (`CandidateQNetwork.views_left`).
         teacher_seed: The seed the teacher's episodes are drawn from (None: the run's seed);
@@ -583,7 +583,7 @@ class AgentConfig:
             (the cell's terms: the most episodes at the goal, then the fewest requests, failed
             ones included, then the shortest cycle time, then the highest coverage).
         test_lists: Bundled episode lists a finished run's best model is scored on, once
-            (`vprobot.agents.training.score_test_lists`; None: none); never during training.
+            (`vprobot.training.train.score_test_lists`; None: none); never during training.
         checkpoint_freq: Env steps between checkpoints (with the replay buffer).
         torch_threads: Threads of torch in the training process.
         device: `cpu`, `cuda` or `auto` (cuda when present).

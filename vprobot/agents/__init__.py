@@ -1,1 +1,2 @@
-"""Reinforcement-learning agents: point-cloud feature extractors, profiles, training."""
+"""Reinforcement-learning agents as planners use them: loading a trained run, encoders, feature
+extractors and the candidate Q-network (training them: `vprobot.training`)."""

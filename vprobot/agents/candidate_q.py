@@ -79,7 +79,7 @@ class CandidateQNetwork(BasePolicy):
     With `views_left`, a second network of the same shape but with parameters of its own (an
     embedding of every row, pooled by mean and max, and an MLP of widths `net_arch`) maps the
     rows to the number of views the state still needs to reach the goal (`views_left`, fitted
-    beside a cover's membership, `vprobot.agents.pretrain`); the Q-values do not read it, and
+    beside a cover's membership, `vprobot.training.pretrain`); the Q-values do not read it, and
     fitting it leaves them as they would be without it.
 
     Args:

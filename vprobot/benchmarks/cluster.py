@@ -15,12 +15,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from vprobot.agents.sweep import run_trial
 from vprobot.cluster import parallel_map, start
 from vprobot.config import Config
 from vprobot.episode import episode_list
 from vprobot.evaluation import evaluate, held_out_motors
 from vprobot.paths import PROFILES_DIR
+from vprobot.training.sweep import run_trial
 
 TRIAL_STEPS = 1500
 TRIAL_SET = ("agent.eval_freq=100000", "agent.checkpoint_freq=100000", "agent.eval_episodes=1")

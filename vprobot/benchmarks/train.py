@@ -14,12 +14,12 @@ import torch
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from tqdm import tqdm
 
-from vprobot.agents.training import buffer_memory, build_model, make_vec_env, profile_config
 from vprobot.config import Config, replace
 from vprobot.env.actions import ActionMapping
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.observations import observation_space
 from vprobot.paths import PROFILES_DIR
+from vprobot.training.train import buffer_memory, build_model, make_vec_env, profile_config
 
 
 class SpacesOnly(gym.Env):

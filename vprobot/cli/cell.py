@@ -195,7 +195,7 @@ def _package_path(text: str) -> tuple[str, Path]:
 
 def command_robots_import(args: argparse.Namespace) -> int:
     """Convert a URDF into a robot folder and report its reachability of the view sphere."""
-    from vprobot.robots.urdf_import import Provenance, convert_urdf
+    from vprobot.importers.urdf import Provenance, convert_urdf
 
     out = Path(args.out if args.out is not None else Path("robots") / args.name)
     robot = convert_urdf(

@@ -97,9 +97,9 @@ def command_objects(args: argparse.Namespace) -> int:
                 print(f"  {p.name:24s} {p.range_text():18s} {p.description}")
         return 0
     if args.objects_command == "cache":
-        from vprobot.agents.training import profile_config
         from vprobot.env.inspect_env import build_training_objects
         from vprobot.paths import cache_root
+        from vprobot.training.train import profile_config
 
         count = build_training_objects(profile_config(args.profile, args.set))
         print(f"{count} training objects and their ground truth are in {cache_root()}")

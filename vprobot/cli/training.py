@@ -88,7 +88,7 @@ def add_curves(commands: Commands) -> None:
 
 def command_train(args: argparse.Namespace) -> int:
     """Train an agent into a run directory, or resume one."""
-    from vprobot.agents.training import profile_config, train
+    from vprobot.training.train import profile_config, train
 
     if args.profile is None and not args.resume:
         raise ValueError("give a profile (e.g. configs/agents/cpu.yaml), or --resume a run")
@@ -105,7 +105,7 @@ def command_train(args: argparse.Namespace) -> int:
     config = (None if args.resume
               else sensor_option(profile_config(args.profile, args.set, args.steps), args))
     if args.seeds is not None and config is not None:  # (--resume takes no --seeds)
-        from vprobot.agents.seeds import train_seeds
+        from vprobot.training.seeds import train_seeds
 
         command = ["vprobot", "train", args.profile, *(["--set", *args.set] if args.set else []),
                    *(["--sensor", args.sensor] if args.sensor else []),
@@ -135,8 +135,8 @@ def command_train(args: argparse.Namespace) -> int:
 
 def command_teacher(args: argparse.Namespace) -> int:
     """Roll out a profile's teacher episodes into its teacher folder, on several cores."""
-    from vprobot.agents.pretrain import collect
-    from vprobot.agents.training import profile_config
+    from vprobot.training.pretrain import collect
+    from vprobot.training.train import profile_config
 
     config = sensor_option(profile_config(args.profile, args.set), args)
     folder = args.out or config.agent.teacher_dir
@@ -162,7 +162,7 @@ def _scores(row: dict[str, Any]) -> str:
 
 def command_sweep(args: argparse.Namespace) -> int:
     """Run a study of agent configurations on Ray."""
-    from vprobot.agents.sweep import sweep
+    from vprobot.training.sweep import sweep
 
     check_output_folder(args.out, "--out")
     sweep(args.study, args.out, resume=args.resume, address=args.address,
@@ -173,7 +173,7 @@ def command_sweep(args: argparse.Namespace) -> int:
 
 def command_curves(args: argparse.Namespace) -> int:
     """Plot training curves of one or more runs."""
-    from vprobot.agents.curves import plot_curves
+    from vprobot.training.curves import plot_curves
 
     check_output_file(args.out, "--out", (".png",))
     print(f"wrote {plot_curves(args.runs, args.out, args.window)}")

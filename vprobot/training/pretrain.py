@@ -1,6 +1,6 @@
 """Imitation before RL: fit the candidate Q-network to the teacher (`agent.pretrain_episodes`).
 
-The teacher (`vprobot.agents.teacher`) rolls out episodes on the run's training objects,
+The teacher (`vprobot.training.teacher`) rolls out episodes on the run's training objects,
 requesting its best candidate, or with probability `EPSILON` a random allowed one, so that the
 states also hold a learner's mistakes. Every state is stored with the values of all candidates
 and its remaining cover (`CandidateTeacher.remaining_cover`: which candidates, whether they
@@ -43,14 +43,14 @@ import torch
 from tqdm import tqdm
 
 from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, CandidateQNetwork, allowed_rows
-from vprobot.agents.stream import EpisodeStream
-from vprobot.agents.teacher import CandidateTeacher
 from vprobot.agents.trained import load_agent, model_file
 from vprobot.config import Config, ConfigError, config_document
 from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.files import atomic_output, file_sha256, folder_lock, read_text, write_text
 from vprobot.processes import worker_pool
+from vprobot.training.stream import EpisodeStream
+from vprobot.training.teacher import CandidateTeacher
 
 PRETRAIN_RANK = 1_000
 EPSILON = 0.2

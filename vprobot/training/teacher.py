@@ -8,7 +8,7 @@ the coverage each candidate would add now, and confirms the best ones by simulat
 that gain, or -1 where the robot cannot take it. (R2 also pays -1 for a view that adds nothing;
 the values keep 0 there, so that they stay continuous in what a view sees: a candidate that
 would add 0.1 % and one that adds nothing look alike and differ by a thousandth, not by one.)
-The agent never sees them at run time; `vprobot.agents.pretrain` fits the Q-network to them
+The agent never sees them at run time; `vprobot.training.pretrain` fits the Q-network to them
 before RL.
 
 The teacher also labels each state with its *remaining cover* (`CandidateTeacher.remaining_cover`),

@@ -22,12 +22,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vprobot.agents.runs import RESULT_FILE, best_validation
 from vprobot.cluster import parallel_map, require_ray
 from vprobot.config import Config
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list
 from vprobot.files import csv_text, read_text, write_text
+from vprobot.training.runs import RESULT_FILE, best_validation
 
 VALIDATION = "validation"
 """The name of the validation row of the summary (the test rows are named by their lists)."""
@@ -70,7 +70,7 @@ def run_seed(config: Config, seed: int, run_dir: Path, argv: Sequence[str],
         The best validation row of the run (`best_validation`).
     """
     # Imported here: training needs torch and stable-baselines3; the seeds table does not.
-    from vprobot.agents.training import score_test_lists, train_to_result
+    from vprobot.training.train import score_test_lists, train_to_result
 
     if not (run_dir / RESULT_FILE).is_file():
         train_to_result(lambda: config, run_dir, seed, argv, device, progress)
@@ -160,7 +160,7 @@ def check_existing(config: Config, out: Path, seeds: Sequence[int]) -> None:
         ValueError: Naming the run and the first setting that differs.
     """
     # Imported here: training needs torch and stable-baselines3; the seeds table does not.
-    from vprobot.agents.training import holds_run, load_run_config
+    from vprobot.training.train import holds_run, load_run_config
 
     for seed in seeds:
         run_dir = seed_dir(out, seed)

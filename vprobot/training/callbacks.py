@@ -15,8 +15,6 @@ from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
-from vprobot.agents.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
-from vprobot.agents.runs import best_evaluation, current_names, evaluation_score
 from vprobot.config import Selection
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
@@ -28,6 +26,8 @@ from vprobot.files import (
     truncate_output,
     write_text,
 )
+from vprobot.training.evaluation import SUMMARY_KEYS, evaluate_policy, policy_summary
+from vprobot.training.runs import best_evaluation, current_names, evaluation_score
 
 EVALUATION_COLUMNS = ("step", "wall_s", *SUMMARY_KEYS)
 CHECKPOINT_FILE = "checkpoint.json"

@@ -653,7 +653,7 @@ MJCF model of the {title} carrying a 3D sensor, for vprobot.
 - `LICENSE`: the license of the source description.
 
 ## How it was converted
-Converted by vprobot's URDF converter (`vprobot/robots/urdf_import.py`) from {source}:
+Converted by vprobot's URDF converter (`vprobot/importers/urdf.py`) from {source}:
 
 {steps}
 

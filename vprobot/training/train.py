@@ -39,26 +39,9 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
 from vprobot import plugins
-from vprobot.agents.callbacks import (
-    ResumableCheckpoint,
-    SharedEpisodeEvaluation,
-    load_buffer,
-    read_checkpoint,
-    truncate_lines,
-    upgrade_evaluations,
-)
 from vprobot.agents.candidate_q import CandidateDQN
-from vprobot.agents.curves import NoEpisodesError, plot_curves
 from vprobot.agents.encoders import check_encoder
-from vprobot.agents.evaluation import evaluation_env
-
-# LinearSchedule too: the checkpoints of runs made before it moved pickle it by this module's
-# name, and resuming one (stable-baselines3's load) unpickles it.
-from vprobot.agents.models import LinearSchedule, build_model, check_spaces  # noqa: F401
-from vprobot.agents.pretrain import pretrain
-from vprobot.agents.runs import RESULT_FILE, best_validation
-from vprobot.agents.stream import EpisodeStream
-from vprobot.agents.teacher import check_teacher_reward
+from vprobot.agents.models import build_model, check_spaces
 from vprobot.agents.trained import ALGORITHMS, load_run_config
 from vprobot.config import (
     Config,
@@ -80,6 +63,20 @@ from vprobot.generated import is_generated
 from vprobot.kinematics import TRAVEL_COSTS
 from vprobot.mesh_loading import load_mesh
 from vprobot.paths import PACKAGE_DIR
+from vprobot.training.callbacks import (
+    ResumableCheckpoint,
+    SharedEpisodeEvaluation,
+    load_buffer,
+    read_checkpoint,
+    truncate_lines,
+    upgrade_evaluations,
+)
+from vprobot.training.curves import NoEpisodesError, plot_curves
+from vprobot.training.evaluation import evaluation_env
+from vprobot.training.pretrain import pretrain
+from vprobot.training.runs import RESULT_FILE, best_validation
+from vprobot.training.stream import EpisodeStream
+from vprobot.training.teacher import check_teacher_reward
 
 MONITOR_KEYS = ("coverage", "acquisitions", "reachable_share",
                 *(f"travel_sum_{name}" for name in TRAVEL_COSTS))

@@ -28,7 +28,7 @@ OLD_COLUMNS = {"coverage": ("coverage_pct", 100.0), "success": ("success_pct", 1
 
 def current_names(row: dict[str, Any]) -> dict[str, Any]:
     """A row of `evaluations.csv` or `result.json` in today's columns (those of `vprobot
-    evaluate`'s table, `vprobot.agents.evaluation.SUMMARY_KEYS`).
+    evaluate`'s table, `vprobot.training.evaluation.SUMMARY_KEYS`).
 
     Runs written before the one summary had their own columns: fractions (`coverage`,
     `success`, `reachable_share`), `ms_per_view`, and k_cum as `travel_<cost>` (today one step's

@@ -35,12 +35,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from vprobot.agents.curves import plot_curves, read_monitor, travel_column
-from vprobot.agents.runs import RESULT_FILE, read_result
 from vprobot.cluster import parallel_map, require_ray
 from vprobot.config import ConfigError, read_yaml
 from vprobot.files import csv_text, write_text
 from vprobot.paths import PROFILES_DIR, bundled_or_path
+from vprobot.training.curves import plot_curves, read_monitor, travel_column
+from vprobot.training.runs import RESULT_FILE, read_result
 
 CONVERGED_EPISODES = 100
 """The converged state: the last this many training episodes (as the paper reports)."""
@@ -110,7 +110,7 @@ def read_study(path: str | Path) -> Study:
         FileNotFoundError, ConfigError: For a missing file or a bad key or value.
     """
     # Imported here: training needs torch and stable-baselines3; reading a study does not.
-    from vprobot.agents.training import profile_config
+    from vprobot.training.train import profile_config
 
     path = Path(path)
     if not path.is_file():
@@ -166,7 +166,7 @@ def run_trial(profile: Path, overrides: Sequence[str], steps: int | None, seed: 
               run_dir: Path) -> dict[str, Any]:
     """One trial (in a Ray worker): train or resume, then write `result.json`."""
     # Imported here: training needs torch and stable-baselines3; reading a study does not.
-    from vprobot.agents.training import profile_config, train_to_result
+    from vprobot.training.train import profile_config, train_to_result
 
     return train_to_result(lambda: profile_config(profile, overrides, steps), run_dir, seed,
                            ["vprobot", "train", str(profile), "--set", *overrides, "--seed",

@@ -1,0 +1,1 @@
+"""Bringing the user's own files in: a robot's URDF as a robot folder (`urdf`)."""
