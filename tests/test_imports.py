@@ -43,10 +43,11 @@ def _module_name(path: Path) -> str:
 MODULES = {_module_name(path): path for path in ROOT.rglob("*.py")}
 
 
-def _import_nodes(name: str) -> list[tuple[ast.stmt, set[str], bool]]:
+def _import_nodes(name: str, typing: bool = False) -> list[tuple[ast.stmt, set[str], bool]]:
     """Each import statement of module `name` with the vprobot modules it imports and whether
-    it is inside a function (lazy). Imports under TYPE_CHECKING never run and are left out.
-    `from package import sub` counts as importing the submodule."""
+    it is inside a function (lazy). Imports under TYPE_CHECKING never run and are left out,
+    unless `typing` (then they count as top-level ones). `from package import sub` counts as
+    importing the submodule."""
     path = MODULES[name]
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: list[tuple[ast.stmt, set[str], bool]] = []
@@ -66,7 +67,7 @@ def _import_nodes(name: str) -> list[tuple[ast.stmt, set[str], bool]]:
     def visit(node: ast.AST, lazy: bool) -> None:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
-                for statement in child.orelse:
+                for statement in [*child.orelse, *(child.body if typing else [])]:
                     visit(ast.Module(body=[statement], type_ignores=[]), lazy)
             elif isinstance(child, ast.Import | ast.ImportFrom):
                 if imported := modules(child):
@@ -79,11 +80,12 @@ def _import_nodes(name: str) -> list[tuple[ast.stmt, set[str], bool]]:
     return found
 
 
-def _imports(name: str, lazy: bool = False) -> set[str]:
+def _imports(name: str, lazy: bool = False, typing: bool = False) -> set[str]:
     """The vprobot modules `name` imports when it is imported (with `lazy`, or may import
-    later, inside its functions), as its import statements name them."""
-    return {module for _, imported, inside in _import_nodes(name) if lazy or not inside
-            for module in imported}
+    later, inside its functions; with `typing`, or names for its type hints only), as its
+    import statements name them."""
+    return {module for _, imported, inside in _import_nodes(name, typing)
+            if lazy or not inside for module in imported}
 
 
 def _enclosing(name: str) -> set[str]:
@@ -106,9 +108,10 @@ def _execution_graph(imports: dict[str, set[str]]) -> dict[str, set[str]]:
             for name, named in imports.items()}
 
 
-def _graph(lazy: bool) -> dict[str, set[str]]:
-    """vprobot's execution graph (with `lazy`, the imports inside functions execute too)."""
-    return _execution_graph({name: _imports(name, lazy) for name in MODULES})
+def _graph(lazy: bool, typing: bool = False) -> dict[str, set[str]]:
+    """vprobot's execution graph (with `lazy`, the imports inside functions execute too; with
+    `typing`, those for type hints only)."""
+    return _execution_graph({name: _imports(name, lazy, typing) for name in MODULES})
 
 
 def _top_level_imports(name: str) -> set[str]:
@@ -239,6 +242,17 @@ def test_import_graph_with_the_imports_inside_functions_has_no_cycle() -> None:
     # The graph holds the lazy imports: the agent planner loads torch only when it plans.
     assert "vprobot.agents.trained" in graph["vprobot.planners.agent"]
     assert "vprobot.agents.trained" not in _graph(lazy=False)["vprobot.planners.agent"]
+    assert (cycle := _cycle(graph)) is None, " -> ".join(cycle)
+
+
+def test_import_graph_with_the_type_only_imports_has_no_cycle() -> None:
+    """A module that names another's class only in its hints still may not need it in a
+    circle: the two would not be separable, and an import moved out of TYPE_CHECKING (to check
+    an instance, say) would close it."""
+    graph = _graph(lazy=True, typing=True)
+    # The graph holds the type-only imports: the env names the cell's type in its hints only.
+    assert "vprobot.scene" in graph["vprobot.env.inspect_env"]
+    assert "vprobot.scene" not in _graph(lazy=True)["vprobot.env.inspect_env"]
     assert (cycle := _cycle(graph)) is None, " -> ".join(cycle)
 
 

@@ -23,13 +23,13 @@ from vprobot.cell_check import (
     CLEARANCE_RESOLUTION_M,
     clearances,
     environment_geoms,
-    episode_clearances,
     placed_part,
 )
 from vprobot.cell_config import StaticObject, rotation_rpy_deg, rpy_rotation
 from vprobot.cli import main
 from vprobot.config import Config, load_config, replace
 from vprobot.episode import PartScene, seeded_episode
+from vprobot.episode.clearances import episode_clearances
 from vprobot.evaluation import _append_row, episode_row, finished_rows
 from vprobot.export.check import _cell, check_plan
 from vprobot.kinematics.motion_planner import densify

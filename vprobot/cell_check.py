@@ -9,13 +9,11 @@ the cell, for `vprobot check` and `evaluate`.
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from vprobot.config import Config, replace
-from vprobot.kinematics.motion_planner import densify
 from vprobot.mesh_loading import LoadedMesh, load_mesh
 from vprobot.scene import (
     ENVIRONMENT_BIT,
@@ -25,9 +23,6 @@ from vprobot.scene import (
     STATIC_PREFIX,
     Cell,
 )
-
-if TYPE_CHECKING:
-    from vprobot.episode import EpisodeRecord
 
 PENETRATION_TOLERANCE_M = 0.001
 """Deepest overlap between cell objects that still counts as resting on each other (1 mm: a
@@ -167,21 +162,6 @@ def clearances(cell: Cell, data: mujoco.MjData, path: np.ndarray) -> list[Cleara
                                                 side="right"))
     return [Clearance(name, distance, safety.part_clearance_m if name == "the part"
                       else safety.clearance_m) for name, distance in least.items()]
-
-
-def episode_clearances(record: EpisodeRecord, cell: Cell) -> tuple[Clearance, ...] | None:
-    """The least distance from the robot to each object of the cell over the moves the
-    episode's robot made (to its views, and back to the start when it returned), at the path
-    planner's resolution; None when it made none (or carried no robot)."""
-    moves = [view.waypoints for view in record.views if view.waypoints is not None]
-    if record.return_waypoints is not None:
-        moves.append(record.return_waypoints)
-    if record.carrier != "robot" or not moves:
-        return None
-    data = cell.make_data()
-    cell.place_object(data, record.object_pose.rotation)
-    step = cell.config.kinematics.path_max_joint_step_rad
-    return tuple(clearances(cell, data, np.concatenate([densify(move, step) for move in moves])))
 
 
 def check_cell(cell: Cell, data: mujoco.MjData) -> None:

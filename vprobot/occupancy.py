@@ -47,7 +47,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Literal
+from typing import Literal, Protocol
 
 import numpy as np
 
@@ -55,9 +55,6 @@ from vprobot.config import Config
 from vprobot.fit import fit_limit
 from vprobot.geometry import Pose
 from vprobot.sensor_model import SensorModel
-
-if TYPE_CHECKING:
-    from vprobot.episode import ViewRecord
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 VOXEL_M = 0.01
@@ -68,6 +65,23 @@ former integration, sampling every ray half a voxel apart, put a sample in it on
 Gain = Literal["unknown", "frontier", "rear_side"]
 GAINS: tuple[Gain, ...] = ("unknown", "frontier", "rear_side")
 _NEIGHBOURS = np.concatenate([np.eye(3, dtype=int), -np.eye(3, dtype=int)])
+
+
+class MeasuredView(Protocol):
+    """What the grid integrates of a view (the episode's `ViewRecord`, which sits above the grid:
+    the episode keeps one)."""
+
+    @property
+    def sensor_pose(self) -> Pose | None: ...
+
+    @property
+    def points_world(self) -> np.ndarray: ...
+
+    @property
+    def pixels(self) -> np.ndarray: ...
+
+    @property
+    def blocked_pixels(self) -> np.ndarray: ...
 
 
 @dataclasses.dataclass
@@ -318,7 +332,7 @@ class EpisodeGrid:
         return [change.novel / max(change.occupied, 1) for change in self.changes
                 if change is not None and change.informative]
 
-    def update(self, views: Sequence[ViewRecord]) -> None:
+    def update(self, views: Sequence[MeasuredView]) -> None:
         """Integrate the frames of the views not integrated yet (the episode's views so far)."""
         flat = self.grid.state.reshape(-1)
         for view in views[len(self.changes):]:

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.cell_check import Clearance, check_cell, episode_clearances, placed_part
+from vprobot.cell_check import Clearance, check_cell, placed_part
 from vprobot.config import Config
 from vprobot.episode import (
     CARRIERS,
@@ -23,6 +23,7 @@ from vprobot.episode import (
     describe_cycle,
     seeded_episode,
 )
+from vprobot.episode.clearances import episode_clearances
 from vprobot.geometry import matrix_to_quat
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import CycleTime

@@ -15,15 +15,29 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from vprobot.registry import Bundled, Registry
 from vprobot.schema import ConfigError
 
-if TYPE_CHECKING:
-    from vprobot.config import SensorConfig
+
+class SensorSettings(Protocol):
+    """What a sensing model reads of the `sensor` section (`vprobot.config.SensorConfig`, which
+    sits above the models: the config checks its `sensing` against them)."""
+
+    @property
+    def sensing(self) -> str: ...
+
+    @property
+    def structured_light(self) -> SensingModel | None: ...
+
+    @property
+    def fov_deg(self) -> tuple[float, float]: ...
+
+    @property
+    def near_m(self) -> float: ...
 
 
 class CameraHits(Protocol):
@@ -92,7 +106,7 @@ class SensingModel:
     uses_normals: ClassVar[bool] = False
 
     @classmethod
-    def of_sensor(cls, sensor: SensorConfig) -> SensingModel:
+    def of_sensor(cls, sensor: SensorSettings) -> SensingModel:
         """The model as the `sensor` section configures it (its figures, if it has any).
 
         Raises:
@@ -132,7 +146,7 @@ SENSING_MODELS: Registry[type[SensingModel]] = Registry("sensing model", bundled
 """Every sensing model by name (`sensor.sensing`, `--sensing`), one module each here."""
 
 
-def check_sensing(sensor: SensorConfig) -> None:
+def check_sensing(sensor: SensorSettings) -> None:
     """Raise ConfigError unless `sensor.sensing` names a sensing model that the sensor has what
     it needs for."""
     if sensor.sensing not in SENSING_MODELS:

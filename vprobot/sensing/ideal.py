@@ -4,12 +4,9 @@ measured exactly (docs/sensor.md#sensing)."""
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from vprobot.sensing.base import SENSING_MODELS, SensingModel
-
-if TYPE_CHECKING:
-    from vprobot.config import SensorConfig
+from vprobot.sensing.base import SENSING_MODELS, SensingModel, SensorSettings
 
 
 @SENSING_MODELS.register_named
@@ -20,7 +17,7 @@ class IdealSensing(SensingModel):
     name = "ideal"
 
     @classmethod
-    def of_sensor(cls, sensor: SensorConfig) -> SensingModel:
+    def of_sensor(cls, sensor: SensorSettings) -> SensingModel:
         return IDEAL
 
     def ground_truth_key(self) -> tuple[Any, ...]:

@@ -20,15 +20,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from vprobot.schema import ConfigError
-from vprobot.sensing.base import SENSING_MODELS, CameraHits, SensingModel
-
-if TYPE_CHECKING:
-    from vprobot.config import SensorConfig
+from vprobot.sensing.base import SENSING_MODELS, CameraHits, SensingModel, SensorSettings
 
 MAX_BASELINE_M = 1.0
 """Longest camera-to-projector baseline. Structured-light devices are built with 0.05 to 0.6 m."""
@@ -119,7 +116,7 @@ class StructuredLight(SensingModel):
         return self.dropout_grazing * (incidence_rad / (0.5 * math.pi)) ** self.dropout_exponent
 
     @classmethod
-    def of_sensor(cls, sensor: SensorConfig) -> SensingModel:
+    def of_sensor(cls, sensor: SensorSettings) -> SensingModel:
         """The sensor's `structured_light` figures.
 
         Raises:
@@ -128,7 +125,7 @@ class StructuredLight(SensingModel):
                 `MAX_NEAR_DISPARITY_FRAMES` frame widths.
         """
         figures = sensor.structured_light
-        if figures is None:
+        if not isinstance(figures, StructuredLight):
             raise ConfigError("sensor.sensing structured_light needs the sensor's "
                               "structured_light figures, which this sensor does not give "
                               "(`vprobot sensors` lists the presets that have them)")

@@ -13,10 +13,10 @@ from typing import Any
 
 from stable_baselines3.common.base_class import BaseAlgorithm
 
-from vprobot.cell_check import episode_clearances
 from vprobot.config import Config, replace
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
+from vprobot.episode.clearances import episode_clearances
 from vprobot.evaluation import (
     COLUMNS,
     OPTIMUM_COLUMNS,
