@@ -29,7 +29,7 @@ import numpy as np
 
 from vprobot.config import Config
 from vprobot.episode import seeded_episode
-from vprobot.files import append_line, csv_text, write_text
+from vprobot.files.atomic import append_line, csv_text, write_text
 from vprobot.stop_studies.dataset import COLUMNS, read_dataset, rollout
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, load_estimator
 

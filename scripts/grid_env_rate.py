@@ -14,9 +14,9 @@ import time
 
 import numpy as np
 
+from vprobot.cell.sensor import TRAINING_RESOLUTION
 from vprobot.config import load_config, replace
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.sensor import TRAINING_RESOLUTION
 
 
 def main(config_path: str, steps: int) -> float:

@@ -20,7 +20,7 @@ import trimesh
 
 OUT = Path(__file__).resolve().parent.parent / "results" / "stop_estimate" / "foreign"
 MAX_RADIUS_MM = 180.0
-"""Below the cell's bounding-sphere limit (`vprobot.fit`, 0.189 m with the default cell)."""
+"""Below the cell's bounding-sphere limit (`vprobot.cell.fit`, 0.189 m with the default cell)."""
 
 Vec3 = tuple[float, float, float]
 

@@ -16,8 +16,8 @@ from pathlib import Path
 
 from vprobot.config import load_config
 from vprobot.episode import PartScene
-from vprobot.geometry import rotation_about_z
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import rotation_about_z
 from vprobot.render import render_episode
 from vprobot.render.demo import ring_inspection
 from vprobot.render.summary import render_summary

@@ -23,16 +23,16 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import ListedColormap
 
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import LOSS_CAUSES, Acquisition, DepthSensor, FrameLosses
 from vprobot.config import load_config, with_sensor
-from vprobot.geometry import Pose, rotation_about_z
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import Pose, rotation_about_z
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.parts.loading import load_mesh
 from vprobot.render.markers import LOST_RGBA
-from vprobot.scene import Cell
 from vprobot.sensing import StructuredLight
-from vprobot.sensor import LOSS_CAUSES, Acquisition, DepthSensor, FrameLosses
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "media" / "sensing.png"
 PRESET = "zivid2plus_mr60"

@@ -7,7 +7,7 @@ from __future__ import annotations
 from vprobot.config import Config
 from vprobot.episode import write_episode_list
 from vprobot.episode.specs import bundled_episode_list, split_lists
-from vprobot.splits import Split, split_versions
+from vprobot.parts.splits import Split, split_versions
 
 
 def main() -> None:

@@ -16,7 +16,7 @@ from playwright.sync_api import sync_playwright
 
 from vprobot.benchmarks.viewer import CHROMIUM_ARGS, PAUSE_ICON, TIME_FIELD
 from vprobot.cli import main as vprobot
-from vprobot.paths import CONFIGS_DIR
+from vprobot.files.paths import CONFIGS_DIR
 
 MEDIA_DIR = Path(__file__).resolve().parent.parent / "docs" / "media"
 

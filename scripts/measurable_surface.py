@@ -21,12 +21,12 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import load_config
+from vprobot.coverage.occupancy import OCCUPIED
 from vprobot.episode import PartScene
+from vprobot.episode.views import band_candidates, offered, request_directions
 from vprobot.evaluation import evaluation_episodes
-from vprobot.occupancy import OCCUPIED
 from vprobot.planners import nbv
 from vprobot.planners.runner import run
-from vprobot.views import band_candidates, offered, request_directions
 
 COLUMNS = ("episode", "object", "views", "coverage", "occupied", "box_frontier",
            "box_measurable")

@@ -27,7 +27,7 @@ import numpy as np
 from vprobot.config import Config, load_config, replace
 from vprobot.episode import PartScene
 from vprobot.evaluation import evaluation_episodes
-from vprobot.files import append_line, folder_lock, write_text
+from vprobot.files.atomic import append_line, folder_lock, write_text
 from vprobot.kinematics.motion_planner import MotionPlan, MotionPlanner
 from vprobot.planners.runner import parse_planner, run
 

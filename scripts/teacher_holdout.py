@@ -27,7 +27,7 @@ import torch
 from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.models import build_model
 from vprobot.config import load_config, replace
-from vprobot.files import atomic_output
+from vprobot.files.atomic import atomic_output
 from vprobot.training.pretrain import TeacherStates, fit, loss_column, read_shards
 
 TARGETS = ("values", "cover", "views")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.files import write_text
+from vprobot.files.atomic import write_text
 from vprobot.training.pretrain import read_shards
 
 

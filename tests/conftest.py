@@ -8,7 +8,7 @@ from __future__ import annotations
 
 # isort: off
 # First, before helpers import numpy: vprobot pins the arithmetic kernels as it loads
-# (vprobot/kernels.py), which numpy's OpenBLAS reads only when it loads.
+# (vprobot/compute/kernels.py), which numpy's OpenBLAS reads only when it loads.
 import vprobot  # noqa: F401
 # isort: on
 import os
@@ -19,8 +19,8 @@ from typing import Any
 import pytest
 from helpers import SERIAL_EVALUATION, TINY_TRAINING, SmokeRuns
 
-from vprobot.files import waiting_lock
-from vprobot.paths import CACHE_ENV_VAR
+from vprobot.files.atomic import waiting_lock
+from vprobot.files.paths import CACHE_ENV_VAR
 
 
 def _run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
@@ -58,7 +58,7 @@ def smoke_runs(session_cache: Path, tmp_path_factory: pytest.TempPathFactory) ->
     """Trains (once per session) 64 steps of the CPU profile with `TINY_TRAINING`, an
     algorithm, an encoder and a robot state, evaluating and checkpointing at the end; gives its
     config, result and run folder. 64 steps: one rollout of PPO's n_steps."""
-    from vprobot.paths import CONFIGS_DIR
+    from vprobot.files.paths import CONFIGS_DIR
     from vprobot.training.train import profile_config, train
 
     runs: dict[tuple[str, str, bool], tuple[Any, dict[str, Any], Path]] = {}

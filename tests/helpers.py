@@ -14,7 +14,7 @@ from scipy.spatial.distance import pdist
 
 from vprobot.config import Config
 from vprobot.families import FAMILIES
-from vprobot.paths import DEFAULT_MOTOR, MOTORS_DIR, OBJECTS_DIR
+from vprobot.files.paths import DEFAULT_MOTOR, MOTORS_DIR, OBJECTS_DIR
 
 
 def _add_mesh(spec: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
@@ -55,7 +55,7 @@ def make_scene(mesh: trimesh.Trimesh, boxes: tuple = (), mesh_boxes: tuple = ()
 
 
 # How far a coverage may move between CPUs whose BLAS kernels vprobot does not pin (no AVX2,
-# vprobot/kernels.py): the same views' coverage differs by up to 3 of the 2048 GT points
+# vprobot/compute/kernels.py): the same views' coverage differs by up to 3 of the 2048 GT points
 # (0.15 pp) between OpenBLAS's kernels (results/cpu_spread/: last-bit differences in the GT's
 # sensed points move points across the voxel and ε boundaries). A test comparing a coverage
 # with a threshold keeps this margin.

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from vprobot.config import Config, EnvConfig
+from vprobot.coverage.occupancy import VOXEL_M
 from vprobot.env.actions import ACTION_SIZES, ActionMapping
-from vprobot.occupancy import VOXEL_M
-from vprobot.views import band_candidates
+from vprobot.episode.views import band_candidates
 
 R = 0.47
 

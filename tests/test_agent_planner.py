@@ -15,7 +15,7 @@ from helpers import SmokeRuns
 from vprobot.agents.trained import BUNDLED_AGENT, BUNDLED_AGENTS, load_agent
 from vprobot.cli import main
 from vprobot.config import Config
-from vprobot.paths import AGENTS_DIR, OBJECTS_DIR
+from vprobot.files.paths import AGENTS_DIR, OBJECTS_DIR
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.runner import plan_part
 
@@ -56,7 +56,7 @@ def test_agent_is_handed_acquired_points_only(run: Path,
 
     monkeypatch.setattr(planner.agent.model, "predict", recording)
     from vprobot.episode import Episode, PartScene
-    from vprobot.paths import DEFAULT_MOTOR
+    from vprobot.files.paths import DEFAULT_MOTOR
 
     scene = PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75))
     episode = Episode(scene, np.eye(3))
@@ -77,7 +77,7 @@ def test_agent_is_handed_acquired_points_only(run: Path,
 
 def planner_initial(episode: object) -> list:
     from vprobot.episode import seeded_episode
-    from vprobot.paths import DEFAULT_MOTOR
+    from vprobot.files.paths import DEFAULT_MOTOR
 
     spec = seeded_episode(CONFIG.env, DEFAULT_MOTOR, 0)
     return spec.initial_requests(episode.center, CONFIG.sensor.working_distance_m)
@@ -160,7 +160,7 @@ def test_a_run_whose_config_is_empty_or_no_mapping_names_the_file(
 def test_an_agent_planner_says_it_is_loading_before_the_slow_load(
         capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
     from vprobot.agents import trained
-    from vprobot.progress import showing_progress
+    from vprobot.files.progress import showing_progress
 
     said_before: list[str] = []
 
@@ -181,7 +181,7 @@ def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(
     with its progress shown, that load is announced instead of a silent start."""
     from vprobot.episode import episode_list
     from vprobot.evaluation import evaluate
-    from vprobot.paths import DEFAULT_MOTOR
+    from vprobot.files.paths import DEFAULT_MOTOR
 
     specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
     evaluate(CONFIG, ["agent:cpu"], specs, tmp_path, progress=True, carriers=["free"])
@@ -190,7 +190,7 @@ def test_an_evaluation_of_an_agent_says_it_is_loading_before_the_first_episode(
 
 def test_the_bundled_agent_plans_a_part_of_no_family_end_to_end_in_the_realistic_cell(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    from vprobot.paths import CONFIGS_DIR
+    from vprobot.files.paths import CONFIGS_DIR
 
     plan = tmp_path / "plan.json"
     code = main(["plan", "--no-summary", "--config", str(CONFIGS_DIR / "cell_real.yaml"),
@@ -207,7 +207,7 @@ def test_the_bundled_agent_plans_a_part_of_no_family_end_to_end_in_the_realistic
 
 def test_the_default_agent_is_the_bundled_generalist_trained_with_the_runs_sensor() -> None:
     from vprobot.config import load_config, replace, with_sensor
-    from vprobot.paths import CONFIGS_DIR
+    from vprobot.files.paths import CONFIGS_DIR
     from vprobot.planners.runner import make_planner
 
     real = load_config(CONFIGS_DIR / "cell_real.yaml")

@@ -29,8 +29,8 @@ from vprobot.agents.extractors.pcn import PCNExtractor
 from vprobot.agents.extractors.pointnet import InputTransform, PointNetExtractor
 from vprobot.agents.extractors.sphere_map import SphereMapExtractor
 from vprobot.config import ConfigError, replace
-from vprobot.files import save_figure
-from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+from vprobot.files.atomic import save_figure
+from vprobot.files.paths import CONFIGS_DIR, MOTORS_DIR
 from vprobot.training import curves as curves_module
 from vprobot.training.callbacks import (
     ResumableCheckpoint,

@@ -7,7 +7,7 @@ from vprobot.benchmarks.planners import _timed_screenings
 from vprobot.config import Config
 from vprobot.env.grid_state import GridState
 from vprobot.episode import PartScene, seeded_episode
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import run
 
 CONFIG = Config()

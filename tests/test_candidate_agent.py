@@ -22,7 +22,7 @@ from vprobot.agents.candidate_q import MASKED_Q, CandidateDQN, CandidateQNetwork
 from vprobot.agents.trained import load_agent
 from vprobot.config import Config, ConfigError, replace
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.paths import CONFIGS_DIR
+from vprobot.files.paths import CONFIGS_DIR
 from vprobot.training.train import (
     buffer_memory,
     build_model,

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 import yaml
 
-from vprobot.cell_config import PartConfig, ProgramConfig, SafetyConfig, Solid, with_cell_file
 from vprobot.cli import main
 from vprobot.cli.common import config_of
 from vprobot.config import CellConfig, Config, SensorConfig, load_config, sensor_preset
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import CELLS_DIR, CONFIGS_DIR, DEFAULT_CONFIG, available_cells
-from vprobot.schema import from_mapping, read_yaml
+from vprobot.config.cell import PartConfig, ProgramConfig, SafetyConfig, Solid, with_cell_file
+from vprobot.files.paths import CELLS_DIR, CONFIGS_DIR, DEFAULT_CONFIG, available_cells
+from vprobot.files.schema import from_mapping, read_yaml
+from vprobot.parts.loading import load_mesh
 
 EXAMPLE = CELLS_DIR / "ur10_phoxi_s_example.yaml"
 

@@ -15,8 +15,8 @@ from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
 from vprobot.cli import main
 from vprobot.config import Config
+from vprobot.files.paths import available_robots
 from vprobot.kinematics import trajectory
-from vprobot.paths import available_robots
 from vprobot.planners.base import counted_planners
 
 

@@ -14,8 +14,8 @@ import pytest
 from vprobot.cli import build_parser, main
 from vprobot.config import Config, parse_yaml
 from vprobot.episode import seeded_episode
+from vprobot.files.paths import DEFAULT_MOTOR, PROFILES_DIR
 from vprobot.kinematics import FAILURE_REASONS, OUT_OF_REACH
-from vprobot.paths import DEFAULT_MOTOR, PROFILES_DIR
 from vprobot.stopping.rules import stop_names
 
 

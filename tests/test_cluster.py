@@ -22,9 +22,9 @@ from vprobot.cli import main
 
 pytest.importorskip("ray")
 
-from vprobot.cluster import parallel_map, start
-from vprobot.files import exclusive_lock
-from vprobot.paths import MOTORS_DIR
+from vprobot.compute.cluster import parallel_map, start
+from vprobot.files.atomic import exclusive_lock
+from vprobot.files.paths import MOTORS_DIR
 from vprobot.training.sweep import read_study, sweep
 
 # Training draws from one motor (its ground truth is built once per session, not that of all 20
@@ -258,7 +258,7 @@ def test_sigterm_while_ray_starts_reaches_the_callers_handler(
 
 
 def test_a_task_runs_on_one_thread_and_imports_no_torch_for_it() -> None:
-    code = ("import os, sys; from vprobot.cluster import _one_thread; "
+    code = ("import os, sys; from vprobot.compute.cluster import _one_thread; "
             "print(_one_thread(lambda: (os.environ['OMP_NUM_THREADS'], 'torch' in sys.modules)))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True, env={**os.environ, "OMP_NUM_THREADS": "4"})

@@ -11,11 +11,11 @@ import mujoco
 import numpy as np
 import pytest
 
+from vprobot.cell.scene import Cell
 from vprobot.cli import main
 from vprobot.config import load_config, replace
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.robots.description import SENSOR_BODY
-from vprobot.scene import Cell
 
 SAMPLES = 200
 OVERLAP_TOLERANCE_M = 0.001

@@ -8,7 +8,7 @@ import pytest
 
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, from_mapping, load_config, replace
-from vprobot.paths import CONFIGS_DIR
+from vprobot.files.paths import CONFIGS_DIR
 
 
 @pytest.mark.parametrize("path", sorted(CONFIGS_DIR.glob("*.yaml")), ids=lambda p: p.name)
@@ -89,8 +89,8 @@ def test_an_unusable_opening_angle_is_refused_by_plan(tmp_path: Path,
 
 
 def test_every_yaml_reader_names_the_file_and_line_of_a_syntax_error(tmp_path: Path) -> None:
+    from vprobot.parts.splits import Split
     from vprobot.robots import RobotDescription
-    from vprobot.splits import Split
     from vprobot.training.sweep import read_study
     from vprobot.training.train import parse_overrides
 

@@ -9,11 +9,11 @@ import trimesh
 from helpers import make_scene
 from scipy.spatial import cKDTree
 
-from vprobot.coverage import EPSILON_PER_SPACING, CoverageTracker, to_mesh_frame
-from vprobot.geometry import Pose, matrix_to_quat, rotation_about_z
-from vprobot.ground_truth import GroundTruth
-from vprobot.sensor import DepthSensor
-from vprobot.viewsphere import sphere_directions
+from vprobot.cell.sensor import DepthSensor
+from vprobot.coverage.ground_truth import GroundTruth
+from vprobot.coverage.tracker import EPSILON_PER_SPACING, CoverageTracker, to_mesh_frame
+from vprobot.geometry.poses import Pose, matrix_to_quat, rotation_about_z
+from vprobot.geometry.viewsphere import sphere_directions
 
 RADIUS = 0.08
 

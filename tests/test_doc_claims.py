@@ -16,12 +16,12 @@ from typing import Any
 
 import pytest
 
-from vprobot.cell_check import CellError, check_cell
+from vprobot.cell.check import CellError, check_cell
 from vprobot.config import Config, load_config, replace, with_sensor
+from vprobot.files.paths import DEFAULT_CONFIG, available_sensors
+from vprobot.files.schema import read_yaml
 from vprobot.kinematics.survey import default_cell
-from vprobot.paths import DEFAULT_CONFIG, available_sensors
 from vprobot.planners.candidates import CANDIDATE_COUNT
-from vprobot.schema import read_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "vprobot"

@@ -17,7 +17,7 @@ import vprobot  # noqa: F401 - registers vprobot/Inspect-v0
 from vprobot.env import ENV_ID, inspect_env
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.rewards import REWARDS
 
 SMALL = {"motors": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from vprobot.config import Config, replace
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.occupancy import OCCUPIED, GridSettings, OccupancyGrid
 from vprobot.episode import (
     Episode,
     EpisodeSpec,
@@ -17,12 +19,10 @@ from vprobot.episode import (
     seeded_episode,
 )
 from vprobot.episode.specs import FALLBACK_INITIAL_VIEWS
-from vprobot.geometry import rotation_about_x, rotation_about_z
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import rotation_about_x, rotation_about_z
 from vprobot.kinematics import SensorTarget, TravelCost
-from vprobot.occupancy import OCCUPIED, GridSettings, OccupancyGrid
-from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import run, summary
-from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures, episode_features
 
 CONFIG = Config()

@@ -14,7 +14,7 @@ import pytest
 from vprobot.cli import main
 from vprobot.config import Config, replace, with_sensor
 from vprobot.episode import PartScene, seeded_episode
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import run, summary
 from vprobot.stopping.estimator import (
     BUNDLED_ESTIMATOR,

@@ -45,9 +45,9 @@ from vprobot.evaluation import (
     summarize,
     versus_optimum,
 )
-from vprobot.geometry import Pose
+from vprobot.files.paths import DEFAULT_MOTOR, OBJECTS_DIR
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics.trajectory import CycleTime, TimedPlan
-from vprobot.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.planners.base import PLANNERS, Planner, Proof
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.optimum import OptimumPlanner

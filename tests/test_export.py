@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from vprobot.cli import main
 from vprobot.export.formats import FORMATS, export_plan
-from vprobot.paths import ROBOTS_DIR
+from vprobot.files.paths import ROBOTS_DIR
 
 VIEWS = 10
 SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)

@@ -29,23 +29,23 @@ import numpy as np
 import pytest
 import trimesh
 
-from vprobot import plugins
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import DepthSensor
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, load_config
+from vprobot.coverage.ground_truth import gt_sensing
 from vprobot.episode import seeded_episode, write_episode_list
 from vprobot.evaluation import SETTINGS_NAME
 from vprobot.export.formats import FORMATS
+from vprobot.extensions import plugins
+from vprobot.extensions.registry import Registry
 from vprobot.families import FAMILIES
-from vprobot.geometry import Pose
-from vprobot.ground_truth import gt_sensing
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR, SENSORS_DIR
+from vprobot.files.paths import DEFAULT_MOTOR, ROBOTS_DIR, SENSORS_DIR
+from vprobot.geometry.poses import Pose
+from vprobot.parts.loading import load_mesh
 from vprobot.planners.base import PLANNERS
 from vprobot.planners.runner import make_planner
-from vprobot.registry import Registry
-from vprobot.scene import Cell
 from vprobot.sensing import IDEAL, SENSING_MODELS, frame_generator
-from vprobot.sensor import DepthSensor
 from vprobot.stopping.rules import STOPS
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -17,11 +17,11 @@ import pytest
 import yaml
 from helpers import TINY_TRAINING
 
-from vprobot import plugins
 from vprobot.agents.encoders import ENCODERS
 from vprobot.cli import main
 from vprobot.config import ConfigError, load_config
-from vprobot.paths import CONFIGS_DIR, DEFAULT_MOTOR
+from vprobot.extensions import plugins
+from vprobot.files.paths import CONFIGS_DIR, DEFAULT_MOTOR
 from vprobot.rewards import REWARDS
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vprobot.cell.fit import check_fits
 from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.families import FAMILIES, family_rng
-from vprobot.fit import check_fits
-from vprobot.generated import VERSION
-from vprobot.mesh_loading import load_mesh
+from vprobot.parts.generated import VERSION
+from vprobot.parts.loading import load_mesh
 
 RADIUS_RANGE_M = (0.055, 0.16)
 """Neither tiny in the cell nor at its limit (0.189 m with the default config)."""
@@ -118,8 +118,8 @@ def test_objects_cache_builds_every_training_object_and_its_ground_truth(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import dataclasses
 
-    from vprobot.paths import CACHE_ENV_VAR
-    from vprobot.splits import Split
+    from vprobot.files.paths import CACHE_ENV_VAR
+    from vprobot.parts.splits import Split
 
     split = dataclasses.replace(Split.load(), training_instances=range(2))
     monkeypatch.setattr(Split, "load", classmethod(lambda cls, path=None: split))
@@ -137,8 +137,8 @@ def _levers(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, count: int) -> Path
     cache in tmp_path/cache."""
     import dataclasses
 
-    from vprobot.paths import CACHE_ENV_VAR
-    from vprobot.splits import Split
+    from vprobot.files.paths import CACHE_ENV_VAR
+    from vprobot.parts.splits import Split
 
     split = dataclasses.replace(Split.load(), training_instances=range(count))
     monkeypatch.setattr(Split, "load", classmethod(lambda cls, path=None: split))
@@ -186,7 +186,7 @@ def test_a_read_only_cache_warns_once_and_the_run_goes_on(
 
 def test_objects_generate_bundled_rewrites_the_committed_objects_byte_for_byte(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    from vprobot.paths import OBJECTS_DIR
+    from vprobot.files.paths import OBJECTS_DIR
 
     assert main(["objects", "generate", "--bundled", "--out", str(tmp_path)]) == 0
     committed = sorted(path.name for path in OBJECTS_DIR.glob("*.stl"))

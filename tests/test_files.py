@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.files import (
+from vprobot.files.atomic import (
     InUseError,
     append_line,
     atomic_output,
@@ -117,7 +117,7 @@ def test_missing_folder_still_fails_as_before(tmp_path: Path) -> None:
 _KILLED_WRITER = textwrap.dedent("""
     import os, signal, sys
     from pathlib import Path
-    from vprobot.files import atomic_output
+    from vprobot.files.atomic import atomic_output
 
     with atomic_output(Path(sys.argv[1])) as temporary:
         temporary.write_bytes(b"half a video")
@@ -180,7 +180,7 @@ def test_a_lock_or_an_append_through_a_symbolic_link_is_refused_naming_it(
     assert outside.read_text() == "precious\n"
     assert not (tmp_path / "created.txt").exists()
     # Cutting a torn line, and the check before work (and of the files a library opens).
-    from vprobot.files import refuse_link, truncate_output
+    from vprobot.files.atomic import refuse_link, truncate_output
 
     for link in (out / "rows.csv", out / "dangling.csv"):
         with pytest.raises(ValueError, match=f"{link} is a symbolic link"):

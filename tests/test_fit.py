@@ -11,17 +11,17 @@ import numpy as np
 import pytest
 import trimesh
 
+import vprobot.coverage.ground_truth
 import vprobot.episode.part_scene as part_scene
-import vprobot.ground_truth
 import vprobot.kinematics.arm as arm_module
+from vprobot.cell.fit import check_fits, fit_limit, sensor_limit_m
+from vprobot.cell.scene import Cell
 from vprobot.config import Config
 from vprobot.episode import PartScene
-from vprobot.fit import check_fits, fit_limit, sensor_limit_m
+from vprobot.files.paths import CACHE_ENV_VAR
 from vprobot.kinematics import RobotArm
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import CACHE_ENV_VAR
+from vprobot.parts.loading import load_mesh
 from vprobot.planners.runner import plan_part
-from vprobot.scene import Cell
 
 CONFIG = Config()
 MOTORS = Path(vprobot.__file__).parent / "assets" / "motors"
@@ -42,7 +42,7 @@ def no_ground_truth(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     def forbidden(*args: object, **kwargs: object) -> None:
         raise AssertionError("reached past the fit check")
 
-    monkeypatch.setattr(vprobot.ground_truth, "build_ground_truth", forbidden)
+    monkeypatch.setattr(vprobot.coverage.ground_truth, "build_ground_truth", forbidden)
     monkeypatch.setattr(part_scene, "ground_truth", forbidden)
     monkeypatch.setattr(part_scene, "Cell", forbidden)
     return cache

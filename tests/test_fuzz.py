@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from vprobot.cli import main
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.rewards import REWARDS
 
 FUZZ = settings(deadline=None, derandomize=True, database=None,

@@ -14,16 +14,16 @@ from scipy import ndimage
 
 from vprobot.agents.trained import TrainedAgent
 from vprobot.config import Config, ConfigError, replace, with_sensor
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.occupancy import GAINS, EpisodeGrid, OccupancyGrid
+from vprobot.coverage.view_gains import UNKNOWN_PASS
 from vprobot.env.grid_state import FEATURES, GridState
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import Episode
-from vprobot.geometry import Pose
-from vprobot.occupancy import GAINS, EpisodeGrid, OccupancyGrid
-from vprobot.paths import MOTORS_DIR
+from vprobot.episode.views import band_directions, offered
+from vprobot.files.paths import MOTORS_DIR
+from vprobot.geometry.poses import Pose
 from vprobot.planners.agent import AgentPlanner
-from vprobot.sensor_model import SensorModel
-from vprobot.view_gains import UNKNOWN_PASS
-from vprobot.views import band_directions, offered
 
 RESOLUTION = (64, 45)
 # The sensor itself at a small resolution: the agent planner integrates frames at the sensor's.
@@ -43,7 +43,7 @@ def requested_directions(episode: Episode) -> np.ndarray:
 
 def brute_force_gains(grid: OccupancyGrid, poses: list[Pose]) -> tuple[np.ndarray, float]:
     """The gains (count, `GAINS`) of sensor poses, written out from their definition in
-    `vprobot.occupancy` without its code, and the largest gain of a candidate (every sample
+    `vprobot.coverage.occupancy` without its code, and the largest gain of a candidate (every sample
     of every ray unknown).
 
     16 x 12 rays through the pixel centres of the field of view; samples half a voxel apart

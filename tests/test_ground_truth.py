@@ -13,10 +13,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from vprobot import files
-from vprobot import ground_truth as gt_module
 from vprobot.config import Config
-from vprobot.ground_truth import (
+from vprobot.coverage.ground_truth import (
     N_GT,
     GroundTruth,
     build_ground_truth,
@@ -24,6 +22,8 @@ from vprobot.ground_truth import (
     ground_truth,
     mesh_hash,
 )
+from vprobot.coverage.tracker import ground_truth as gt_module
+from vprobot.files.atomic import atomic as files
 
 # A box whose footprint fits on the fixture plate (0.12 m x 0.08 m): its bottom face rests on it.
 BOX_SIZE = np.array([0.10, 0.06, 0.08])

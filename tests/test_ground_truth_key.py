@@ -10,9 +10,9 @@ from pathlib import Path
 
 import trimesh
 
-from vprobot import ground_truth as gt_module
 from vprobot.config import Config, replace
-from vprobot.paths import ROBOTS_DIR
+from vprobot.coverage.tracker import ground_truth as gt_module
+from vprobot.files.paths import ROBOTS_DIR
 
 
 def test_ground_truth_key_changes_with_the_robot_folders_placement_and_scene(

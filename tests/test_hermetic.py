@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-import vprobot.ground_truth as gt_module
+import vprobot.coverage.ground_truth as gt_module
 from vprobot.cli import main
 from vprobot.config import load_config
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.parts.loading import load_mesh
 
 
 def test_a_plan_writes_nothing_into_home_and_caches_into_the_session_folder(

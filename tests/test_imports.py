@@ -142,20 +142,20 @@ def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
 
 
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("foundations", ("vprobot", "vprobot.kernels", "vprobot.paths", "vprobot.schema",
-                     "vprobot.files", "vprobot.outputs", "vprobot.progress",
-                     "vprobot.native_memory",
-                     "vprobot.registry", "vprobot.plugins", "vprobot.processes",
-                     "vprobot.cluster", "vprobot.geometry", "vprobot.raster",
-                     "vprobot.viewsphere", "vprobot.sensing", "vprobot.rewards")),
-    ("objects", ("vprobot.families", "vprobot.motors", "vprobot.mesh_simplify",
-                 "vprobot.mesh_loading", "vprobot.generated", "vprobot.splits")),
-    ("configuration", ("vprobot.config", "vprobot.cell_config", "vprobot.robots",
-                       "vprobot.sensor_model")),
-    ("cell", ("vprobot.scene", "vprobot.cell_check", "vprobot.kinematics", "vprobot.fit",
-              "vprobot.sensor", "vprobot.ground_truth", "vprobot.coverage", "vprobot.occupancy",
-              "vprobot.view_gains")),
-    ("episode", ("vprobot.episode", "vprobot.views")),
+    ("foundations", ("vprobot", "vprobot.compute.kernels", "vprobot.files.paths", "vprobot.files.schema",
+                     "vprobot.files.atomic", "vprobot.files.outputs", "vprobot.files.progress",
+                     "vprobot.compute.native_memory",
+                     "vprobot.extensions.registry", "vprobot.extensions.plugins", "vprobot.compute.processes",
+                     "vprobot.compute.cluster", "vprobot.geometry.poses", "vprobot.geometry.raster",
+                     "vprobot.geometry.viewsphere", "vprobot.sensing", "vprobot.rewards")),
+    ("objects", ("vprobot.families", "vprobot.motors", "vprobot.parts.simplify",
+                 "vprobot.parts.loading", "vprobot.parts.generated", "vprobot.parts.splits")),
+    ("configuration", ("vprobot.config", "vprobot.config.cell", "vprobot.robots",
+                       "vprobot.config.sensor")),
+    ("cell", ("vprobot.cell.scene", "vprobot.cell.check", "vprobot.kinematics", "vprobot.cell.fit",
+              "vprobot.cell.sensor", "vprobot.coverage.ground_truth", "vprobot.coverage.tracker", "vprobot.coverage.occupancy",
+              "vprobot.coverage.view_gains")),
+    ("episode", ("vprobot.episode", "vprobot.episode.views")),
     ("files in and out", ("vprobot.plan", "vprobot.export", "vprobot.render",
                           "vprobot.importers.urdf")),
     ("what planners use", ("vprobot.env", "vprobot.agents", "vprobot.stopping")),
@@ -251,8 +251,8 @@ def test_import_graph_with_the_type_only_imports_has_no_cycle() -> None:
     an instance, say) would close it."""
     graph = _graph(lazy=True, typing=True)
     # The graph holds the type-only imports: the env names the cell's type in its hints only.
-    assert "vprobot.scene" in graph["vprobot.env.inspect_env"]
-    assert "vprobot.scene" not in _graph(lazy=True)["vprobot.env.inspect_env"]
+    assert "vprobot.cell.scene" in graph["vprobot.env.inspect_env"]
+    assert "vprobot.cell.scene" not in _graph(lazy=True)["vprobot.env.inspect_env"]
     assert (cycle := _cycle(graph)) is None, " -> ".join(cycle)
 
 

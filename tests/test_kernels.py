@@ -1,5 +1,5 @@
 """vprobot pins the numeric libraries' kernels to AVX2 on every CPU that has it, so that results
-do not depend on the CPU (vprobot/kernels.py, results/cpu_spread/): checked against the
+do not depend on the CPU (vprobot/compute/kernels.py, results/cpu_spread/): checked against the
 libraries' own report of the kernels they loaded (threadpoolctl, torch)."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.kernels import AVX2_KERNELS, has_avx2_and_fma, pin
+from vprobot.compute.kernels import AVX2_KERNELS, has_avx2_and_fma, pin
 
 INTEL_AVX512 = ("flags\t\t: fpu vme sse sse2 ssse3 sse4_1 sse4_2 avx fma avx2 avx512f avx512dq "
                 "avx512bw avx512vl")

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from dh_reference import world_flange, world_sensor
 
+from vprobot.cell.scene import Cell
 from vprobot.config import CellConfig, Config, KinematicsConfig, SensorConfig
-from vprobot.geometry import rotation_angle
+from vprobot.files.paths import available_robots
+from vprobot.geometry.poses import rotation_angle
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.path import joint_path
 from vprobot.kinematics.travel import joint_path_length, joint_time, paper_travel
-from vprobot.paths import available_robots
-from vprobot.scene import Cell
 
 
 def make_arm(robot: str = "ur10", **kinematics: object) -> RobotArm:

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
+from vprobot.cell.scene import Cell
 from vprobot.config import Config
-from vprobot.mesh_loading import load_mesh
-from vprobot.scene import Cell
+from vprobot.parts.loading import load_mesh
 
 CENTRE = np.array([1.0, 2.0, 3.0])
 SIZE = np.array([0.2, 0.1, 0.05])

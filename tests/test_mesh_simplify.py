@@ -9,11 +9,12 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from vprobot import mesh_loading, progress
 from vprobot.cli import main
-from vprobot.mesh_loading import load_mesh
-from vprobot.mesh_simplify import simplify
-from vprobot.paths import ASSETS_DIR, CACHE_ENV_VAR
+from vprobot.files.atomic import progress
+from vprobot.files.paths import ASSETS_DIR, CACHE_ENV_VAR
+from vprobot.parts import loading as mesh_loading
+from vprobot.parts.loading import load_mesh
+from vprobot.parts.simplify import simplify
 
 CENTRE = np.array([0.3, -0.2, 0.1])
 RADIUS = 0.08

@@ -22,12 +22,8 @@ from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.trained import TrainedAgent
 from vprobot.benchmarks.grid import sampled_integration
 from vprobot.config import Config, replace, with_sensing, with_sensor
-from vprobot.env.grid_state import FEATURES as GRID_FEATURES
-from vprobot.env.grid_state import candidate_count
-from vprobot.env.observations import observation_space
-from vprobot.episode import Episode, PartScene, seeded_episode
-from vprobot.geometry import Pose
-from vprobot.occupancy import (
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.occupancy import (
     FREE,
     GAINS,
     OCCUPIED,
@@ -37,18 +33,22 @@ from vprobot.occupancy import (
     GridSettings,
     OccupancyGrid,
 )
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.coverage.view_gains import UNKNOWN_PASS, ViewGains
+from vprobot.env.grid_state import FEATURES as GRID_FEATURES
+from vprobot.env.grid_state import candidate_count
+from vprobot.env.observations import observation_space
+from vprobot.episode import Episode, PartScene, seeded_episode
+from vprobot.episode.views import band_candidates
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import Pose
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.planners.uniform import view_band
-from vprobot.sensor_model import SensorModel
 from vprobot.stopping.features import FEATURES, CoverageFeatures
 from vprobot.stopping.rules import make_stop_rule
 from vprobot.training.train import build_model
-from vprobot.view_gains import UNKNOWN_PASS, ViewGains
-from vprobot.views import band_candidates
 
 CONFIG = Config()
 RESOLUTION = (107, 75)

@@ -9,15 +9,15 @@ import time
 import numpy as np
 import pytest
 
+from vprobot.cell.scene import Cell
 from vprobot.config import CellConfig, Config, ConfigError, KinematicsConfig, replace
 from vprobot.episode import Episode, PartScene
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import SEARCHES, MotionPlanner, densify
 from vprobot.kinematics.path import joint_path
 from vprobot.kinematics.travel import joint_time
-from vprobot.paths import DEFAULT_MOTOR
-from vprobot.scene import Cell
 
 Q_FROM = np.array([0.9, -0.5, 2.1, -3.1, -0.8, -2.6])
 Q_TO = Q_FROM * [-1, 1, 1, 1, 1, 1]

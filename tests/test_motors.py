@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from vprobot import generated
 from vprobot.motors import (
     MotorParameters,
     build_motor,
@@ -18,6 +17,7 @@ from vprobot.motors import (
     motor_rng,
     sample_parameters,
 )
+from vprobot.parts import generated
 
 # A handful of (seed, index) pairs: booleans take ~0.1 s per motor.
 CASES = [(0, 0), (0, 7), (1, 3), (5, 11), (42, 2)]
@@ -143,7 +143,7 @@ def test_generate_motors_rejects_bad_arguments(tmp_path: Path, count: int, seed:
 def test_generate_bundled_rewrites_the_committed_motors_byte_for_byte(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from vprobot.cli import main
-    from vprobot.paths import MOTORS_DIR
+    from vprobot.files.paths import MOTORS_DIR
 
     assert main(["motors", "generate", "--bundled", "--out", str(tmp_path)]) == 0
     written = sorted(path.relative_to(tmp_path) for path in tmp_path.rglob("motor_*"))

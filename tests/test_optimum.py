@@ -20,7 +20,7 @@ from vprobot.benchmarks.optimum import run_optimum_benchmark
 from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.episode import Episode, PartScene, ViewRequest, seeded_episode
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.base import Proof
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import candidate_views

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.paths import bundled_or_path
+from vprobot.files.paths import bundled_or_path
 
 
 def test_bundled_name_then_existing_path_then_a_clear_error(tmp_path: Path,

@@ -19,24 +19,24 @@ import trimesh
 import yaml
 from scipy.optimize import minimize
 
-from vprobot.cell_check import (
+from vprobot.cell.check import (
     CLEARANCE_RESOLUTION_M,
     clearances,
     environment_geoms,
     placed_part,
 )
-from vprobot.cell_config import StaticObject, rotation_rpy_deg, rpy_rotation
+from vprobot.cell.scene import HOUSING_GEOM, Cell
 from vprobot.cli import main
 from vprobot.config import Config, load_config, replace
+from vprobot.config.cell import StaticObject, rotation_rpy_deg, rpy_rotation
 from vprobot.episode import PartScene, seeded_episode
 from vprobot.episode.clearances import episode_clearances
 from vprobot.evaluation import _append_row, episode_row, finished_rows
 from vprobot.export.check import _cell, check_plan
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.kinematics.motion_planner import densify
-from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import read_plan
 from vprobot.planners.runner import run
-from vprobot.scene import HOUSING_GEOM, Cell
 
 CELL = {
     "robot": "ur10",

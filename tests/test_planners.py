@@ -11,13 +11,15 @@ import pytest
 import trimesh
 from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
+from vprobot.cell.scene import Cell
 from vprobot.config import Config, replace, with_sensing, with_sensor
-from vprobot.coverage import CoverageTracker
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.tracker import CoverageTracker
 from vprobot.episode import Episode, EpisodeSpec, PartScene, ViewRequest, seeded_episode
-from vprobot.geometry import Pose
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import TRAVEL_COSTS, SensorTarget, TravelCost
 from vprobot.kinematics.travel import joint_time
-from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import write_json
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.greedy import greedy_cover
@@ -33,9 +35,7 @@ from vprobot.planners.runner import (
     run_episode,
 )
 from vprobot.planners.visibility import VisibilityRenderer
-from vprobot.scene import Cell
 from vprobot.sensing import IDEAL
-from vprobot.sensor_model import SensorModel
 
 CONFIG = Config()
 

@@ -18,12 +18,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vprobot import plugins
 from vprobot.cli import main
+from vprobot.compute.processes import worker_pool
 from vprobot.config import load_config
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.extensions import plugins
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.base import PLANNERS, planner_names
-from vprobot.processes import worker_pool
 from vprobot.report import check
 
 ROOT = Path(__file__).resolve().parents[1]

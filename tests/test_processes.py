@@ -1,4 +1,4 @@
-"""Child processes end with their parent (`vprobot.processes`): SIGTERM to `teacher --workers 2`
+"""Child processes end with their parent (`vprobot.compute.processes`): SIGTERM to `teacher --workers 2`
 ends its workers at once, and neither the teacher's workers nor `report check`'s `evaluate`
 outlive a parent killed with SIGKILL (nor does the check's temporary folder)."""
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from vprobot.paths import CONFIGS_DIR
+from vprobot.files.paths import CONFIGS_DIR
 
 ROOT = Path(__file__).resolve().parents[1]
 TEACHER = ["teacher", str(CONFIGS_DIR / "agents" / "cpu-candidates.yaml"), "--workers", "2",

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import trimesh
 
+from vprobot.cell.sensor import _scan_convert
 from vprobot.config import SensorConfig
+from vprobot.config.sensor import SensorModel
+from vprobot.geometry.raster import covered_pixels, index_range, ranks
 from vprobot.planners.visibility import VisibilityRenderer
-from vprobot.raster import covered_pixels, index_range, ranks
-from vprobot.sensor import _scan_convert
-from vprobot.sensor_model import SensorModel
 
 SENSOR = SensorModel.from_config(SensorConfig(resolution=(23, 17), fov_deg=(40.0, 30.0),
                                               near_m=0.1, far_m=2.0))

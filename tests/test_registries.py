@@ -24,8 +24,9 @@ from vprobot.agents.extractors import PointCloudExtractor
 from vprobot.cli import main
 from vprobot.config import ConfigError, load_config
 from vprobot.episode import Episode, ViewRequest
+from vprobot.extensions.registry import Bundled, Registry, UnknownNameError
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.kinematics import SensorTarget
-from vprobot.paths import DEFAULT_MOTOR
 from vprobot.planners.base import (
     PLANNERS,
     Planner,
@@ -35,7 +36,6 @@ from vprobot.planners.base import (
     register_planner,
 )
 from vprobot.planners.runner import make_planner
-from vprobot.registry import Bundled, Registry, UnknownNameError
 from vprobot.training.train import build_model, profile_config
 
 

@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 from matplotlib.colors import rgb_to_hsv
 
+from vprobot.cell.sensor import LOSS_CAUSES, DepthSensor
 from vprobot.config import load_config, with_sensor
 from vprobot.episode import Episode, EpisodeRecord, PartScene, ViewRequest
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.kinematics import SensorTarget
-from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import plan_document, planned_views, write_json
 from vprobot.render import EpisodeRenderer, episode_from_plan, render_episode
 from vprobot.render.lost import LOST_RGB
@@ -30,7 +31,6 @@ from vprobot.render.timeline import (
     move_frames,
 )
 from vprobot.sensing import IDEAL
-from vprobot.sensor import LOSS_CAUSES, DepthSensor
 
 WIDTH, HEIGHT = 96, 72
 FAST = {"fps": 8.0, "hold_seconds": 0.25, "max_seconds_per_move": 0.5}

@@ -15,14 +15,14 @@ import pytest
 import yaml
 from dh_reference import quaternion_matrix, rotation_difference, world_sensor
 
+from vprobot.cell.scene import Cell
 from vprobot.cli import main
 from vprobot.config import CellConfig, Config, ConfigError, load_config, replace
 from vprobot.env.inspect_env import InspectEnv
+from vprobot.files.paths import DEFAULT_MOTOR, ROBOTS_DIR
 from vprobot.kinematics import RobotArm, SensorTarget
-from vprobot.paths import DEFAULT_MOTOR, ROBOTS_DIR
 from vprobot.render import episode_from_plan
 from vprobot.robots import load_robot
-from vprobot.scene import Cell
 
 ROBOT_DATA = Path(str(importlib.metadata.distribution("example-robot-data").locate_file(
     "cmeel.prefix/share/example-robot-data/robots")))

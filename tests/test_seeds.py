@@ -16,8 +16,8 @@ import pytest
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, Selection, replace
 from vprobot.evaluation import COLUMNS
-from vprobot.files import csv_text
-from vprobot.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
+from vprobot.files.atomic import csv_text
+from vprobot.files.paths import ASSETS_DIR, CONFIGS_DIR, MOTORS_DIR
 from vprobot.training.callbacks import (
     EVALUATION_COLUMNS,
     SharedEpisodeEvaluation,

@@ -17,6 +17,7 @@ import trimesh
 from helpers import make_scene
 from scipy.spatial import cKDTree
 
+from vprobot.cell.sensor import LOSS_CAUSES, DepthSensor, FrameLosses
 from vprobot.cli import main
 from vprobot.config import (
     ConfigError,
@@ -27,14 +28,13 @@ from vprobot.config import (
     with_sensing,
     with_sensor,
 )
-from vprobot.coverage import CoverageTracker
-from vprobot.geometry import Pose
-from vprobot.ground_truth import _cache_key, inspectable_points
-from vprobot.occupancy import FREE, OCCUPIED, OccupancyGrid
-from vprobot.paths import available_sensors
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.ground_truth import _cache_key, inspectable_points
+from vprobot.coverage.occupancy import FREE, OCCUPIED, OccupancyGrid
+from vprobot.coverage.tracker import CoverageTracker
+from vprobot.files.paths import available_sensors
+from vprobot.geometry.poses import Pose
 from vprobot.sensing import IDEAL, IdealSensing, StructuredLight
-from vprobot.sensor import LOSS_CAUSES, DepthSensor, FrameLosses
-from vprobot.sensor_model import SensorModel
 
 CAMERA = SensorModel(resolution=(400, 300), fov_deg=(40.0, 30.0), near_m=0.2, far_m=0.8,
                      working_distance_m=0.5)

@@ -16,7 +16,7 @@ from vprobot.cli import main
 from vprobot.config import load_config
 from vprobot.episode import EpisodeRecord, PartScene, episode_list, write_episode_list
 from vprobot.evaluation import SETTINGS_NAME
-from vprobot.paths import CONFIGS_DIR, DEFAULT_MOTOR
+from vprobot.files.paths import CONFIGS_DIR, DEFAULT_MOTOR
 from vprobot.render import episode_from_plan
 
 RESOLUTION = (107, 75)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vprobot.sensor import LOSS_CAUSES
+from vprobot.cell.sensor import LOSS_CAUSES
 
 SCRIPT = Path(__file__).resolve().parent.parent / "scripts" / "make_sensing_picture.py"
 

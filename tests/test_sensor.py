@@ -8,14 +8,14 @@ import pytest
 import trimesh
 from helpers import make_scene
 
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import DepthSensor, _segments_meet_box
 from vprobot.config import Config, SensorConfig
-from vprobot.geometry import Pose
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import MOTORS_DIR
-from vprobot.scene import Cell
-from vprobot.sensor import DepthSensor, _segments_meet_box
-from vprobot.sensor_model import SensorModel
-from vprobot.viewsphere import sphere_directions
+from vprobot.config.sensor import SensorModel
+from vprobot.files.paths import MOTORS_DIR
+from vprobot.geometry.poses import Pose
+from vprobot.geometry.viewsphere import sphere_directions
+from vprobot.parts.loading import load_mesh
 
 WIDE = SensorModel.from_config(SensorConfig(fov_deg=(40.0, 40.0), near_m=0.2, far_m=0.6))
 

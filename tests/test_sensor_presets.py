@@ -19,7 +19,8 @@ import trimesh
 import yaml
 from helpers import make_scene
 
-import vprobot.ground_truth as gt_module
+import vprobot.coverage.ground_truth as gt_module
+from vprobot.cell.sensor import DepthSensor
 from vprobot.cli import main
 from vprobot.config import (
     Config,
@@ -30,12 +31,11 @@ from vprobot.config import (
     sensor_preset,
     with_sensor,
 )
-from vprobot.geometry import Pose
-from vprobot.paths import SENSORS_DIR
+from vprobot.config.sensor import SensorModel
+from vprobot.files.paths import SENSORS_DIR
+from vprobot.files.schema import read_yaml
+from vprobot.geometry.poses import Pose
 from vprobot.plan import plan_config
-from vprobot.schema import read_yaml
-from vprobot.sensor import DepthSensor
-from vprobot.sensor_model import SensorModel
 
 
 @dataclasses.dataclass(frozen=True)

@@ -12,19 +12,19 @@ import numpy as np
 import pytest
 
 import vprobot.evaluation as evaluation
-from vprobot import mesh_loading
+from vprobot.cell.sensor import DepthSensor
 from vprobot.config import Config
 from vprobot.episode import Episode, PartScene, SharedWork, ViewRequest, episode_list
 from vprobot.evaluation import evaluate
-from vprobot.geometry import rotation_about_z
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import rotation_about_z
 from vprobot.kinematics import SensorTarget
 from vprobot.kinematics.arm import RobotArm
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.parts import loading as mesh_loading
 from vprobot.planners import candidates
 from vprobot.planners.candidates import CandidateViews, candidate_views
 from vprobot.planners.visibility import VisibilityRenderer
 from vprobot.report.compare import EPISODE_KEY, moved_cells
-from vprobot.sensor import DepthSensor
 
 CONFIG = Config()
 MODEL_BASED = ("bscp", "bscp4", "oracle")

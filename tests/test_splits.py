@@ -18,9 +18,9 @@ from vprobot.episode.specs import (
     validation_episodes,
 )
 from vprobot.families import FAMILIES
-from vprobot.generated import family_of, generated_path, motor_object
-from vprobot.paths import MOTORS_DIR
-from vprobot.splits import MOTORS, Split, split_versions
+from vprobot.files.paths import MOTORS_DIR
+from vprobot.parts.generated import family_of, generated_path, motor_object
+from vprobot.parts.splits import MOTORS, Split, split_versions
 
 CONFIG = Config()
 SPLIT = Split.load()
@@ -94,7 +94,7 @@ def test_split_v2_is_v1_with_thousands_of_procedural_instances_added() -> None:
 
 def test_a_split_giving_seeds_to_a_family_it_does_not_train_on_is_refused(
         tmp_path: Path) -> None:
-    from vprobot.splits import split_file
+    from vprobot.parts.splits import split_file
 
     path = tmp_path / "v9.yaml"
     path.write_text(split_file(2).read_text().replace("procedural: [0, 5000]",
@@ -183,7 +183,7 @@ def test_training_evaluates_on_the_validation_list_and_never_reads_a_test_list(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import vprobot.episode.specs as specs
     import vprobot.training.train as training
-    from vprobot.paths import CONFIGS_DIR, MOTORS_DIR
+    from vprobot.files.paths import CONFIGS_DIR, MOTORS_DIR
 
     read: list[Path] = []
 
@@ -217,7 +217,7 @@ PINNED_SHA256 = {
 }
 """sha256 (first 16 hex digits) of instance 0 of each family the splits name (those whose
 instances the bundled episode lists and the committed results use; a family that none names
-needs no pin), as `vprobot.generated.VERSION` 1 makes them. Cached files are never checked
+needs no pin), as `vprobot.parts.generated.VERSION` 1 makes them. Cached files are never checked
 again: if this test fails, a generator changed and `VERSION` must be bumped (then update the
 digests)."""
 PINNED_MOTOR_SHA256 = "1e00ba74d244f0a2"
@@ -231,7 +231,7 @@ def test_every_family_a_split_names_is_pinned() -> None:
 
 
 def test_generators_still_make_the_pinned_objects_of_this_cache_version(cache: Path) -> None:
-    from vprobot.generated import VERSION, family_object
+    from vprobot.parts.generated import VERSION, family_object
 
     assert VERSION == 1
     made = {family: generated_path(family_object(family, 0)) for family in PINNED_SHA256}

@@ -18,9 +18,9 @@ import pytest
 from vprobot.agents.trained import TrainedAgent
 from vprobot.cli import main
 from vprobot.config import Config, replace
+from vprobot.coverage.occupancy import OccupancyGrid
 from vprobot.episode import PartScene, episode_list, seeded_episode, write_episode_list
-from vprobot.occupancy import OccupancyGrid
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, run, run_episode
 from vprobot.stop_studies.study import combinations, study_row
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, EstimateTracker, load_estimator
@@ -292,7 +292,7 @@ def test_stop_error_is_the_mean_absolute_error_of_the_estimate_against_the_rollo
 
 def test_estimate_takes_the_bundled_estimator_fitted_on_the_runs_sensor_and_sensing() -> None:
     from vprobot.config import load_config, with_sensor
-    from vprobot.paths import CONFIGS_DIR
+    from vprobot.files.paths import CONFIGS_DIR
     from vprobot.stopping.estimator import BUNDLED_ESTIMATORS, bundled_estimator
 
     real = load_config(CONFIGS_DIR / "cell_real.yaml")

@@ -17,6 +17,8 @@ import pytest
 
 from vprobot.cli import main
 from vprobot.config import Config
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.occupancy import FREE, OCCUPIED, UNKNOWN
 from vprobot.episode import (
     EpisodeSpec,
     ViewRecord,
@@ -24,12 +26,11 @@ from vprobot.episode import (
     seeded_episode,
     write_episode_list,
 )
-from vprobot.generated import family_of
-from vprobot.geometry import Pose
-from vprobot.occupancy import FREE, OCCUPIED, UNKNOWN
-from vprobot.paths import DEFAULT_MOTOR
-from vprobot.sensor_model import SensorModel
-from vprobot.splits import Split
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import Pose
+from vprobot.geometry.viewsphere import sphere_directions
+from vprobot.parts.generated import family_of
+from vprobot.parts.splits import Split
 from vprobot.stop_studies import dataset as dataset_module
 from vprobot.stop_studies import folds as folds_module
 from vprobot.stop_studies import report as report_module
@@ -40,7 +41,6 @@ from vprobot.stop_studies.folds import family_folds
 from vprobot.stop_studies.report import fit_estimate
 from vprobot.stopping.estimator import UNEXPLORED, CoverageEstimator, fit
 from vprobot.stopping.features import BAND_NEAR_DEG, FEATURES, CoverageFeatures
-from vprobot.viewsphere import sphere_directions
 
 CONFIG = Config()
 CENTER = np.asarray(CONFIG.cell.object_center_m, dtype=float)
@@ -524,7 +524,7 @@ def test_a_rollout_of_nbv_integrates_each_frame_once_and_reads_its_features_as_i
         monkeypatch: pytest.MonkeyPatch) -> None:
     """`stop fit`'s rollout reads the features from the grid nbv filled (each acquired frame
     integrated once), and they equal those of a grid integrated anew from the views."""
-    from vprobot.occupancy import OccupancyGrid
+    from vprobot.coverage.occupancy import OccupancyGrid
     from vprobot.stopping.features import episode_features
 
     integrated: list[int] = []

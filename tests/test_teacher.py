@@ -21,7 +21,8 @@ from vprobot.config import Config, ConfigError, config_document, replace
 from vprobot.env.grid_state import FEATURES
 from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.paths import MOTORS_DIR
+from vprobot.episode.views import BAND_COUNT, screen_reachability
+from vprobot.files.paths import MOTORS_DIR
 from vprobot.planners.candidates import candidate_views
 from vprobot.training.pretrain import (
     LABELS_VERSION,
@@ -35,7 +36,6 @@ from vprobot.training.pretrain import (
 from vprobot.training.stream import EpisodeStream
 from vprobot.training.teacher import WASTED, CandidateTeacher
 from vprobot.training.train import build_model, train
-from vprobot.views import BAND_COUNT, screen_reachability
 
 ENV = {"action": "A_view", "state": "s_grid", "motors": "mesh",
        "mesh": str(MOTORS_DIR / "train" / "motor_000.stl"), "resolution": (96, 67)}

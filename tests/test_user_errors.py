@@ -15,7 +15,7 @@ from vprobot.benchmarks import env as env_benchmark
 from vprobot.cli import build_parser, main
 from vprobot.config import Config, ConfigError, load_config, replace
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners import runner
 
 REACH = ["reach", "--position", "0.45", "-0.47", "0.75", "--look-at", "0.45", "0", "0.75"]
@@ -235,7 +235,7 @@ def test_a_resume_refuses_a_mesh_changed_since_the_evaluation_began(
     """The settings record what the part's mesh holds, not only its path: a mesh overwritten
     between a kill and the resume would put rows of two parts in one table."""
     from vprobot import evaluation
-    from vprobot.paths import MOTORS_DIR
+    from vprobot.files.paths import MOTORS_DIR
 
     part, out = tmp_path / "part.stl", tmp_path / "out"
     part.write_bytes(DEFAULT_MOTOR.read_bytes())

@@ -1,4 +1,4 @@
-"""The sensed gains of candidate views (`vprobot.view_gains`) against hand-built grids whose
+"""The sensed gains of candidate views (`vprobot.coverage.view_gains`) against hand-built grids whose
 answer is known in closed form: a plate whose projector a step shadows, a plate seen past the
 incidence limit, and the ideal sensor, whose gains are the camera's."""
 
@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 from vprobot.config import load_config
-from vprobot.geometry import Pose
-from vprobot.occupancy import FREE, GAINS, OCCUPIED, UNKNOWN, VOXEL_M, OccupancyGrid
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.occupancy import FREE, GAINS, OCCUPIED, UNKNOWN, VOXEL_M, OccupancyGrid
+from vprobot.coverage.view_gains import ViewGains
+from vprobot.episode.views import band_candidates
+from vprobot.geometry.poses import Pose
 from vprobot.sensing.ideal import IDEAL
 from vprobot.sensing.structured_light import StructuredLight
-from vprobot.sensor_model import SensorModel
-from vprobot.view_gains import ViewGains
-from vprobot.views import band_candidates
 
 VOXEL = 0.01
 SENSOR = SensorModel(resolution=(1, 1), fov_deg=(1.0, 1.0), near_m=0.3, far_m=0.6,

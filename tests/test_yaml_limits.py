@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from vprobot import schema
 from vprobot.config import ConfigError, load_config, sensor_preset
-from vprobot.schema import parse_yaml
+from vprobot.files.atomic import schema
+from vprobot.files.schema import parse_yaml
 
 MEMORY_LIMIT_BYTES = 4 << 30
 """Address space of a child that reads a bomb: bounds what a regression would take."""

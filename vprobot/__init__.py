@@ -2,11 +2,11 @@
 
 import os
 
-from vprobot import kernels
+from vprobot.compute import kernels
 
 # Offscreen rendering must work headless; MuJoCo reads this when it is first imported.
 os.environ.setdefault("MUJOCO_GL", "egl")
-# Before numpy loads: the same arithmetic on every CPU with AVX2 (vprobot/kernels.py).
+# Before numpy loads: the same arithmetic on every CPU with AVX2 (vprobot/compute/kernels.py).
 kernels.pin()
 
 import gymnasium  # noqa: E402 (after the kernels are pinned)

@@ -42,7 +42,7 @@ from urllib.parse import quote
 
 from tqdm import tqdm
 
-from vprobot.cluster import parallel_map, require_ray
+from vprobot.compute.cluster import parallel_map, require_ray
 from vprobot.config import Config, config_document
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
@@ -56,7 +56,7 @@ from vprobot.episode import (
     write_episode_list,
 )
 from vprobot.episode.specs import BUNDLED_EPISODE_LISTS
-from vprobot.files import (
+from vprobot.files.atomic import (
     append_line,
     csv_text,
     file_sha256,
@@ -66,9 +66,10 @@ from vprobot.files import (
     truncate_output,
     write_text,
 )
-from vprobot.generated import is_generated
-from vprobot.mesh_loading import LoadedMesh, load_mesh
-from vprobot.paths import MOTORS_DIR, bundled_or_path
+from vprobot.files.paths import MOTORS_DIR, bundled_or_path
+from vprobot.files.progress import showing_progress
+from vprobot.parts.generated import is_generated
+from vprobot.parts.loading import LoadedMesh, load_mesh
 from vprobot.plan import write_json
 from vprobot.planners.base import Planner
 from vprobot.planners.runner import (
@@ -78,7 +79,6 @@ from vprobot.planners.runner import (
     result_document,
     run,
 )
-from vprobot.progress import showing_progress
 from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
 
 CURVE_VIEWS = 10

@@ -28,10 +28,10 @@ from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.encoders import check_encoder
 from vprobot.agents.models import build_model
 from vprobot.config import Config, ConfigError, SensorConfig, from_mapping, read_yaml
+from vprobot.config.sensor import SensorModel
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import observation_space
-from vprobot.paths import AGENTS_DIR, names_a_path
-from vprobot.sensor_model import SensorModel
+from vprobot.files.paths import AGENTS_DIR, names_a_path
 
 BUNDLED_AGENTS = {path.name: path for path in sorted(AGENTS_DIR.iterdir()) if path.is_dir()}
 """The agents vprobot ships, by name (`--planner agent:NAME`), one run folder each with a README

@@ -15,11 +15,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from vprobot.cluster import parallel_map, start
+from vprobot.compute.cluster import parallel_map, start
 from vprobot.config import Config
 from vprobot.episode import episode_list
 from vprobot.evaluation import evaluate, held_out_motors
-from vprobot.paths import PROFILES_DIR
+from vprobot.files.paths import PROFILES_DIR
 from vprobot.training.sweep import run_trial
 
 TRIAL_STEPS = 1500

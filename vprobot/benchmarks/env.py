@@ -12,10 +12,10 @@ import numpy as np
 from stable_baselines3.common.vec_env import SubprocVecEnv
 from tqdm import tqdm
 
-from vprobot import plugins
+from vprobot.cell.sensor import TRAINING_RESOLUTION
 from vprobot.config import Config, replace
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.sensor import TRAINING_RESOLUTION
+from vprobot.extensions import plugins
 
 BENCHMARK_ENV = {"action": "A_3S2R_lim", "reward": "R2", "parts": "train"}
 GRID_ENV = {"state": "s_grid", "action": "A_view", "reward": "R2", "parts": "train"}

@@ -29,13 +29,13 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import Config
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.occupancy import FREE, OCCUPIED, VOXEL_M, GridSettings, OccupancyGrid
 from vprobot.episode import PartScene
+from vprobot.episode.views import band_candidates
 from vprobot.evaluation import evaluation_episodes
-from vprobot.geometry import Pose
-from vprobot.occupancy import FREE, OCCUPIED, VOXEL_M, GridSettings, OccupancyGrid
+from vprobot.geometry.poses import Pose
 from vprobot.planners.runner import run
-from vprobot.sensor_model import SensorModel
-from vprobot.views import band_candidates
 
 LISTS = ("test-v1", "families-test-v1", "shapes-v1")
 TARGET_DIFFER_PCT = 1.0

@@ -26,9 +26,9 @@ from typing import Any
 import trimesh
 from tqdm import tqdm
 
+from vprobot.compute.processes import child_environment
 from vprobot.config import Config
-from vprobot.paths import CACHE_ENV_VAR, DEFAULT_MOTOR
-from vprobot.processes import child_environment
+from vprobot.files.paths import CACHE_ENV_VAR, DEFAULT_MOTOR
 
 DENSITIES = {"dense": 4, "modest": 2}
 """Loop subdivisions of the default motor per part density."""

@@ -27,10 +27,10 @@ from vprobot.episode.records import EpisodeRecord
 from vprobot.evaluation import held_out_motors
 from vprobot.export.check import check_plan
 from vprobot.export.formats import FORMATS, export_plan
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlanner
 from vprobot.kinematics.survey import view_sphere_targets
-from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import write_json
 from vprobot.planners.runner import plan_part
 from vprobot.robots import available_robots

@@ -17,12 +17,12 @@ from typing import Any
 from tqdm import tqdm
 
 from vprobot.config import Config
+from vprobot.coverage.ground_truth import ground_truth
 from vprobot.families import FAMILIES
-from vprobot.generated import family_object, generated_path, motor_object
-from vprobot.ground_truth import ground_truth
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import CACHE_ENV_VAR
-from vprobot.splits import Split
+from vprobot.files.paths import CACHE_ENV_VAR
+from vprobot.parts.generated import family_object, generated_path, motor_object
+from vprobot.parts.loading import load_mesh
+from vprobot.parts.splits import Split
 
 FIRST_SEED = 100_000
 MOTOR_SEED = 99

@@ -12,7 +12,7 @@ import numpy as np
 
 from vprobot.config import Config
 from vprobot.episode import PartScene
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.render.camera import aim_overview
 from vprobot.render.demo import ring_inspection
 from vprobot.render.offscreen import OffscreenView

@@ -12,16 +12,16 @@ import trimesh
 import trimesh.ray.ray_triangle
 from tqdm import tqdm
 
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import TRAINING_RESOLUTION, DepthSensor
 from vprobot.config import Config, sensor_preset
-from vprobot.coverage import CoverageTracker
-from vprobot.geometry import Pose
-from vprobot.ground_truth import build_ground_truth
+from vprobot.coverage.ground_truth import build_ground_truth
+from vprobot.coverage.tracker import CoverageTracker
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import RobotArm, SensorTarget
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import DEFAULT_MOTOR
-from vprobot.scene import Cell
+from vprobot.parts.loading import load_mesh
 from vprobot.sensing import IDEAL, StructuredLight
-from vprobot.sensor import TRAINING_RESOLUTION, DepthSensor
 
 MAX_POLAR_DEG = 120.0
 """Views come from the top down to 30 degrees below the equator

@@ -18,7 +18,7 @@ from vprobot.config import Config, replace
 from vprobot.env.actions import ActionMapping
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.env.observations import observation_space
-from vprobot.paths import PROFILES_DIR
+from vprobot.files.paths import PROFILES_DIR
 from vprobot.training.train import buffer_memory, build_model, make_vec_env, profile_config
 
 

@@ -18,7 +18,7 @@ from PIL import Image
 
 from vprobot.config import Config
 from vprobot.episode import PartScene
-from vprobot.paths import DEFAULT_MOTOR
+from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.plan import episode_document, write_json
 from vprobot.render.demo import ring_inspection
 

@@ -26,9 +26,10 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from vprobot import plugins, processes
 from vprobot.cli import benchmark, cell, export, objects, planning, report, stop, training, view
 from vprobot.cli.common import Commands, Parser
+from vprobot.compute import processes
+from vprobot.extensions import plugins
 
 INTERRUPTED = 130
 BROKEN_PIPE = 141

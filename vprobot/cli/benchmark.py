@@ -8,7 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from vprobot.cli.common import POSITIVE_INT, Commands, add, add_robot, config_of, write_json
-from vprobot.outputs import check_output_file
+from vprobot.files.outputs import check_output_file
 
 SUITES = ("kinematics", "sensor", "env", "planners", "mesh", "render", "train", "cluster",
           "objects", "motion", "cli", "optimum", "grid", "viewer")

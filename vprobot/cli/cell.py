@@ -16,8 +16,8 @@ from vprobot.cli.common import (
     naming_the_cell,
     write_json,
 )
-from vprobot.outputs import check_output_file
-from vprobot.paths import available_robots, available_sensors
+from vprobot.files.outputs import check_output_file
+from vprobot.files.paths import available_robots, available_sensors
 
 
 def add_reach(commands: Commands) -> None:
@@ -74,10 +74,10 @@ def add_robots(commands: Commands) -> None:
 
 def command_reach(args: argparse.Namespace) -> int:
     """Answer "can the cell reach this view?" and optionally write the plan JSON."""
-    from vprobot.geometry import Pose
+    from vprobot.cell.scene import Cell
+    from vprobot.geometry.poses import Pose
     from vprobot.kinematics import OUT_OF_REACH, RobotArm, SensorTarget
     from vprobot.plan import plan_document, view_entry
-    from vprobot.scene import Cell
 
     check_output_file(args.json, "--json", (".json",))
     target = SensorTarget.look_at(args.position, args.look_at)
@@ -116,7 +116,7 @@ def command_reach(args: argparse.Namespace) -> int:
 
 def command_cell(args: argparse.Namespace) -> int:
     """Report how much of the view sphere around the part the robot reaches."""
-    from vprobot.cell_check import check_cell
+    from vprobot.cell.check import check_cell
     from vprobot.kinematics import RobotArm
     from vprobot.kinematics.survey import default_cell, view_sphere_survey, view_sphere_targets
 

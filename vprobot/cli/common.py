@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from vprobot.paths import DEFAULT_CONFIG, available_cells, available_robots, available_sensors
+from vprobot.files.paths import DEFAULT_CONFIG, available_cells, available_robots, available_sensors
 
 if TYPE_CHECKING:
     from vprobot.config import Config
@@ -98,9 +98,9 @@ def config_of(args: argparse.Namespace) -> Config:
 def cell_option(config: Config, name: str) -> Config:
     """`config` with the cell file `name` (a bundled cell or a path) in place of its `cell` and
     `sensor` sections (a section the file leaves out takes the defaults)."""
-    from vprobot.cell_config import cell_file, read_cell_file
     from vprobot.config import Config, config_document
-    from vprobot.schema import from_mapping
+    from vprobot.config.cell import cell_file, read_cell_file
+    from vprobot.files.schema import from_mapping
 
     try:
         path = cell_file(name)
@@ -117,8 +117,8 @@ def cell_option(config: Config, name: str) -> Config:
 def cell_source(args: argparse.Namespace) -> Path:
     """The file the cell of `config_of(args)` comes from, for messages: `--cell`'s, else the
     cell file the config names (`cell: NAME`), else the config file (or the default)."""
-    from vprobot.cell_config import cell_file
-    from vprobot.schema import read_yaml
+    from vprobot.config.cell import cell_file
+    from vprobot.files.schema import read_yaml
 
     if getattr(args, "cell", None):
         return cell_file(args.cell)
@@ -265,9 +265,9 @@ def add_stop(sub: argparse.ArgumentParser,
 
 @contextlib.contextmanager
 def naming_the_cell(args: argparse.Namespace) -> Iterator[None]:
-    """A cell that fails its own check (`vprobot.cell_check`) is reported with the file it
+    """A cell that fails its own check (`vprobot.cell.check`) is reported with the file it
     came from: the cell's message names the key, this the file."""
-    from vprobot.cell_check import CellError
+    from vprobot.cell.check import CellError
 
     try:
         yield

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from vprobot.cli.common import Commands, LateHelp, add, config_of, number
 from vprobot.export import CHECK_DT_S, CHECK_MAX_DT_S, EXPORT_DT_S, MIN_DT_S
-from vprobot.outputs import check_output_file
+from vprobot.files.outputs import check_output_file
 
 
 def add_export(commands: Commands) -> None:
@@ -57,7 +57,7 @@ def command_export(args: argparse.Namespace) -> int:
     """Write a plan's motion as a trajectory, a CSV, a URScript program, a ROS 2 goal or the
     acquisitions."""
     from vprobot.export.formats import FORMATS, export_plan_file
-    from vprobot.files import write_text
+    from vprobot.files.atomic import write_text
 
     check_output_file(args.out, "--out", (FORMATS[args.format].suffix,))
     if Path(args.out).resolve() == Path(args.plan).resolve():
@@ -70,7 +70,7 @@ def command_export(args: argparse.Namespace) -> int:
 def command_check(args: argparse.Namespace) -> int:
     """Replay a plan's trajectory in its cell; exit 1 when a limit, a collision or a view fails."""
     from vprobot.export.check import check_plan
-    from vprobot.progress import showing_progress
+    from vprobot.files.progress import showing_progress
 
     with showing_progress():
         result = check_plan(config_of(args), args.plan, args.dt)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from vprobot.cli.common import NON_NEGATIVE_INT, Commands, add, number
-from vprobot.outputs import check_output_folder
+from vprobot.files.outputs import check_output_folder
 
 MAX_COUNT = 10_000
 """Most objects one `motors generate` or `objects generate` writes (0.1 to 1 s each)."""
@@ -67,8 +67,8 @@ def _family_name(text: str) -> str:
 
 def command_motors_generate(args: argparse.Namespace) -> int:
     """A seeded set of `--count` motors, or with `--bundled` the bundled sets."""
+    from vprobot.files.paths import MOTORS_DIR
     from vprobot.motors import generate_bundled_motors, generate_motors
-    from vprobot.paths import MOTORS_DIR
 
     if args.bundled:
         if args.count is not None or args.seed is not None:
@@ -98,7 +98,7 @@ def command_objects(args: argparse.Namespace) -> int:
         return 0
     if args.objects_command == "cache":
         from vprobot.env.inspect_env import build_training_objects
-        from vprobot.paths import cache_root
+        from vprobot.files.paths import cache_root
         from vprobot.training.train import profile_config
 
         count = build_training_objects(profile_config(args.profile, args.set))
@@ -106,7 +106,7 @@ def command_objects(args: argparse.Namespace) -> int:
         return 0
     if args.bundled:
         from vprobot.families.shapes import write_bundled_shapes
-        from vprobot.paths import OBJECTS_DIR
+        from vprobot.files.paths import OBJECTS_DIR
 
         if args.family is not None or args.count is not None or args.seed is not None:
             raise ValueError("--bundled writes the bundled objects (bracket, pipe_tee, torus); "

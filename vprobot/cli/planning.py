@@ -22,7 +22,7 @@ from vprobot.cli.common import (
     number,
     planner_name,
 )
-from vprobot.outputs import VIDEO_SUFFIXES, check_output_file, check_output_folder
+from vprobot.files.outputs import VIDEO_SUFFIXES, check_output_file, check_output_folder
 from vprobot.planners.base import MAX_VIEWS, counted_planners, evaluated_planners, planner_names
 
 PLANNING_OPTIONS = ("mesh", "scale", "planner", "views", "seed", "carrier", "stop", "estimator")
@@ -136,9 +136,9 @@ def _planning(args: argparse.Namespace) -> dict[str, Any]:
 
 def command_plan(args: argparse.Namespace) -> int:
     """Plan the inspection of a part, write the plan JSON and optionally a video."""
+    from vprobot.files.progress import showing_progress
     from vprobot.plan import write_json
     from vprobot.planners.runner import plan_part
-    from vprobot.progress import showing_progress
 
     check_output_file(args.out, "--out", (".json",))
     if args.no_summary and args.summary:
@@ -168,8 +168,8 @@ def command_plan(args: argparse.Namespace) -> int:
 
 def command_render(args: argparse.Namespace) -> int:
     """Render an inspection (a plan JSON, or a planner's run) as a video."""
+    from vprobot.files.progress import showing_progress
     from vprobot.planners.runner import plan_part
-    from vprobot.progress import showing_progress
     from vprobot.render import episode_from_plan
 
     _check_render_outputs(args, args.out, "--out")

@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from vprobot.cli.common import NON_NEGATIVE_INT, Commands, add
-from vprobot.outputs import check_output_file
+from vprobot.files.outputs import check_output_file
 
 
 def add_report(commands: Commands) -> None:
@@ -74,7 +74,7 @@ def _labelled_folder(text: str) -> tuple[str, Path]:
 
 def command_tables(args: argparse.Namespace) -> int:
     """Write the table, and print it."""
-    from vprobot.files import write_text
+    from vprobot.files.atomic import write_text
     from vprobot.report.tables import table
 
     check_output_file(args.out, "--out", (".md",))
@@ -86,7 +86,7 @@ def command_tables(args: argparse.Namespace) -> int:
 
 
 def command_baselines(args: argparse.Namespace) -> int:
-    from vprobot.files import write_text
+    from vprobot.files.atomic import write_text
     from vprobot.report.baselines import comparison
 
     check_output_file(args.out, "--out", (".md",))

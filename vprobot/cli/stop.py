@@ -17,7 +17,7 @@ from vprobot.cli.common import (
     config_of,
     planner_name,
 )
-from vprobot.outputs import check_output_folder
+from vprobot.files.outputs import check_output_folder
 
 MODEL_FREE_HELP = ("model-free planners of the rollouts (default: random2 uniform4 uniform6 "
                    "uniform8 nbv)")
@@ -103,7 +103,7 @@ def command_stop_fit(args: argparse.Namespace) -> int:
 
 def command_stop_error(args: argparse.Namespace) -> int:
     """Score the coverage estimate on episode lists (rollouts of model-free planners)."""
-    from vprobot.progress import showing_progress
+    from vprobot.files.progress import showing_progress
     from vprobot.stop_studies.report import score_estimate
 
     check_output_folder(args.out, "--out")
@@ -117,7 +117,7 @@ def command_stop_error(args: argparse.Namespace) -> int:
 def command_stop_study(args: argparse.Namespace) -> int:
     """Run the stop study: every stop rule with every planner it applies to, robot in the
     loop, on the episode lists."""
-    from vprobot.progress import showing_progress
+    from vprobot.files.progress import showing_progress
     from vprobot.stop_studies.study import stop_study
 
     check_output_folder(args.out, "--out")

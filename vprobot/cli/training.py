@@ -14,7 +14,7 @@ from vprobot.cli.common import (
     add_sensor,
     sensor_option,
 )
-from vprobot.outputs import check_output_file, check_output_folder
+from vprobot.files.outputs import check_output_file, check_output_folder
 
 
 def add_train(commands: Commands) -> None:

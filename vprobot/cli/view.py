@@ -9,7 +9,7 @@ from typing import Any
 from urllib.parse import unquote
 
 from vprobot.cli.common import NON_NEGATIVE_INT, Commands, add, config_of, number
-from vprobot.outputs import check_output_file
+from vprobot.files.outputs import check_output_file
 
 PORT = number(int, 0, False, "a port in 0..65535 (0: any free one)", high=65535)
 
@@ -65,10 +65,10 @@ def _evaluated_plan(args: argparse.Namespace, folder: Path) -> tuple[Path, dict[
 def command_view(args: argparse.Namespace) -> int:
     """Serve the plan's page on `--host`:`--port`, or write it to `--html`."""
     from vprobot.config import Config
-    from vprobot.progress import showing_progress
+    from vprobot.files.progress import showing_progress
+    from vprobot.files.schema import from_mapping
     from vprobot.render import episode_from_plan
     from vprobot.render.page import page_server, plan_page, write_page
-    from vprobot.schema import from_mapping
 
     check_output_file(args.html, "--html", (".html",))
     source = Path(args.plan)

@@ -7,7 +7,7 @@ Absolute orientations are ZYZ Euler angles with the roll gamma = 0, R = Rz(alpha
 the viewing axis is then (sin b cos a, sin b sin a, cos b). The `_lim` variants look at the
 centre and deviate by d_alpha about the sensor's y axis (pan) and d_beta about its x axis (tilt).
 
-`A_view` is discrete: action k requests the k-th band candidate (`vprobot.views`), the
+`A_view` is discrete: action k requests the k-th band candidate (`vprobot.episode.views`), the
 look-at view at the working distance that `nbv` requests as its candidate k.
 """
 
@@ -17,7 +17,8 @@ import gymnasium as gym
 import numpy as np
 
 from vprobot.config import ActionName, EnvConfig
-from vprobot.geometry import (
+from vprobot.episode.views import band_directions
+from vprobot.geometry.poses import (
     Pose,
     look_at_rotation,
     rotation_about_x,
@@ -26,7 +27,6 @@ from vprobot.geometry import (
     spherical_position,
 )
 from vprobot.kinematics import SensorTarget
-from vprobot.views import band_directions
 
 ACTION_SIZES: dict[str, int] = {
     "A_2S0R": 2, "A_3S0R": 3, "A_2S2R": 4, "A_2S2R_lim": 4,

@@ -24,9 +24,9 @@ import numpy as np
 from gymnasium import spaces
 
 from vprobot.config import Config
+from vprobot.coverage.occupancy import GAINS, VOXEL_M, GridSettings
 from vprobot.env.rewards import step_limit
-from vprobot.occupancy import GAINS, VOXEL_M, GridSettings
-from vprobot.views import (
+from vprobot.episode.views import (
     band_candidates,
     band_directions,
     offered,

@@ -23,7 +23,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
+from vprobot.compute.native_memory import release_freed_memory
 from vprobot.config import Config, load_config, replace
+from vprobot.coverage.ground_truth import ground_truth
 from vprobot.env.actions import ActionMapping
 from vprobot.env.observations import Observer, observation_space
 from vprobot.env.rewards import Reward, RewardTerms, step_limit
@@ -35,31 +37,29 @@ from vprobot.episode import (
     ViewRecord,
     sample_episode,
 )
-from vprobot.generated import generated_path, is_generated
-from vprobot.ground_truth import ground_truth
+from vprobot.files.paths import MOTORS_DIR
 from vprobot.kinematics import TRAVEL_COSTS
-from vprobot.mesh_loading import load_mesh
-from vprobot.native_memory import release_freed_memory
-from vprobot.paths import MOTORS_DIR
-from vprobot.splits import Split
+from vprobot.parts.generated import generated_path, is_generated
+from vprobot.parts.loading import load_mesh
+from vprobot.parts.splits import Split
 
 if TYPE_CHECKING:
+    from vprobot.cell.scene import Cell
     from vprobot.render.offscreen import OffscreenView
-    from vprobot.scene import Cell
 
 SCENES_KEPT = 16
 """Scenes an env keeps loaded, the most recently used (each holds a compiled cell, about 14 MB):
 on the family mix nearly every episode draws a new instance, so a larger cache mostly held
 memory (64 kept about 0.9 GB per env process; a two-env training took about 8 GB in all), and a
 scene loads again in about 0.1 s. An evicted scene's freed C-heap memory is returned to the
-system (`vprobot.native_memory`)."""
+system (`vprobot.compute.native_memory`)."""
 SEED_BOUND = 2**31
 """Episode specs drawn by the env carry a seed below this, drawn from np_random."""
 
 
 def part_files(config: Config) -> list[str | Path]:
     """The objects episodes draw from: mesh files, or generated objects' names (made when an
-    episode first draws them, `vprobot.generated`).
+    episode first draws them, `vprobot.parts.generated`).
 
     Raises:
         FileNotFoundError: If the split folder holds no STL files or the mesh file is missing.

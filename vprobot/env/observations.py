@@ -17,7 +17,7 @@ from gymnasium import spaces
 from vprobot.config import Config, EnvConfig
 from vprobot.env.grid_state import GridState, candidate_count, grid_spaces
 from vprobot.episode.records import ViewRequest
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.robots import load_robot
 
 if TYPE_CHECKING:

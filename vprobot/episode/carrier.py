@@ -14,10 +14,10 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
+from vprobot.cell.sensor import Acquisition
 from vprobot.episode.part_scene import PartScene
 from vprobot.episode.records import ViewRecord, ViewRequest
-from vprobot.geometry import Pose
-from vprobot.sensor import Acquisition
+from vprobot.geometry.poses import Pose
 
 CarrierName = Literal["robot", "free"]
 CARRIERS: tuple[CarrierName, ...] = ("robot", "free")

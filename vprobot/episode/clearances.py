@@ -1,14 +1,14 @@
 """The clearances an episode's robot kept: the least distance from it to each object of the
-cell over the moves it made (`vprobot.cell_check.clearances` along them)."""
+cell over the moves it made (`vprobot.cell.check.clearances` along them)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from vprobot.cell_check import Clearance, clearances
+from vprobot.cell.check import Clearance, clearances
+from vprobot.cell.scene import Cell
 from vprobot.episode.records import EpisodeRecord
 from vprobot.kinematics.motion_planner import densify
-from vprobot.scene import Cell
 
 
 def episode_clearances(record: EpisodeRecord, cell: Cell) -> tuple[Clearance, ...] | None:

@@ -7,9 +7,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from vprobot.cell.scene import Cell
 from vprobot.episode.records import EpisodeRecord, ViewRecord
 from vprobot.kinematics.trajectory import TimedMove, TimedPlan, chain_moves
-from vprobot.scene import Cell
 
 
 def timed_cycle(views: Sequence[ViewRecord], back: TimedMove | None,

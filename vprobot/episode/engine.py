@@ -12,7 +12,8 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from vprobot.coverage import CoverageTracker
+from vprobot.coverage.occupancy import EpisodeGrid, GridSettings
+from vprobot.coverage.tracker import CoverageTracker
 from vprobot.episode.carrier import CARRIERS, Carrier, CarrierName
 from vprobot.episode.cycle import timed_cycle
 from vprobot.episode.free_carrier import FreeCarrier
@@ -21,10 +22,9 @@ from vprobot.episode.records import EpisodeRecord, ViewRecord, ViewRequest
 from vprobot.episode.robot_carrier import RobotCarrier
 from vprobot.episode.shared import SharedWork
 from vprobot.episode.specs import EpisodeSpec
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import TimedMove, time_move
-from vprobot.occupancy import EpisodeGrid, GridSettings
 
 
 def make_carrier(name: CarrierName, scene: PartScene, object_rotation: np.ndarray,

@@ -6,12 +6,12 @@ from typing import ClassVar
 
 import numpy as np
 
+from vprobot.cell.sensor import Acquisition
 from vprobot.episode.carrier import Carrier, CarrierName
 from vprobot.episode.records import ViewRecord, ViewRequest
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.travel import paper_travel
-from vprobot.sensor import Acquisition
 
 
 class FreeCarrier(Carrier):

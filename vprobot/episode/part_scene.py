@@ -6,14 +6,14 @@ import dataclasses
 import functools
 from pathlib import Path
 
+from vprobot.cell.fit import check_fits
+from vprobot.cell.scene import GEOM_GROUP_OBJECT, Cell
+from vprobot.cell.sensor import DepthSensor
 from vprobot.config import Config
-from vprobot.fit import check_fits
-from vprobot.geometry import Pose
-from vprobot.ground_truth import ENVIRONMENT_GROUP, GroundTruth, ground_truth
+from vprobot.coverage.ground_truth import ENVIRONMENT_GROUP, GroundTruth, ground_truth
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import RobotArm
-from vprobot.mesh_loading import LoadedMesh, load_mesh
-from vprobot.scene import GEOM_GROUP_OBJECT, Cell
-from vprobot.sensor import DepthSensor
+from vprobot.parts.loading import LoadedMesh, load_mesh
 
 
 @dataclasses.dataclass
@@ -45,7 +45,7 @@ class PartScene:
 
         Raises:
             FileNotFoundError, ValueError: For a missing, unreadable, empty, flat or mis-scaled
-                mesh, or an object too large for the cell (`vprobot.fit`), before any ground
+                mesh, or an object too large for the cell (`vprobot.cell.fit`), before any ground
                 truth is built.
         """
         return cls.build(config, load_mesh(mesh_path, scale, scale_option), resolution,

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import SensorTarget, TravelCost
 from vprobot.kinematics.trajectory import CycleTime, TimedMove, TimedPlan
 

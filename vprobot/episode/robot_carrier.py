@@ -6,16 +6,16 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
+from vprobot.cell.sensor import Acquisition
 from vprobot.episode.carrier import Carrier, CarrierName
 from vprobot.episode.part_scene import PartScene
 from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.episode.shared import SharedWork
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import UNSOLVED, ReachResult
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlan
 from vprobot.kinematics.trajectory import JOIN_TOLERANCE_RAD, time_move
-from vprobot.sensor import Acquisition
 
 UnreachablePolicy = Literal["skip", "nearest"]
 UNREACHABLE_POLICIES: tuple[UnreachablePolicy, ...] = ("skip", "nearest")

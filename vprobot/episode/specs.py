@@ -23,9 +23,10 @@ import numpy as np
 
 from vprobot.config import Config, EnvConfig
 from vprobot.episode.records import ViewRequest
-from vprobot.files import write_text
-from vprobot.generated import family_of, generated_path, is_generated
-from vprobot.geometry import (
+from vprobot.files.atomic import write_text
+from vprobot.files.paths import ASSETS_DIR, BUNDLED_EPISODE_LISTS, EPISODES_DIR, MOTORS_DIR
+from vprobot.files.schema import Quat
+from vprobot.geometry.poses import (
     matrix_to_quat,
     quat_to_matrix,
     rotation_about_x,
@@ -33,11 +34,10 @@ from vprobot.geometry import (
     rotation_about_z,
     spherical_position,
 )
+from vprobot.geometry.viewsphere import sphere_directions
 from vprobot.kinematics import SensorTarget
-from vprobot.paths import ASSETS_DIR, BUNDLED_EPISODE_LISTS, EPISODES_DIR, MOTORS_DIR
-from vprobot.schema import Quat
-from vprobot.splits import MOTORS, Split
-from vprobot.viewsphere import sphere_directions
+from vprobot.parts.generated import family_of, generated_path, is_generated
+from vprobot.parts.splits import MOTORS, Split
 
 EPISODE_LIST_VERSION = 1
 BUNDLED_TEST_EPISODES = EPISODES_DIR / "test-v1.json"
@@ -97,7 +97,7 @@ class EpisodeSpec:
     """One episode, fixed.
 
     Attributes:
-        part: The mesh file; `generated/...` names a generated object (`vprobot.generated`),
+        part: The mesh file; `generated/...` names a generated object (`vprobot.parts.generated`),
             another relative name is looked up in the bundled motors folder
             (`test/motor_000.stl`), then in the bundled assets (`objects/bracket.stl`), then
             taken as a path.

@@ -12,19 +12,19 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.cell_check import Clearance, clearances
+from vprobot.cell.check import Clearance, clearances
+from vprobot.cell.scene import Cell, JointSpace
 from vprobot.config import Config
 from vprobot.export import CHECK_DT_S
 from vprobot.export.motion import PlanMotion, plan_motion, require_robot
-from vprobot.geometry import quat_to_matrix, rotation_angle
+from vprobot.files.schema import brief
+from vprobot.geometry.poses import quat_to_matrix, rotation_angle
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
 from vprobot.kinematics.motion_planner import densify
 from vprobot.kinematics.trajectory import Trajectory
 from vprobot.plan import plan_array, plan_field, plan_number, plan_object, read_plan
 from vprobot.robots.description import MotionLimits
-from vprobot.scene import Cell, JointSpace
-from vprobot.schema import brief
 
 POSITION_TOLERANCE_M = 1e-4
 """Largest distance of the replayed sensor from the plan's view at an acquisition (0.1 mm)."""

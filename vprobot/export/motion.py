@@ -16,13 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.cell_config import ProgramConfig
 from vprobot.config import SensorConfig
-from vprobot.geometry import Pose, quat_to_matrix
+from vprobot.config.cell import ProgramConfig
+from vprobot.files.schema import ConfigError, brief, from_mapping
+from vprobot.geometry.poses import Pose, quat_to_matrix
 from vprobot.kinematics.trajectory import TimedPlan, time_plan
 from vprobot.plan import plan_array, plan_carrier, plan_number, plan_quaternion
 from vprobot.robots.description import MotionLimits
-from vprobot.schema import ConfigError, brief, from_mapping
 
 UR_ROBOT = re.compile(r"ur\d+e?", re.IGNORECASE)
 """Names of Universal Robots arms, the robots a URScript program runs on (ur5, ur10, ur10e...)."""

@@ -16,7 +16,7 @@ from typing import ClassVar, TypeVar
 import numpy as np
 import trimesh
 
-from vprobot.registry import Bundled, Registry
+from vprobot.extensions.registry import Bundled, Registry
 
 Values = Mapping[str, float]
 """Parameter values of one instance by name (integer parameters hold ints)."""

@@ -5,7 +5,7 @@ None of them is a starter motor, and no agent is trained on them. Each tests som
 does not: `bracket` (an L-shaped sheet-metal part: large flat faces and a concave inner corner),
 `torus` (a ring: a through hole whose inner surface only oblique views see), `pipe_tee` (a
 T-fitting with flanges: branches pointing in three directions). All are closed, in metres, and
-fit the cell (bounding-sphere radius below vprobot.fit's limit).
+fit the cell (bounding-sphere radius below vprobot.cell.fit's limit).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 import trimesh
 
 from vprobot.families.solids import box
-from vprobot.files import atomic_output
+from vprobot.files.atomic import atomic_output
 
 Vec3 = tuple[float, float, float]
 

@@ -9,7 +9,7 @@ import trimesh
 from tqdm import tqdm
 
 from vprobot.families.base import FAMILIES
-from vprobot.files import atomic_output, batch_folder, write_text
+from vprobot.files.atomic import atomic_output, batch_folder, write_text
 
 
 def instance_stem(name: str, seed: int) -> str:

@@ -20,7 +20,9 @@ import mujoco
 import numpy as np
 import trimesh
 
+from vprobot.cell.scene import Cell
 from vprobot.config import CellConfig, Config
+from vprobot.files.schema import Vec3, brief
 from vprobot.robots.description import (
     ASSUMED_ACCELERATION_RAD_S2,
     ASSUMED_JERK_RAD_S3,
@@ -35,8 +37,6 @@ from vprobot.robots.description import (
     RobotDescription,
     hangs_below,
 )
-from vprobot.scene import Cell
-from vprobot.schema import Vec3, brief
 
 CONVERSION_STEPS = """\
 1. The chain from the URDF's root to the flange link is found. The base is the parent link of
@@ -67,7 +67,7 @@ CONVERSION_STEPS = """\
 """
 
 ROBOT_BIT, ENVIRONMENT_BIT = 1, 2
-"""Collision bits (contype / conaffinity), shared with vprobot.scene."""
+"""Collision bits (contype / conaffinity), shared with vprobot.cell.scene."""
 
 SENSOR_MOUNT_OFFSET = 0.09
 """Flange to optical centre along the flange z axis (m); the config's sensor mount overrides it."""
@@ -339,7 +339,7 @@ def _prepare_urdf(chain: UrdfChain, meshes: Path,
 
 def _add_sensor(spec: mujoco.MjSpec, flange: str) -> None:
     """Mount the sensor body on the flange: `sensor` site, render camera (the cell adds the
-    sensor's housing, `vprobot.scene`)."""
+    sensor's housing, `vprobot.cell.scene`)."""
     sensor = spec.body(flange).add_body(name=SENSOR_BODY, pos=[0.0, 0.0, SENSOR_MOUNT_OFFSET])
     # Sensor frame: +z views, +x is image right, +y image down
     # (docs/units-and-frames.md#sensor-frame).
@@ -601,7 +601,7 @@ def _check_folder(folder: Path, urdf: Path) -> None:
 
 
 SCENE_TEMPLATE = """<mujoco model="{name} inspection cell">
-  <!-- Composed by vprobot's URDF converter. vprobot.scene moves the robot base, the pedestal
+  <!-- Composed by vprobot's URDF converter. vprobot.cell.scene moves the robot base, the pedestal
        and the object to the poses in the config and puts the motor mesh into `object`. -->
   <include file="{model}"/>
 

@@ -11,8 +11,9 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from vprobot.cell.scene import Cell
 from vprobot.config import KinematicsConfig
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.forward import ForwardKinematics
 from vprobot.kinematics.ik import (
@@ -33,7 +34,6 @@ from vprobot.kinematics.travel import (
     polyline_length,
 )
 from vprobot.robots.description import GEOM_GROUP_ROBOT
-from vprobot.scene import Cell
 
 FailureReason = Literal["out_of_reach", "did_not_converge", "joint_limits", "collision",
                         "path_not_found"]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from vprobot.geometry import Pose
-from vprobot.scene import PLANNING_SLACK_M, Cell
+from vprobot.cell.scene import PLANNING_SLACK_M, Cell
+from vprobot.geometry.poses import Pose
 
 
 class CollisionChecker:

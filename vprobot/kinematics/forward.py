@@ -5,8 +5,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from vprobot.geometry import Pose
-from vprobot.scene import Cell
+from vprobot.cell.scene import Cell
+from vprobot.geometry.poses import Pose
 
 
 class ForwardKinematics:

@@ -8,9 +8,9 @@ import math
 import mink
 import numpy as np
 
+from vprobot.cell.scene import Cell
 from vprobot.config import KinematicsConfig
-from vprobot.geometry import Pose, axis_angle, rotation_angle
-from vprobot.scene import Cell
+from vprobot.geometry.poses import Pose, axis_angle, rotation_angle
 
 STALL_WINDOW = 8
 """An attempt stops when its error has not dropped by STALL_FACTOR within this many iterations."""

@@ -18,10 +18,10 @@ import ompl.base as ob
 import ompl.geometric as og
 import ompl.util as ou
 
+from vprobot.cell.scene import JointSpace
 from vprobot.config import KinematicsConfig
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.path import joint_path
-from vprobot.scene import JointSpace
 
 PlanMethod = Literal["line", "rrt_connect", "given"]
 

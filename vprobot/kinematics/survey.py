@@ -11,13 +11,13 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from vprobot.cell.scene import Cell
 from vprobot.config import Config
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.viewsphere import sphere_directions
 from vprobot.kinematics.arm import RobotArm
 from vprobot.kinematics.ik import SensorTarget
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import DEFAULT_MOTOR
-from vprobot.scene import Cell
-from vprobot.viewsphere import sphere_directions
+from vprobot.parts.loading import load_mesh
 
 VIEW_SPHERE_CANDIDATES = 900
 VIEW_SPHERE_MAX_POLAR_DEG = 120.0  # from the top down to 30 degrees below the equator

@@ -24,7 +24,7 @@ from vprobot.families.solids import (
     revolve_x,
     toothed_outline,
 )
-from vprobot.files import atomic_output, batch_folder
+from vprobot.files.atomic import atomic_output, batch_folder
 from vprobot.motors.parameters import MotorParameters, sample_parameters
 
 # Facets around the axis: enough for smooth-looking housings at ~6k faces per motor.

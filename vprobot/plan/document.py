@@ -10,14 +10,14 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from vprobot.cell_config import Solid
+from vprobot.cell.scene import ENVIRONMENT_BIT, STATIC_PREFIX, Cell
 from vprobot.config import config_document
+from vprobot.config.cell import Solid
 from vprobot.episode import EpisodeRecord, PartScene
-from vprobot.files import file_sha256, write_text
-from vprobot.geometry import Pose, quat_to_matrix
+from vprobot.files.atomic import file_sha256, write_text
+from vprobot.geometry.poses import Pose, quat_to_matrix
 from vprobot.kinematics import TravelCost
 from vprobot.robots import is_bundled
-from vprobot.scene import ENVIRONMENT_BIT, STATIC_PREFIX, Cell
 
 
 def view_entry(pose: Pose, joints: np.ndarray | None, reachable: bool | None,

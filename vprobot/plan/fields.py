@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.geometry import is_rotation_quaternion
-from vprobot.schema import brief
+from vprobot.files.schema import brief
+from vprobot.geometry.poses import is_rotation_quaternion
 
 
 def plan_field(block: Any, key: str, where: str) -> Any:

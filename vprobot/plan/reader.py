@@ -14,14 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.cell_config import rotation_rpy_deg
 from vprobot.config import Config, replace
+from vprobot.config.cell import rotation_rpy_deg
 from vprobot.episode import CARRIERS, CarrierName
-from vprobot.geometry import quat_to_matrix, rotation_about_y, rotation_about_z
-from vprobot.mesh_loading import LoadedMesh, load_mesh
-from vprobot.paths import MOTORS_DIR
+from vprobot.files.paths import MOTORS_DIR
+from vprobot.files.schema import ConfigError, brief
+from vprobot.geometry.poses import quat_to_matrix, rotation_about_y, rotation_about_z
+from vprobot.parts.loading import LoadedMesh, load_mesh
 from vprobot.plan.fields import plan_field, plan_number, plan_quaternion, plan_vector
-from vprobot.schema import ConfigError, brief
 
 BASE_ROTATION_TOLERANCE = 1e-6
 """How far the plan's robot base may deviate from a yaw about the world z axis followed by a

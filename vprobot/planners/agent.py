@@ -33,13 +33,13 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.config import Config
+from vprobot.coverage.occupancy import GridSettings
 from vprobot.env.actions import ActionMapping
 from vprobot.env.grid_state import FEATURES
 from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
-from vprobot.occupancy import GridSettings
+from vprobot.files.progress import note
 from vprobot.planners.base import Planner, check_views, register_planner
-from vprobot.progress import note
 
 
 @register_planner

@@ -17,7 +17,7 @@ import abc
 import dataclasses
 from typing import TYPE_CHECKING, ClassVar
 
-from vprobot.registry import Bundled, Registry
+from vprobot.extensions.registry import Bundled, Registry
 
 if TYPE_CHECKING:
     # Types only: the planners' names are listed (`vprobot plan --help`) without the episode's

@@ -1,5 +1,5 @@
 """Candidate views of the model-based planners: the view sphere, its reachable part and
-visibility (the model-free band and the screening live in `vprobot.views`).
+visibility (the model-free band and the screening live in `vprobot.episode.views`).
 
 The candidates are `count` positions spread evenly (Fibonacci lattice) over the sphere of the
 working distance around the object's centre, looking at the centre, from the top down to the
@@ -8,7 +8,7 @@ equator): the surface that counts was defined from that cap, and lower views mos
 fixture. The paper used 900 such positions (B_SCP).
 
 With the robot, every candidate is reached by the IK for the episode's object pose, neighbour
-after neighbour (`vprobot.views.screen_reachability`). A candidate is usable
+after neighbour (`vprobot.episode.views.screen_reachability`). A candidate is usable
 when its configuration is within the limits and collision-free (the path to it is checked when
 a view is executed); it then acquires from the FK pose of that configuration, roll included.
 Without the robot every candidate is usable at its look-at pose.
@@ -31,15 +31,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from vprobot.coverage import EPSILON_PER_SPACING
+from vprobot.coverage.ground_truth import MAX_POLAR_DEG
+from vprobot.coverage.tracker import EPSILON_PER_SPACING
 from vprobot.episode import Episode, ViewRequest
-from vprobot.geometry import Pose
-from vprobot.ground_truth import MAX_POLAR_DEG
+from vprobot.episode.views import look_at_targets, screen_reachability
+from vprobot.geometry.poses import Pose
+from vprobot.geometry.viewsphere import sphere_directions
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
-from vprobot.views import look_at_targets, screen_reachability
-from vprobot.viewsphere import sphere_directions
 
 CANDIDATE_COUNT = 900
 CONFIRMATIONS_PER_PICK = 6

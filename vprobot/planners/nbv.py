@@ -2,10 +2,10 @@
 
 Like the agents it starts from the episode's initial view. After every acquisition the frame is
 integrated into an occupancy grid over where an object may stand in the cell
-(`vprobot.occupancy`); the candidates are the band candidates (`views.band_candidates`:
+(`vprobot.coverage.occupancy`); the candidates are the band candidates (`views.band_candidates`:
 look-at views spread evenly over the view band at the working distance, as `uniform<k>`), each
 scored by the expected information of its rays through the grid (`DEFAULT_GAIN`) as its sensor
-would measure it (`vprobot.view_gains.ViewGains.scores`: under structured light only what the
+would measure it (`vprobot.coverage.view_gains.ViewGains.scores`: under structured light only what the
 projector lights within both incidence limits; with the ideal sensor what the camera sees).
 `nbv_camera` scores by what the camera sees whatever the sensor (`vprobot.planners.nbv_camera`),
 as `nbv` did before issue 45. The best candidate is requested next, skipping
@@ -30,14 +30,14 @@ from typing import ClassVar, cast
 import numpy as np
 
 from vprobot.config import Config
+from vprobot.coverage.occupancy import GAINS, VOXEL_M, Gain, GridSettings
 from vprobot.episode import Episode, ViewRequest
+from vprobot.episode.views import EXCLUDE_DEG as EXCLUDE_DEG
+from vprobot.episode.views import band_candidates, offered, request_directions
 from vprobot.kinematics import SensorTarget
-from vprobot.occupancy import GAINS, VOXEL_M, Gain, GridSettings
 from vprobot.planners.base import Planner, register_planner
 from vprobot.planners.candidates import arm_hides_view
 from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
-from vprobot.views import EXCLUDE_DEG as EXCLUDE_DEG
-from vprobot.views import band_candidates, offered, request_directions
 
 DEFAULT_GAIN: Gain = "unknown"
 REACH_TRIES = 40
@@ -50,7 +50,7 @@ class VolumetricPlanner(Planner):
 
     Args:
         config: The configuration (cell, sensor, view budget).
-        gain: Which gain ranks the candidates (`vprobot.occupancy.GAINS`).
+        gain: Which gain ranks the candidates (`vprobot.coverage.occupancy.GAINS`).
         stop: A stop rule of `STOPS` (`vprobot.stopping.rules`) the planner stops itself by
             (`grid`, `views:5`, ...); `goal`: the runner stops it at the coverage goal.
         voxel_m: Voxel edge of the grid.

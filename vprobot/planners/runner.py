@@ -10,8 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.cell_check import Clearance, check_cell, placed_part
+from vprobot.cell.check import Clearance, check_cell, placed_part
 from vprobot.config import Config
+from vprobot.coverage.occupancy import GridSettings
 from vprobot.episode import (
     CARRIERS,
     CarrierName,
@@ -24,11 +25,10 @@ from vprobot.episode import (
     seeded_episode,
 )
 from vprobot.episode.clearances import episode_clearances
-from vprobot.geometry import matrix_to_quat
+from vprobot.files.paths import DEFAULT_MOTOR
+from vprobot.geometry.poses import matrix_to_quat
 from vprobot.kinematics import TravelCost
 from vprobot.kinematics.trajectory import CycleTime
-from vprobot.occupancy import GridSettings
-from vprobot.paths import DEFAULT_MOTOR
 from vprobot.plan import episode_document
 from vprobot.planners.base import (
     PLANNERS,

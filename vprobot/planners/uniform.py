@@ -5,7 +5,7 @@ from the top down to `ground_truth.MAX_POLAR_DEG`, 30 degrees below the equator:
 inspectable surface is defined from) that the cell can use: free-flying, all of it; with the
 robot, the candidates its IK reaches collision-free, with the arm not hiding the view, in the
 cell holding the envelope of every object it accepts instead of a part (a sphere of the fit
-limit's radius about the fixture's centre, `vprobot.fit`: what the cell knows before a part
+limit's radius about the fixture's centre, `vprobot.cell.fit`: what the cell knows before a part
 arrives). Screened in the empty cell instead, a quarter of the views of `uniform4` collided
 with the training motors (the arm reaches around the part). The k views are the
 subset of those candidates with the least electrostatic energy (sum of 1 / distance: as far from
@@ -38,25 +38,25 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from vprobot.cell.fit import fit_limit
+from vprobot.cell.scene import Cell
 from vprobot.config import Config
+from vprobot.coverage.ground_truth import MAX_POLAR_DEG, robot_digest
 from vprobot.episode import Episode, ViewRequest
-from vprobot.files import read_cached_arrays, waiting_lock, write_cached_arrays
-from vprobot.fit import fit_limit
-from vprobot.ground_truth import MAX_POLAR_DEG, robot_digest
-from vprobot.kinematics import RobotArm, SensorTarget
-from vprobot.kinematics.collision import CollisionChecker
-from vprobot.paths import cache_root
-from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
-from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view
-from vprobot.planners.ordering import fixed_plan
-from vprobot.scene import Cell
-from vprobot.views import (
+from vprobot.episode.views import (
     SCREEN_RESTARTS,
     look_at_targets,
     nearest_directions,
     screen_reachability,
 )
-from vprobot.viewsphere import sphere_directions
+from vprobot.files.atomic import read_cached_arrays, waiting_lock, write_cached_arrays
+from vprobot.files.paths import cache_root
+from vprobot.geometry.viewsphere import sphere_directions
+from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.kinematics.collision import CollisionChecker
+from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
+from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view
+from vprobot.planners.ordering import fixed_plan
 
 
 def _band() -> np.ndarray:

@@ -32,11 +32,11 @@ import numpy as np
 import trimesh
 
 from vprobot.config import MAX_FOV_DEG
-from vprobot.geometry import Pose
-from vprobot.progress import stage
-from vprobot.raster import covered_pixels, index_range, max3, min3
+from vprobot.config.sensor import SensorModel
+from vprobot.files.progress import stage
+from vprobot.geometry.poses import Pose
+from vprobot.geometry.raster import covered_pixels, index_range, max3, min3
 from vprobot.sensing import IDEAL, SensingModel, StructuredLight
-from vprobot.sensor_model import SensorModel
 
 DEFAULT_RESOLUTION = (86, 60)
 """A fifth of the full frame's rays per axis: pixels of about 2.5 mm at the working distance.

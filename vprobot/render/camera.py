@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from vprobot.scene import Cell
+from vprobot.cell.scene import Cell
 
 OVERVIEW_AZIMUTH_DEG = -135.0
 OVERVIEW_ELEVATION_DEG = -18.0

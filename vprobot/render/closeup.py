@@ -10,11 +10,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from vprobot.cell.scene import Cell
 from vprobot.episode import EpisodeRecord
 from vprobot.render.camera import OVERVIEW_AZIMUTH_DEG, aim_at_sphere
 from vprobot.render.markers import COVERED_RGBA, UNCOVERED_RGBA, add_points
 from vprobot.render.offscreen import OffscreenView
-from vprobot.scene import Cell
 
 FRAME_MARGIN = 1.1
 """The radius framed per metre of the part's radius."""

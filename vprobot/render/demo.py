@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.episode import Episode, EpisodeRecord, PartScene, ViewRequest
+from vprobot.geometry.viewsphere import sphere_directions
 from vprobot.kinematics import SensorTarget
-from vprobot.viewsphere import sphere_directions
 
 MAX_POLAR_DEG = 110.0
 """By default the views come from the top down to 20 degrees below the equator."""

@@ -12,12 +12,12 @@ import mujoco
 import numpy as np
 from PIL import Image, ImageDraw
 
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import LOSS_CAUSES, FrameLosses
 from vprobot.episode import EpisodeRecord, PartScene
 from vprobot.render.camera import project
 from vprobot.render.markers import LOST_RGBA, rgb8
 from vprobot.render.overlay import draw_swatch
-from vprobot.scene import Cell
-from vprobot.sensor import LOSS_CAUSES, FrameLosses
 
 LOST_RGB = {cause: rgb8(rgba) for cause, rgba in LOST_RGBA.items()}
 """`LOST_RGBA` as 8-bit RGB, for painting images."""

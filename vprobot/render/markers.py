@@ -5,9 +5,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from vprobot.geometry import Pose
-from vprobot.sensor import LOSS_CAUSES
-from vprobot.sensor_model import SensorModel
+from vprobot.cell.sensor import LOSS_CAUSES
+from vprobot.config.sensor import SensorModel
+from vprobot.geometry.poses import Pose
 
 VIEW_COLORS = np.array([
     [0.12, 0.47, 0.71], [1.00, 0.50, 0.05], [0.58, 0.40, 0.74], [0.09, 0.75, 0.81],
@@ -20,7 +20,7 @@ COVERED_RGBA = np.array([0.1, 0.85, 0.2, 1.0], dtype=np.float32)
 UNCOVERED_RGBA = np.array([0.95, 0.12, 0.1, 1.0], dtype=np.float32)
 LOST_RGBA = {cause: np.append(np.frombuffer(bytes.fromhex(code), np.uint8) / 255.0, 1.0)
              for cause, code in zip(LOSS_CAUSES, ("9c3fd6", "17becf", "1a1a1a"), strict=True)}
-"""The colour of the points a frame lost, per cause (`vprobot.sensor.LOSS_CAUSES`): shadowed
+"""The colour of the points a frame lost, per cause (`vprobot.cell.sensor.LOSS_CAUSES`): shadowed
 purple, grazing cyan, apart from coverage's green and red and the motor's orange; dropped out
 near black, as the depth panel draws no return."""
 FRUSTUM_SEGMENTS = 8

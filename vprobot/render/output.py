@@ -10,14 +10,14 @@ from typing import Any
 import imageio.v2 as imageio
 import numpy as np
 
-from vprobot.files import atomic_output
-from vprobot.outputs import VIDEO_SUFFIXES, check_output_file
+from vprobot.files.atomic import atomic_output
+from vprobot.files.outputs import VIDEO_SUFFIXES, check_output_file
 
 IMAGE_SUFFIXES = (".png",)
 
 
 def check_output_path(path: str | Path, suffixes: tuple[str, ...]) -> Path:
-    """Return `path` if a file of an allowed type can be written there (`vprobot.outputs`).
+    """Return `path` if a file of an allowed type can be written there (`vprobot.files.outputs`).
 
     Raises:
         ValueError: If `path` is a folder, its folder does not exist or cannot be written, or

@@ -28,9 +28,12 @@ import numpy as np
 import trimesh
 import viser
 
+from vprobot.cell.scene import STATIC_PREFIX
+from vprobot.cell.sensor import LOSS_CAUSES
+from vprobot.config.sensor import SensorModel
 from vprobot.episode import EpisodeRecord, PartScene, describe_cycle
-from vprobot.files import write_text
-from vprobot.geometry import quat_to_matrix
+from vprobot.files.atomic import write_text
+from vprobot.geometry.poses import quat_to_matrix
 from vprobot.render.camera import overview_eye
 from vprobot.render.lost import frame_losses, lost_in_order
 from vprobot.render.markers import (
@@ -44,9 +47,6 @@ from vprobot.render.markers import (
 from vprobot.render.picture import STATIC_ALPHA
 from vprobot.render.timeline import TimingSettings, episode_timeline
 from vprobot.robots.description import GEOM_GROUP_ROBOT
-from vprobot.scene import STATIC_PREFIX
-from vprobot.sensor import LOSS_CAUSES
-from vprobot.sensor_model import SensorModel
 
 PAGE_FPS = 10.0
 """Robot poses per second of the cycle in the page's recording (its slider's resolution): each

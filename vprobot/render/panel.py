@@ -7,10 +7,10 @@ from typing import Literal, get_args
 import mujoco
 import numpy as np
 
+from vprobot.cell.scene import Cell
+from vprobot.config.sensor import SensorModel
 from vprobot.render.offscreen import OffscreenView
 from vprobot.robots.description import SENSOR_CAMERA
-from vprobot.scene import Cell
-from vprobot.sensor_model import SensorModel
 
 PanelMode = Literal["color", "depth"]
 NO_RETURN_RGB = np.array([25, 25, 30], dtype=np.uint8)

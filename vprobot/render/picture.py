@@ -12,12 +12,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from vprobot.cell.scene import STATIC_PREFIX, Cell
 from vprobot.episode import EpisodeRecord, PartScene
 from vprobot.render.camera import aim_overview
 from vprobot.render.offscreen import OffscreenView, check_size
 from vprobot.render.output import check_output_path, write_png
 from vprobot.render.video import cell_of
-from vprobot.scene import STATIC_PREFIX, Cell
 
 STATIC_ALPHA = 0.35
 """Opacity of the static objects in the picture: visible, and the robot behind them too."""

@@ -15,7 +15,7 @@ import numpy as np
 
 from vprobot.config import Config
 from vprobot.episode import Episode, EpisodeRecord, PartScene, ViewRequest
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.kinematics import SensorTarget
 from vprobot.plan import (
     plan_carrier,

@@ -16,8 +16,11 @@ import mujoco
 import numpy as np
 from PIL import Image, ImageDraw
 
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import LOSS_CAUSES, FrameLosses
+from vprobot.config.sensor import SensorModel
 from vprobot.episode import EpisodeRecord, PartScene, describe_cycle
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 from vprobot.render.camera import aim_at_sphere, project
 from vprobot.render.closeup import FRAME_MARGIN, draw_coverage, hide_robot
 from vprobot.render.lost import LOST_RGB, frame_losses, lost_in_order
@@ -35,9 +38,6 @@ from vprobot.render.offscreen import OffscreenView, check_size
 from vprobot.render.output import check_output_path, write_png
 from vprobot.render.overlay import BOX_RGBA, TEXT_RGB, draw_swatch, font
 from vprobot.render.video import cell_of
-from vprobot.scene import Cell
-from vprobot.sensor import LOSS_CAUSES, FrameLosses
-from vprobot.sensor_model import SensorModel
 
 OVERVIEW_FRACTION = 0.6
 """Share of the width taken by the overview; the close-ups share the rest."""

@@ -10,6 +10,9 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import FrameLosses
+from vprobot.config.sensor import SensorModel
 from vprobot.episode import EpisodeRecord, PartScene, ViewRecord
 from vprobot.kinematics import TravelCost
 from vprobot.render.camera import aim_overview
@@ -28,9 +31,6 @@ from vprobot.render.output import VideoWriter
 from vprobot.render.overlay import OverlayStatus, draw_status, inset
 from vprobot.render.panel import PanelMode, SensorPanel
 from vprobot.render.timeline import FrameState, TimingSettings, episode_timeline
-from vprobot.scene import Cell
-from vprobot.sensor import FrameLosses
-from vprobot.sensor_model import SensorModel
 
 POINT_SIZE_M = 0.004
 TARGET_RGBA = np.array([1.0, 1.0, 1.0, 0.6], dtype=np.float32)

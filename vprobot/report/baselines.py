@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from vprobot.episode.specs import bundled_episode_list
-from vprobot.paths import PACKAGE_DIR
+from vprobot.files.paths import PACKAGE_DIR
 from vprobot.report.compare import read_rows
 
 ROOT = PACKAGE_DIR.parent

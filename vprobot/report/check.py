@@ -7,7 +7,7 @@ fresh clone has), then compares every episode row cell by cell (`compare.moved_c
 columns left out) and, for a full regeneration, the summary table `evaluation.csv` too.
 
 The committed tables were made with OpenBLAS's Haswell kernels, which vprobot pins on every
-x86-64 CPU with AVX2 (`vprobot.kernels`), the child included.
+x86-64 CPU with AVX2 (`vprobot.compute.kernels`), the child included.
 """
 
 from __future__ import annotations
@@ -22,10 +22,10 @@ from typing import Any
 
 import yaml
 
-from vprobot import plugins
+from vprobot.compute.processes import child_environment
 from vprobot.evaluation import EPISODES_NAME, SETTINGS_NAME
-from vprobot.paths import PACKAGE_DIR
-from vprobot.processes import child_environment
+from vprobot.extensions import plugins
+from vprobot.files.paths import PACKAGE_DIR
 from vprobot.report.compare import EPISODE_KEY, SUMMARY_KEY, moved_cells, read_rows
 
 NEEDED = ("episodes.json", "evaluation.csv", EPISODES_NAME)
@@ -48,7 +48,7 @@ def regenerate(folder: Path, out: Path, episodes: Sequence[int] | None = None,
                carriers: Sequence[str] | None = None, scratch: Path | None = None,
                cache: Path | None = None) -> None:
     """Run `vprobot evaluate` for (a subset of) a committed evaluation folder into `out`, in a
-    child that ends with this process (`vprobot.processes`) and loads its plugins.
+    child that ends with this process (`vprobot.compute.processes`) and loads its plugins.
 
     Args:
         folder: The committed folder (`episodes.json`, `evaluation.csv`).

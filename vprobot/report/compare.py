@@ -12,7 +12,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from vprobot.files import read_table
+from vprobot.files.atomic import read_table
 
 TIMING = {"plan_s", "plan_ms_per_view", "episode_s"}
 """Columns of wall-clock time, not of behaviour."""
@@ -23,7 +23,7 @@ SUMMARY_KEY = ("planner", "carrier")
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
-    """The rows of a CSV table (`vprobot.files.read_table`).
+    """The rows of a CSV table (`vprobot.files.atomic.read_table`).
 
     Raises:
         OSError: If it cannot be read.

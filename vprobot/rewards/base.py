@@ -3,7 +3,7 @@
 Dense rewards are paid every step from the coverage gain dCOV_t, the remaining coverage before
 the step COV_rem and the travel cost k_t; sparse rewards pay 0 until the episode's last step T
 and then a function of the final coverage COV_T, T and the summed travel k_cum. A new reward is
-a module of this package, declared in `REWARDS` (or a plugin, `vprobot.plugins`), that registers
+a module of this package, declared in `REWARDS` (or a plugin, `vprobot.extensions.plugins`), that registers
 one more `RewardFormula` in `REWARDS` (docs/extending.md#reward).
 """
 
@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-from vprobot.registry import Bundled, Registry
+from vprobot.extensions.registry import Bundled, Registry
 
 
 @dataclasses.dataclass(frozen=True)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from vprobot.paths import ROBOTS_DIR, available_robots, bundled_or_path
+from vprobot.files.paths import ROBOTS_DIR, available_robots, bundled_or_path
 from vprobot.robots.description import DESCRIPTION_FILE, RobotDescription
 
 __all__ = ["RobotDescription", "available_robots", "is_bundled", "load_robot", "robot_folder"]

@@ -20,8 +20,8 @@ import mujoco
 import numpy as np
 import yaml
 
-from vprobot.paths import DESCRIPTION_FILE
-from vprobot.schema import ConfigError, Vec3, brief, from_mapping, read_yaml
+from vprobot.files.paths import DESCRIPTION_FILE
+from vprobot.files.schema import ConfigError, Vec3, brief, from_mapping, read_yaml
 
 SCENE_FILE = "scene.xml"
 SUPPORTED_DOF = (6, 7)

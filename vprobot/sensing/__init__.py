@@ -2,7 +2,7 @@
 (docs/sensor.md#sensing), one module each registering itself in `SENSING_MODELS` (`base`).
 
 A low layer: the config checks `sensor.sensing` against the registry, and the sensor
-(`vprobot.sensor`) measures through the model's methods. `ideal` keeps every hit, exactly;
+(`vprobot.cell.sensor`) measures through the model's methods. `ideal` keeps every hit, exactly;
 `structured_light` models a camera and a projector a baseline apart.
 """
 

@@ -1,13 +1,13 @@
 """What a sensing model is (`SensingModel`), the registry of them (`SENSING_MODELS`) and what a
 model reads of a frame (`CameraHits`).
 
-The sensor (`vprobot.sensor.DepthSensor`) finds the camera's hits: every object point a ray
+The sensor (`vprobot.cell.sensor.DepthSensor`) finds the camera's hits: every object point a ray
 meets first within range, exactly where it lies. The model then decides which of them become
 points and where (`SensingModel.measure`); its other methods say what the rest of vprobot needs
 of it: the figures it takes from the `sensor` section, its deterministic part (what the ground
 truth measures with), what of it joins the ground truth's cache key and the reductions that tell
 a frame's lost points apart. A new model is a module of this package, declared in
-`SENSING_MODELS` (or a plugin, `vprobot.plugins`), with a `SensingModel` subclass registered
+`SENSING_MODELS` (or a plugin, `vprobot.extensions.plugins`), with a `SensingModel` subclass registered
 there (docs/extending.md#sensing-model).
 """
 
@@ -19,8 +19,8 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
-from vprobot.registry import Bundled, Registry
-from vprobot.schema import ConfigError
+from vprobot.extensions.registry import Bundled, Registry
+from vprobot.files.schema import ConfigError
 
 
 class SensorSettings(Protocol):
@@ -132,7 +132,7 @@ class SensingModel:
         return (self.name, *fields)
 
     def loss_stages(self) -> tuple[SensingModel, ...]:
-        """Reductions of the model, one per cause of `vprobot.sensor.LOSS_CAUSES` in order, the
+        """Reductions of the model, one per cause of `vprobot.cell.sensor.LOSS_CAUSES` in order, the
         last the model itself, each keeping a subset of the points of the one before: a lost
         point is lost to the first that drops it. None: the model's losses are not told apart
         (`DepthSensor.losses_at` reports none)."""

@@ -12,7 +12,7 @@ structured-light devices of the presets are built (docs/sensor.md#sensing):
   along the optical axis and theta the camera ray's incidence;
 - a point drops out with probability p(theta) = dropout_grazing * (theta / 90 deg)^dropout_exponent.
 
-The geometry (projector visibility, normals) is the acquisition's (`vprobot.sensor`, through
+The geometry (projector visibility, normals) is the acquisition's (`vprobot.cell.sensor`, through
 `CameraHits`); this module holds the figures and the laws.
 """
 
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.schema import ConfigError
+from vprobot.files.schema import ConfigError
 from vprobot.sensing.base import SENSING_MODELS, CameraHits, SensingModel, SensorSettings
 
 MAX_BASELINE_M = 1.0

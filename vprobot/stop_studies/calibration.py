@@ -13,7 +13,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-from vprobot.files import save_figure
+from vprobot.files.atomic import save_figure
 
 LEVELS = (0.5, 0.68, 0.8, 0.9, 0.95)
 """Stated interval levels the calibration table reports."""

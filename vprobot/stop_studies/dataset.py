@@ -1,7 +1,7 @@
 """Rollouts that teach the coverage estimate: the features and the true coverage after each view.
 
 Model-free planners (`DEFAULT_PLANNERS`) run with the robot in the loop on episodes of split v1
-(`vprobot.splits`): drawn from its training objects for fitting, its validation list for model
+(`vprobot.parts.splits`): drawn from its training objects for fitting, its validation list for model
 selection and the reported error; never a test list. The coverage goal is lifted during the
 rollouts, so that planners the simulator would stop at the goal go on to the view budget and
 the data holds views past the goal too, as a stop rule meets them.
@@ -25,6 +25,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vprobot.config import Config, replace
+from vprobot.coverage.occupancy import EpisodeGrid, GridSettings
 from vprobot.episode import (
     Episode,
     EpisodeSpec,
@@ -34,7 +35,7 @@ from vprobot.episode import (
     seeded_episode,
 )
 from vprobot.episode.specs import bundled_episode_list, part_name
-from vprobot.files import (
+from vprobot.files.atomic import (
     append_line,
     csv_text,
     read_table,
@@ -42,10 +43,9 @@ from vprobot.files import (
     truncate_output,
     write_text,
 )
-from vprobot.generated import family_of
-from vprobot.occupancy import EpisodeGrid, GridSettings
+from vprobot.parts.generated import family_of
+from vprobot.parts.splits import MOTORS, Split
 from vprobot.planners.runner import make_planner, run_episode
-from vprobot.splits import MOTORS, Split
 from vprobot.stopping.features import FEATURES, episode_features
 from vprobot.stopping.rules import make_stop_rule
 

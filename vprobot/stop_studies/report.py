@@ -24,9 +24,9 @@ import numpy as np
 from vprobot.config import Config
 from vprobot.episode import EpisodeSpec
 from vprobot.evaluation import evaluation_episodes
-from vprobot.files import csv_text, folder_lock, write_text
+from vprobot.files.atomic import csv_text, folder_lock, write_text
+from vprobot.parts.splits import Split
 from vprobot.planners.runner import make_planner
-from vprobot.splits import Split
 from vprobot.stop_studies.calibration import (
     LEVELS,
     UNSEEN_LEVEL,

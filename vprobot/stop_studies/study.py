@@ -19,8 +19,8 @@ from typing import Any
 
 from vprobot.config import Config
 from vprobot.evaluation import evaluate, evaluation_episodes, finished_rows, stop_label
-from vprobot.files import csv_text, folder_lock, save_figure, write_text
-from vprobot.paths import PACKAGE_DIR
+from vprobot.files.atomic import csv_text, folder_lock, save_figure, write_text
+from vprobot.files.paths import PACKAGE_DIR
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.stopping.rules import StopSubject, make_stop_rule
 

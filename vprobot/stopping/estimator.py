@@ -43,8 +43,8 @@ from statistics import NormalDist
 import numpy as np
 
 from vprobot.config import Config, SensorConfig, available_sensors, sensor_preset
-from vprobot.files import atomic_output
-from vprobot.paths import ESTIMATOR_DIR
+from vprobot.files.atomic import atomic_output
+from vprobot.files.paths import ESTIMATOR_DIR
 
 MEMBERS = 5
 HIDDEN = 32

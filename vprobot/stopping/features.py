@@ -4,7 +4,7 @@ Model-free: the features read only what the sensor acquired (its poses, points, 
 were measured on and the pixels the cell blocked), the number of views asked for, and the cell
 (where an object may stand, the view band); never the mesh, the ground truth or the coverage
 (`tests/test_model_free.py` guards it). The acquisitions are integrated into the occupancy grid
-of the `nbv` planner (`vprobot.occupancy`), one frame at a time; in an episode that is the
+of the `nbv` planner (`vprobot.coverage.occupancy`), one frame at a time; in an episode that is the
 episode's own grid (`Episode.occupancy`), integrated once for every reader. After each view:
 
 - `requested`, `acquired`: views asked for (the initial view included) and views acquired;
@@ -34,8 +34,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.episode import Episode, ViewRecord
-from vprobot.occupancy import (
+from vprobot.coverage.occupancy import (
     FREE,
     OCCUPIED,
     UNKNOWN,
@@ -44,7 +43,8 @@ from vprobot.occupancy import (
     GridSettings,
     OccupancyGrid,
 )
-from vprobot.views import band_directions
+from vprobot.episode import Episode, ViewRecord
+from vprobot.episode.views import band_directions
 
 FEATURES = ("requested", "acquired", "occupied", "free", "unknown", "rear_side", "open_surface",
             "extent", "hull_unknown", "added_last", "added_before", "novel_last", "points",

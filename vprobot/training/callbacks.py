@@ -18,7 +18,7 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from vprobot.config import Selection
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import EpisodeSpec
-from vprobot.files import (
+from vprobot.files.atomic import (
     append_line,
     atomic_output,
     csv_text,

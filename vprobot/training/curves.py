@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from vprobot.config import read_yaml
-from vprobot.files import read_text, save_figure
+from vprobot.files.atomic import read_text, save_figure
 
 PANELS = (("coverage", "coverage at episode end", 100.0, "%"),
           ("acquisitions", "acquisitions per episode", 1.0, ""),

@@ -44,11 +44,11 @@ from tqdm import tqdm
 
 from vprobot.agents.candidate_q import MASK_KEY, CandidateDQN, CandidateQNetwork, allowed_rows
 from vprobot.agents.trained import load_agent, model_file
+from vprobot.compute.processes import worker_pool
 from vprobot.config import Config, ConfigError, config_document
 from vprobot.env.grid_state import VERSION as GRID_STATE_VERSION
 from vprobot.env.inspect_env import InspectEnv
-from vprobot.files import atomic_output, file_sha256, folder_lock, read_text, write_text
-from vprobot.processes import worker_pool
+from vprobot.files.atomic import atomic_output, file_sha256, folder_lock, read_text, write_text
 from vprobot.training.stream import EpisodeStream
 from vprobot.training.teacher import CandidateTeacher
 

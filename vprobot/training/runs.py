@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from vprobot.config import Selection
-from vprobot.files import read_text
+from vprobot.files.atomic import read_text
 
 RESULT_FILE = "result.json"
 """Written into a run directory when its training has finished (sweep trials, seed runs)."""

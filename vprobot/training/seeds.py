@@ -22,11 +22,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vprobot.cluster import parallel_map, require_ray
+from vprobot.compute.cluster import parallel_map, require_ray
 from vprobot.config import Config
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list
-from vprobot.files import csv_text, read_text, write_text
+from vprobot.files.atomic import csv_text, read_text, write_text
 from vprobot.training.runs import RESULT_FILE, best_validation
 
 VALIDATION = "validation"

@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from vprobot.cluster import parallel_map, require_ray
+from vprobot.compute.cluster import parallel_map, require_ray
 from vprobot.config import ConfigError, read_yaml
-from vprobot.files import csv_text, write_text
-from vprobot.paths import PROFILES_DIR, bundled_or_path
+from vprobot.files.atomic import csv_text, write_text
+from vprobot.files.paths import PROFILES_DIR, bundled_or_path
 from vprobot.training.curves import plot_curves, read_monitor, travel_column
 from vprobot.training.runs import RESULT_FILE, read_result
 

@@ -35,9 +35,9 @@ import numpy as np
 
 from vprobot.config import ConfigError, EnvConfig
 from vprobot.episode import Episode
+from vprobot.episode.views import BAND_COUNT
 from vprobot.planners.candidates import CandidateViews, candidate_views
 from vprobot.planners.optimum import Cover, solve_cover, views_to_goal
-from vprobot.views import BAND_COUNT
 
 WASTED = -1.0
 """R2's reward for a request that adds nothing: here, one the robot cannot take."""

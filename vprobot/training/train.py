@@ -38,11 +38,11 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
-from vprobot import plugins
 from vprobot.agents.candidate_q import CandidateDQN
 from vprobot.agents.encoders import check_encoder
 from vprobot.agents.models import build_model, check_spaces
 from vprobot.agents.trained import ALGORITHMS, load_run_config
+from vprobot.cell.fit import check_fits
 from vprobot.config import (
     Config,
     ConfigError,
@@ -57,12 +57,12 @@ from vprobot.env.observations import observation_space
 from vprobot.episode import read_episode_list
 from vprobot.episode.specs import bundled_episode_list, validation_episodes
 from vprobot.evaluation import evaluate
-from vprobot.files import atomic_output, exclusive_lock, refuse_link, write_text
-from vprobot.fit import check_fits
-from vprobot.generated import is_generated
+from vprobot.extensions import plugins
+from vprobot.files.atomic import atomic_output, exclusive_lock, refuse_link, write_text
+from vprobot.files.paths import PACKAGE_DIR
 from vprobot.kinematics import TRAVEL_COSTS
-from vprobot.mesh_loading import load_mesh
-from vprobot.paths import PACKAGE_DIR
+from vprobot.parts.generated import is_generated
+from vprobot.parts.loading import load_mesh
 from vprobot.training.callbacks import (
     ResumableCheckpoint,
     SharedEpisodeEvaluation,
@@ -168,7 +168,7 @@ def monitor_file(rank: int) -> str:
 def make_vec_env(config: Config, seed: int, starts: Sequence[int],
                  monitor_dir: Path | None) -> VecEnv:
     """The run's envs: one in-process, several in subprocesses (one monitor file each), which
-    load this process's plugins (`vprobot.plugins.in_child`) before they make their env."""
+    load this process's plugins (`vprobot.extensions.plugins.in_child`) before they make their env."""
     factories: list[Callable[[], gym.Env]] = [
         env_factory(config, seed, rank, start,
                     None if monitor_dir is None else monitor_dir / monitor_file(rank))

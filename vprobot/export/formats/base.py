@@ -7,12 +7,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from vprobot.cell.scene import Cell
 from vprobot.config import load_config, replace
 from vprobot.export import EXPORT_DT_S
 from vprobot.export.motion import PlanMotion, plan_motion, require_robot
+from vprobot.extensions.registry import Bundled, Registry
 from vprobot.plan import plan_robot, read_plan
-from vprobot.registry import Bundled, Registry
-from vprobot.scene import Cell
 
 Writer = Callable[[PlanMotion, float], str]
 """A format's writer: the plan's motion and the sampling step (s) -> the file's text."""

@@ -27,7 +27,7 @@ import numpy as np
 
 from vprobot.export.formats.base import register_format
 from vprobot.export.motion import PlanMotion, ProgramCell, require_ur
-from vprobot.geometry import Pose, matrix_to_quat, rotation_about_z
+from vprobot.geometry.poses import Pose, matrix_to_quat, rotation_about_z
 from vprobot.kinematics.trajectory import Segment
 
 UR_BASE = Pose(np.zeros(3), rotation_about_z(math.pi))

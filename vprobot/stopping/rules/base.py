@@ -14,7 +14,7 @@ import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
-from vprobot.registry import Bundled, Registry
+from vprobot.extensions.registry import Bundled, Registry
 
 if TYPE_CHECKING:
     # Types only: the rules are listed (`--help`) without the config's imports, and the

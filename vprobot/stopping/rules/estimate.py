@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.occupancy import EpisodeGrid
+from vprobot.coverage.occupancy import EpisodeGrid
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, Stated, load_estimator
 from vprobot.stopping.features import CoverageFeatures, episode_features
 from vprobot.stopping.rules.base import StopRule, StopSubject, register_stop

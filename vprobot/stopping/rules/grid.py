@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vprobot.config import Config
-from vprobot.occupancy import GridSettings
+from vprobot.coverage.occupancy import GridSettings
 from vprobot.stopping.rules.base import StopRule, register_stop
 
 if TYPE_CHECKING:

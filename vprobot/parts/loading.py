@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from vprobot.mesh_simplify import SIMPLIFIED_FACES, SIMPLIFY_ABOVE_FACES, Simplification, simplify
-from vprobot.progress import note
+from vprobot.files.progress import note
+from vprobot.parts.simplify import SIMPLIFIED_FACES, SIMPLIFY_ABOVE_FACES, Simplification, simplify
 
 # Anything outside this is almost surely in the wrong unit rather than a real inspection object.
 MIN_EXTENT_M = 0.01
@@ -221,7 +221,7 @@ def load_mesh(path: str | Path, scale: float = 1.0, scale_option: str = "scale")
         FileNotFoundError: if the file does not exist.
         ValueError: if scale is not a positive finite number, the file is unreadable or not a
             mesh, has no faces or non-finite vertices, is flat, or its scaled extent is outside
-            0.01 .. 5 m. Whether the object fits a cell is `vprobot.fit.check_fits`.
+            0.01 .. 5 m. Whether the object fits a cell is `vprobot.cell.fit.check_fits`.
     """
     path = Path(path)
     if not (math.isfinite(scale) and scale > 0):

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from importlib.resources import files
 from pathlib import Path
 
-from vprobot.schema import brief
+from vprobot.files.schema import brief
 
 PACKAGE_DIR = Path(str(files("vprobot")))
 ASSETS_DIR = PACKAGE_DIR / "assets"
@@ -37,7 +37,7 @@ BUNDLED_EPISODE_LISTS = {
                  "validation-v3")}
 """The bundled episode lists by name (`vprobot evaluate --episodes NAME`, `agent.test_lists`):
 the test motors, the non-motor shapes, the test families' instances, and the validation lists of
-splits v1 and v2 (`vprobot.splits`)."""
+splits v1 and v2 (`vprobot.parts.splits`)."""
 SPLITS_DIR = CONFIGS_DIR / "splits"
 ESTIMATOR_DIR = ASSETS_DIR / "estimator"
 """The bundled model-free coverage estimator (`--stop estimate`)."""

@@ -19,8 +19,8 @@ import tempfile
 import warnings
 from pathlib import Path
 
-from vprobot.files import atomic_output
-from vprobot.paths import CACHE_ENV_VAR, cache_root
+from vprobot.files.atomic import atomic_output
+from vprobot.files.paths import CACHE_ENV_VAR, cache_root
 
 VERSION = 1
 """Version of what the generators make; part of the cache folder."""
@@ -96,7 +96,7 @@ def _uncached_folder(folder: Path) -> Path | None:
 def _complete(path: Path) -> bool:
     """Whether `path` is a whole binary STL (the generators write nothing else)."""
     # Imported here: mesh loading needs trimesh; the split and the config read names here.
-    from vprobot.mesh_loading import is_binary_stl
+    from vprobot.parts.loading import is_binary_stl
 
     return path.is_file() and is_binary_stl(path.read_bytes())
 

@@ -26,7 +26,7 @@ from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from vprobot import plugins
+from vprobot.extensions import plugins
 
 POLL_S = 0.2
 """How often a child checks that its parent is still there."""
@@ -84,7 +84,7 @@ def end_with_environment() -> None:
 @contextlib.contextmanager
 def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     """A pool of `workers` spawned processes that end with this one (`end_with_parent`), each
-    with this process's plugins loaded (`vprobot.plugins.in_child`) before it takes a task.
+    with this process's plugins loaded (`vprobot.extensions.plugins.in_child`) before it takes a task.
 
     Leaving the block by an exception (Ctrl-C, SIGTERM, a task's error) cancels the tasks not
     started and ends the workers at once, rather than waiting for every task to finish. The

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.paths import CACHE_ENV_VAR
+from vprobot.files.paths import CACHE_ENV_VAR
 
 _WARNED_CACHE_DIRS: set[Path] = set()
 """Cache directories already reported as unwritable by this process."""

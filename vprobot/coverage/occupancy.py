@@ -2,7 +2,7 @@
 
 This is what a model-free planner knows about the object: the cell says where an object may
 stand (a cube about the fixture's centre, as wide as the largest object the cell accepts,
-`vprobot.fit`); the sensor says what it measured. Every voxel starts `UNKNOWN`. A frame clears
+`vprobot.cell.fit`); the sensor says what it measured. Every voxel starts `UNKNOWN`. A frame clears
 the space its rays crossed (Delmerico et al., 2018):
 
 - a ray that measured a point marks the voxels it crossed from the sensor's near bound up to
@@ -28,7 +28,7 @@ former integration, which sampled every ray of the frame half a voxel apart from
 the reference it is measured against (`vprobot benchmark grid`: the share of voxels classified
 otherwise, and the time).
 
-The gains of candidate views against the grid are `vprobot.view_gains`'s; `GAINS` names the
+The gains of candidate views against the grid are `vprobot.coverage.view_gains`'s; `GAINS` names the
 kinds of voxels they count (`OccupancyGrid.kind_mask`):
 
 - `unknown`: unknown voxels (volumetric information, occlusion aware);
@@ -51,10 +51,10 @@ from typing import Literal, Protocol
 
 import numpy as np
 
+from vprobot.cell.fit import fit_limit
 from vprobot.config import Config
-from vprobot.fit import fit_limit
-from vprobot.geometry import Pose
-from vprobot.sensor_model import SensorModel
+from vprobot.config.sensor import SensorModel
+from vprobot.geometry.poses import Pose
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 VOXEL_M = 0.01

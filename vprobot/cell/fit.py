@@ -34,11 +34,11 @@ import math
 
 import numpy as np
 
+from vprobot.cell.scene import ROBOT_STAND_RADIUS_M, robot_base_pose, stand_length
 from vprobot.config import Config
-from vprobot.mesh_loading import MIN_EXTENT_M, LoadedMesh, scale_setting
+from vprobot.config.sensor import SensorModel
+from vprobot.parts.loading import MIN_EXTENT_M, LoadedMesh, scale_setting
 from vprobot.robots import load_robot
-from vprobot.scene import ROBOT_STAND_RADIUS_M, robot_base_pose, stand_length
-from vprobot.sensor_model import SensorModel
 
 _PLAUSIBLE_MIN_EXTENT_M = 0.05
 """A unit hint must give at least this size: a 2 cm starter motor is a unit mistake too."""

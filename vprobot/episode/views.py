@@ -29,14 +29,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from vprobot.config import Config
-from vprobot.ground_truth import MAX_POLAR_DEG
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.ground_truth import MAX_POLAR_DEG
+from vprobot.coverage.occupancy import OccupancyGrid
+from vprobot.coverage.view_gains import ViewGains
+from vprobot.files.progress import stage
+from vprobot.geometry.viewsphere import sphere_directions
 from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
-from vprobot.occupancy import OccupancyGrid
-from vprobot.progress import stage
-from vprobot.sensor_model import SensorModel
-from vprobot.view_gains import ViewGains
-from vprobot.viewsphere import sphere_directions
 
 if TYPE_CHECKING:
     from vprobot.episode import ViewRecord

@@ -6,7 +6,7 @@ A plugin is a module that registers what it defines when it is imported (docs/ex
 `vprobot --help` lists the commands, which no plugin changes), then each `--plugin`: a module
 name importable on `sys.path` (`mypkg.planners`), or a path to a `.py` file (`./mytop.py`).
 
-A child process (a Ray worker, a `vprobot.processes.worker_pool` worker, a `SubprocVecEnv`
+A child process (a Ray worker, a `vprobot.compute.processes.worker_pool` worker, a `SubprocVecEnv`
 env) is a fresh process that imports only what its function needs, so every function handed to
 one is wrapped by `in_child`: it carries the list this process loaded (`loaded`), and the child
 loads it before running the function. Passed with the function, it reaches a Ray started by

@@ -1,6 +1,6 @@
 """Scan conversion of triangles onto a pinhole grid of pixel centres.
 
-Both the sensor (`vprobot.sensor`) and the planners' visibility prediction
+Both the sensor (`vprobot.cell.sensor`) and the planners' visibility prediction
 (`vprobot.planners.visibility`) find, per triangle, the pixel centres (u_j, v_i) it covers. Each
 triangle comes as three edge functions e(u, v) = a u + b v + c, oriented so that a centre is
 covered when all three are >= 0; the users build them differently (3D edge planes through the

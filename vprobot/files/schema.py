@@ -22,10 +22,10 @@ import yaml
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 
-RESOLVE = "vprobot.schema.resolve"
+RESOLVE = "vprobot.files.schema.resolve"
 """Field metadata key: a function `(value, key) -> value` applied to the raw value first."""
 
-FORMERLY = "vprobot.schema.formerly"
+FORMERLY = "vprobot.files.schema.formerly"
 """Field metadata key: the field's former name, still read for one release (with a note)."""
 
 

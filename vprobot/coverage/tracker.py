@@ -23,8 +23,8 @@ import dataclasses
 import numpy as np
 from scipy.spatial import cKDTree
 
-from vprobot.geometry import Pose
-from vprobot.ground_truth import GroundTruth
+from vprobot.coverage.ground_truth import GroundTruth
+from vprobot.geometry.poses import Pose
 
 EPSILON_PER_SPACING = 0.44
 

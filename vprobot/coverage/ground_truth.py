@@ -23,7 +23,7 @@ mesh frame parallel to the world, the fixture plate under its lowest point):
    voxel's centroid (so that every GT point lies on the surface), and farthest-point sampling,
    started from the point nearest the centroid of all, keeps exactly 2048 of them.
 4. The GT spacing is the mean nearest-neighbour distance of P_GT; coverage scales its matching
-   distance with it (see `vprobot.coverage`).
+   distance with it (see `vprobot.coverage.tracker`).
 
 P_GT lives in the mesh frame, so it turns with the object when an episode re-poses it; its
 inspectability is that of the upright placement. The result is deterministic and cached in
@@ -47,24 +47,24 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
+from vprobot.cell.scene import Cell
+from vprobot.cell.sensor import DepthSensor
 from vprobot.config import Config, SensorConfig
-from vprobot.files import read_cached_arrays, write_cached_arrays
-from vprobot.geometry import Pose
-from vprobot.paths import cache_root
-from vprobot.progress import stage
+from vprobot.files.atomic import read_cached_arrays, write_cached_arrays
+from vprobot.files.paths import cache_root
+from vprobot.files.progress import stage
+from vprobot.geometry.poses import Pose
+from vprobot.geometry.viewsphere import sphere_directions
 from vprobot.robots import robot_folder
 from vprobot.robots.description import DESCRIPTION_FILE
-from vprobot.scene import Cell
 from vprobot.sensing import SensingModel
-from vprobot.sensor import DepthSensor
-from vprobot.viewsphere import sphere_directions
 
 N_GT = 2048
 VIEW_COUNT = 120
 MAX_POLAR_DEG = 120.0
 RESOLUTION = (143, 100)
 ENVIRONMENT_GROUP = 0
-"""Geom group of the fixture, floor and robot stand (see `vprobot.scene`)."""
+"""Geom group of the fixture, floor and robot stand (see `vprobot.cell.scene`)."""
 _METHOD_VERSION = 1
 _BISECTION_STEPS = 24
 _FINE_VOXELS = 400

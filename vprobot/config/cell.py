@@ -15,9 +15,9 @@ from typing import Any, Literal
 
 import numpy as np
 
-from vprobot.geometry import Pose, rotation_about_x, rotation_about_y, rotation_about_z
-from vprobot.paths import CELLS_DIR, available_cells, bundled_or_path
-from vprobot.schema import ConfigError, Vec3, brief, check_within, read_yaml
+from vprobot.files.paths import CELLS_DIR, available_cells, bundled_or_path
+from vprobot.files.schema import ConfigError, Vec3, brief, check_within, read_yaml
+from vprobot.geometry.poses import Pose, rotation_about_x, rotation_about_y, rotation_about_z
 
 Shape = Literal["box", "cylinder", "mesh"]
 CELL_FILE_SECTIONS = ("cell", "sensor")

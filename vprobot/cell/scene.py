@@ -9,16 +9,16 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from vprobot.cell_config import Solid
 from vprobot.config import Config
-from vprobot.geometry import (
+from vprobot.config.cell import Solid
+from vprobot.geometry.poses import (
     Pose,
     as_vector,
     quat_to_matrix,
     rotation_about_y,
     rotation_about_z,
 )
-from vprobot.mesh_loading import load_mesh, solid_problem
+from vprobot.parts.loading import load_mesh, solid_problem
 from vprobot.robots import RobotDescription, load_robot
 from vprobot.robots.description import (
     GEOM_GROUP_ROBOT,

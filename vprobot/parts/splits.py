@@ -19,9 +19,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from vprobot.generated import family_object, motor_object
-from vprobot.paths import MOTORS_DIR, SPLITS_DIR
-from vprobot.schema import read_yaml
+from vprobot.files.paths import MOTORS_DIR, SPLITS_DIR
+from vprobot.files.schema import read_yaml
+from vprobot.parts.generated import family_object, motor_object
 
 SPLIT_FILE = SPLITS_DIR / "v1.yaml"
 """The default split (`env.split` 1): the committed tables were made with it."""

@@ -5,7 +5,7 @@ down. Pixel (row i, column j) of a w x h frame looks along (u_j, v_i, 1), where 
 pixel centres of an even grid over ±tan(fov_x / 2) and ±tan(fov_y / 2); frames are row-major. A
 point is measured when it lies in the frustum at a ray distance within [near, far].
 
-Acquisition (`vprobot.sensor`), ground truth, the planners' visibility prediction and the
+Acquisition (`vprobot.cell.sensor`), ground truth, the planners' visibility prediction and the
 renderer all take this geometry from a `SensorModel`; none of them derives it from the config.
 """
 
@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from vprobot.config import SensorConfig, check_sensor
-from vprobot.geometry import Pose
+from vprobot.geometry.poses import Pose
 
 
 @dataclasses.dataclass(frozen=True)

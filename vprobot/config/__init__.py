@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-from vprobot.cell_config import (
+from vprobot.config.cell import (
     PartConfig,
     ProgramConfig,
     SafetyConfig,
@@ -24,18 +24,15 @@ from vprobot.cell_config import (
     check_static_objects,
     with_cell_file,
 )
-from vprobot.geometry import is_rotation_quaternion
-from vprobot.paths import (
+from vprobot.extensions.registry import Registry
+from vprobot.files.paths import (
     BUNDLED_EPISODE_LISTS,
     DEFAULT_CONFIG,
     SENSORS_DIR,
     available_sensors,
     bundled_or_path,
 )
-from vprobot.registry import Registry
-from vprobot.rewards import REWARDS
-from vprobot.robots import load_robot
-from vprobot.schema import (
+from vprobot.files.schema import (
     FORMERLY,
     RESOLVE,
     ConfigError,
@@ -47,9 +44,12 @@ from vprobot.schema import (
     read_yaml,
     with_current_keys,
 )
-from vprobot.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
+from vprobot.files.schema import parse_yaml as parse_yaml  # re-exported: the config's YAML reader
+from vprobot.geometry.poses import is_rotation_quaternion
+from vprobot.parts.splits import Split, split_file
+from vprobot.rewards import REWARDS
+from vprobot.robots import load_robot
 from vprobot.sensing import SENSING_MODELS, SensingModel, StructuredLight, check_sensing
-from vprobot.splits import Split, split_file
 
 
 @dataclasses.dataclass(frozen=True)
@@ -415,7 +415,7 @@ class EnvConfig:
         parts: What episodes draw their part from: the bundled training or test motors
             (`train`, `test`), or `mesh` for one file (formerly `motors`).
         objects: What training draws from when parts is `train`: `motors` (the bundled
-            training motors) and/or training families of the split (`vprobot.splits`), e.g.
+            training motors) and/or training families of the split (`vprobot.parts.splits`), e.g.
             `[motors, flange, housing]`; every source is drawn equally often.
         split: Version of that split (`configs/splits/v<N>.yaml`), which also sets the
             validation list: 1 (the committed tables) or 2 (adds the `procedural` family).

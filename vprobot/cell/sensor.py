@@ -1,7 +1,7 @@
 """The 3D sensor: a pinhole grid of rays cast from the `sensor` site into the cell
 (docs/sensor.md).
 
-The grid, its opening angles and range are a `SensorModel` (`vprobot.sensor_model`, which also
+The grid, its opening angles and range are a `SensorModel` (`vprobot.config.sensor`, which also
 documents the sensor frame). Only a ray's first hit in the whole cell counts: it is kept when it
 lies on the object and its distance is within [near, far]; a ray that first meets the robot, the
 fixture or the floor is occluded. Rays start at the optical centre, on the front of the sensor
@@ -37,11 +37,11 @@ from concurrent.futures import ThreadPoolExecutor
 import mujoco
 import numpy as np
 
-from vprobot.geometry import Pose
-from vprobot.raster import covered_pixels, index_range, max3, min3
-from vprobot.scene import Cell
+from vprobot.cell.scene import Cell
+from vprobot.config.sensor import SensorModel
+from vprobot.geometry.poses import Pose
+from vprobot.geometry.raster import covered_pixels, index_range, max3, min3
 from vprobot.sensing import SensingModel, frame_generator
-from vprobot.sensor_model import SensorModel
 
 TRAINING_RESOLUTION = (320, 224)
 """A coarser frame for training (0.56 of the rays, same opening angles and aspect). Its

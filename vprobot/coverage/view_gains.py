@@ -4,7 +4,7 @@ and what its sensor would measure of it.
 A candidate view is scored by casting a sparse grid of rays through the grid (`ViewGains`):
 along each ray a sample's visibility is the product of the chances that the samples before it
 let the ray through (1 for free, `UNKNOWN_PASS` per voxel for unknown, 0 for occupied), and a
-gain sums the visibility of the samples of one kind (`vprobot.occupancy.GAINS`). That is what the
+gain sums the visibility of the samples of one kind (`vprobot.coverage.occupancy.GAINS`). That is what the
 camera would see (`ViewGains.camera_scores`).
 
 A structured-light sensor measures less (`vprobot.sensing.structured_light`): a point only where
@@ -34,11 +34,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from vprobot.geometry import Pose
-from vprobot.occupancy import FREE, GAINS, OCCUPIED, UNKNOWN, Gain, OccupancyGrid
+from vprobot.config.sensor import SensorModel
+from vprobot.coverage.occupancy import FREE, GAINS, OCCUPIED, UNKNOWN, Gain, OccupancyGrid
+from vprobot.geometry.poses import Pose
 from vprobot.sensing.base import SensingModel
 from vprobot.sensing.structured_light import StructuredLight
-from vprobot.sensor_model import SensorModel
 
 UNKNOWN_PASS = 0.5
 """Chance that a ray passes an unknown voxel (an uninformed prior: as likely free as not)."""

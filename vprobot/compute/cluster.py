@@ -18,7 +18,7 @@ from collections.abc import Callable, Generator, Iterable
 from pathlib import Path
 from typing import Any
 
-from vprobot import plugins
+from vprobot.extensions import plugins
 
 INSTALL_HINT = 'pip install -e ".[cluster]"'
 SHUTDOWN_GRACE_S = 5.0

@@ -13,9 +13,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from vprobot.config import Config, replace
-from vprobot.mesh_loading import LoadedMesh, load_mesh
-from vprobot.scene import (
+from vprobot.cell.scene import (
     ENVIRONMENT_BIT,
     HOUSING_GEOM,
     OBJECT_GEOM,
@@ -23,6 +21,8 @@ from vprobot.scene import (
     STATIC_PREFIX,
     Cell,
 )
+from vprobot.config import Config, replace
+from vprobot.parts.loading import LoadedMesh, load_mesh
 
 PENETRATION_TOLERANCE_M = 0.001
 """Deepest overlap between cell objects that still counts as resting on each other (1 mm: a

@@ -1,0 +1,3 @@
+"""Extension points: named registries (`registry`) and plugins from outside the
+package (`plugins`).
+"""
