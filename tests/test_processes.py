@@ -1,6 +1,6 @@
-"""Child processes end with their parent (`vprobot.compute.processes`): SIGTERM to `teacher --workers 2`
-ends its workers at once, and neither the teacher's workers nor `report check`'s `evaluate`
-outlive a parent killed with SIGKILL (nor does the check's temporary folder)."""
+"""Child processes end with their parent (`vprobot.compute.processes`): SIGTERM to `teacher
+--workers 2` ends its workers at once, and neither the teacher's workers nor `report check`'s
+`evaluate` outlive a parent killed with SIGKILL (nor does the check's temporary folder)."""
 
 from __future__ import annotations
 

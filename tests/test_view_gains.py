@@ -1,5 +1,5 @@
-"""The sensed gains of candidate views (`vprobot.coverage.view_gains`) against hand-built grids whose
-answer is known in closed form: a plate whose projector a step shadows, a plate seen past the
+"""The sensed gains of candidate views (`vprobot.coverage.view_gains`) against hand-built grids
+whose answer is known in closed form: a plate whose projector a step shadows, a plate seen past the
 incidence limit, and the ideal sensor, whose gains are the camera's."""
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 An entry says which network an encoder is, which of its settings it takes and which algorithms
 it serves. A bundled encoder is a module of `vprobot.agents.extractors` holding its network and
 its registration (declared in `ENCODERS`, which imports the module, and with it torch, on the
-first lookup of its name); one from outside is a plugin (`vprobot.extensions.plugins`). This module itself
-imports no torch, and the config does not read `ENCODERS`: `check_encoder` checks
+first lookup of its name); one from outside is a plugin (`vprobot.extensions.plugins`). This module
+itself imports no torch, and the config does not read `ENCODERS`: `check_encoder` checks
 `agent.encoder` wherever the agent section is used, before any work starts.
 """
 

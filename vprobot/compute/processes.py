@@ -84,7 +84,8 @@ def end_with_environment() -> None:
 @contextlib.contextmanager
 def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     """A pool of `workers` spawned processes that end with this one (`end_with_parent`), each
-    with this process's plugins loaded (`vprobot.extensions.plugins.in_child`) before it takes a task.
+    with this process's plugins loaded (`vprobot.extensions.plugins.in_child`) before it takes a
+    task.
 
     Leaving the block by an exception (Ctrl-C, SIGTERM, a task's error) cancels the tasks not
     started and ends the workers at once, rather than waiting for every task to finish. The

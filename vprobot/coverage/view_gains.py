@@ -4,8 +4,8 @@ and what its sensor would measure of it.
 A candidate view is scored by casting a sparse grid of rays through the grid (`ViewGains`):
 along each ray a sample's visibility is the product of the chances that the samples before it
 let the ray through (1 for free, `UNKNOWN_PASS` per voxel for unknown, 0 for occupied), and a
-gain sums the visibility of the samples of one kind (`vprobot.coverage.occupancy.GAINS`). That is what the
-camera would see (`ViewGains.camera_scores`).
+gain sums the visibility of the samples of one kind (`vprobot.coverage.occupancy.GAINS`). That is
+what the camera would see (`ViewGains.camera_scores`).
 
 A structured-light sensor measures less (`vprobot.sensing.structured_light`): a point only where
 its projector, `baseline_m` along the sensor's +x axis, lights it unoccluded, and where the

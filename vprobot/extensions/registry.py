@@ -6,8 +6,8 @@ A registry declares its bundled entries by name, each with an entry string
 `"package.module:attribute"` (as Gymnasium registers environments) and the facts that listing
 them needs (a planner's `usage`), without importing them: listing names, `in` and the messages
 that say what is allowed import nothing, and an entry's module is imported on the first lookup
-of its name, where it registers the entry. One from outside is a plugin (`vprobot.extensions.plugins`),
-registered by being imported.
+of its name, where it registers the entry. One from outside is a plugin
+(`vprobot.extensions.plugins`), registered by being imported.
 """
 
 from __future__ import annotations

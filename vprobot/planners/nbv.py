@@ -5,8 +5,8 @@ integrated into an occupancy grid over where an object may stand in the cell
 (`vprobot.coverage.occupancy`); the candidates are the band candidates (`views.band_candidates`:
 look-at views spread evenly over the view band at the working distance, as `uniform<k>`), each
 scored by the expected information of its rays through the grid (`DEFAULT_GAIN`) as its sensor
-would measure it (`vprobot.coverage.view_gains.ViewGains.scores`: under structured light only what the
-projector lights within both incidence limits; with the ideal sensor what the camera sees).
+would measure it (`vprobot.coverage.view_gains.ViewGains.scores`: under structured light only what
+the projector lights within both incidence limits; with the ideal sensor what the camera sees).
 `nbv_camera` scores by what the camera sees whatever the sensor (`vprobot.planners.nbv_camera`),
 as `nbv` did before issue 45. The best candidate is requested next, skipping
 candidates within `EXCLUDE_DEG` of an earlier request (taken or failed) and, with the robot,

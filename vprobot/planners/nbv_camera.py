@@ -1,8 +1,8 @@
 """`nbv_camera`: `nbv` scoring candidates by what the camera sees, whatever the sensor measures.
 
-It is `nbv` as it was before issue 45 (`vprobot.coverage.view_gains.ViewGains.score`: the unknown voxels
-the camera's rays reach, sample by sample), kept to compare against `nbv`, which scores by what
-the sensor measures. With the ideal sensor the two rank the candidates alike. Names take the
+It is `nbv` as it was before issue 45 (`vprobot.coverage.view_gains.ViewGains.score`: the unknown
+voxels the camera's rays reach, sample by sample), kept to compare against `nbv`, which scores by
+what the sensor measures. With the ideal sensor the two rank the candidates alike. Names take the
 same gain and stop rule: `nbv_camera:frontier`, `nbv_camera@grid`.
 """
 

@@ -3,8 +3,8 @@
 Dense rewards are paid every step from the coverage gain dCOV_t, the remaining coverage before
 the step COV_rem and the travel cost k_t; sparse rewards pay 0 until the episode's last step T
 and then a function of the final coverage COV_T, T and the summed travel k_cum. A new reward is
-a module of this package, declared in `REWARDS` (or a plugin, `vprobot.extensions.plugins`), that registers
-one more `RewardFormula` in `REWARDS` (docs/extending.md#reward).
+a module of this package, declared in `REWARDS` (or a plugin, `vprobot.extensions.plugins`), that
+registers one more `RewardFormula` in `REWARDS` (docs/extending.md#reward).
 """
 
 from __future__ import annotations

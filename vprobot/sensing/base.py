@@ -7,8 +7,8 @@ points and where (`SensingModel.measure`); its other methods say what the rest o
 of it: the figures it takes from the `sensor` section, its deterministic part (what the ground
 truth measures with), what of it joins the ground truth's cache key and the reductions that tell
 a frame's lost points apart. A new model is a module of this package, declared in
-`SENSING_MODELS` (or a plugin, `vprobot.extensions.plugins`), with a `SensingModel` subclass registered
-there (docs/extending.md#sensing-model).
+`SENSING_MODELS` (or a plugin, `vprobot.extensions.plugins`), with a `SensingModel` subclass
+registered there (docs/extending.md#sensing-model).
 """
 
 from __future__ import annotations

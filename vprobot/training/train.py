@@ -168,7 +168,8 @@ def monitor_file(rank: int) -> str:
 def make_vec_env(config: Config, seed: int, starts: Sequence[int],
                  monitor_dir: Path | None) -> VecEnv:
     """The run's envs: one in-process, several in subprocesses (one monitor file each), which
-    load this process's plugins (`vprobot.extensions.plugins.in_child`) before they make their env."""
+    load this process's plugins (`vprobot.extensions.plugins.in_child`) before they make their
+    env."""
     factories: list[Callable[[], gym.Env]] = [
         env_factory(config, seed, rank, start,
                     None if monitor_dir is None else monitor_dir / monitor_file(rank))
