@@ -14,6 +14,7 @@ import pytest
 import trimesh
 
 from vprobot.config import Config
+from vprobot.coverage import ground_truth as gt_module
 from vprobot.coverage.ground_truth import (
     N_GT,
     GroundTruth,
@@ -22,8 +23,7 @@ from vprobot.coverage.ground_truth import (
     ground_truth,
     mesh_hash,
 )
-from vprobot.coverage.tracker import ground_truth as gt_module
-from vprobot.files.atomic import atomic as files
+from vprobot.files import atomic as files
 
 # A box whose footprint fits on the fixture plate (0.12 m x 0.08 m): its bottom face rests on it.
 BOX_SIZE = np.array([0.10, 0.06, 0.08])

@@ -11,7 +11,7 @@ from pathlib import Path
 import trimesh
 
 from vprobot.config import Config, replace
-from vprobot.coverage.tracker import ground_truth as gt_module
+from vprobot.coverage import ground_truth as gt_module
 from vprobot.files.paths import ROBOTS_DIR
 
 

@@ -10,7 +10,7 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from vprobot.cli import main
-from vprobot.files.atomic import progress
+from vprobot.files import progress
 from vprobot.files.paths import ASSETS_DIR, CACHE_ENV_VAR
 from vprobot.parts import loading as mesh_loading
 from vprobot.parts.loading import load_mesh

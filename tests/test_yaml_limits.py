@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from vprobot.config import ConfigError, load_config, sensor_preset
-from vprobot.files.atomic import schema
+from vprobot.files import schema
 from vprobot.files.schema import parse_yaml
 
 MEMORY_LIMIT_BYTES = 4 << 30
