@@ -20,7 +20,7 @@ from vprobot.episode import EpisodeSpec
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.rewards import REWARDS
 
-SMALL = {"motors": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}
+SMALL = {"parts": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}
 
 
 def make(**overrides: object) -> InspectEnv:

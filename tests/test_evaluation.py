@@ -825,7 +825,7 @@ def test_each_planner_is_built_once_per_run_and_gives_the_rows_of_fresh_ones(
             return _original(config, views, **params)
 
         monkeypatch.setattr(PLANNERS[name], "from_name", counted)
-    specs = evaluation_episodes(CONFIG, motors=[DEFAULT_MOTOR], seeds=[0, 1])
+    specs = evaluation_episodes(CONFIG, parts=[DEFAULT_MOTOR], seeds=[0, 1])
     evaluate(CONFIG, names, specs, tmp_path / "once", progress=False, carriers=["free"])
     assert built == dict.fromkeys(names, 1)
 

@@ -37,7 +37,7 @@ from vprobot.training.stream import EpisodeStream
 from vprobot.training.teacher import WASTED, CandidateTeacher
 from vprobot.training.train import build_model, train
 
-ENV = {"action": "A_view", "state": "s_grid", "motors": "mesh",
+ENV = {"action": "A_view", "state": "s_grid", "parts": "mesh",
        "mesh": str(MOTORS_DIR / "train" / "motor_000.stl"), "resolution": (96, 67)}
 AGENT = {"algorithm": "dqn", "encoder": "candidates", "net_arch": (32, 32), "batch_size": 16,
          "learning_rate": 3e-3, "buffer_size": 1000}

@@ -10,11 +10,10 @@ its `seed-<n>` folders: a partial `seeds.csv`) says so: `0 2 (2 of 3 seeds)`.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from vprobot.episode.specs import bundled_episode_list
+from vprobot.episode.specs import bundled_episode_list, read_episode_list
 from vprobot.files.paths import PACKAGE_DIR
 from vprobot.report.compare import read_rows
 
@@ -95,8 +94,9 @@ def baselines(name: str) -> list[dict[str, str]]:
     if not (baseline_dir / "episodes.json").is_file():
         raise ValueError(f"{baseline_dir} holds no evaluation: the baselines are the "
                          "repository's results/ (run from a clone)")
-    listed = json.loads(bundled_episode_list(name).read_text())["episodes"]
-    if json.loads((baseline_dir / "episodes.json").read_text())["episodes"] != listed:
+    # Read as specs: a list written before any object was called a part says `motor`.
+    if read_episode_list(baseline_dir / "episodes.json") != read_episode_list(
+            bundled_episode_list(name)):
         raise ValueError(f"{baseline_dir}/episodes.json is not the episode list {name}")
     return [row for row in read_rows(baseline_dir / "evaluation.csv")
             if row["carrier"] == "robot" and row["planner"] in PLANNERS]
