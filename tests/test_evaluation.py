@@ -48,9 +48,10 @@ from vprobot.evaluation import (
 from vprobot.files.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.geometry.poses import Pose
 from vprobot.kinematics.trajectory import CycleTime, TimedPlan
-from vprobot.planners.base import PLANNERS, Planner, Proof
+from vprobot.planners.base import PLANNERS, Planner
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.optimum import OptimumPlanner
+from vprobot.planners.proof import Proof
 from vprobot.planners.runner import EpisodeResult, make_planner, run
 from vprobot.report.compare import moved_cells
 from vprobot.stopping.rules import StopRule, make_stop_rule

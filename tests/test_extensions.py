@@ -45,6 +45,7 @@ from vprobot.geometry.poses import Pose
 from vprobot.parts.loading import load_mesh
 from vprobot.planners.base import PLANNERS
 from vprobot.planners.runner import make_planner
+from vprobot.planners.self_stopping import stop_subject
 from vprobot.sensing import IDEAL, SENSING_MODELS, frame_generator
 from vprobot.stopping.rules import STOPS
 
@@ -106,15 +107,15 @@ from pathlib import Path
 from vprobot.episode import ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.planners.base import PlanPlanner, register_planner
+from vprobot.planners.self_stopping import SelfStopping
 
 
 @register_planner
-class TopToy(PlanPlanner):
-    """Three views straight down onto the object, from three heights."""
+class TopToy(SelfStopping, PlanPlanner):
+    """Three views straight down onto the object, from three heights, run to their end."""
 
     name = "toptoy"
     evaluated = ("toptoy",)
-    stops_at_goal = False
 
     def plan(self, episode):
         # Which processes planned: the command's, or Ray's workers.
@@ -138,7 +139,7 @@ def test_a_plugin_planner_is_named_by_the_cli_built_by_name_and_evaluated_by_def
     planner = help_text(capsys, "--plugin", str(plugin), "plan").split("--planner PLANNER ")[1]
     assert "toptoy" in planner.split(": ")[0].split(", ")
     built = make_planner("toptoy", CONFIG)
-    assert type(built).__module__ == MODULE and not built.stops_at_goal
+    assert type(built).__module__ == MODULE and not stop_subject(built).stops_at_goal
 
 
 def test_evaluate_without_planners_runs_the_plugin_planner_it_declares(

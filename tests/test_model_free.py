@@ -43,6 +43,7 @@ from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.geometry.poses import Pose
 from vprobot.planners.agent import AgentPlanner
 from vprobot.planners.base import Planner
+from vprobot.planners.initial_view import InitialViewPlanner
 from vprobot.planners.nbv import EXCLUDE_DEG
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.planners.uniform import view_band
@@ -124,7 +125,7 @@ def guarded_run(planner: Planner, scene: PartScene, carrier: str, seed: int = 0,
     spec = seeded_episode(CONFIG.env, scene.mesh.path, seed)
     episode = Episode.from_spec(scene, spec, carrier)
     planner.reset(planner_view(episode), np.random.default_rng(seed))  # type: ignore[arg-type]
-    if planner.initial_view:
+    if isinstance(planner, InitialViewPlanner):
         episode.begin(spec.initial_requests(episode.center, CONFIG.sensor.working_distance_m))
     while len(episode.views) < views:
         request = planner.next_view(planner_view(episode))  # type: ignore[arg-type]

@@ -21,7 +21,6 @@ from vprobot.cli import main
 from vprobot.config import Config
 from vprobot.episode import Episode, PartScene, ViewRequest, seeded_episode
 from vprobot.files.paths import DEFAULT_MOTOR
-from vprobot.planners.base import Proof
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import candidate_views
 from vprobot.planners.greedy import greedy_cover
@@ -38,6 +37,7 @@ from vprobot.planners.optimum import (
     views_to_goal,
 )
 from vprobot.planners.ordering import cycle_order, path_cost, shortest_cycle
+from vprobot.planners.proof import Proof
 from vprobot.planners.runner import make_planner, parse_planner, run_episode
 
 CONFIG = Config()

@@ -24,18 +24,24 @@ from vprobot.plan import write_json
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.hrec import BoxFacesPlanner
+from vprobot.planners.initial_view import InitialViewPlanner
 from vprobot.planners.oracle import OraclePlanner
 from vprobot.planners.ordering import cost_matrix, order_views, path_cost
+from vprobot.planners.proof import ExactPlanner, Proof
 from vprobot.planners.random_views import Random1Planner, Random2Planner
 from vprobot.planners.runner import (
+    PLAN_RAN_OUT,
     counted_planners,
     make_planner,
     parse_planner,
     plan_part,
+    run,
     run_episode,
 )
+from vprobot.planners.self_stopping import SelfStopping
 from vprobot.planners.visibility import VisibilityRenderer
 from vprobot.sensing import IDEAL
+from vprobot.stopping.rules import make_stop_rule
 
 CONFIG = Config()
 
@@ -130,6 +136,38 @@ def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: PartScene) -> N
     unordered = sum(joint_time(a, b, velocity) for a, b in itertools.pairwise(greedy))
     assert all(view.reachable for view in record.views)
     assert (record.approach + record.travel_sum).joint_time <= unordered + 1e-9
+
+
+class _Proven(ExactPlanner, SelfStopping):
+    """An exact planner that proves a one-view plan and plans nothing."""
+
+    name = "proven"
+
+    def reset(self, episode: Episode, rng: np.random.Generator) -> None:
+        self.proof = Proof(proven=True, bound=1, gap_views=0)
+
+    def next_view(self, episode: Episode) -> ViewRequest | None:
+        return None
+
+
+class _FromInitialView(InitialViewPlanner, _Proven):
+    """The same, starting from the environment's initial view."""
+
+
+def test_the_runner_reports_what_a_planner_has_and_only_that(motor: PartScene) -> None:
+    spec = seeded_episode(CONFIG.env, motor.mesh.path, 0, motor.mesh.scale)
+    goal = make_stop_rule("goal", CONFIG)
+    bscp = SetCoverPlanner(views=2, candidate_count=100)
+    result = run(CONFIG, motor, "bscp", spec, "free", built=(bscp, goal))
+    assert result.candidates is bscp.candidates and len(result.candidates) == 100
+    assert result.proof is None and result.requested == 2
+    hrec = run(CONFIG, motor, "hrec", spec, "free", built=(BoxFacesPlanner(), goal))
+    assert hrec.candidates is None and hrec.proof is None
+    for planner, requested in ((_Proven(), 0), (_FromInitialView(), 1)):
+        proven = run(CONFIG, motor, "proven", spec, "free", built=(planner, goal))
+        assert proven.proof == Proof(proven=True, bound=1, gap_views=0)
+        assert (proven.candidates, proven.requested) == (None, requested)
+        assert (proven.stop_reason, proven.planner_stopped) == (PLAN_RAN_OUT, True)
 
 
 @pytest.fixture(scope="module")

@@ -32,12 +32,12 @@ TOY = '''"""A user's own planner: NAME, two views straight down onto the object.
 from vprobot.episode import ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.planners.base import PlanPlanner, register_planner
+from vprobot.planners.self_stopping import SelfStopping
 
 
 @register_planner
-class TopViews(PlanPlanner):
+class TopViews(SelfStopping, PlanPlanner):
     name = "NAME"
-    stops_at_goal = False
 
     def plan(self, episode):
         distance = episode.scene.cell.config.sensor.working_distance_m

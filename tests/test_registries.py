@@ -36,16 +36,16 @@ from vprobot.planners.base import (
     register_planner,
 )
 from vprobot.planners.runner import make_planner
+from vprobot.planners.self_stopping import SelfStopping
 from vprobot.training.train import build_model, profile_config
 
 
-class TopViews(PlanPlanner):
-    """`toy<k>`: k views straight down onto the object from k heights."""
+class TopViews(SelfStopping, PlanPlanner):
+    """`toy<k>`: k views straight down onto the object from k heights, run to their end."""
 
     name = "toy"
     pattern = r"(?P<count>[1-9])"
     usage = "toy<k>"
-    stops_at_goal = False
 
     def __init__(self, count: int):
         super().__init__()

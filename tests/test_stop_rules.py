@@ -19,9 +19,17 @@ from vprobot.agents.trained import TrainedAgent
 from vprobot.cli import main
 from vprobot.config import Config, replace
 from vprobot.coverage.occupancy import OccupancyGrid
-from vprobot.episode import PartScene, episode_list, seeded_episode, write_episode_list
+from vprobot.episode import (
+    Episode,
+    PartScene,
+    ViewRequest,
+    episode_list,
+    seeded_episode,
+    write_episode_list,
+)
 from vprobot.files.paths import DEFAULT_MOTOR
-from vprobot.planners.runner import PLAN_RAN_OUT, run, run_episode
+from vprobot.planners.runner import PLAN_RAN_OUT, make_planner, run, run_episode
+from vprobot.planners.self_stopping import LearnedStop, stop_subject
 from vprobot.stop_studies.study import combinations, study_row
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, EstimateTracker, load_estimator
 from vprobot.stopping.features import FEATURES
@@ -64,6 +72,19 @@ def test_parse_stop_reads_each_form() -> None:
         {}, {}, {"confidence": 0.9}, {"count": 12}, {}, {}]
 
 
+def test_a_rule_sees_which_planners_stop_at_the_goal_and_which_decide_their_stop() -> None:
+    """A planner that is no `SelfStopping` one stops at the goal (`random1`, a plain
+    planner); fixed plans and `nbv@RULE` run to their own end, B_SCP only with a view count;
+    only a `LearnedStop` decides its stop."""
+    cases = [("random1", None, True), ("hrec", None, False), ("uniform5", None, False),
+             ("bscp", None, True), ("bscp", 5, False), ("nbv", None, True),
+             ("nbv@grid", None, False)]
+    for name, views, at_goal in cases:
+        subject = stop_subject(make_planner(name, CONFIG, views))
+        assert (subject.stops_at_goal, subject.decides_stop) == (at_goal, False), (name, views)
+    assert stop_subject(_LearnedStopper()) == StopSubject("agent", False, True)
+
+
 def test_the_agent_rule_needs_a_planner_with_a_learned_stop(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     rule = make_stop_rule("agent", CONFIG)
@@ -80,25 +101,32 @@ class _Stopped(Exception):
     """Ends a run at the planner's reset, once the rule has taken the planner on."""
 
 
-def test_a_rule_other_than_goal_and_agent_takes_the_stop_from_a_learned_stop(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+class _LearnedStopper(LearnedStop):
+    """A planner with a learned stop that notes, at its reset, whether the stop is in use."""
+
+    name = "agent"
+
+    def __init__(self) -> None:
+        self.seen: list[bool] = []
+
+    def reset(self, episode: Episode, rng: np.random.Generator) -> None:
+        self.seen.append(self.decides_stop)
+        raise _Stopped
+
+    def next_view(self, episode: Episode) -> ViewRequest | None:
+        raise AssertionError("the run ends at the reset")
+
+
+def test_a_rule_other_than_goal_and_agent_takes_the_stop_from_a_learned_stop() -> None:
     """Through the runner, which turns the planner's learned stop off (a rule sees the planner
     only as a read-only `StopSubject`)."""
     for text, keeps in (("goal", True), ("agent", True), ("views:3", False), ("grid", False),
                         ("estimate", False)):
-        planner = types.SimpleNamespace(name="agent", decides_stop=True, stops_at_goal=False)
-        seen: list[bool] = []
-
-        def reset(episode: object, rng: object, planner: Any = planner,
-                  seen: list[bool] = seen) -> None:
-            seen.append(planner.decides_stop)
-            raise _Stopped
-
-        planner.reset = reset
+        planner = _LearnedStopper()
         with pytest.raises(_Stopped):
             run_episode(planner, None, None, CONFIG, None,  # type: ignore[arg-type]
                         make_stop_rule(text, CONFIG))
-        assert seen == [keeps], text
+        assert planner.seen == [keeps], text
 
 
 def test_views_counts_acquisitions_only() -> None:

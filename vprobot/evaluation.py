@@ -79,7 +79,8 @@ from vprobot.planners.runner import (
     result_document,
     run,
 )
-from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
+from vprobot.planners.self_stopping import stop_subject
+from vprobot.stopping.rules import StopRule, make_stop_rule
 
 CURVE_VIEWS = 10
 """Requests (the initial view included) over which the coverage curve and its area run."""
@@ -89,7 +90,8 @@ OPTIMUM = "optimum"
 OPTIMUM_COLUMNS = ("views_above_optimum", "within_one_view_pct", "cycle_ratio")
 """The summary's comparison with `OPTIMUM` (`summarize`); empty without its rows."""
 PROOF_COLUMNS = ("proven", "gap_views")
-"""An exact planner's proof per episode (`Proof`): empty for the other planners."""
+"""An exact planner's proof per episode (`vprobot.planners.proof.Proof`): empty for the other
+planners."""
 PROOF_SUMMARY_COLUMNS = ("proven_pct", "gap_views_max")
 """The summary of `PROOF_COLUMNS` over an exact planner's episodes (`summarize`)."""
 COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct", "acquisitions",
@@ -450,7 +452,7 @@ def _check_inputs(config: Config, specs: Sequence[EpisodeSpec],
             _checked[part] = mesh
     for label, name, views, stop in planners:
         planner, rule = _built(run_id, config, name, views, stop, estimator)
-        if not rule.applies_to(StopSubject.of(planner)):
+        if not rule.applies_to(stop_subject(planner)):
             raise ValueError(f"stop rule {stop!r} does not apply to planner {name!r} ({label})")
 
 

@@ -40,10 +40,12 @@ from vprobot.env.observations import Observer
 from vprobot.episode import Episode, ViewRequest
 from vprobot.files.progress import note
 from vprobot.planners.base import Planner, check_views, register_planner
+from vprobot.planners.initial_view import InitialViewPlanner
+from vprobot.planners.self_stopping import LearnedStop
 
 
 @register_planner
-class AgentPlanner(Planner):
+class AgentPlanner(InitialViewPlanner, LearnedStop):
     """Plans with a trained policy (deterministic).
 
     Args:
@@ -63,7 +65,6 @@ class AgentPlanner(Planner):
     usage = "agent, agent:NAME, agent:PATH, agent~K"
     counted = True
     evaluated = ("agent",)
-    initial_view = True
 
     def __init__(self, source: str | Path | None = None, views: int | None = None,
                  nearest: int | None = None):

@@ -9,46 +9,33 @@ Every planner registers its class in `PLANNERS` under its `name` (`register_plan
 one is a module of this package, declared in `PLANNERS` with what listing it needs and imported
 on the first lookup of its name; the runner builds planners by name from there
 (`vprobot.planners.runner.make_planner`).
+
+What only some planners have, the runner reads off the small classes they also derive from: the
+episode's initial view (`initial_view.InitialViewPlanner`), a stop of their own
+(`self_stopping.SelfStopping`, `self_stopping.LearnedStop`), the candidate views they chose from
+(`candidates.ModelBasedPlanner`) and an exact planner's proof (`proof.ExactPlanner`).
 """
 
 from __future__ import annotations
 
 import abc
-import dataclasses
 from typing import TYPE_CHECKING, ClassVar
 
 from vprobot.extensions.registry import Bundled, Registry
 
 if TYPE_CHECKING:
     # Types only: the planners' names are listed (`vprobot plan --help`) without the episode's
-    # simulation, and candidates builds on this module's interface.
+    # simulation.
     import numpy as np
 
     from vprobot.config import Config
     from vprobot.episode import Episode, ViewRequest
-    from vprobot.planners.candidates import CandidateViews
 
 
 MAX_VIEWS = 100
 """Most views a plan may be asked for (`--views`, `bscp<N>`, `agent<N>`, `uniform<k>`): ten
 times the view budget of an episode (`env.max_acquisitions`, 10), and at a policy step or a
 greedy pick per view still a run of minutes, where a count of millions ran for days."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Proof:
-    """What an exact planner proved of its last plan (`optimum`).
-
-    Attributes:
-        proven: Whether the plan is proven optimal on the measured rows of its views.
-        bound: The last solve's proven bound: the fewest views that reach the goal, or the most
-            GT points a fixed number of views adds (`optimum<N>`, or a goal out of reach).
-        gap_views: Views above the proven fewest (0 when proven; None without that bound).
-    """
-
-    proven: bool
-    bound: int | None
-    gap_views: int | None
 
 
 def check_views(views: int, what: str = "views") -> None:
@@ -69,16 +56,12 @@ class Planner(abc.ABC):
         counted: Whether a fixed number of views may be given (`bscp5`, `--views 5`).
         evaluated: The names of it that `vprobot evaluate` runs by default (`uniform4`,
             `uniform5`, `uniform6`); empty: none.
-        initial_view: Whether the episode starts with the environment's fixed initial view, as
-            the next-best-view agents of the paper do (whole-plan baselines do not).
-        stops_at_goal: Whether the runner stops at the coverage goal (a fixed plan runs out).
-        decides_stop: Whether it decides itself when to stop (an agent with a stop action); a
-            stop rule other than `goal` and `agent` turns it off (`vprobot.stopping.rules`).
-        candidates: The candidate views a model-based planner chose from in its last episode.
-        stop_reason: Why the planner stopped itself in its last episode (None when it did not:
-            the runner stopped it, or a fixed plan ran out).
-        proof: What an exact planner proved of its last episode's plan; None for the others,
-            and where a wall-clock safety net cut its solves short.
+
+    `pattern`, `usage`, `counted` and `evaluated` are what the registry lists without importing
+    a bundled planner (`PLANNERS` declares them); a plugin's are read off its class. A planner
+    that derives from nothing more starts its episodes with its own first request, and the runner
+    stops it at the coverage goal or the view budget (under `--stop goal`); the small classes
+    named in the module's docstring add the rest.
     """
 
     name: ClassVar[str]
@@ -86,12 +69,6 @@ class Planner(abc.ABC):
     usage: ClassVar[str] = ""
     counted: ClassVar[bool] = False
     evaluated: ClassVar[tuple[str, ...]] = ()
-    initial_view: ClassVar[bool] = False
-    stops_at_goal: bool = True
-    decides_stop: bool = False
-    candidates: CandidateViews | None = None
-    stop_reason: str | None = None
-    proof: Proof | None = None
 
     @classmethod
     def from_name(cls, config: Config, views: int | None = None, **params: str) -> Planner:

@@ -21,15 +21,17 @@ from vprobot.planners.base import Planner, PlanPlanner, check_views, register_pl
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
     CONFIRMATIONS_PER_PICK,
+    ModelBasedPlanner,
     candidate_views,
 )
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.ordering import order_requests
+from vprobot.planners.self_stopping import SelfStopping
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 
 @register_planner
-class SetCoverPlanner(PlanPlanner):
+class SetCoverPlanner(ModelBasedPlanner, SelfStopping, PlanPlanner):
     """B_SCP over the usable candidates.
 
     Args:

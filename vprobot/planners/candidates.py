@@ -21,7 +21,8 @@ that confirm candidates too; which candidates a planner has confirmed stays its 
 Visibility of the ground-truth points from every usable candidate is predicted by
 `VisibilityRenderer` (all candidates in a few numpy passes), within the sensing model's
 deterministic limits (projector shadow, incidence limits); planners confirm the candidates they
-are about to take with a simulated acquisition (`measured`).
+are about to take with a simulated acquisition (`measured`). A planner that chooses among them is
+a `ModelBasedPlanner`, which keeps them for the runner's report.
 """
 from __future__ import annotations
 
@@ -38,6 +39,7 @@ from vprobot.episode.views import look_at_targets, screen_reachability
 from vprobot.geometry.poses import Pose
 from vprobot.geometry.viewsphere import sphere_directions
 from vprobot.kinematics import RobotArm, SensorTarget
+from vprobot.planners.base import Planner
 from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.visibility import DEFAULT_RESOLUTION, VisibilityRenderer
 
@@ -136,6 +138,19 @@ class CandidateViews:
                                 confirm=lambda index: self.measured(index, episode),
                                 allowed=allowed, confirmations=CONFIRMATIONS_PER_PICK)
         return picks[0] if picks else None
+
+
+class ModelBasedPlanner(Planner):
+    """A planner that chooses among the episode's candidate views (`bscp`, `optimum`,
+    `oracle`): the runner reports them with the episode (`EpisodeResult.candidates`, the
+    summary's reachability and timing line).
+
+    Attributes:
+        candidates: The candidate views it chose from in its last episode; None before its
+            first.
+    """
+
+    candidates: CandidateViews | None = None
 
 
 def candidate_views(episode: Episode, count: int = CANDIDATE_COUNT,

@@ -20,6 +20,7 @@ from vprobot.episode import Episode, ViewRequest
 from vprobot.kinematics import SensorTarget
 from vprobot.planners.base import PlanPlanner, register_planner
 from vprobot.planners.ordering import fixed_plan
+from vprobot.planners.self_stopping import SelfStopping
 
 
 def box_views(vertices_world: np.ndarray, center: np.ndarray,
@@ -32,12 +33,11 @@ def box_views(vertices_world: np.ndarray, center: np.ndarray,
 
 
 @register_planner
-class BoxFacesPlanner(PlanPlanner):
-    """H_rec: six bounding-box face views."""
+class BoxFacesPlanner(SelfStopping, PlanPlanner):
+    """H_rec: six bounding-box face views, run to their end (not stopped at the goal)."""
 
     name = "hrec"
     evaluated = ("hrec",)
-    stops_at_goal = False
 
     def plan(self, episode: Episode) -> list[ViewRequest]:
         scene = episode.scene

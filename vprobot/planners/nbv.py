@@ -37,7 +37,9 @@ from vprobot.episode.views import band_candidates, offered, request_directions
 from vprobot.kinematics import SensorTarget
 from vprobot.planners.base import Planner, register_planner
 from vprobot.planners.candidates import arm_hides_view
-from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
+from vprobot.planners.initial_view import InitialViewPlanner
+from vprobot.planners.self_stopping import SelfStopping, stop_subject
+from vprobot.stopping.rules import StopRule, make_stop_rule
 
 DEFAULT_GAIN: Gain = "unknown"
 REACH_TRIES = 40
@@ -45,7 +47,7 @@ REACH_TRIES = 40
 
 
 @register_planner
-class VolumetricPlanner(Planner):
+class VolumetricPlanner(InitialViewPlanner, SelfStopping):
     """Next-best view by information gain on an occupancy grid.
 
     Args:
@@ -67,7 +69,6 @@ class VolumetricPlanner(Planner):
     name = "nbv"
     pattern = r"(?::(?P<gain>\w+))?(?:@(?P<stop>.+))?"
     evaluated: ClassVar[tuple[str, ...]] = ("nbv", "nbv@grid")
-    initial_view = True
     sensed: ClassVar[bool] = True
     """Whether candidates score by what the sensor measures (else by what the camera sees)."""
 
@@ -78,13 +79,13 @@ class VolumetricPlanner(Planner):
         self.config = config
         self.gain = gain
         self.stop_rule: StopRule | None = None
-        if stop != "goal":
+        self.stops_at_goal = stop == "goal"
+        if not self.stops_at_goal:
             try:
                 self.stop_rule = make_stop_rule(stop, config)
-                self.stop_rule.bind(StopSubject.of(self))
+                self.stop_rule.bind(stop_subject(self))
             except ValueError as error:
                 raise ValueError(f"nbv@{stop}: {error}") from None
-        self.stops_at_goal = self.stop_rule is None
         self.voxel_m = voxel_m
         self.settings = GridSettings.of(config, voxel_m=voxel_m)
         self._begin()

@@ -46,7 +46,7 @@ import numpy as np
 from scipy import optimize, sparse
 
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Proof, register_planner
+from vprobot.planners.base import register_planner
 from vprobot.planners.bscp import SetCoverPlanner
 from vprobot.planners.candidates import (
     CANDIDATE_COUNT,
@@ -55,6 +55,7 @@ from vprobot.planners.candidates import (
 )
 from vprobot.planners.greedy import cover_input, greedy_cover
 from vprobot.planners.ordering import cycle_order
+from vprobot.planners.proof import ExactPlanner, Proof
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 NODE_LIMIT = 100
@@ -468,7 +469,7 @@ def _solve(reduced: Reduced, count: int, needed: int | None, node_limit: int,
 
 
 @register_planner
-class OptimumPlanner(SetCoverPlanner):
+class OptimumPlanner(ExactPlanner, SetCoverPlanner):
     """The exact set cover over the usable candidates, confirmed and ordered for cycle time.
 
     Args:

@@ -12,13 +12,14 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.episode import Episode, ViewRequest
-from vprobot.planners.base import Planner, register_planner
-from vprobot.planners.candidates import CANDIDATE_COUNT, candidate_views
+from vprobot.planners.base import register_planner
+from vprobot.planners.candidates import CANDIDATE_COUNT, ModelBasedPlanner, candidate_views
+from vprobot.planners.initial_view import InitialViewPlanner
 from vprobot.planners.visibility import DEFAULT_RESOLUTION
 
 
 @register_planner
-class OraclePlanner(Planner):
+class OraclePlanner(InitialViewPlanner, ModelBasedPlanner):
     """Greedy next-best-view on the candidates' predicted visibility.
 
     Args:
@@ -28,7 +29,6 @@ class OraclePlanner(Planner):
 
     name = "oracle"
     evaluated = ("oracle",)
-    initial_view = True
 
     def __init__(self, candidate_count: int = CANDIDATE_COUNT,
                  resolution: tuple[int, int] = DEFAULT_RESOLUTION):

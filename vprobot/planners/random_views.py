@@ -17,9 +17,10 @@ from vprobot.config import Config, EnvConfig
 from vprobot.env.actions import ActionMapping
 from vprobot.episode import Episode, ViewRequest
 from vprobot.planners.base import Planner, register_planner
+from vprobot.planners.initial_view import InitialViewPlanner
 
 
-class RandomPlanner(Planner):
+class RandomPlanner(InitialViewPlanner):
     """Uniformly random actions of one action variant.
 
     Args:
@@ -27,8 +28,6 @@ class RandomPlanner(Planner):
         working_distance_m: The sensor's optimal distance (fixed radius of some variants).
         roll_free: Leave the roll of non-look-at views to the IK.
     """
-
-    initial_view = True
 
     def __init__(self, env: EnvConfig, working_distance_m: float, roll_free: bool):
         self.mapping = ActionMapping(env, working_distance_m)

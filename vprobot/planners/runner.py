@@ -33,14 +33,16 @@ from vprobot.plan import episode_document
 from vprobot.planners.base import (
     PLANNERS,
     Planner,
-    Proof,
     check_views,
     counted_planners,
     planner_names,
 )
-from vprobot.planners.candidates import CandidateViews
+from vprobot.planners.candidates import CandidateViews, ModelBasedPlanner
+from vprobot.planners.initial_view import InitialViewPlanner
+from vprobot.planners.proof import ExactPlanner, Proof
+from vprobot.planners.self_stopping import LearnedStop, SelfStopping, stop_subject
 from vprobot.stopping.estimator import load_estimator
-from vprobot.stopping.rules import StopRule, StopSubject, make_stop_rule
+from vprobot.stopping.rules import StopRule, make_stop_rule
 from vprobot.stopping.rules.estimate import view_estimates
 
 
@@ -115,7 +117,8 @@ class EpisodeResult:
         goal: The coverage goal.
         plan_seconds: Time spent inside the planner (reset and next-view calls).
         episode_seconds: Wall time of the whole episode (planning and executing views).
-        candidates: The candidate views of a model-based planner (bscp, oracle), else None.
+        candidates: The candidate views of a model-based planner (`ModelBasedPlanner`: bscp,
+            oracle), else None.
         stop_reason: Why the episode ended (`goal reached`, `max views`, the stop rule's or the
             planner's own reason, e.g. `nbv@grid`'s).
         stop_rule: The stop rule (`--stop`: `goal`, `estimate:0.9`, ...).
@@ -124,7 +127,8 @@ class EpisodeResult:
         estimates: The model-free coverage estimate (mean, std) after each view, when asked for
             (NaN where it was refused).
         estimate_notes: Why the estimate was refused, widened or kept, each once.
-        proof: What an exact planner (`optimum`) proved of its plan; None for the others.
+        proof: What an exact planner (`ExactPlanner`: `optimum`) proved of its plan; None for
+            the others.
         clearances: The least distance from the robot to each object of the cell over the
             moves it made (`episode_clearances`); None when it made none.
     """
@@ -220,7 +224,8 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
                 rng: np.random.Generator, stop: StopRule | None = None) -> Played:
     """Let `planner` choose views until it stops, the stop rule or the view budget says so.
 
-    Planners that start from the environment's initial view (`initial_view`) get the spec's.
+    Planners that start from the environment's initial view (`InitialViewPlanner`) get the
+    spec's.
     The stop rule (default `goal`: the coverage goal, for planners that stop there) is asked
     before each request; a planner the rule governs gets at most `env.max_acquisitions`
     requests after the initial view; fixed plans, and planners the rule leaves to stop
@@ -235,18 +240,18 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
     """
     if stop is None:
         stop = make_stop_rule("goal", config)
-    stop.bind(StopSubject.of(planner))
-    if not stop.keeps_learned_stop:
+    stop.bind(stop_subject(planner))
+    if isinstance(planner, LearnedStop) and not stop.keeps_learned_stop:
         # The rule decides: a learned stop action is no longer used.
         planner.decides_stop = False
-    governed = stop.governs(StopSubject.of(planner))
+    governed = stop.governs(stop_subject(planner))
     stop.reset()
     env = config.env
     planning = 0.0
     start = time.perf_counter()
     planner.reset(episode, rng)
     planning += time.perf_counter() - start
-    if planner.initial_view:
+    if isinstance(planner, InitialViewPlanner):
         try:
             episode.begin(spec.initial_requests(episode.center,
                                                 config.sensor.working_distance_m))
@@ -264,7 +269,8 @@ def run_episode(planner: Planner, episode: Episode, spec: EpisodeSpec, config: C
         view = planner.next_view(episode)
         planning += time.perf_counter() - start
         if view is None:
-            return Played(episode.record(), planning, planner.stop_reason or PLAN_RAN_OUT, True)
+            own = planner.stop_reason if isinstance(planner, SelfStopping) else None
+            return Played(episode.record(), planning, own or PLAN_RAN_OUT, True)
         episode.request(view)
 
 
@@ -314,9 +320,12 @@ def run(config: Config, scene: PartScene, planner: str, spec: EpisodeSpec,
                          carrier=carrier, spec=spec, record=played.record,
                          goal=config.env.coverage_goal, plan_seconds=played.plan_seconds,
                          episode_seconds=seconds,
-                         candidates=chosen.candidates, stop_reason=played.stop_reason,
+                         candidates=(chosen.candidates if isinstance(chosen, ModelBasedPlanner)
+                                     else None),
+                         stop_reason=played.stop_reason,
                          stop_rule=stop, planner_stopped=played.planner_stopped,
-                         estimates=estimated, estimate_notes=tuple(notes), proof=chosen.proof,
+                         estimates=estimated, estimate_notes=tuple(notes),
+                         proof=chosen.proof if isinstance(chosen, ExactPlanner) else None,
                          clearances=episode_clearances(played.record, scene.cell))
 
 

@@ -57,6 +57,7 @@ from vprobot.kinematics.collision import CollisionChecker
 from vprobot.planners.base import Planner, PlanPlanner, check_views, register_planner
 from vprobot.planners.candidates import CANDIDATE_COUNT, arm_hides_view
 from vprobot.planners.ordering import fixed_plan
+from vprobot.planners.self_stopping import SelfStopping
 
 
 def _band() -> np.ndarray:
@@ -207,8 +208,9 @@ def uniform_targets(config: Config, count: int, episode: Episode
 
 
 @register_planner
-class UniformPlanner(PlanPlanner):
-    """k fixed views spread over the view band, in a short travel order.
+class UniformPlanner(SelfStopping, PlanPlanner):
+    """k fixed views spread over the view band, in a short travel order, run to their end (not
+    stopped at the goal).
 
     Args:
         config: The configuration (cell, robot, sensor).
@@ -222,7 +224,6 @@ class UniformPlanner(PlanPlanner):
     pattern = r"(?P<count>[1-9]\d*)"
     usage = "uniform<k>"
     evaluated = ("uniform4", "uniform5", "uniform6")
-    stops_at_goal = False
 
     def __init__(self, config: Config, count: int):
         check_views(count, "the view count k of uniform<k>")

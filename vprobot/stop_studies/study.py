@@ -22,7 +22,8 @@ from vprobot.evaluation import evaluate, evaluation_episodes, finished_rows, sto
 from vprobot.files.atomic import csv_text, folder_lock, save_figure, write_text
 from vprobot.files.paths import PACKAGE_DIR
 from vprobot.planners.runner import make_planner, parse_planner
-from vprobot.stopping.rules import StopSubject, make_stop_rule
+from vprobot.planners.self_stopping import stop_subject
+from vprobot.stopping.rules import make_stop_rule
 
 DEFAULT_LISTS = ("test-v1", "families-test-v1", "shapes-v1")
 DEFAULT_RULES = ("goal", "estimate", "grid", "views:5", "agent")
@@ -61,7 +62,7 @@ def combinations(config: Config, planners: Sequence[str], rules: Sequence[str],
         applies = []
         for planner in planners:
             name, views = parse_planner(planner)
-            made = StopSubject.of(make_planner(name, config, views))
+            made = stop_subject(make_planner(name, config, views))
             if stop.applies_to(made) and (rule != "goal" or stop.governs(made)):
                 applies.append(planner)
         if applies:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from vprobot.extensions.registry import Bundled, Registry
 
@@ -23,23 +23,11 @@ if TYPE_CHECKING:
     from vprobot.episode import Episode
 
 
-class _Stoppable(Protocol):
-    """What `StopSubject.of` reads: a planner (`vprobot.planners.base.Planner`)."""
-
-    @property
-    def name(self) -> str: ...
-
-    @property
-    def stops_at_goal(self) -> bool: ...
-
-    @property
-    def decides_stop(self) -> bool: ...
-
-
 @dataclasses.dataclass(frozen=True)
 class StopSubject:
     """What a stop rule reads of the planner it stops: a read-only view, so that a rule neither
-    changes the planner nor depends on the planners' layer above it.
+    changes the planner nor depends on the planners' layer above it (the planners build it:
+    `vprobot.planners.self_stopping.stop_subject`).
 
     Attributes:
         name: The planner's name.
@@ -50,11 +38,6 @@ class StopSubject:
     name: str
     stops_at_goal: bool
     decides_stop: bool
-
-    @classmethod
-    def of(cls, planner: _Stoppable) -> StopSubject:
-        """The view of a planner as it is now."""
-        return cls(planner.name, planner.stops_at_goal, planner.decides_stop)
 
 
 class StopRule(abc.ABC):

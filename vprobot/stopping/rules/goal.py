@@ -15,7 +15,7 @@ if TYPE_CHECKING:
 
 @register_stop
 class GoalStop(StopRule):
-    """Stops a planner that stops at the goal (`Planner.stops_at_goal`) once the coverage
+    """Stops a planner that stops at the goal (`StopSubject.stops_at_goal`) once the coverage
     reaches it; a planner that stops itself (a fixed plan, `nbv@grid`, an agent with a stop
     action) keeps doing so, as before there were stop rules."""
 
