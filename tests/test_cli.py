@@ -233,9 +233,10 @@ def test_building_the_parser_imports_no_heavy_module() -> None:
 
 
 def test_help_and_an_unknown_command_import_no_heavy_module() -> None:
-    # plan and evaluate list the planners and stop rules: from their registries' declarations.
+    # plan and evaluate list the planners and stop rules, export the formats: from their
+    # registries' declarations.
     for argv in (["--help"], ["cell", "--help"], ["plan", "--help"], ["evaluate", "--help"],
-                 ["evalute"]):
+                 ["export", "--help"], ["evalute"]):
         code = (f"from vprobot.cli import main\ntry:\n    main({argv!r})\n"
                 f"except SystemExit:\n    pass")
         assert _heavy_modules_after(code) == [], argv

@@ -17,7 +17,8 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from vprobot.cli import main
-from vprobot.export.formats import FORMATS, export_plan
+from vprobot.export.formats import FORMATS
+from vprobot.export.program import export_plan
 from vprobot.files.paths import ROBOTS_DIR
 
 VIEWS = 10

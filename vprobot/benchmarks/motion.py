@@ -26,7 +26,8 @@ from vprobot.episode.cycle import episode_moves
 from vprobot.episode.records import EpisodeRecord
 from vprobot.evaluation import held_out_motors
 from vprobot.export.check import check_plan
-from vprobot.export.formats import FORMATS, export_plan
+from vprobot.export.formats import FORMATS
+from vprobot.export.program import export_plan
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlanner

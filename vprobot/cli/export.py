@@ -37,7 +37,9 @@ def _format_name(text: str) -> str:
 def _formats_help() -> str:
     from vprobot.export.formats import FORMATS
 
-    formats = [f"{name} ({form.suffix}): {form.description}" for name, form in FORMATS.items()]
+    # From the declarations: listing the formats imports none of them.
+    formats = [f"{name} ({FORMATS.fact(name, 'suffix')}): {FORMATS.fact(name, 'description')}"
+               for name in FORMATS]
     return f"{'; '.join(formats)} (docs/motion.md#export)"
 
 
@@ -56,7 +58,8 @@ def add_check(commands: Commands) -> None:
 def command_export(args: argparse.Namespace) -> int:
     """Write a plan's motion as a trajectory, a CSV, a URScript program, a ROS 2 goal or the
     acquisitions."""
-    from vprobot.export.formats import FORMATS, export_plan_file
+    from vprobot.export.formats import FORMATS
+    from vprobot.export.program import export_plan_file
     from vprobot.files.atomic import write_text
 
     check_output_file(args.out, "--out", (FORMATS[args.format].suffix,))

@@ -1,7 +1,7 @@
 """Programs and trajectories a cell runs, made from a plan JSON, and the replay check that
 holds them to the cell's limits (docs/motion.md#export).
 
-One module per format in `formats`, registered in `formats.FORMATS`; `formats.export_plan`
+One module per format in `formats`, registered in `formats.FORMATS`; `program.export_plan`
 writes any of them. This module holds only what the command line needs before it runs one (no
 heavy imports).
 """

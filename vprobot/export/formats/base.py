@@ -1,20 +1,20 @@
-"""What an export format is, and the registry of them (docs/motion.md#export)."""
+"""What an export format is, and the registry of them (docs/motion.md#export): light to
+import, as `vprobot export --help` lists the formats; `vprobot.export.program` writes one."""
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
-from vprobot.cell.scene import Cell
-from vprobot.config import load_config, replace
-from vprobot.export import EXPORT_DT_S
-from vprobot.export.motion import PlanMotion, plan_motion, require_robot
 from vprobot.extensions.registry import Bundled, Registry
-from vprobot.plan import plan_robot, read_plan
 
-Writer = Callable[[PlanMotion, float], str]
+if TYPE_CHECKING:
+    # Light to import, so that `vprobot export --help` lists the formats at once: the motion
+    # of a plan (MuJoCo, the time laws) is what a writer is handed, not what it is named by.
+    from vprobot.export.motion import PlanMotion
+
+Writer = Callable[["PlanMotion", float], str]
 """A format's writer: the plan's motion and the sampling step (s) -> the file's text."""
 
 
@@ -69,30 +69,3 @@ def register_format(name: str, suffix: str, description: str) -> Callable[[Write
         return write
 
     return register
-
-
-def export_plan(document: dict[str, Any], format_name: str, dt: float = EXPORT_DT_S) -> str:
-    """The text of a plan's motion in one format.
-
-    Raises:
-        ValueError: For an unknown format, a plan that has no robot cycle to export
-            (`plan_motion`), a non-UR robot asked for URScript, or a step that is not > 0.
-    """
-    return FORMATS[format_name].write(plan_motion(document), dt)
-
-
-def export_plan_file(plan_path: str | Path, format_name: str, dt: float = EXPORT_DT_S) -> str:
-    """The text of the motion of the plan at `plan_path` in one format, once its robot and
-    joint names are found to be those of the robot it names (its bundled model or robot
-    folder), as `vprobot check` finds them.
-
-    Raises:
-        ValueError: As `export_plan`, and for an unreadable plan, an unknown robot or names
-            that are not the robot's.
-    """
-    document = read_plan(plan_path)
-    motion = plan_motion(document)
-    robot = plan_robot(document["robot"], Path(plan_path))
-    cell = Cell(replace(load_config(None), "cell", robot=robot))
-    require_robot(motion, cell.robot.name, cell.joints.names)
-    return FORMATS[format_name].write(motion, dt)
