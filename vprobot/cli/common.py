@@ -57,21 +57,22 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def add_former(sub: argparse.ArgumentParser, former: str, current: str) -> None:
-    """Accept option `former`, the former name of option `current`, for one release: it stores
-    into `current`'s value and writes a note to stderr; `--help` lists only `current`."""
+def add_former(sub: argparse.ArgumentParser, former: str, current: argparse.Action) -> None:
+    """Accept option `former`, the former name of the option `current` (as `add_argument`
+    returned it), for one release: it stores into `current`'s value and writes a note to
+    stderr; `--help` lists only `current`."""
+    name = current.option_strings[0]
 
     class _Former(argparse.Action):
         def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
                      values: Any, option_string: str | None = None) -> None:
-            print(f"note: {former} is now called {current}; the old name will not be read "
+            print(f"note: {former} is now called {name}; the old name will not be read "
                   f"after the next release", file=sys.stderr)
             setattr(namespace, self.dest, values)
 
-    action = next(action for action in sub._actions if current in action.option_strings)
-    former_action = sub.add_argument(former, dest=action.dest, nargs=action.nargs,
+    former_action = sub.add_argument(former, dest=current.dest, nargs=current.nargs,
                                      action=_Former, help=argparse.SUPPRESS)
-    former_action.type = action.type
+    former_action.type = current.type
 
 
 def config_of(args: argparse.Namespace) -> Config:

@@ -104,10 +104,9 @@ def add_evaluate(commands: Commands) -> None:
     evaluation.add_argument("--episodes", help="episode list: a bundled one by name (test-v1: "
                             "the test motors; shapes-v1: the non-motor objects) or a JSON file "
                             "as written into --out; default: test-v1")
-    evaluation.add_argument("--parts", nargs="+",
-                            help="mesh files to draw episodes for instead (default: the test "
-                            "motors)")
-    add_former(evaluation, "--motors", "--parts")
+    add_former(evaluation, "--motors", evaluation.add_argument(
+        "--parts", nargs="+",
+        help="mesh files to draw episodes for instead (default: the test motors)"))
     evaluation.add_argument("--seeds", type=NON_NEGATIVE_INT, nargs="+",
                             help="seeds to draw episodes for instead (default: 0 1 2)")
     evaluation.add_argument("--carriers", nargs="+", choices=["robot", "free"],
