@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import gc
 import pickle
+import subprocess
+import sys
 import weakref
 
 import gymnasium as gym
@@ -21,6 +23,21 @@ from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.rewards import REWARDS
 
 SMALL = {"parts": "mesh", "mesh": str(DEFAULT_MOTOR), "resolution": (107, 75)}
+
+
+@pytest.mark.parametrize("first", ["vprobot", "gymnasium"])
+def test_importing_vprobot_registers_the_env_in_gymnasiums_registry_whichever_comes_first(
+        first: str) -> None:
+    """The package registers the env without importing gymnasium (its command lines start
+    faster), when gymnasium is imported, before or after it; gymnasium's own registry says so."""
+    code = (f"import sys\nimport {first}\n"
+            "import vprobot\n"
+            "before = 'gymnasium' in sys.modules\n"
+            "import gymnasium\n"
+            "print(before, gymnasium.spec('vprobot/Inspect-v0').entry_point)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == [str(first == "gymnasium"), "vprobot.env.inspect_env:InspectEnv"]
 
 
 def make(**overrides: object) -> InspectEnv:

@@ -295,7 +295,7 @@ class HalfDropout(SensingModel):
         # A point kept with a probability above 0 is inspectable: the ideal sensor's GT.
         return IDEAL'''.replace("{MEASURED_IN}", MEASURED_IN)
 REGISTRIES["sensing model"] = SENSING_MODELS
-BUNDLED["sensing model"] = ("vprobot.sensing.base", "SENSING_MODELS",
+BUNDLED["sensing model"] = ("vprobot.sensing.models", "SENSING_MODELS",
                             "@SENSING_MODELS.register_named", "entry.__module__")
 
 

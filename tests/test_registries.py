@@ -217,7 +217,7 @@ REGISTRIES = {
     "PLANNERS": ("vprobot.planners.base", "vprobot.planners"),
     "STOPS": ("vprobot.stopping.rules.base", "vprobot.stopping.rules"),
     "REWARDS": ("vprobot.rewards.base", "vprobot.rewards"),
-    "SENSING_MODELS": ("vprobot.sensing.base", "vprobot.sensing"),
+    "SENSING_MODELS": ("vprobot.sensing.models", "vprobot.sensing"),
     "ENCODERS": ("vprobot.agents.encoders", "vprobot.agents.extractors"),
     "FAMILIES": ("vprobot.families.base", "vprobot.families"),
     "FORMATS": ("vprobot.export.formats.base", "vprobot.export.formats"),

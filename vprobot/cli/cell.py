@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from vprobot.cli.common import (
     POSITIVE_INT,
     Commands,
@@ -74,6 +72,8 @@ def add_robots(commands: Commands) -> None:
 
 def command_reach(args: argparse.Namespace) -> int:
     """Answer "can the cell reach this view?" and optionally write the plan JSON."""
+    import numpy as np
+
     from vprobot.cell.scene import Cell
     from vprobot.geometry.poses import Pose
     from vprobot.kinematics import OUT_OF_REACH, RobotArm, SensorTarget
@@ -116,6 +116,8 @@ def command_reach(args: argparse.Namespace) -> int:
 
 def command_cell(args: argparse.Namespace) -> int:
     """Report how much of the view sphere around the part the robot reaches."""
+    import numpy as np
+
     from vprobot.cell.check import check_cell
     from vprobot.kinematics import RobotArm
     from vprobot.kinematics.survey import default_cell, view_sphere_survey, view_sphere_targets

@@ -1,5 +1,5 @@
-"""What a sensing model is (`SensingModel`), the registry of them (`SENSING_MODELS`) and what a
-model reads of a frame (`CameraHits`).
+"""What a sensing model is (`SensingModel`), what it reads of the sensor (`SensorSettings`) and
+of a frame (`CameraHits`); the registry of models is `vprobot.sensing.models`.
 
 The sensor (`vprobot.cell.sensor.DepthSensor`) finds the camera's hits: every object point a ray
 meets first within range, exactly where it lies. The model then decides which of them become
@@ -7,8 +7,8 @@ points and where (`SensingModel.measure`); its other methods say what the rest o
 of it: the figures it takes from the `sensor` section, its deterministic part (what the ground
 truth measures with), what of it joins the ground truth's cache key and the reductions that tell
 a frame's lost points apart. A new model is a module of this package, declared in
-`SENSING_MODELS` (or a plugin, `vprobot.extensions.plugins`), with a `SensingModel` subclass
-registered there (docs/extending.md#sensing-model).
+`vprobot.sensing.models.SENSING_MODELS` (or a plugin, `vprobot.extensions.plugins`), with a
+`SensingModel` subclass registered there (docs/extending.md#sensing-model).
 """
 
 from __future__ import annotations
@@ -18,9 +18,6 @@ import hashlib
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
-
-from vprobot.extensions.registry import Bundled, Registry
-from vprobot.files.schema import ConfigError
 
 
 class SensorSettings(Protocol):
@@ -137,22 +134,6 @@ class SensingModel:
         point is lost to the first that drops it. None: the model's losses are not told apart
         (`DepthSensor.losses_at` reports none)."""
         return ()
-
-
-SENSING_MODELS: Registry[type[SensingModel]] = Registry("sensing model", bundled={
-    "ideal": Bundled("vprobot.sensing.ideal:IdealSensing"),
-    "structured_light": Bundled("vprobot.sensing.structured_light:StructuredLight"),
-})
-"""Every sensing model by name (`sensor.sensing`, `--sensing`), one module each here."""
-
-
-def check_sensing(sensor: SensorSettings) -> None:
-    """Raise ConfigError unless `sensor.sensing` names a sensing model that the sensor has what
-    it needs for."""
-    if sensor.sensing not in SENSING_MODELS:
-        raise ConfigError(f"sensor.sensing must be one of {list(SENSING_MODELS)}, got "
-                          f"{sensor.sensing!r}")
-    SENSING_MODELS[sensor.sensing].of_sensor(sensor)
 
 
 def frame_generator(*state: np.ndarray) -> np.random.Generator:

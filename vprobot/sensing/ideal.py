@@ -6,7 +6,8 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from vprobot.sensing.base import SENSING_MODELS, SensingModel, SensorSettings
+from vprobot.sensing.base import SensingModel, SensorSettings
+from vprobot.sensing.models import SENSING_MODELS
 
 
 @SENSING_MODELS.register_named

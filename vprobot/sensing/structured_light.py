@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from vprobot.files.schema import ConfigError
-from vprobot.sensing.base import SENSING_MODELS, CameraHits, SensingModel, SensorSettings
+from vprobot.sensing.base import CameraHits, SensingModel, SensorSettings
+from vprobot.sensing.models import SENSING_MODELS
 
 MAX_BASELINE_M = 1.0
 """Longest camera-to-projector baseline. Structured-light devices are built with 0.05 to 0.6 m."""
