@@ -76,7 +76,8 @@ TINY_TRAINING = (
     "env.resolution=[64,45]", "env.state_points=64", "agent.learning_starts=50",
     "agent.batch_size=32", "agent.buffer_size=400", "agent.eval_freq=100",
     "agent.checkpoint_freq=100", "agent.eval_episodes=1", "agent.net_arch=[16,16]",
-    "agent.encoder_scale=0.05", "agent.n_steps=64", "agent.n_epochs=1",
+    "agent.encoder_settings.pcn.scale=0.05", "agent.encoder_settings.pointnet.scale=0.05",
+    "agent.n_steps=64", "agent.n_epochs=1",
     # Random early actions ask for many moves around the fixture; a search that cannot connect
     # gives up after 2 000 collision checks instead of 20 000.
     "kinematics.path_planning_checks=2000")

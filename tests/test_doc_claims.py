@@ -41,10 +41,11 @@ def settings(cls: type, prefix: str = "") -> set[str]:
 
 
 def written(data: dict[str, Any], prefix: str = "") -> set[str]:
-    """Every key a YAML mapping sets, dotted; a nested mapping is a section."""
+    """Every key a YAML mapping sets, dotted; a nested mapping is a section, an empty one a
+    value (`agent.encoder_settings: {}`)."""
     keys = set()
     for name, value in data.items():
-        if isinstance(value, dict):
+        if isinstance(value, dict) and value:
             keys |= written(value, f"{prefix}{name}.")
         else:
             keys.add(prefix + name)

@@ -31,7 +31,9 @@ from vprobot.rewards import REWARDS, RewardFormula
 
 REWARDS.register("twice_gain", RewardFormula(True, lambda delta, remaining, travel: 2.0 * delta))
 '''
-ENCODER = '''"""A user's own encoder: a linear layer per point, max-pooled."""
+ENCODER = '''"""A user's own encoder: a linear layer per point, max-pooled, with its setting."""
+
+import dataclasses
 
 from torch import nn
 
@@ -48,8 +50,12 @@ class MaxPool(PointCloudExtractor):
         return self.layer(points).max(dim=1).values
 
 
-ENCODERS.register("maxpool_toy", Encoder(MaxPool, settings=lambda agent: {
-    "width": agent.net_arch[1]}))
+@dataclasses.dataclass(frozen=True)
+class Width:
+    width: int = 24
+
+
+ENCODERS.register("maxpool_toy", Encoder(MaxPool, settings=Width))
 '''
 PROFILE = CONFIGS_DIR / "agents" / "cpu.yaml"
 ONE_FREE_EPISODE = ["--parts", str(DEFAULT_MOTOR), "--carriers", "free"]
@@ -113,12 +119,14 @@ def test_a_plugin_reward_and_encoder_train_an_agent_that_two_ray_workers_evaluat
     run = tmp_path / "run"
     given = ["--plugin", str(toys[0]), "--plugin", str(toys[1])]
     assert main([*given, "train", str(PROFILE), "--steps", "5", "--set", *TINY_TRAINING,
-                 "env.reward=twice_gain", "agent.encoder=maxpool_toy", "--out", str(run)]) == 0
+                 "env.reward=twice_gain", "agent.encoder=maxpool_toy",
+                 "agent.encoder_settings.maxpool_toy.width=12", "--out", str(run)]) == 0
     saved = yaml.safe_load((run / "config.yaml").read_text())
     assert (saved["env"]["reward"], saved["agent"]["encoder"]) == ("twice_gain", "maxpool_toy")
+    assert saved["agent"]["encoder_settings"]["maxpool_toy"] == {"width": 12}
+    # The setting the plugin file declares (its default 24) sizes the network the run loads.
     extractor = load_agent(run).model.policy.actor.features_extractor
-    # TINY_TRAINING's net_arch is [16, 16]: the toy's width.
-    assert type(extractor).__name__ == "MaxPool" and extractor.features_dim == 16
+    assert type(extractor).__name__ == "MaxPool" and extractor.features_dim == 12
 
     out = tmp_path / "evaluation"
     evaluated = subprocess.run(

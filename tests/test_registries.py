@@ -4,6 +4,7 @@ run through the same config and CLI paths as the bundled ones, with no edit else
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import re
 import subprocess
@@ -19,7 +20,7 @@ import torch
 from stable_baselines3.common.vec_env import DummyVecEnv
 from torch import nn
 
-from vprobot.agents.encoders import ENCODERS, Encoder
+from vprobot.agents.encoders import ENCODERS, Encoder, network_arguments
 from vprobot.agents.extractors import PointCloudExtractor
 from vprobot.cli import main
 from vprobot.config import ConfigError, load_config
@@ -92,10 +93,20 @@ def toy_planner() -> Iterator[type[TopViews]]:
     PLANNERS.unregister("toy")
 
 
+@dataclasses.dataclass(frozen=True)
+class Width:
+    """The toy encoder's one setting, beside it."""
+
+    width: int = 6
+
+    def __post_init__(self) -> None:
+        if self.width < 1:
+            raise ConfigError(f"width must be >= 1, got {self.width}")
+
+
 @pytest.fixture
 def toy_encoder() -> Iterator[None]:
-    ENCODERS.register("toy", Encoder(MaxPool, settings=lambda agent: {"width":
-                                                                        agent.net_arch[1]}))
+    ENCODERS.register("toy", Encoder(MaxPool, settings=Width))
     yield
     ENCODERS.unregister("toy")
 
@@ -306,17 +317,55 @@ def test_after_unregistering_the_planner_is_unknown(tmp_path: Path) -> None:
         make_planner("toy2", load_config())
 
 
-def test_a_config_naming_a_registered_encoder_builds_a_model_with_it(
-        toy_encoder: None, tmp_path: Path) -> None:
+@pytest.mark.parametrize("settings", ["", ", encoder_settings: {toy: {width: 9}}"])
+def test_a_config_naming_a_registered_encoder_builds_a_model_with_it_and_its_settings(
+        toy_encoder: None, tmp_path: Path, settings: str) -> None:
+    """The encoder's setting is declared with it, not in the config: its default, or the value
+    under its name in `agent.encoder_settings`, sizes the network."""
     path = tmp_path / "toy.yaml"
-    path.write_text("agent: {encoder: toy, net_arch: [8, 6], batch_size: 4, buffer_size: 16,\n"
-                    "        learning_starts: 4}\n")
+    path.write_text(f"agent: {{encoder: toy, net_arch: [8, 6], batch_size: 4, buffer_size: 16,\n"
+                    f"        learning_starts: 4{settings}}}\n")
     config = load_config(path)
     model = build_model(config, DummyVecEnv([PointsEnv]), seed=0, device="cpu")
     extractor = model.policy.actor.features_extractor
-    assert isinstance(extractor, MaxPool) and extractor.features_dim == 6
+    assert isinstance(extractor, MaxPool) and extractor.features_dim == (9 if settings else 6)
     action, _ = model.predict(np.zeros((1, 32, 3), np.float32), deterministic=True)
     assert action.shape == (1, 5)
+
+
+@pytest.mark.parametrize(("settings", "message"), [
+    ("{toy: {depth: 2}}", "unknown key 'depth' in section 'agent.encoder_settings.toy'; allowed "
+                          "keys: width"),
+    ("{toy: {width: 0}}", "agent.encoder_settings.toy: width must be >= 1, got 0"),
+    ("{toy: 3}", "agent.encoder_settings.toy must be a mapping of settings, got 3"),
+    ("{toys: {}}", "a key of agent.encoder_settings must be one of"),
+])
+def test_bad_encoder_settings_are_refused_naming_the_key_where_the_agent_is_used(
+        toy_encoder: None, tmp_path: Path, settings: str, message: str) -> None:
+    path = tmp_path / "toy.yaml"
+    path.write_text(f"agent: {{encoder: toy, encoder_settings: {settings}}}\n")
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        profile_config(path)
+
+
+def test_the_former_keys_of_the_encoders_settings_are_read_under_each_encoder_with_a_warning(
+        tmp_path: Path) -> None:
+    """A config written before the encoders owned their settings: the keys move under the
+    encoders that read them, and each network gets the value written."""
+    path = tmp_path / "old.yaml"
+    path.write_text("agent: {encoder: sphere, encoder_scale: 0.5, sphere_bins: [4, 8], "
+                    "sphere_features: 32}\n")
+    with pytest.warns(FutureWarning, match="agent.encoder_scale, agent.sphere_bins, "
+                                           "agent.sphere_features: an encoder's settings"):
+        agent = load_config(path).agent
+    assert agent.encoder_settings == {"pcn": {"scale": 0.5}, "pointnet": {"scale": 0.5},
+                                      "sphere": {"bins": [4, 8], "features": 32}}
+    assert network_arguments(agent) == {"bins": (4, 8), "features": 32}
+    assert network_arguments(dataclasses.replace(agent, encoder="pcn")) == {"scale": 0.5}
+    # An old override on the command line too.
+    with pytest.warns(FutureWarning):
+        config = profile_config(path, ["agent.encoder_scale=0.25"])
+    assert config.agent.encoder_settings["pointnet"] == {"scale": 0.25}
 
 
 def test_an_unregistered_encoder_is_refused_with_the_registered_names_where_the_agent_is_used(

@@ -15,7 +15,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from vprobot.agents.candidate_q import CandidateDQN, check_candidate_spaces
-from vprobot.agents.encoders import ENCODERS, check_encoder
+from vprobot.agents.encoders import ENCODERS, check_encoder, network_arguments
 from vprobot.agents.extractors import split_space
 from vprobot.config import AgentConfig, Config, ConfigError
 
@@ -75,10 +75,10 @@ def build_model(config: Config, env: gym.Env | VecEnv, seed: int, device: str) -
                             exploration_fraction=agent.exploration_fraction,
                             exploration_initial_eps=agent.exploration_initial_eps,
                             exploration_final_eps=agent.exploration_final_eps,
-                            policy_kwargs=encoder.settings(agent), seed=seed, device=device)
+                            policy_kwargs=network_arguments(agent), seed=seed, device=device)
     policy = "MultiInputPolicy" if config.env.robot_state else "MlpPolicy"
     policy_kwargs = {"features_extractor_class": encoder.network,
-                     "features_extractor_kwargs": encoder.settings(agent),
+                     "features_extractor_kwargs": network_arguments(agent),
                      "net_arch": list(agent.net_arch)}
     if agent.algorithm == "sac":
         return SAC(policy, env, learning_rate=rate, gamma=agent.gamma,

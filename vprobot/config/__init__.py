@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import numbers
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -527,9 +528,13 @@ class AgentConfig:
             Q-network of `dqn` (one shared MLP per candidate row). Checked, with the algorithm
             it serves, where the agent is built or loaded (`vprobot.agents.encoders.
             check_encoder`), not here: the encoders' modules import torch, a config does not.
-        encoder_scale: Multiplies the widths of `pcn` and `pointnet` (1: published sizes).
-        sphere_bins: Polar and azimuth bins of the `sphere` encoder's direction map.
-        sphere_features: Size of the `sphere` encoding.
+        encoder_settings: The encoders' own settings by encoder name, each the keys of the
+            dataclass the encoder declares beside its network
+            (`vprobot.agents.encoders.Encoder.settings`), checked with the encoder
+            (`check_encoder`); `agent.encoder`'s are used, keys left out keep their defaults.
+            `pcn` and `pointnet`: `scale` multiplies their widths (1: published sizes);
+            `sphere`: `bins`, the polar and azimuth bins of its direction map, and `features`,
+            the size of its encoding.
         net_arch: Hidden layers of the regression MLP after the encoder (actor and critics);
             with `candidates`, of the MLP applied to every candidate row (the first width is
             also that of the row embedding the pooled context is taken from).
@@ -591,9 +596,8 @@ class AgentConfig:
 
     algorithm: Literal["sac", "ppo", "dqn"] = "sac"
     encoder: str = "pcn"
-    encoder_scale: float = 1.0
-    sphere_bins: tuple[int, int] = (8, 16)
-    sphere_features: int = 128
+    # Left out of the hash (a dict has none); equal configs still hash equally.
+    encoder_settings: dict[str, Any] = dataclasses.field(default_factory=dict, hash=False)
     net_arch: tuple[int, int] = (128, 64)
     learning_rate: float = 7.8e-5
     learning_rate_schedule: Literal["constant", "linear"] = "linear"
@@ -627,7 +631,7 @@ class AgentConfig:
     device: Literal["cpu", "cuda", "auto"] = "cpu"
 
     def __post_init__(self) -> None:
-        for name in ("sphere_features", "batch_size", "buffer_size", "train_freq",
+        for name in ("batch_size", "buffer_size", "train_freq",
                      "gradient_steps", "target_update_interval", "n_steps", "n_epochs",
                      "total_steps", "n_envs", "pretrain_epochs",
                      "eval_freq", "checkpoint_freq", "torch_threads"):
@@ -644,15 +648,10 @@ class AgentConfig:
             raise ConfigError(f"agent.net_arch must be positive widths, got {brief(self.net_arch)}")
         if self.learning_starts < 0:
             raise ConfigError(f"agent.learning_starts must be >= 0, got {self.learning_starts}")
-        if not self.learning_rate > 0 or not self.encoder_scale > 0:
-            raise ConfigError(f"agent.learning_rate and agent.encoder_scale must be > 0, got "
-                              f"{self.learning_rate}, {self.encoder_scale}")
+        if not self.learning_rate > 0:
+            raise ConfigError(f"agent.learning_rate must be > 0, got {self.learning_rate}")
         if not 0.0 <= self.gamma <= 1.0:
             raise ConfigError(f"agent.gamma must lie in [0, 1], got {self.gamma}")
-        polar, azimuth = self.sphere_bins
-        if polar < 2 or azimuth < 2 or azimuth % 2:
-            raise ConfigError(f"agent.sphere_bins must be (polar >= 2, even azimuth >= 2), got "
-                              f"{self.sphere_bins}")
         if not 0.0 < self.exploration_fraction <= 1.0:
             raise ConfigError(f"agent.exploration_fraction must lie in (0, 1], got "
                               f"{self.exploration_fraction}")
@@ -671,6 +670,33 @@ class AgentConfig:
                               f"{self.exploration_final_eps}, {self.exploration_initial_eps}")
 
 
+_FORMER_ENCODER_KEYS = {"encoder_scale": ("scale", ("pcn", "pointnet")),
+                        "sphere_bins": ("bins", ("sphere",)),
+                        "sphere_features": ("features", ("sphere",))}
+"""The `agent` keys of the encoders' settings before the encoders owned them: each the key it
+became under the name of each encoder that reads it in `agent.encoder_settings`."""
+
+
+def _agent_mapping(value: Any, key: str) -> Any:
+    """An `agent` section with the former keys of the encoders' settings moved into
+    `encoder_settings`, with a `FutureWarning`: configs and runs written before stay usable for
+    one release."""
+    if not isinstance(value, Mapping) or not set(value) & set(_FORMER_ENCODER_KEYS):
+        return value
+    former = [name for name in _FORMER_ENCODER_KEYS if name in value]
+    warnings.warn(f"{', '.join(f'{key}.{name}' for name in former)}: an encoder's settings are "
+                  f"now keys of {key}.encoder_settings.<encoder> (pcn and pointnet: scale; "
+                  f"sphere: bins, features); the old keys will not be read after the next "
+                  f"release", FutureWarning, stacklevel=2)
+    settings = {name: dict(given) for name, given in (value.get("encoder_settings") or {}).items()}
+    for name in former:
+        setting, readers = _FORMER_ENCODER_KEYS[name]
+        for reader in readers:
+            settings.setdefault(reader, {})[setting] = value[name]
+    return {**{name: item for name, item in value.items() if name not in _FORMER_ENCODER_KEYS},
+            "encoder_settings": settings}
+
+
 @dataclasses.dataclass(frozen=True)
 class Config:
     """The whole vprobot configuration."""
@@ -680,15 +706,39 @@ class Config:
                                              metadata={RESOLVE: _sensor_mapping})
     kinematics: KinematicsConfig = dataclasses.field(default_factory=KinematicsConfig)
     env: EnvConfig = dataclasses.field(default_factory=EnvConfig)
-    agent: AgentConfig = dataclasses.field(default_factory=AgentConfig)
+    agent: AgentConfig = dataclasses.field(default_factory=AgentConfig,
+                                           metadata={RESOLVE: _agent_mapping})
 
 
 def replace(config: Config, section: str, **changes: Any) -> Config:
-    """Return a copy of `config` with fields of one section changed (validated)."""
+    """Return a copy of `config` with fields of one section changed (validated); a dotted name
+    (`encoder_settings.pcn.scale`) changes one key inside a mapping field."""
     current = dataclasses.asdict(getattr(config, section))
-    current.update(with_current_keys(type(getattr(config, section)), changes, section))
-    return dataclasses.replace(config, **{section: from_mapping(type(getattr(config, section)),
-                                                                current, section)})
+    for name, value in with_current_keys(type(getattr(config, section)), changes,
+                                         section).items():
+        _set_key(current, name, value, section)
+    # What a file's section goes through first (the former keys of the agent's encoder) too.
+    resolve = next(field.metadata.get(RESOLVE) for field in dataclasses.fields(Config)
+                   if field.name == section)
+    mapping = resolve(current, section) if resolve is not None else current
+    return dataclasses.replace(config, **{section: from_mapping(
+        type(getattr(config, section)), mapping, section)})
+
+
+def _set_key(mapping: dict[str, Any], name: str, value: Any, key: str) -> None:
+    """Set `mapping[name]`, or with a dotted name the key inside the nested mappings (made
+    where missing)."""
+    outer, dot, inner = name.partition(".")
+    if not dot:
+        mapping[name] = value
+        return
+    nested = mapping.get(outer)
+    if nested is None:
+        nested = {}
+    elif not isinstance(nested, dict):
+        raise ConfigError(f"{key}.{name}: {key}.{outer} is {brief(nested)}, not a mapping of keys")
+    mapping[outer] = nested = dict(nested)
+    _set_key(nested, inner, value, f"{key}.{outer}")
 
 
 def config_document(config: Config) -> dict[str, Any]:

@@ -202,6 +202,11 @@ def _convert(value: Any, annotation: Any, key: str) -> Any:
             _convert(item, item_type, f"{key}[{index}]")
             for index, (item, item_type) in enumerate(zip(value, item_types, strict=True))
         )
+    if origin is dict:
+        # An open mapping (an encoder's settings), checked by whoever knows its keys.
+        if not isinstance(value, Mapping) or not all(isinstance(name, str) for name in value):
+            raise ConfigError(f"{key} must be a mapping of names to values, got {brief(value)}")
+        return dict(value)
     if origin in (typing.Union, types.UnionType):
         if value is None and type(None) in typing.get_args(annotation):
             return None

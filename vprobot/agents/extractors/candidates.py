@@ -6,11 +6,12 @@ so far load only from there.
 """
 
 from vprobot.agents.candidate_q import CandidatePolicy
-from vprobot.agents.encoders import ENCODERS, Encoder
+from vprobot.agents.encoders import ENCODERS, Encoder, NoSettings
 
 CANDIDATES = ENCODERS.register("candidates", Encoder(
     CandidatePolicy,
+    settings=NoSettings,
     # The head of the views left where the fit has their labels: a cover's (issue 46).
-    settings=lambda agent: {"net_arch": list(agent.net_arch),
-                            "views_left": agent.pretrain_target != "values"},
+    arguments=lambda agent, _: {"net_arch": list(agent.net_arch),
+                                "views_left": agent.pretrain_target != "values"},
     algorithms=("dqn",)))

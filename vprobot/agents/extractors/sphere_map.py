@@ -17,6 +17,7 @@ of a batch is computed once per step (`_MAP_CACHE`) instead of once per network 
 from __future__ import annotations
 
 import collections
+import dataclasses
 
 import gymnasium as gym
 import torch
@@ -24,6 +25,7 @@ from torch import nn
 
 from vprobot.agents.encoders import ENCODERS, Encoder
 from vprobot.agents.extractors.base import PointCloudExtractor
+from vprobot.files.schema import ConfigError
 
 _MAP_CACHE: collections.deque[tuple[torch.Tensor, int, torch.Tensor]] = collections.deque(
     maxlen=2)
@@ -116,6 +118,24 @@ class SphereMapExtractor(PointCloudExtractor):
         return maps
 
 
-SPHERE = ENCODERS.register("sphere", Encoder(
-    SphereMapExtractor,
-    settings=lambda agent: {"bins": agent.sphere_bins, "features": agent.sphere_features}))
+@dataclasses.dataclass(frozen=True)
+class SphereSettings:
+    """The `sphere` encoder's settings (`agent.encoder_settings.sphere`).
+
+    Attributes:
+        bins: Polar and azimuth bins of the direction map.
+        features: Size of the encoding.
+    """
+
+    bins: tuple[int, int] = (8, 16)
+    features: int = 128
+
+    def __post_init__(self) -> None:
+        polar, azimuth = self.bins
+        if polar < 2 or azimuth < 2 or azimuth % 2:
+            raise ConfigError(f"bins must be (polar >= 2, even azimuth >= 2), got {self.bins}")
+        if self.features < 1:
+            raise ConfigError(f"features must be >= 1, got {self.features}")
+
+
+SPHERE = ENCODERS.register("sphere", Encoder(SphereMapExtractor, settings=SphereSettings))
