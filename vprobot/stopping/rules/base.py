@@ -111,6 +111,10 @@ STOPS: Registry[type[StopRule]] = Registry(
     bundled={
         "agent": Bundled("vprobot.stopping.rules.agent:AgentStop",
                          description="the agent's learned stop action"),
+        "confident": Bundled(
+            "vprobot.stopping.rules.confident:ConfidentStop", pattern=r"(?::(?P<probability>.*))?",
+            usage="confident[:P] (0 < P < 1, default: the calibrated threshold)",
+            description="the calibrated probability that the goal is reached reaches P"),
         "estimate": Bundled(
             "vprobot.stopping.rules.estimate:EstimateStop", pattern=r"(?::(?P<confidence>.*))?",
             usage="estimate[:C] (0 < C < 1, default 0.95)",

@@ -102,6 +102,10 @@ class EstimateStop(StopRule):
         self._stated = len(views)
         if stated is None or stated.refused or stated.held is not None:
             return None
+        return self.decide(stated, len(views))
+
+    def decide(self, stated: Stated, views: int) -> str | None:
+        """Why to stop on the estimate `stated` after `views` views (None: go on)."""
         if stated.mean - self.z * stated.std >= self.goal:
             return (f"estimate {100 * stated.mean:.1f} ± {100 * stated.std:.1f} % ≥ "
                     f"{100 * self.goal:g} % at {100 * self.confidence:g} %")

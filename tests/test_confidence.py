@@ -1,0 +1,179 @@
+"""The calibrated stop (`vprobot.stopping.confidence`, `--stop confident`): the probability
+against the conformal formula counted by hand, the false stops against a loop over views, and
+Learn-then-Test's guarantee on synthetic episodes whose true risk is known."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vprobot.config import load_config, replace
+from vprobot.stopping.confidence import (
+    MIN_PER_CATEGORY,
+    THRESHOLDS,
+    Calibrated,
+    GoalConfidence,
+    calibration_table,
+    false_stops,
+    stop_threshold,
+    view_category,
+)
+from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, Stated
+from vprobot.stopping.rules import make_stop_rule
+from vprobot.stopping.rules.confident import ConfidentStop, confidence_path
+
+GOAL = 0.9
+CALIBRATED = Calibrated("ur5", "ideal", (60.0, 45.0, 0.1, 1.0, 0.4), GOAL, "0" * 64)
+
+
+def confidence(count: int, views: np.ndarray | None = None, seed: int = 0,
+               threshold: float | None = 0.95) -> GoalConfidence:
+    rng = np.random.default_rng(seed)
+    return GoalConfidence(rng.normal(0.0, 0.03, count), rng.uniform(0.01, 0.05, count),
+                          views if views is not None else rng.integers(1, 12, count),
+                          threshold, 0.05, 0.1, 100, CALIBRATED)
+
+
+def by_hand(model: GoalConfidence, mean: float, std: float, rows: np.ndarray) -> float:
+    """The conformal P(coverage >= goal) counted over the calibration rows `rows`: the share
+    of their normalised residuals at or above the goal's, out of one more than their number
+    (the conservative, unsmoothed form)."""
+    scores = model.residuals[rows] / model.sigmas[rows]
+    return float(np.sum(scores >= (GOAL - mean) / std) / (rows.sum() + 1))
+
+
+def test_pooled_probability_is_the_share_of_calibration_scores_at_or_above_the_goals() -> None:
+    # Too few views for a category of their own: one pool.
+    model = confidence(MIN_PER_CATEGORY)
+    assert not model.mondrian
+    cases = [(0.88, 0.02, 3), (0.91, 0.01, 9), (0.95, 0.04, 1), (0.80, 0.03, 20)]
+    got = model.probability(*np.array(cases).T)
+    everything = np.ones(len(model.residuals), bool)
+    assert got == pytest.approx([by_hand(model, mean, std, everything)
+                                 for mean, std, _ in cases], abs=1e-12)
+
+
+def test_mondrian_probability_counts_only_the_calibration_views_of_the_same_view_category(
+        ) -> None:
+    views = np.repeat([2, 5, 9], MIN_PER_CATEGORY)
+    model = confidence(len(views), views)
+    assert model.mondrian
+    for taken in (1, 3, 4, 6, 7, 15):
+        rows = view_category(model.views) == view_category(taken)
+        assert model.probability(0.9, 0.02, taken)[0] == pytest.approx(
+            by_hand(model, 0.9, 0.02, rows), abs=1e-12)
+
+
+def test_false_stops_are_those_of_the_first_view_reaching_each_threshold() -> None:
+    rng = np.random.default_rng(3)
+    probabilities = [rng.uniform(0, 1, rng.integers(1, 9)) for _ in range(30)]
+    coverages = [rng.uniform(0.8, 1.0, len(p)) for p in probabilities]
+    thresholds = np.array([0.99, 0.9, 0.7, 0.5, 0.2])
+    expected = np.zeros((30, len(thresholds)), bool)
+    for episode, (probability, coverage) in enumerate(zip(probabilities, coverages, strict=True)):
+        for column, threshold in enumerate(thresholds):
+            for view in range(len(probability)):
+                if probability[view] >= threshold:
+                    expected[episode, column] = coverage[view] < GOAL
+                    break
+    np.testing.assert_array_equal(false_stops(probabilities, coverages, GOAL, thresholds),
+                                  expected)
+
+
+def _episodes(count: int, rng: np.random.Generator) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Synthetic episodes of 8 views whose stated probability is true: a view reaches the goal
+    exactly when its probability exceeds the episode's uniform draw (so with that probability,
+    and for good once reached, as probabilities rise)."""
+    rise = np.sort(rng.uniform(0.0, 1.0, (count, 8)), axis=1) ** rng.uniform(0.3, 3.0, (count, 1))
+    luck = rng.uniform(0.0, 1.0, (count, 1))
+    coverage = np.where(rise > luck, GOAL + 0.01, GOAL - 0.01)
+    return list(rise), list(coverage)
+
+
+def test_learn_then_test_bounds_false_stops_in_all_but_delta_of_the_calibration_draws() -> None:
+    """The guarantee itself: the true risk of the certified threshold (measured on 100 000 fresh
+    episodes) exceeds the risk asked for in at most delta of 200 calibration draws."""
+    rng = np.random.default_rng(0)
+    true_risk = false_stops(*_episodes(100_000, rng), GOAL).mean(axis=0)
+    risk, delta = 0.05, 0.1
+    exceeded = []
+    for _ in range(200):
+        threshold = stop_threshold(*_episodes(300, rng), GOAL, risk, delta)
+        assert threshold is not None
+        exceeded.append(true_risk[np.flatnonzero(THRESHOLDS == threshold)[0]] > risk)
+    assert np.mean(exceeded) <= delta
+    # Not vacuous: the certified thresholds stop episodes, at a risk not far below the asked.
+    assert true_risk[THRESHOLDS == threshold][0] > 0.02
+
+
+def test_learn_then_test_certifies_nothing_when_even_the_highest_threshold_stops_badly() -> None:
+    probabilities = [np.ones(3)] * 50
+    coverages = [np.full(3, GOAL - 0.1)] * 50
+    assert stop_threshold(probabilities, coverages, GOAL, 0.05, 0.1) is None
+    with pytest.raises(ValueError, match=re.escape("risk and delta must lie in (0, 1)")):
+        stop_threshold(probabilities, coverages, GOAL, 0.0, 0.1)
+
+
+def test_a_calibration_reads_back_as_written(tmp_path: Path) -> None:
+    model = confidence(50)
+    loaded = GoalConfidence.load(model.save(tmp_path / "confidence.npz"))
+    for field in dataclasses.fields(model):
+        np.testing.assert_array_equal(getattr(loaded, field.name), getattr(model, field.name))
+    (tmp_path / "cut.npz").write_bytes(b"PK")
+    with pytest.raises(ValueError, match="cannot read goal confidence"):
+        GoalConfidence.load(tmp_path / "cut.npz")
+
+
+def test_the_table_sets_claimed_against_observed_in_each_bin_of_the_probability() -> None:
+    rows = calibration_table(np.array([0.1, 0.3, 0.85, 0.97, 0.97, 1.0]),
+                             np.array([False, True, True, True, False, True]))
+    assert [(row["views"], row["observed"]) for row in rows if row["views"]] == [
+        (2, 0.5), (1, 1.0), (2, 0.5), (1, 1.0)]
+    assert rows[0]["claimed"] == pytest.approx(0.2)
+
+
+@pytest.fixture
+def calibrated_estimator(tmp_path: Path) -> Path:
+    """A copy of the bundled paper estimator with a calibration for the default config."""
+    path = tmp_path / "estimator.npz"
+    shutil.copyfile(BUNDLED_ESTIMATOR, path)
+    dataclasses.replace(confidence(50), calibrated=Calibrated.of(load_config(), path)).save(
+        confidence_path(path))
+    return path
+
+
+def test_the_rule_is_refused_for_another_robot_or_goal_naming_what_differs(
+        calibrated_estimator: Path) -> None:
+    config = load_config()
+    assert isinstance(make_stop_rule("confident", config, calibrated_estimator), ConfidentStop)
+    other = replace(replace(config, "cell", robot="panda"), "env", coverage_goal=0.8)
+    assert config.cell.robot != "panda"
+    with pytest.raises(ValueError, match=re.escape(
+            f"another run than this: robot 'panda' (calibrated: {config.cell.robot!r}); goal "
+            f"0.8 (calibrated: 0.9)")):
+        make_stop_rule("confident", other, calibrated_estimator)
+    alone = calibrated_estimator.parent / "alone" / "estimator.npz"
+    alone.parent.mkdir()
+    shutil.copyfile(calibrated_estimator, alone)
+    with pytest.raises(ValueError, match="make one with `vprobot stop calibrate`"):
+        make_stop_rule("confident", config, alone)
+
+
+def test_the_rule_stops_once_the_probability_reaches_its_threshold(
+        calibrated_estimator: Path) -> None:
+    rule = make_stop_rule("confident", load_config(), calibrated_estimator)
+    assert isinstance(rule, ConfidentStop) and rule.threshold == 0.95
+    everything = np.ones(50, bool)
+    for mean in np.linspace(0.85, 1.0, 31):
+        expected = by_hand(rule.calibration, mean, 0.01, everything) >= 0.95
+        reason = rule.decide(Stated(mean, 0.01), 4)
+        assert (reason is not None) == expected
+        if reason is not None:
+            assert reason.startswith("P(coverage ≥ 90 %) = ") and "certified" in reason
+    chosen = make_stop_rule("confident:0.5", load_config(), calibrated_estimator)
+    assert isinstance(chosen, ConfidentStop) and chosen.threshold == 0.5
