@@ -12,7 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vprobot.cli import main
 from vprobot.config import load_config, replace
+from vprobot.parts.splits import Split
+from vprobot.stop_studies import dataset
+from vprobot.stop_studies.calibrate import _calibrate, calibration_jobs, stated_estimates
+from vprobot.stop_studies.dataset import COLUMNS, read_dataset
 from vprobot.stopping.confidence import (
     MIN_PER_CATEGORY,
     THRESHOLDS,
@@ -27,6 +32,7 @@ from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, Stated
 from vprobot.stopping.rules import make_stop_rule
 from vprobot.stopping.rules.confident import ConfidentStop, confidence_path
 
+ROOT = Path(__file__).resolve().parents[1]
 GOAL = 0.9
 CALIBRATED = Calibrated("ur5", "ideal", (60.0, 45.0, 0.1, 1.0, 0.4), GOAL, "0" * 64)
 
@@ -177,3 +183,64 @@ def test_the_rule_stops_once_the_probability_reaches_its_threshold(
             assert reason.startswith("P(coverage ≥ 90 %) = ") and "certified" in reason
     chosen = make_stop_rule("confident:0.5", load_config(), calibrated_estimator)
     assert isinstance(chosen, ConfidentStop) and chosen.threshold == 0.5
+
+
+def test_calibrating_on_rollouts_fits_the_probability_on_even_episodes_and_tests_the_odd(
+        tmp_path: Path) -> None:
+    """On committed rollouts of the paper cell (the estimate's validation list): the conformal
+    scores are the even-numbered episodes' usable views, the threshold's episodes the odd ones,
+    and the calibration lands beside the estimator's copy, which the rule then accepts."""
+    config = load_config()
+    data = read_dataset(ROOT / "results" / "stop_estimate" / "validation.csv")
+    estimator = tmp_path / "estimator.npz"
+    shutil.copyfile(BUNDLED_ESTIMATOR, estimator)
+    figures = _calibrate(config, tmp_path, estimator, data, 0.05, 0.1)
+    mean, std, usable = stated_estimates(config, estimator, data)
+    even = usable & (data.episodes % 2 == 0)
+    model = GoalConfidence.load(confidence_path(estimator))
+    np.testing.assert_array_equal(model.residuals, data.coverage[even] - mean[even])
+    np.testing.assert_array_equal(model.sigmas, std[even])
+    assert figures["threshold_episodes"] == model.episodes == len(
+        np.unique(data.episodes[data.episodes % 2 == 1]))
+    assert sum(row["views"] for row in figures["table"]) == np.sum(
+        usable & (data.episodes % 2 == 1))
+    assert "# Calibrated stop" in (tmp_path / "calibration.md").read_text()
+    if model.threshold is not None:
+        assert isinstance(make_stop_rule("confident", config, estimator), ConfidentStop)
+
+
+def test_calibration_episodes_take_the_calibration_objects_and_planners_in_turn() -> None:
+    split = Split.load()
+    objects = split.calibration_objects()
+    jobs = calibration_jobs(load_config(), len(objects) + 2, 7, ("nbv", "uniform4"), split)
+    assert [spec.part for spec, _ in jobs] == [*objects, *objects[:2]]
+    assert [planner for _, planner in jobs] == ["nbv", "uniform4"] * (len(objects) // 2 + 1)
+    assert jobs == calibration_jobs(load_config(), len(objects) + 2, 7, ("nbv", "uniform4"))
+    assert [spec.seed for spec, _ in jobs] != [
+        spec.seed for spec, _ in calibration_jobs(load_config(), len(objects) + 2, 8)]
+
+
+def test_stop_calibrate_writes_the_calibration_and_resumes_its_rollouts(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's plumbing, with each rollout replaced by one of the committed rollouts (a
+    real one would first build a new part's ground truth)."""
+    committed = (ROOT / "results" / "stop_estimate" / "validation.csv").read_text().splitlines()
+    columns = committed[0].split(",")
+    episodes: dict[str, list[dict[str, object]]] = {}
+    for line in committed[1:]:
+        row = dict(zip(columns, line.split(","), strict=True))
+        episodes.setdefault(row["episode"], []).append(
+            {key: value for key, value in row.items() if key not in COLUMNS[:5]})
+    played: list[str] = []
+
+    def rollout(config: object, spec: object, planner: str) -> list[dict[str, object]]:
+        played.append(planner)
+        return list(episodes.values())[len(played)]
+
+    monkeypatch.setattr(dataset, "rollout", rollout)
+    out = tmp_path / "calibrated"
+    command = ["stop", "calibrate", "--out", str(out), "--episodes", "6"]
+    assert main(command) == 0 and len(played) == 6
+    assert (out / "confidence.npz").is_file() and (out / "estimator.npz").is_file()
+    assert "# Calibrated stop" in (out / "calibration.md").read_text()
+    assert main(command) == 0 and len(played) == 6

@@ -68,6 +68,22 @@ def test_no_test_object_family_or_episode_reaches_training_or_validation(version
 
 
 @pytest.mark.parametrize("version", sorted(SPLITS))
+def test_calibration_objects_are_new_parts_of_the_training_families_no_other_list_holds(
+        version: int) -> None:
+    split = SPLITS[version]
+    calibration = split.calibration_objects()
+    assert len(set(calibration)) == len(calibration) == (
+        split.calibration_motor_count
+        + len(split.training_families) * len(split.calibration_instances))
+    others = names(split.training_objects((MOTORS, *split.training_families))) | {
+        spec.part for name in (split.validation_list, *split.test_lists)
+        for spec in read_episode_list(bundled_episode_list(name))}
+    assert not set(calibration) & others
+    assert {family_of(name) or "motor" for name in calibration} == {
+        "motor", *split.training_families}
+
+
+@pytest.mark.parametrize("version", sorted(SPLITS))
 def test_split_lists_are_what_the_sampler_draws(version: int) -> None:
     for name, specs in split_lists(CONFIG, SPLITS[version]).items():
         assert read_episode_list(bundled_episode_list(name)) == specs

@@ -226,7 +226,8 @@ def test_a_family_fold_never_sees_its_family_and_is_reused_from_its_folder(
         rng = np.random.default_rng(len(families))
         return Dataset(np.column_stack([families, rng.uniform(size=len(families))]),
                        rng.uniform(0.5, 1.0, len(families)), np.ones(len(families), dtype=int),
-                       np.array(["nbv"] * len(families)), names[families])
+                       np.array(["nbv"] * len(families)), names[families],
+                       np.arange(len(families)))
 
     training, validation = dataset([0, 1, 2] * 6), dataset([0, 1, 2, 2])
     seen: list[tuple[set[float], set[float]]] = []

@@ -1,4 +1,5 @@
-"""`vprobot stop fit`, `error` and `study`: knowing when to stop without the model."""
+"""`vprobot stop fit`, `calibrate`, `error` and `study`: knowing when to stop without the
+model."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from vprobot.cli.common import (
     add_robot,
     add_stop,
     config_of,
+    number,
     planner_name,
 )
 from vprobot.files.outputs import check_output_folder
@@ -57,6 +59,34 @@ def add_stop_commands(commands: Commands) -> None:
                           help="seed of the training episodes and the networks (default 0)")
     stop_fit.add_argument("--planners", nargs="+", type=planner_name, help=MODEL_FREE_HELP)
 
+    stop_calibrate = add(stop_commands, "calibrate", command_stop_calibrate,
+                         "Calibrate the stop rule `confident`: rollouts of model-free planners on "
+                         "the split's calibration objects (parts no fit saw), the probability "
+                         "that the goal is reached (conformal) and the threshold that bounds "
+                         "false stops (Learn-then-Test); resumable.")
+    add_robot(stop_calibrate)
+    stop_calibrate.add_argument("--out", required=True,
+                                help="folder for the rollouts, a copy of the estimator with "
+                                     "its calibration (confidence.npz) and calibration.md")
+    stop_calibrate.add_argument("--estimator", metavar="PATH",
+                                help="the estimator.npz to calibrate (default: the bundled one "
+                                     "of the sensor)")
+    stop_calibrate.add_argument("--episodes", type=POSITIVE_INT, default=200,
+                                help="calibration episodes, one planner each in turn; half "
+                                     "calibrate the probability, half choose the threshold "
+                                     "(default 200)")
+    stop_calibrate.add_argument("--seed", type=NON_NEGATIVE_INT, default=0,
+                                help="seed of the episodes' poses (default 0)")
+    stop_calibrate.add_argument("--planners", nargs="+", type=planner_name,
+                                help=MODEL_FREE_HELP)
+    unit = number(float, 0.0, True, "a number in (0, 1)", high=1.0)
+    stop_calibrate.add_argument("--risk", type=unit, default=0.05,
+                                help="the share of false stops (below the goal) to bound "
+                                     "(default 0.05)")
+    stop_calibrate.add_argument("--delta", type=unit, default=0.1,
+                                help="the chance that the bound fails on the calibration draw "
+                                     "(default 0.1)")
+
     # The study's defaults are filled in by the commands (None: not given), and named by --help.
     stop_error = add(stop_commands, "error", command_stop_error,
                      "Score the coverage estimate on episode lists: its error per view count "
@@ -98,6 +128,22 @@ def command_stop_fit(args: argparse.Namespace) -> int:
     print((Path(args.out) / "estimate.md").read_text())
     print(f"estimator: {Path(args.out) / 'estimator.npz'}; validation MAE "
           f"{figures['mae_pp']:.2f} pp")
+    return 0
+
+
+def command_stop_calibrate(args: argparse.Namespace) -> int:
+    """Calibrate the stop rule `confident` on rollouts of the split's calibration objects."""
+    from vprobot.files.progress import showing_progress
+    from vprobot.stop_studies.calibrate import calibrate_stop
+
+    check_output_folder(args.out, "--out")
+    with showing_progress():
+        figures = calibrate_stop(config_of(args), args.out, args.estimator, args.episodes,
+                                 args.seed, args.planners, args.risk, args.delta)
+    print((Path(args.out) / "calibration.md").read_text())
+    print(f"use it: --stop confident --estimator {Path(args.out) / 'estimator.npz'}"
+          if figures["threshold"] is not None else
+          "no threshold certified: --stop confident:P with a threshold P of your own")
     return 0
 
 

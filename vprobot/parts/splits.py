@@ -5,9 +5,11 @@ In v1 the training objects are the bundled training motors and instances 0-199 o
 families; the validation list (model selection only: best model, early stop, hyperparameters)
 holds new motors and held-out instances of the same families; the test lists (reported numbers
 only) are the bundled test motors, instances of four families never trained on, and the
-non-motor shapes. v2 is v1 with the `procedural` family added to training (instances 0-4999)
-and validation (4 held-out instances); its test side is v1's. v3 is v2 with the `manifold`
-family added to training (instances 0-299) and validation; its test side is v1's too.
+non-motor shapes. Its calibration objects (new motors and new instances of the training
+families) calibrate a stop rule on parts no fit saw (`vprobot stop calibrate`). v2 is v1 with
+the `procedural` family added to training (instances 0-4999) and validation (4 held-out
+instances); its test side is v1's. v3 is v2 with the `manifold` family added to training
+(instances 0-299) and validation; its test side is v1's too.
 `tests/test_splits.py` checks for every version that no test object, family or episode reaches
 training or validation.
 """
@@ -74,6 +76,9 @@ class Split:
     test_poses: tuple[int, ...]
     test_lists: tuple[str, ...]
     family_instances: Mapping[str, range] = dataclasses.field(default_factory=dict)
+    calibration_motor_seed: int | None = None
+    calibration_motor_count: int = 0
+    calibration_instances: range = range(0)
 
     @classmethod
     def bundled(cls, version: int = 1) -> Split:
@@ -94,6 +99,7 @@ class Split:
         try:
             data: dict[str, Any] = read_yaml(path)
             training, validation, test = data["training"], data["validation"], data["test"]
+            calibration = data.get("calibration") or {"motors": {"count": 0}, "instances": [0, 0]}
             own = {str(name): _seeds(bounds)
                    for name, bounds in training.get("family_instances", {}).items()}
             strangers = sorted(set(own) - set(training["families"]))
@@ -113,6 +119,9 @@ class Split:
                 test_poses=tuple(int(s) for s in test["poses"]),
                 test_lists=tuple(test["lists"]),
                 family_instances=own,
+                calibration_motor_seed=calibration["motors"].get("seed"),
+                calibration_motor_count=int(calibration["motors"]["count"]),
+                calibration_instances=_seeds(calibration["instances"]),
             )
         except (AttributeError, KeyError, TypeError, ValueError) as error:
             raise ValueError(f"{path}: not a split file ({error})") from None
@@ -156,6 +165,24 @@ class Split:
                   for index in range(self.validation_motor_count)]
         return motors + [family_object(family, seed) for family in self.training_families
                          for seed in self.validation_instances]
+
+    def calibration_objects(self) -> list[str]:
+        """The objects a calibrated stop is calibrated on (`vprobot stop calibrate`): new
+        motors, then new instances of every training family, none of which any fit, selection
+        or test list uses.
+
+        Raises:
+            ValueError: If the split names none.
+        """
+        motors = ([motor_object(self.calibration_motor_seed, index)
+                   for index in range(self.calibration_motor_count)]
+                  if self.calibration_motor_seed is not None else [])
+        objects = motors + [family_object(family, seed) for family in self.training_families
+                            for seed in self.calibration_instances]
+        if not objects:
+            raise ValueError(f"split v{self.version} names no calibration objects (its "
+                             f"`calibration:` block)")
+        return objects
 
     def test_family_objects(self) -> list[str]:
         """The instances of the test families on `families-test-v1`."""

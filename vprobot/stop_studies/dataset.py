@@ -64,6 +64,7 @@ class Dataset:
         views: (n,) views requested so far (1 is the first).
         planners: (n,) the planner of the row's episode.
         families: (n,) the part family of the row's object (`motor` for a motor).
+        episodes: (n,) the number of the row's episode in its table.
     """
 
     features: np.ndarray
@@ -71,6 +72,7 @@ class Dataset:
     views: np.ndarray
     planners: np.ndarray
     families: np.ndarray
+    episodes: np.ndarray
 
     def select(self, rows: np.ndarray) -> Dataset:
         """The rows a boolean mask (n,) keeps."""
@@ -282,4 +284,5 @@ def read_dataset(path: str | Path) -> Dataset:
     return Dataset(features=table[:, :len(FEATURES)], coverage=table[:, -2],
                    views=table[:, -1].astype(int),
                    planners=np.array([row["planner"] for row in rows]),
-                   families=np.array([row["family"] for row in rows]))
+                   families=np.array([row["family"] for row in rows]),
+                   episodes=np.array([int(row["episode"]) for row in rows], dtype=int))
