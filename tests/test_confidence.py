@@ -15,6 +15,7 @@ import pytest
 from vprobot.cli import main
 from vprobot.config import load_config, replace
 from vprobot.parts.splits import Split
+from vprobot.planners.runner import plan_part
 from vprobot.stop_studies import dataset
 from vprobot.stop_studies.calibrate import _calibrate, calibration_jobs, stated_estimates
 from vprobot.stop_studies.dataset import COLUMNS, read_dataset
@@ -244,3 +245,22 @@ def test_stop_calibrate_writes_the_calibration_and_resumes_its_rollouts(
     assert (out / "confidence.npz").is_file() and (out / "estimator.npz").is_file()
     assert "# Calibrated stop" in (out / "calibration.md").read_text()
     assert main(command) == 0 and len(played) == 6
+
+
+def test_a_plan_stopped_by_the_rule_records_the_probability_after_each_view(
+        calibrated_estimator: Path) -> None:
+    config = load_config()
+    _, _, document, summary = plan_part(config, planner="nbv", stop="confident:0.6",
+                                        estimator=calibrated_estimator)
+    rule = make_stop_rule("confident:0.6", config, calibrated_estimator)
+    assert isinstance(rule, ConfidentStop)
+    everything = np.ones(len(rule.calibration.residuals), bool)
+    stated = [view["estimate"] for view in document["views"] if view["estimate"] is not None]
+    assert stated
+    for view in stated:
+        assert view["p_goal"] == pytest.approx(
+            by_hand(rule.calibration, view["mean"], view["std"], everything), abs=1e-12)
+    assert document["stop_rule"] == "confident:0.6"
+    if document["stop_reason"].startswith("P(coverage"):
+        assert float(document["stop_reason"].split("= ")[1].split(" ")[0]) >= 0.6
+    assert "P(goal)" in summary

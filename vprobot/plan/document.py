@@ -269,7 +269,8 @@ def episode_document(scene: PartScene, record: EpisodeRecord,
         record: The episode.
         metadata: Extra top-level entries (planner, carrier, seed, ...).
         estimates: The model-free coverage estimate (mean, std) after each view, written as
-            `views[i].estimate` when given.
+            `views[i].estimate` when given; a third column, the calibrated probability that
+            the goal is reached (`--stop confident`), as its `p_goal`.
         ground_truth: Whether to write the ground-truth block (a replay computes it again).
     """
     document = plan_document(scene.cell, planned_views(record),
@@ -283,10 +284,11 @@ def episode_document(scene: PartScene, record: EpisodeRecord,
     if ground_truth:
         document["ground_truth"] = ground_truth_block(record)
     if estimates is not None:
-        for view, (mean, std) in zip(document["views"], estimates, strict=True):
+        for view, (mean, std, *probability) in zip(document["views"], estimates, strict=True):
             # A refused estimate (NaN) is null: JSON has no NaN.
-            view["estimate"] = (None if np.isnan(mean)
-                                else {"mean": float(mean), "std": float(std)})
+            view["estimate"] = (None if np.isnan(mean) else {
+                "mean": float(mean), "std": float(std),
+                **({"p_goal": float(probability[0])} if probability else {})})
     document.update(metadata or {})
     return document
 

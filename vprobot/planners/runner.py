@@ -43,6 +43,7 @@ from vprobot.planners.proof import ExactPlanner, Proof
 from vprobot.planners.self_stopping import LearnedStop, SelfStopping, stop_subject
 from vprobot.stopping.estimator import load_estimator
 from vprobot.stopping.rules import StopRule, make_stop_rule
+from vprobot.stopping.rules.confident import ConfidentStop
 from vprobot.stopping.rules.estimate import view_estimates
 
 
@@ -125,7 +126,9 @@ class EpisodeResult:
         planner_stopped: Whether the planner ended the episode itself (its own reason, or a
             fixed plan that ran out) rather than the runner.
         estimates: The model-free coverage estimate (mean, std) after each view, when asked for
-            (NaN where it was refused).
+            or stopped by `confident` (NaN where it was refused); under `confident` a third
+            column, the calibrated probability that the goal is reached
+            (`ConfidentStop.goal_probabilities`).
         estimate_notes: Why the estimate was refused, widened or kept, each once.
         proof: What an exact planner (`ExactPlanner`: `optimum`) proved of its plan; None for
             the others.
@@ -307,7 +310,8 @@ def run(config: Config, scene: PartScene, planner: str, spec: EpisodeSpec,
         raise ValueError(f"carrier must be one of {list(CARRIERS)}, got {carrier!r}")
     chosen, rule = built or (make_planner(planner, config, views),
                              make_stop_rule(stop, config, estimator))
-    estimate = load_estimator(estimator, config.sensor) if estimates else None
+    estimate = (load_estimator(estimator, config.sensor)
+                if estimates or isinstance(rule, ConfidentStop) else None)
     episode = Episode.from_spec(scene, spec, carrier, config.env.unreachable, shared)
     start = time.perf_counter()
     played = run_episode(chosen, episode, spec, config, np.random.default_rng(spec.seed), rule)
@@ -316,6 +320,8 @@ def run(config: Config, scene: PartScene, planner: str, spec: EpisodeSpec,
     estimated, notes = (view_estimates(config, played.record.views, estimate, chosen.name,
                                        episode.occupancy(GridSettings.of(config)))
                         if estimate is not None else (None, []))
+    if isinstance(rule, ConfidentStop) and estimated is not None:
+        estimated = np.column_stack([estimated, rule.goal_probabilities(estimated)])
     return EpisodeResult(planner=planner if views is None else f"{planner}{views}",
                          carrier=carrier, spec=spec, record=played.record,
                          goal=config.env.coverage_goal, plan_seconds=played.plan_seconds,
@@ -382,8 +388,10 @@ def summary(result: EpisodeResult, config: Config) -> str:
         else:
             line = f"  {index:4d}  {view.coverage:8.1%}  {view.travel.paper:10.2f} m"
         if estimates is not None:
-            mean, std = estimates[index - 1]
+            mean, std, *probability = estimates[index - 1]
             line += ("  refused" if np.isnan(mean) else f"  {100 * mean:5.1f} ± {100 * std:4.1f} %")
+            if probability and not np.isnan(mean):
+                line += f"  P(goal) {probability[0]:.3f}"
         lines.append(line.rstrip())
     lines += [f"  estimate {note}" for note in result.estimate_notes]
     return "\n".join(lines)

@@ -90,6 +90,16 @@ class ConfidentStop(EstimateStop):
                              f"this: {mismatch}; make one for it with `vprobot stop calibrate`")
         return cls(config, model, confidence, **options)
 
+    def goal_probabilities(self, estimates: np.ndarray) -> np.ndarray:
+        """P(coverage >= goal) after each view of an episode whose estimates (mean, std) after
+        each view are `estimates` (len(estimates), 2); NaN where refused."""
+        probability = np.full(len(estimates), np.nan)
+        stated = ~np.isnan(estimates[:, 0])
+        if stated.any():
+            probability[stated] = self.calibration.probability(
+                estimates[stated, 0], estimates[stated, 1], np.flatnonzero(stated) + 1)
+        return probability
+
     def decide(self, stated: Stated, views: int) -> str | None:
         probability = float(self.calibration.probability(stated.mean, stated.std, views)[0])
         if probability < self.threshold:
