@@ -201,6 +201,13 @@ def read_cached_arrays(path: Path) -> dict[str, np.ndarray] | None:
         return None
 
 
+def write_arrays(path: Path, arrays: Mapping[str, Any]) -> Path:
+    """Write `arrays` to the `.npz` file `path` atomically (see `atomic_output`)."""
+    with atomic_output(path) as temporary, temporary.open("wb") as stream:
+        np.savez(stream, **arrays)
+    return path
+
+
 def write_cached_arrays(path: Path, arrays: Mapping[str, Any], what: str,
                         stacklevel: int = 3) -> None:
     """Store `arrays` in the cache file `path` atomically (see `atomic_output`); warn once per
@@ -212,8 +219,7 @@ def write_cached_arrays(path: Path, arrays: Mapping[str, Any], what: str,
     """
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_output(path) as temporary, temporary.open("wb") as stream:
-            np.savez(stream, **arrays)
+        write_arrays(path, arrays)
     except OSError as error:
         # What was cached is computed; a cache that cannot be written only costs time later.
         directory = path.parent

@@ -37,7 +37,7 @@ import numpy as np
 import numpy.typing as npt
 
 from vprobot.config import Config
-from vprobot.files.atomic import atomic_output
+from vprobot.files.atomic import write_arrays
 
 VIEW_CATEGORIES = (3, 6)
 """Upper ends of the Mondrian categories by views taken: 1-3, 4-6, 7 and more."""
@@ -183,10 +183,7 @@ class GoalConfidence:
                       "threshold": self.threshold, "risk": self.risk, "delta": self.delta,
                       "episodes": self.episodes,
                       "calibrated": dataclasses.asdict(self.calibrated)}))}
-        with atomic_output(path) as temporary:
-            with temporary.open("wb") as stream:
-                np.savez(stream, **arrays)  # type: ignore[arg-type]
-        return path
+        return write_arrays(path, arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> GoalConfidence:

@@ -43,7 +43,7 @@ from statistics import NormalDist
 import numpy as np
 
 from vprobot.config import Config, SensorConfig, available_sensors, sensor_preset
-from vprobot.files.atomic import atomic_output
+from vprobot.files.atomic import write_arrays
 from vprobot.files.paths import ESTIMATOR_DIR
 
 MEMBERS = 5
@@ -302,11 +302,7 @@ class CoverageEstimator:
         for m, member in enumerate(self.layers):
             for k, (weight, bias) in enumerate(member):
                 arrays[f"w_{m}_{k}"], arrays[f"b_{m}_{k}"] = weight, bias
-        with atomic_output(path) as temporary:
-            with temporary.open("wb") as stream:
-                # numpy's stub reads a ** mapping as one that may set its `allow_pickle` flag.
-                np.savez(stream, **arrays)  # type: ignore[arg-type]
-        return path
+        return write_arrays(path, arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> CoverageEstimator:

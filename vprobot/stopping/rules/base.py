@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -133,3 +135,22 @@ plugins."""
 
 register_stop = STOPS.register_named
 """Class decorator: registers a stop rule under its `name`."""
+
+
+def fraction_option(groups: Mapping[str, str], name: str, letter: str) -> dict[str, Any]:
+    """The option `name` of a rule written `RULE:X`, a number in (0, 1) (`letter` names X in
+    the message); {} where it is not written.
+
+    Raises:
+        ValueError: For anything but a number in (0, 1).
+    """
+    text = groups.get(name)
+    if text is None:
+        return {}
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:
+        raise ValueError(f"{letter} must be a number in (0, 1)")
+    return {name: value}

@@ -17,7 +17,7 @@ import numpy as np
 from vprobot.config import Config
 from vprobot.stopping.confidence import Calibrated, GoalConfidence
 from vprobot.stopping.estimator import CoverageEstimator, Stated, bundled_estimator, load_estimator
-from vprobot.stopping.rules.base import StopRule, register_stop
+from vprobot.stopping.rules.base import StopRule, fraction_option, register_stop
 from vprobot.stopping.rules.estimate import EstimateStop
 
 CONFIDENCE_FILE = "confidence.npz"
@@ -63,16 +63,7 @@ class ConfidentStop(EstimateStop):
 
     @classmethod
     def options(cls, **groups: str) -> dict[str, Any]:
-        text = groups.get("probability")
-        if text is None:
-            return {}
-        try:
-            probability = float(text)
-        except ValueError:
-            probability = np.nan
-        if not 0.0 < probability < 1.0:
-            raise ValueError("P must be a number in (0, 1)")
-        return {"probability": probability}
+        return fraction_option(groups, "probability", "P")
 
     @classmethod
     def build(cls, config: Config, estimator: str | Path | None = None,

@@ -25,7 +25,7 @@ from vprobot.config import Config
 from vprobot.coverage.occupancy import EpisodeGrid
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, Stated, load_estimator
 from vprobot.stopping.features import CoverageFeatures, episode_features
-from vprobot.stopping.rules.base import StopRule, StopSubject, register_stop
+from vprobot.stopping.rules.base import StopRule, StopSubject, fraction_option, register_stop
 
 if TYPE_CHECKING:
     from vprobot.episode import Episode, ViewRecord
@@ -66,16 +66,7 @@ class EstimateStop(StopRule):
 
     @classmethod
     def options(cls, **groups: str) -> dict[str, Any]:
-        text = groups.get("confidence")
-        if text is None:
-            return {}
-        try:
-            confidence = float(text)
-        except ValueError:
-            confidence = np.nan
-        if not 0.0 < confidence < 1.0:
-            raise ValueError("C must be a number in (0, 1)")
-        return {"confidence": confidence}
+        return fraction_option(groups, "confidence", "C")
 
     @classmethod
     def build(cls, config: Config, estimator: str | Path | None = None,
