@@ -264,3 +264,15 @@ def test_a_plan_stopped_by_the_rule_records_the_probability_after_each_view(
     if document["stop_reason"].startswith("P(coverage"):
         assert float(document["stop_reason"].split("= ")[1].split(" ")[0]) >= 0.6
     assert "P(goal)" in summary
+
+
+def test_a_held_back_estimate_stops_confident_but_not_estimate(calibrated_estimator: Path) -> None:
+    """`estimate`'s guard against unexplored space belongs to its normal claims; `confident`'s
+    calibration measured the errors on such views too."""
+    config = load_config()
+    held = Stated(0.999, 0.001, held="held back from a stop: unknown above 0.1")
+    assert make_stop_rule("estimate", config, calibrated_estimator).decide(held, 6) is None
+    assert dataclasses.replace(held, held=None).mean - 3 * held.std >= GOAL
+    confident = make_stop_rule("confident", config, calibrated_estimator)
+    assert isinstance(confident, ConfidentStop)
+    assert confident.decide(held, 6) is not None

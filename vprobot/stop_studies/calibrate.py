@@ -71,7 +71,7 @@ def calibration_jobs(config: Config, count: int, seed: int,
 def stated_estimates(config: Config, estimator: Path, data: Dataset
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per row, the estimate's mean and std as `--stop estimate` states them view by view
-    (`EstimateTracker`), and whether a stop may use it (stated, not held back)."""
+    (`EstimateTracker`), and whether `confident` may use it (not refused)."""
     model = load_estimator(estimator, config.sensor)
     mean, std = np.full(len(data.coverage), np.nan), np.full(len(data.coverage), np.nan)
     usable = np.zeros(len(data.coverage), bool)
@@ -82,7 +82,7 @@ def stated_estimates(config: Config, estimator: Path, data: Dataset
         for row in rows:
             stated = tracker.update(data.features[row])
             mean[row], std[row] = stated.mean, stated.std
-            usable[row] = not stated.refused and stated.held is None
+            usable[row] = not stated.refused
     return mean, std, usable
 
 
@@ -136,6 +136,9 @@ def _calibrate(config: Config, out: Path, estimator: Path, data: Dataset, risk: 
     mean, std, usable = stated_estimates(config, estimator, data)
     fit = data.episodes % 2 == 0
     kept = fit & usable
+    if not kept.any():
+        raise ValueError(f"the estimate {estimator} was refused on every view of the calibration "
+                         f"episodes (fit for another sensor?): nothing to calibrate")
     goal = config.env.coverage_goal
     partial = GoalConfidence(data.coverage[kept] - mean[kept], std[kept], data.views[kept],
                              None, risk, delta, 0, Calibrated.of(config, estimator))

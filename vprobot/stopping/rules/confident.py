@@ -1,10 +1,13 @@
 """`confident[:P]`: stop when the calibrated probability that the goal is reached
 (`vprobot.stopping.confidence`) reaches the threshold Learn-then-Test certified for it, or P.
 
-The estimate is stated as `estimate` states it (refused, widened or held back for inputs unlike
-those it was fit on); the probability comes from the calibration beside the estimator file
-(`confidence.npz`, made by `vprobot stop calibrate`), which is refused for another cell, sensing
-model, goal or estimator than it was made with.
+The estimate is stated as `estimate` states it (refused or widened for inputs unlike those it
+was fit on), but not held back where more space is unexplored than on the training views where
+it claimed the goal: that guard is of `estimate`'s normal claims, while here the calibration
+measured the errors on such views too (in the realistic cell the estimate never claimed the goal
+in training, so `estimate` holds back every stop). The probability comes from the calibration
+beside the estimator file (`confidence.npz`, made by `vprobot stop calibrate`), which is refused
+for another cell, sensing model, goal or estimator than it was made with.
 """
 
 from __future__ import annotations

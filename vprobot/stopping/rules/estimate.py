@@ -91,13 +91,13 @@ class EstimateStop(StopRule):
         for count in range(self._stated + 1, len(views) + 1):
             stated = self.tracker.update(self.features.update(views[:count]))
         self._stated = len(views)
-        if stated is None or stated.refused or stated.held is not None:
+        if stated is None or stated.refused:
             return None
         return self.decide(stated, len(views))
 
     def decide(self, stated: Stated, views: int) -> str | None:
         """Why to stop on the estimate `stated` after `views` views (None: go on)."""
-        if stated.mean - self.z * stated.std >= self.goal:
+        if stated.held is None and stated.mean - self.z * stated.std >= self.goal:
             return (f"estimate {100 * stated.mean:.1f} ± {100 * stated.std:.1f} % ≥ "
                     f"{100 * self.goal:g} % at {100 * self.confidence:g} %")
         return None
