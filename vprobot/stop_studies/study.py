@@ -26,7 +26,7 @@ from vprobot.planners.self_stopping import stop_subject
 from vprobot.stopping.rules import make_stop_rule
 
 DEFAULT_LISTS = ("test-v1", "families-test-v1", "shapes-v1")
-DEFAULT_RULES = ("goal", "estimate", "grid", "views:5", "agent")
+DEFAULT_RULES = ("goal", "estimate", "confident", "grid", "views:5", "agent")
 DEFAULT_PLANNERS = ("agent", "nbv", "agent:cpu-stop")
 """The bundled default agent, volumetric next-best view, and the bundled agent with a stop
 action."""
