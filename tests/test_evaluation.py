@@ -770,6 +770,29 @@ def test_a_setting_added_since_the_folder_was_made_resumes_at_its_default(
                  carriers=["free"])
 
 
+def test_a_folder_recorded_under_keys_renamed_since_resumes_under_their_new_names(
+        tmp_path: Path) -> None:
+    """A folder made before `env.motors` became `env.parts` and the encoders' settings moved
+    under `agent.encoder_settings` resumes; another value under the old name is still refused."""
+    from vprobot.config import replace
+
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
+    evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    path = tmp_path / "evaluation_settings.json"
+    settings = json.loads(path.read_text())
+    settings["config"]["env"]["motors"] = settings["config"]["env"].pop("parts")
+    agent = settings["config"]["agent"]
+    del agent["encoder_settings"]
+    agent |= {"encoder_scale": 1.0, "sphere_bins": [8, 16], "sphere_features": 128}
+    path.write_text(json.dumps(settings))
+    table = evaluate(CONFIG, ["hrec", "uniform2"], specs, tmp_path, progress=False,
+                     carriers=["free"])
+    assert [row["planner"] for row in table] == ["hrec", "uniform2"]
+    with pytest.raises(ValueError, match=r"other settings \(env.parts 'train' there, 'test' "):
+        evaluate(replace(CONFIG, "env", parts="test"), ["hrec"], specs, tmp_path,
+                 progress=False, carriers=["free"])
+
+
 def test_a_planner_or_carrier_given_twice_runs_once(tmp_path: Path) -> None:
     specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
     table = evaluate(CONFIG, ["hrec", "hrec"], specs, tmp_path, progress=False,

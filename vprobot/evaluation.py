@@ -43,7 +43,7 @@ from urllib.parse import quote
 from tqdm import tqdm
 
 from vprobot.compute.cluster import parallel_map, require_ray
-from vprobot.config import Config, config_document
+from vprobot.config import Config, ConfigError, config_document
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
     CARRIERS,
@@ -68,6 +68,7 @@ from vprobot.files.atomic import (
 )
 from vprobot.files.paths import MOTORS_DIR, bundled_or_path
 from vprobot.files.progress import showing_progress
+from vprobot.files.schema import from_mapping
 from vprobot.parts.generated import is_generated
 from vprobot.parts.loading import LoadedMesh, load_mesh
 from vprobot.plan import write_json
@@ -493,6 +494,18 @@ def _flat_settings(settings: dict[str, Any]) -> dict[str, Any]:
                for name, digest in settings.get("sha256", {}).items()}}
 
 
+def _in_current_keys(recorded: dict[str, Any]) -> dict[str, Any]:
+    """A recorded config in this version's keys, as `load_config` would read it (a key renamed
+    since, such as `env.motors`, under its new name); as recorded where it no longer loads."""
+    try:
+        with warnings.catch_warnings():
+            # The renames' notes are for configs a user writes, not for a folder's record.
+            warnings.simplefilter("ignore", FutureWarning)
+            return config_document(from_mapping(Config, recorded))
+    except ConfigError:
+        return recorded
+
+
 def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None:
     """Record an evaluation's settings, or check that a resumed evaluation ran with the same.
 
@@ -508,7 +521,8 @@ def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None
         write_text(path, json.dumps(settings, indent=1) + "\n")
         return
     document = json.loads(path.read_text())
-    recorded, current = _flat_settings(document), _flat_settings(settings)
+    recorded = _flat_settings({**document, "config": _in_current_keys(document["config"])})
+    current = _flat_settings(settings)
     # A setting added to vprobot after the folder was made left its rows as they were if it is
     # at its default; the contents of a folder made before they were recorded go unchecked.
     defaults = _flat_settings({"config": config_document(Config())})

@@ -670,11 +670,12 @@ class AgentConfig:
                               f"{self.exploration_final_eps}, {self.exploration_initial_eps}")
 
 
-_FORMER_ENCODER_KEYS = {"encoder_scale": ("scale", ("pcn", "pointnet")),
-                        "sphere_bins": ("bins", ("sphere",)),
-                        "sphere_features": ("features", ("sphere",))}
+_FORMER_ENCODER_KEYS = {"encoder_scale": ("scale", ("pcn", "pointnet"), 1.0),
+                        "sphere_bins": ("bins", ("sphere",), [8, 16]),
+                        "sphere_features": ("features", ("sphere",), 128)}
 """The `agent` keys of the encoders' settings before the encoders owned them: each the key it
-became under the name of each encoder that reads it in `agent.encoder_settings`."""
+became under the name of each encoder that reads it in `agent.encoder_settings`, and its
+default then (the encoders' default now: a value equal to it sets nothing)."""
 
 
 def _agent_mapping(value: Any, key: str) -> Any:
@@ -690,8 +691,9 @@ def _agent_mapping(value: Any, key: str) -> Any:
                   f"release", FutureWarning, stacklevel=2)
     settings = {name: dict(given) for name, given in (value.get("encoder_settings") or {}).items()}
     for name in former:
-        setting, readers = _FORMER_ENCODER_KEYS[name]
-        for reader in readers:
+        setting, readers, default = _FORMER_ENCODER_KEYS[name]
+        given = list(value[name]) if isinstance(value[name], list | tuple) else value[name]
+        for reader in readers if given != default else ():
             settings.setdefault(reader, {})[setting] = value[name]
     return {**{name: item for name, item in value.items() if name not in _FORMER_ENCODER_KEYS},
             "encoder_settings": settings}
