@@ -202,10 +202,9 @@ def fixed_plan(episode: Episode, targets: Sequence[SensorTarget],
     """
     if not episode.uses_robot:
         return order_requests(episode, [ViewRequest(target) for target in targets])
-    arm, collisions = episode.scene.arm, episode.robot.collisions
     requests = []
     for index, target in enumerate(targets):
         start = seeds[index] if seeds is not None else episode.q
-        result = arm.reach(target, start, collisions)
+        result = episode.robot.reach(target, start)
         requests.append(ViewRequest(target, result.q if result.reachable else None))
     return order_requests(episode, requests)
