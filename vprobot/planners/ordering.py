@@ -153,7 +153,12 @@ def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[Vi
             blocked = 0.0 if episode.robot.path_is_free(a, b) else BLOCKED_PATH_S
             return joint_time(a, b, velocity) + blocked
 
-        costs = cost_matrix(nodes, move)
+        # Only the moves an order from the current configuration can make (`order_views` reads
+        # no others): planning the moves back to it or in place would be wasted.
+        costs = np.zeros((len(nodes), len(nodes)))
+        for a, b in itertools.permutations(range(len(nodes)), 2):
+            if b != 0:
+                costs[a, b] = move(nodes[a], nodes[b])
         order = order_views(costs, 0, range(1, len(known) + 1))
         return [known[index - 1] for index in order] + unknown
     center = episode.center
