@@ -26,7 +26,7 @@ from vprobot.planners.greedy import greedy_cover
 from vprobot.planners.hrec import BoxFacesPlanner
 from vprobot.planners.initial_view import InitialViewPlanner
 from vprobot.planners.oracle import OraclePlanner
-from vprobot.planners.ordering import cost_matrix, order_views, path_cost
+from vprobot.planners.ordering import LazyCosts, cost_matrix, order_views, path_cost
 from vprobot.planners.proof import ExactPlanner, Proof
 from vprobot.planners.random_views import Random1Planner, Random2Planner
 from vprobot.planners.runner import (
@@ -124,6 +124,29 @@ def test_ordering_never_lengthens_travel() -> None:
             order = order_views(cost, start, nodes)
             assert sorted(order) == sorted(nodes)
             assert path_cost(cost, start, order) <= path_cost(cost, start, nodes) + 1e-12
+
+
+def test_costs_computed_as_read_give_the_order_of_the_whole_matrix_from_fewer_entries(
+        ) -> None:
+    rng = np.random.default_rng(11)
+    for count in range(1, 10):
+        cost = rng.uniform(0.0, 1.0, size=(count + 1, count + 1))  # asymmetric
+        read: list[tuple[int, int]] = []
+
+        def entry(a: int, b: int, matrix: np.ndarray = cost,
+                  log: list[tuple[int, int]] = read) -> float:
+            log.append((a, b))
+            return float(matrix[a, b])
+
+        nodes = list(rng.permutation(np.arange(1, count + 1)))
+        lazy = LazyCosts(count + 1, entry)
+        assert order_views(lazy, 0, nodes) == order_views(cost, 0, nodes)
+        # Each entry is computed once; none back to the start or in place.
+        assert len(read) == len(set(read))
+        assert all(b != 0 and a != b for a, b in read)
+        assert len(read) <= count * count
+    # Of a larger plan's moves, not all are read.
+    assert len(read) < count * count
 
 
 def test_ordered_plan_is_not_longer_than_the_greedy_order(motor: PartScene) -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -18,7 +19,7 @@ from vprobot.episode import Episode, PartScene, SharedWork, ViewRequest, episode
 from vprobot.evaluation import evaluate
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.geometry.poses import rotation_about_z
-from vprobot.kinematics import SensorTarget
+from vprobot.kinematics import ReachResult, SensorTarget
 from vprobot.kinematics.arm import RobotArm
 from vprobot.parts import loading as mesh_loading
 from vprobot.planners import candidates
@@ -181,3 +182,38 @@ def test_a_move_is_planned_and_a_frame_taken_once_for_the_episodes_that_start_al
     alone = Episode(motor, np.eye(3)).request(request)
     assert (calls["plan"], calls["acquire_at"]) == (2, 2)
     np.testing.assert_array_equal(alone.points_world, taken.points_world)
+
+
+def test_a_target_is_reached_once_for_the_episodes_that_start_alike_as_alone(
+        motor: PartScene, calls: Counter[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    reaches: Counter[str] = Counter()
+    original = RobotArm.reach
+
+    def counted(*args: Any, **kwargs: Any) -> ReachResult:
+        reaches["reach"] += 1
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(RobotArm, "reach", counted)
+    shared = SharedWork()
+    first, second = (Episode(motor, np.eye(3), shared=shared) for _ in range(2))
+    center = first.center
+    target = SensorTarget.look_at(center + np.array([0.0, -0.3, 0.2]), center)
+    result = first.robot.reach(target, first.q)
+    assert result.reachable and result.motion is not None
+    # The other episode gets the same result, reached and planned once; its `q` is read-only.
+    assert second.robot.reach(target, second.q) is result
+    assert (reaches["reach"], calls["plan"]) == (1, 1)
+    assert not result.q.flags.writeable
+    # Executing the view drives the move the IK planned.
+    taken = second.request(ViewRequest(target, result.q))
+    assert (reaches["reach"], calls["plan"]) == (1, 1)
+    np.testing.assert_array_equal(taken.joints, result.q)
+    # From elsewhere it is reached anew; an episode of its own reaches it again, alike.
+    first.robot.reach(target, second.q)
+    assert (reaches["reach"], calls["plan"]) == (2, 2)
+    alone = Episode(motor, np.eye(3)).robot.reach(target, first.start_joints)
+    assert (reaches["reach"], calls["plan"]) == (3, 3)
+    assert alone is not result and alone.motion is not None
+    np.testing.assert_array_equal(alone.q, result.q)
+    np.testing.assert_array_equal(alone.motion.waypoints, result.motion.waypoints)
+    assert (alone.reason, alone.iterations) == (result.reason, result.iterations)

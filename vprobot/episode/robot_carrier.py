@@ -12,7 +12,7 @@ from vprobot.episode.part_scene import PartScene
 from vprobot.episode.records import ViewRecord, ViewRequest
 from vprobot.episode.shared import SharedWork
 from vprobot.geometry.poses import Pose
-from vprobot.kinematics import UNSOLVED, ReachResult
+from vprobot.kinematics import UNSOLVED, ReachResult, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
 from vprobot.kinematics.motion_planner import MotionPlan
 from vprobot.kinematics.trajectory import JOIN_TOLERANCE_RAD, time_move
@@ -30,10 +30,11 @@ class RobotCarrier(Carrier):
         unreachable: `skip`: an unreachable request leaves the robot where it is and acquires
             nothing; `nearest`: if the IK's closest configuration is collision-free and a
             collision-free move joins it, move there and acquire.
-        shared: Where the planned moves and the frames taken are kept, by their ends and by
-            the sensor pose and configuration: an episode's `SharedWork`, so that the planners
-            of one spec and carrier plan each move and take each frame once (both depend on
-            those arguments only); the carrier's own when omitted.
+        shared: Where the planned moves, the reached targets and the frames taken are kept, by
+            their ends, by the target and start configuration, and by the sensor pose and
+            configuration: an episode's `SharedWork`, so that the planners of one spec and
+            carrier plan each move, reach each target and take each frame once (each depends
+            on those arguments only); the carrier's own when omitted.
 
     Raises:
         ValueError: For an unknown unreachable policy.
@@ -60,6 +61,25 @@ class RobotCarrier(Carrier):
         q_from, q_to = (np.asarray(q, dtype=float) for q in (q_from, q_to))
         return self.shared.get(("move", q_from.tobytes(), q_to.tobytes()),
                                lambda: self.arm.plan(q_from, q_to, self.collisions))
+
+    def reach(self, target: SensorTarget, q_from: np.ndarray) -> ReachResult:
+        """The IK of `target` from `q_from` in this episode's cell and the move to its solution
+        (`RobotArm.reach`, the move planned by `plan`, so that executing the view drives it
+        unplanned); each target is reached once per start configuration (`shared`: `nbv` and
+        `nbv@grid` try the same targets from the same configurations). The result's `q` is
+        read-only."""
+        q_from = np.asarray(q_from, dtype=float)
+
+        def solve() -> ReachResult:
+            result = self.arm.reach(target, q_from, self.collisions, plan=self.plan)
+            result.q.flags.writeable = False
+            return result
+
+        look_at = target.look_at_point
+        return self.shared.get(("reach", target.pose.position.tobytes(),
+                                target.pose.rotation.tobytes(), target.roll_free,
+                                None if look_at is None else look_at.tobytes(),
+                                q_from.tobytes()), solve)
 
     def path_is_free(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
         """Whether a collision-free move joins two configurations (`plan` finds one)."""
@@ -134,7 +154,7 @@ class RobotCarrier(Carrier):
                 # No collision-free move from here was found; the IK may find another
                 # configuration (its restarts) that one joins.
                 pass
-        result = self.arm.reach(request.target, joints, self.collisions, plan=self.plan)
+        result = self.reach(request.target, joints)
         if result.motion is not None:
             return self._executed(requested, joints, result.q, result.motion, True, None)
         nearest = self._feasible_nearest(result, joints) if self.unreachable == "nearest" else None

@@ -4,7 +4,8 @@
 derives from the episode's start alone (the scene, the object pose, the carrier, the start
 configuration) is the same for each of them: the model-based planners' candidate views, their
 reachability screening and predicted visibility, and the simulated acquisitions that confirm
-them. An `Episode` keeps such results in its `SharedWork`: its own, or one handed to every
+them; so are the robot's moves, reached targets and frames, which depend on their arguments
+only. An `Episode` keeps such results in its `SharedWork`: its own, or one handed to every
 episode of a spec and carrier, which refuses to serve an episode that starts otherwise.
 """
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+import numpy.typing as npt
 
 from vprobot.cell.scene import PLANNING_SLACK_M, Cell
 from vprobot.geometry.poses import Pose
@@ -45,12 +46,12 @@ class CollisionChecker:
         self.object_pose = self.cell.place_object(self.data, rotation)
         return self.object_pose
 
-    def _collide(self, q: np.ndarray) -> None:
+    def _collide(self, q: npt.ArrayLike) -> None:
         self.data.qpos[:] = q
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_collision(self.model, self.data)
 
-    def in_collision(self, q: np.ndarray) -> bool:
+    def in_collision(self, q: npt.ArrayLike) -> bool:
         """Whether configuration `q` puts any robot geom into contact."""
         self._collide(q)
         count = self.data.ncon

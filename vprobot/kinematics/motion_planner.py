@@ -177,10 +177,13 @@ class MotionPlanner:
         space.setBounds(bounds)
         setup = og.SimpleSetup(space)
         in_collision = self.collisions.in_collision
+        axes = range(dof)
 
         def valid(state: ob.State) -> bool:
             budget.checks -= 1
-            return not in_collision(np.fromiter((state[i] for i in range(dof)), float, dof))
+            # A list, not an array: this runs for every state the search checks, and a list
+            # comprehension costs a fraction of an array built from a generator.
+            return not in_collision([state[i] for i in axes])
 
         setup.setStateValidityChecker(valid)
         information = setup.getSpaceInformation()

@@ -139,11 +139,10 @@ class VolumetricPlanner(InitialViewPlanner, SelfStopping):
         solution from the current configuration whose arm does not hide the view's centre."""
         if not episode.uses_robot:
             return ViewRequest(target)
-        arm = episode.scene.arm
-        result = arm.reach(target, episode.q, episode.robot.collisions)
+        result = episode.robot.reach(target, episode.q)
         if not result.reachable:
             return None
-        if arm_hides_view(arm, result.q, episode.center):
+        if arm_hides_view(episode.scene.arm, result.q, episode.center):
             return None
         return ViewRequest(target, result.q)
 

@@ -33,26 +33,57 @@ EXACT_ORDER_VIEWS = 10
 for 10 views."""
 
 
-def path_cost(cost: np.ndarray, start: int | None, order: Sequence[int]) -> float:
+class LazyCosts:
+    """A square matrix of move costs whose entries are computed when first read.
+
+    `order_views` reads about half of a plan's moves (the greedy order's forward moves and the
+    reversals 2-opt tries), and with the robot each entry is a planned move, so the others are
+    not planned.
+
+    Args:
+        size: Nodes of the matrix.
+        cost: The cost of the move between two node indices.
+    """
+
+    def __init__(self, size: int, cost: Callable[[int, int], float]):
+        self.shape = (size, size)
+        self._cost = cost
+        self._known: dict[tuple[int, int], float] = {}
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, move: tuple[int, int]) -> float:
+        if move not in self._known:
+            self._known[move] = self._cost(*move)
+        return self._known[move]
+
+
+Costs = np.ndarray | LazyCosts
+"""A square matrix of move costs, computed (an array) or computed as read (`LazyCosts`)."""
+
+
+def path_cost(cost: Costs, start: int | None, order: Sequence[int]) -> float:
     """Total cost of visiting `order` after `start` (None: the path begins at order[0])."""
     nodes = ([start] if start is not None else []) + list(order)
     return float(sum(cost[a, b] for a, b in itertools.pairwise(nodes)))
 
 
-def nearest_neighbour(cost: np.ndarray, start: int | None, nodes: Sequence[int]) -> list[int]:
+def nearest_neighbour(cost: Costs, start: int | None, nodes: Sequence[int]) -> list[int]:
     """Greedy order: always move to the cheapest unvisited node (from nodes[0] without start)."""
     remaining = list(nodes)
     order: list[int] = []
     current = start
     while remaining:
-        pick = remaining[0] if current is None else min(remaining, key=lambda n: cost[current, n])
+        here = current
+        pick = remaining[0] if here is None else min(remaining, key=lambda n: cost[here, n])
         remaining.remove(pick)
         order.append(pick)
         current = pick
     return order
 
 
-def two_opt(cost: np.ndarray, start: int | None, order: Sequence[int]) -> list[int]:
+def two_opt(cost: Costs, start: int | None, order: Sequence[int]) -> list[int]:
     """Reverse segments of the path while that shortens it (first improvement)."""
     best = list(order)
     best_cost = path_cost(cost, start, best)
@@ -68,20 +99,22 @@ def two_opt(cost: np.ndarray, start: int | None, order: Sequence[int]) -> list[i
     return best
 
 
-def order_views(cost: np.ndarray, start: int | None, nodes: Sequence[int]) -> list[int]:
+def order_views(cost: Costs, start: int | None, nodes: Sequence[int]) -> list[int]:
     """A short visiting order of `nodes` from `start`, never costlier than `nodes` as given.
 
     Args:
-        cost: Square matrix of move costs between all node indices.
+        cost: Square matrix of move costs between all node indices (`LazyCosts`: only those
+            read are computed).
         start: The fixed first node (not part of the result), or None for a free start.
         nodes: The nodes to visit, in their given order.
 
     Raises:
         ValueError: If the matrix is not square or an index is outside it.
     """
-    cost = np.asarray(cost, dtype=float)
-    if cost.ndim != 2 or cost.shape[0] != cost.shape[1]:
-        raise ValueError(f"cost must be a square matrix, got shape {cost.shape}")
+    if not isinstance(cost, LazyCosts):
+        cost = np.asarray(cost, dtype=float)
+        if cost.ndim != 2 or cost.shape[0] != cost.shape[1]:
+            raise ValueError(f"cost must be a square matrix, got shape {cost.shape}")
     indices = list(nodes) + ([start] if start is not None else [])
     if any(not 0 <= index < len(cost) for index in indices):
         raise ValueError(f"node indices must lie in 0..{len(cost) - 1}, got {indices}")
@@ -153,8 +186,10 @@ def order_requests(episode: Episode, requests: Sequence[ViewRequest]) -> list[Vi
             blocked = 0.0 if episode.robot.path_is_free(a, b) else BLOCKED_PATH_S
             return joint_time(a, b, velocity) + blocked
 
-        costs = cost_matrix(nodes, move)
-        order = order_views(costs, 0, range(1, len(known) + 1))
+        # Planned as the ordering reads them: none back to the current configuration or in
+        # place, and of the others about half.
+        moves = LazyCosts(len(nodes), lambda a, b: move(nodes[a], nodes[b]))
+        order = order_views(moves, 0, range(1, len(known) + 1))
         return [known[index - 1] for index in order] + unknown
     center = episode.center
     costs = cost_matrix([request.target.pose.position for request in requests],
@@ -202,10 +237,9 @@ def fixed_plan(episode: Episode, targets: Sequence[SensorTarget],
     """
     if not episode.uses_robot:
         return order_requests(episode, [ViewRequest(target) for target in targets])
-    arm, collisions = episode.scene.arm, episode.robot.collisions
     requests = []
     for index, target in enumerate(targets):
         start = seeds[index] if seeds is not None else episode.q
-        result = arm.reach(target, start, collisions)
+        result = episode.robot.reach(target, start)
         requests.append(ViewRequest(target, result.q if result.reachable else None))
     return order_requests(episode, requests)
