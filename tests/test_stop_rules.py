@@ -30,7 +30,7 @@ from vprobot.episode import (
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, make_planner, run, run_episode
 from vprobot.planners.self_stopping import LearnedStop, stop_subject
-from vprobot.stop_studies.study import combinations, study_row
+from vprobot.stop_studies.study import _write_study, combinations, study_row
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, EstimateTracker, load_estimator
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.rules import StopSubject, make_stop_rule, parse_stop, stop_names
@@ -249,15 +249,38 @@ def test_plan_with_the_estimate_rule_says_why_and_the_estimate_at_each_view(
     assert f"{100 * estimates[0][0]:5.1f} ± {100 * estimates[0][1]:4.1f} %" in out
 
 
-def test_study_row_counts_the_goal_share_and_wasted_views_by_hand() -> None:
-    rows = [{"success": True, "coverage_pct": 92.0, "requested": 6, "acquisitions": 6,
-             "views_to_goal": 4},
-            {"success": False, "coverage_pct": 80.0, "requested": 11, "acquisitions": 9,
-             "views_to_goal": None}]
-    assert study_row(rows, "test-v1", "nbv", "grid") == {
-        "episodes": "test-v1", "planner": "nbv", "stop": "grid", "count": 2,
-        "at_goal_pct": 50.0, "coverage_pct": 86.0, "requested": 8.5, "acquisitions": 7.5,
-        "wasted": 1.0, "extra_vs_goal": None}
+def test_study_row_counts_the_goal_share_wasted_views_and_false_stops_by_hand() -> None:
+    # Budget 11: the second episode stopped before it, below the goal (a false stop); the
+    # third ran to it.
+    rows = [{"episode": 0, "success": True, "coverage_pct": 92.0, "requested": 6,
+             "acquisitions": 6, "views_to_goal": 4},
+            {"episode": 1, "success": False, "coverage_pct": 80.0, "requested": 9,
+             "acquisitions": 9, "views_to_goal": None},
+            {"episode": 2, "success": False, "coverage_pct": 85.0, "requested": 11,
+             "acquisitions": 10, "views_to_goal": None}]
+    assert study_row(rows, "test-v1", "nbv", "grid", 11) == {
+        "episodes": "test-v1", "planner": "nbv", "stop": "grid", "count": 3,
+        "at_goal_pct": pytest.approx(100 / 3), "coverage_pct": pytest.approx(257 / 3),
+        "requested": pytest.approx(26 / 3), "acquisitions": pytest.approx(25 / 3),
+        "wasted": pytest.approx(2 / 3), "extra_vs_goal": None, "stopped": 2,
+        "false_stops": 1, "median_extra_vs_goal": None, "by_episode": {0: 6, 1: 9, 2: 11}}
+
+
+def test_the_median_extra_views_are_per_episode_against_the_same_planner_at_the_goal(
+        tmp_path: Path) -> None:
+    goal = {"episodes": "a", "planner": "nbv", "stop": "goal", "requested": 5.0,
+            "by_episode": {0: 4, 1: 5, 2: 6}}
+    rule = {"episodes": "a", "planner": "nbv", "stop": "grid", "requested": 7.0,
+            "by_episode": {0: 4, 1: 9, 2: 8}}
+    other = {**rule, "planner": "agent"}
+    table = [{**row, "count": 3, "at_goal_pct": 0.0, "coverage_pct": 0.0, "acquisitions": 0.0,
+              "wasted": 0.0, "extra_vs_goal": None, "stopped": 0, "false_stops": 0,
+              "median_extra_vs_goal": None} for row in (goal, rule, other)]
+    _write_study(tmp_path, table, CONFIG)
+    assert (table[1]["extra_vs_goal"], table[1]["median_extra_vs_goal"]) == (2.0, 2)
+    assert (table[2]["extra_vs_goal"], table[2]["median_extra_vs_goal"]) == (None, None)
+    assert "| nbv | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | 2.00 | 2.0 | 0 | 0 |" in (
+        tmp_path / "study.md").read_text()
 
 
 def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:

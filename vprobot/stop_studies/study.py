@@ -31,7 +31,8 @@ DEFAULT_PLANNERS = ("agent", "nbv", "agent:cpu-stop")
 """The bundled default agent, volumetric next-best view, and the bundled agent with a stop
 action."""
 COLUMNS = ("episodes", "planner", "stop", "count", "at_goal_pct", "coverage_pct", "requested",
-           "acquisitions", "wasted", "extra_vs_goal")
+           "acquisitions", "wasted", "extra_vs_goal", "stopped", "false_stops",
+           "median_extra_vs_goal")
 
 
 def list_names(lists: Sequence[str]) -> list[str]:
@@ -79,9 +80,10 @@ def _shown(planner: str) -> str:
     return planner.replace(str(PACKAGE_DIR.parent) + "/", "")
 
 
-def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str,
-               stop: str) -> dict[str, Any]:
-    """The study's row of one list, planner and rule from its evaluation's episode rows."""
+def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop: str,
+              budget: int) -> dict[str, Any]:
+    """The study's row of one list, planner and rule from its evaluation's episode rows;
+    `budget` is the most requests an episode makes (the initial view's included)."""
     return {
         "episodes": episodes, "planner": _shown(planner), "stop": stop, "count": len(rows),
         "at_goal_pct": 100.0 * statistics.fmean(row["success"] for row in rows),
@@ -92,6 +94,12 @@ def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str,
         "wasted": statistics.fmean(row["requested"] - row["views_to_goal"] if row["success"]
                                    else 0 for row in rows),
         "extra_vs_goal": None,
+        # Ended before the view budget (by the rule, or the planner itself), and of those,
+        # below the goal: the false stops.
+        "stopped": sum(row["requested"] < budget for row in rows),
+        "false_stops": sum(row["requested"] < budget and not row["success"] for row in rows),
+        "median_extra_vs_goal": None,
+        "by_episode": {row["episode"]: row["requested"] for row in rows},
     }
 
 
@@ -138,19 +146,24 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
                 rows = finished_rows(folder / "evaluation_episodes.csv")
                 table += [study_row([row for row in rows
                                      if row["planner"] == stop_label(planner, rule)],
-                                    name, planner, rule) for planner in applies]
+                                    name, planner, rule, config.env.max_acquisitions + 1)
+                          for planner in applies]
         _write_study(out, table, config)
     return table
 
 
 def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None:
-    """The study's tables and plot from its rows (`extra_vs_goal` filled in here)."""
-    at_goal = {(row["episodes"], row["planner"]): row["requested"] for row in table
-               if row["stop"] == "goal"}
+    """The study's tables and plot from its rows (`extra_vs_goal` and `median_extra_vs_goal`
+    filled in here, against the same planner's episodes stopped at the goal)."""
+    at_goal = {(row["episodes"], row["planner"]): row for row in table if row["stop"] == "goal"}
     for row in table:
         reference = at_goal.get((row["episodes"], row["planner"]))
         if row["stop"] != "goal" and reference is not None:
-            row["extra_vs_goal"] = row["requested"] - reference
+            row["extra_vs_goal"] = row["requested"] - reference["requested"]
+            extra = [requested - reference["by_episode"][episode]
+                     for episode, requested in row["by_episode"].items()
+                     if episode in reference["by_episode"]]
+            row["median_extra_vs_goal"] = statistics.median(extra) if extra else None
     write_text(out / "study.csv", csv_text(COLUMNS, table))
     write_text(out / "study.md", markdown(table, config))
     plot_study(table, config, out / "study.png")
@@ -172,17 +185,22 @@ def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
         f"the stop, views requested and acquired, views wasted beyond the goal (requests after "
         f"the one that reached it, 0 for an episode that missed it) and views requested "
         f"beyond the same planner stopped at the goal (`goal`: the simulator's stop, run only "
-        f"for planners it stops). Each rule's evaluation is in `LIST/RULE/`.",
+        f"for planners it stops), on the mean and per episode on the median; the episodes "
+        f"that ended before the view budget (by the rule, or the planner itself) and of those "
+        f"the false stops, below the goal. Each rule's evaluation is in `LIST/RULE/`.",
     ]
     for episodes in dict.fromkeys(row["episodes"] for row in table):
         lines += ["", f"## {episodes}", "",
                   f"| planner | stop | episodes | at or above {goal} % | coverage at stop % "
-                  f"| views | acquisitions | wasted views | views vs goal |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  f"| views | acquisitions | wasted views | views vs goal | median vs goal "
+                  f"| stopped before the budget | false stops |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         lines += [f"| {row['planner']} | {row['stop']} | {row['count']} | "
                   f"{row['at_goal_pct']:.0f} | {row['coverage_pct']:.2f} | "
                   f"{row['requested']:.2f} | {row['acquisitions']:.2f} | {row['wasted']:.2f} | "
-                  f"{_cell(row['extra_vs_goal'], 2)} |"
+                  f"{_cell(row['extra_vs_goal'], 2)} | "
+                  f"{_cell(row['median_extra_vs_goal'], 1)} | {row['stopped']} | "
+                  f"{row['false_stops']} |"
                   for row in table if row["episodes"] == episodes]
     return "\n".join(lines) + "\n"
 
