@@ -16,17 +16,19 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import multiprocessing
 import os
 import shutil
 import signal
 import threading
 import time
 from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from vprobot.extensions import plugins
+
+if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
 
 POLL_S = 0.2
 """How often a child checks that its parent is still there."""
@@ -91,6 +93,10 @@ def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     started and ends the workers at once, rather than waiting for every task to finish. The
     workers ignore Ctrl-C, which the terminal sends them too: this process ends them.
     """
+    # Here, not at the top: every command line imports this module, few start a pool.
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
     # Spawned: MuJoCo's and torch's threads do not survive a fork.
     context = multiprocessing.get_context("spawn")
     others = set(multiprocessing.active_children())
