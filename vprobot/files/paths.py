@@ -11,8 +11,6 @@ from collections.abc import Mapping
 from importlib.resources import files
 from pathlib import Path
 
-from vprobot.files.schema import brief
-
 PACKAGE_DIR = Path(str(files("vprobot")))
 ASSETS_DIR = PACKAGE_DIR / "assets"
 ROBOTS_DIR = ASSETS_DIR / "robots"
@@ -92,6 +90,8 @@ def bundled_or_path(value: str | Path, bundled: Mapping[str, Path], what: str,
             return path
     except OSError:
         pass  # a name the system cannot look up (too long, say) is no path either
+    from vprobot.files.schema import brief  # its YAML reader would slow every command's start
+
     raise ValueError(f"unknown {what} {brief(str(value))}: neither a bundled {what} "
                      f"({', '.join(bundled)}) nor a {kind}")
 

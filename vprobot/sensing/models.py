@@ -7,7 +7,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from vprobot.extensions.registry import Bundled, Registry
-from vprobot.files.schema import ConfigError
 
 if TYPE_CHECKING:
     from vprobot.sensing.base import SensingModel, SensorSettings
@@ -22,6 +21,9 @@ SENSING_MODELS: Registry[type[SensingModel]] = Registry("sensing model", bundled
 def check_sensing(sensor: SensorSettings) -> None:
     """Raise ConfigError unless `sensor.sensing` names a sensing model that the sensor has what
     it needs for."""
+    # Here: the schema imports PyYAML, which listing the names (`--help`) does not need.
+    from vprobot.files.schema import ConfigError
+
     if sensor.sensing not in SENSING_MODELS:
         raise ConfigError(f"sensor.sensing must be one of {list(SENSING_MODELS)}, got "
                           f"{sensor.sensing!r}")
