@@ -284,8 +284,8 @@ def test_stop_study_and_error_run_with_the_studys_defaults(tmp_path: Path,
     assert main(["stop", "study", "--out", str(tmp_path / "study")]) == 0
     assert main(["stop", "error", "--out", str(tmp_path / "error")]) == 0
     lists = ["test-v1", "families-test-v1", "shapes-v1"]
-    assert given["study"] == (lists, ["agent", "nbv", "agent:cpu-stop"],
-                              ["goal", "estimate", "grid", "views:5", "agent"], None, 1)
+    rules = ["goal", "estimate", "confident", "grid", "views:5", "agent"]
+    assert given["study"] == (lists, ["agent", "nbv", "agent:cpu-stop"], rules, None, 1)
     assert given["error"] == (lists, None, None)
 
 

@@ -473,7 +473,7 @@ def test_summarize_averages_per_planner_and_carrier() -> None:
 
 def test_a_policys_summary_is_the_one_summary_by_hand() -> None:
     # Two robot episodes of a policy, as `evaluate_policy` rows them; the values by hand.
-    reached = {"episode": 0, "planner": "policy", "carrier": "robot", "motor": "m.stl",
+    reached = {"episode": 0, "planner": "policy", "carrier": "robot", "part": "m.stl",
                "seed": 0, "coverage_pct": 95.0, "acquisitions": 5, "requested": 6,
                "failed_requests": 1, "success": True, "views_to_goal": 5, "cycle_time_s": 12.0,
                "joint_time_s": 2.0, "joint_path_rad": 3.0, "cartesian_m": 1.0, "paper_m": 0.8,
@@ -704,7 +704,7 @@ def test_damaged_rows_are_dropped_with_one_warning_and_their_episodes_rerun(
     # Too many cells (episodes 1 and 2), a cell that does not parse, too few cells (3).
     damaged = [header, first, second[:40] + third, ",".join(unparsed),
                fourth.rsplit(",", 3)[0]]
-    motor = fifth.split(",")[EPISODE_COLUMNS.index("motor")]
+    motor = fifth.split(",")[EPISODE_COLUMNS.index("part")]
     rows.write_bytes(("\n".join(damaged) + "\n").encode()
                      + fifth.encode().replace(motor.encode(), b"\xff" + motor.encode()[1:])
                      + b"\n")
@@ -772,8 +772,9 @@ def test_a_setting_added_since_the_folder_was_made_resumes_at_its_default(
 
 def test_a_folder_recorded_under_keys_renamed_since_resumes_under_their_new_names(
         tmp_path: Path) -> None:
-    """A folder made before `env.motors` became `env.parts` and the encoders' settings moved
-    under `agent.encoder_settings` resumes; another value under the old name is still refused."""
+    """A folder made before `env.motors` became `env.parts`, the episodes table's `motor`
+    column `part`, and the encoders' settings moved under `agent.encoder_settings` resumes;
+    another value under the old name is still refused."""
     from vprobot.config import replace
 
     specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
@@ -785,9 +786,16 @@ def test_a_folder_recorded_under_keys_renamed_since_resumes_under_their_new_name
     del agent["encoder_settings"]
     agent |= {"encoder_scale": 1.0, "sphere_bins": [8, 16], "sphere_features": 128}
     path.write_text(json.dumps(settings))
+    rows = tmp_path / "evaluation_episodes.csv"
+    header, *written = rows.read_text().splitlines()
+    assert header.split(",")[3] == "part"
+    rows.write_text("\n".join([header.replace(",part,", ",motor,"), *written]) + "\n")
     table = evaluate(CONFIG, ["hrec", "uniform2"], specs, tmp_path, progress=False,
                      carriers=["free"])
     assert [row["planner"] for row in table] == ["hrec", "uniform2"]
+    # The hrec row was kept, not run again; uniform2's was appended to the same table.
+    assert rows.read_text().splitlines()[1:2] == written
+    assert [row["part"] for row in finished_rows(rows)] == [DEFAULT_MOTOR.name] * 2
     with pytest.raises(ValueError, match=r"other settings \(env.parts 'train' there, 'test' "):
         evaluate(replace(CONFIG, "env", parts="test"), ["hrec"], specs, tmp_path,
                  progress=False, carriers=["free"])

@@ -393,7 +393,7 @@ def test_the_toys_run_in_an_evaluation_on_two_ray_workers(plugin: Path, tmp_path
     with (tmp_path / "out" / "evaluation_episodes.csv").open() as stream:
         rows = sorted(csv.DictReader(stream), key=lambda row: row["episode"])
     # The toy rule stopped the toy planner's three views at two, on each toy part.
-    assert [(row["motor"], row["planner"], row["requested"], row["acquisitions"])
+    assert [(row["part"], row["planner"], row["requested"], row["acquisitions"])
             for row in rows] == [("blocktoy_0000.stl", "toptoy --stop twotoy", "2", "2"),
                                  ("blocktoy_0001.stl", "toptoy --stop twotoy", "2", "2")]
     settings = json.loads((tmp_path / "out" / SETTINGS_NAME).read_text())["config"]

@@ -106,12 +106,13 @@ def guarded_occupancy(grids: dict[GridSettings, EpisodeGrid], views: list[Guarde
 
 def planner_view(episode: Episode) -> Guarded:
     """The episode as a model-free planner may see it: the views' poses and points (and the
-    episode's occupancy grid of them), the robot's state and kinematics, the fixture's centre;
+    episode's occupancy grid of them), the robot's state, kinematics and reach (IK and moves in
+    the cell, shared between the planners of an episode), the fixture's centre;
     no mesh, ground truth or coverage."""
     views = [Guarded("view", **{name: getattr(view, name) for name in VIEW_FIELDS})
              for view in episode.views]
-    robot = ({"collisions": episode.robot.collisions, "path_is_free": episode.robot.path_is_free}
-             if episode.uses_robot else {})
+    robot = ({"collisions": episode.robot.collisions, "path_is_free": episode.robot.path_is_free,
+              "reach": episode.robot.reach} if episode.uses_robot else {})
     return Guarded("episode", views=views, q=episode.q.copy(), center=episode.center.copy(),
                    occupancy=guarded_occupancy(_GRIDS.setdefault(episode, {}), views),
                    uses_robot=episode.uses_robot,

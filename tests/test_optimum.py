@@ -487,7 +487,7 @@ def test_the_optimum_benchmark_reports_the_proof_and_the_target(
         capsys: pytest.CaptureFixture[str]) -> None:
     results = run_optimum_benchmark(CONFIG, episodes=(0,), carriers=("free",), progress=False)
     (row,) = results["episodes"]
-    assert "bracket" in row["motor"] and row["views"] <= row["bscp_views"]
+    assert "bracket" in row["part"] and row["views"] <= row["bscp_views"]
     assert row["target_met"] == (row["gap_views"] is not None and row["gap_views"] <= 1
                                  and row["solve_s"] <= 60.0)
     print_optimum_table(results)

@@ -15,7 +15,7 @@ from vprobot.evaluation import CURVE_COLUMNS, EPISODE_COLUMNS, EPISODES_NAME
 
 def _row(episode: int, acquisitions: int, plan_s: float) -> dict[str, Any]:
     row: dict[str, Any] = dict.fromkeys(EPISODE_COLUMNS, "")
-    row.update({"episode": episode, "planner": "bscp", "carrier": "robot", "motor": "m.stl",
+    row.update({"episode": episode, "planner": "bscp", "carrier": "robot", "part": "m.stl",
                 "seed": 0, "coverage_pct": 90.0, "acquisitions": acquisitions,
                 "requested": acquisitions + 1, "failed_requests": 1, "success": True,
                 "cycle_time_s": 10.0, "paper_m": 1.0, "plan_s": plan_s,

@@ -19,7 +19,7 @@ FOLDERS = {"test-v1": "motors", "families-test-v1": "families-test", "shapes-v1"
 def _row(episode: int, planner: str, acquisitions: int, success: bool,
          cycle: float) -> dict[str, Any]:
     row: dict[str, Any] = dict.fromkeys(EPISODE_COLUMNS, "")
-    row.update({"episode": episode, "planner": planner, "carrier": "robot", "motor": "m.stl",
+    row.update({"episode": episode, "planner": planner, "carrier": "robot", "part": "m.stl",
                 "seed": 0, "coverage_pct": 90.0, "acquisitions": acquisitions,
                 "requested": acquisitions + 1, "failed_requests": 1, "success": success,
                 "views_to_goal": acquisitions if success else "",

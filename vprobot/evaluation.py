@@ -100,11 +100,13 @@ COLUMNS = ("planner", "carrier", "episodes", "coverage_pct", "coverage_std_pct",
            "cycle_time_s", "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m",
            "reachable_pct", "plan_s", "plan_ms_per_view", "episode_s", *CURVE_COLUMNS,
            *OPTIMUM_COLUMNS, *PROOF_SUMMARY_COLUMNS)
-EPISODE_COLUMNS = ("episode", "planner", "carrier", "motor", "seed", "coverage_pct", "acquisitions",
+EPISODE_COLUMNS = ("episode", "planner", "carrier", "part", "seed", "coverage_pct", "acquisitions",
                    "requested", "failed_requests", "success", "views_to_goal", "cycle_time_s",
                    "joint_time_s", "joint_path_rad", "cartesian_m", "paper_m", "reachable_pct",
                    "min_clearance_mm", "clearance_held", "plan_s", "plan_ms_per_view",
                    "episode_s", *CURVE_COLUMNS, *PROOF_COLUMNS)
+FORMER_COLUMNS = {"motor": "part"}
+"""Former names of `EPISODE_COLUMNS`, still read in a table being resumed."""
 VERSUS_COLUMNS = ("episode", "planner", "carrier", "views_above_optimum", "cycle_ratio")
 """The per-episode comparison with `OPTIMUM` (`versus_optimum`)."""
 VERSUS_NAME = "evaluation_vs_optimum.csv"
@@ -159,7 +161,7 @@ def episode_row(index: int, result: EpisodeResult) -> dict[str, Any]:
         "episode": index,
         "planner": result.planner,
         "carrier": result.carrier,
-        "motor": Path(result.mesh).name,
+        "part": Path(result.mesh).name,
         "seed": result.seed,
         "coverage_pct": 100.0 * result.coverage,
         "acquisitions": result.acquisitions,
@@ -343,7 +345,7 @@ def markdown(table: list[dict[str, Any]], specs: Sequence[EpisodeSpec], config: 
 
 _INTEGER_COLUMNS = ("episode", "seed", "acquisitions", "requested", "failed_requests",
                     "views_to_goal", "gap_views")
-_TEXT_COLUMNS = ("planner", "carrier", "motor")
+_TEXT_COLUMNS = ("planner", "carrier", "part")
 
 
 def _typed(line: str) -> dict[str, Any] | None:
@@ -391,7 +393,8 @@ def finished_rows(path: Path) -> list[dict[str, Any]]:
     if not lines:
         return []
     header = lines[0].split(",")
-    if header != list(EPISODE_COLUMNS):
+    # Tables written before the column said "part" said "motor"; the rows are alike.
+    if [FORMER_COLUMNS.get(column, column) for column in header] != list(EPISODE_COLUMNS):
         # An older version's table lacks columns (the coverage curve, the cycle time) that its
         # episodes would need to be run again for.
         missing = [column for column in EPISODE_COLUMNS if column not in header]

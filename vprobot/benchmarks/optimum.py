@@ -61,7 +61,7 @@ def run_optimum_benchmark(config: Config, episodes: Sequence[int] = HARDEST,
                 met = (proof is not None and proof.gap_views is not None
                        and proof.gap_views <= TARGET_GAP_VIEWS
                        and planner.solve_seconds <= TARGET_SOLVE_S)
-                rows.append({"episode": index, "motor": spec.part, "carrier": carrier,
+                rows.append({"episode": index, "part": spec.part, "carrier": carrier,
                              "bscp_views": len(planner.greedy_picks),
                              "views": len(planner.picks),
                              "bound": None if proof is None else proof.bound,
@@ -84,12 +84,12 @@ def run_optimum_benchmark(config: Config, episodes: Sequence[int] = HARDEST,
 
 def print_table(results: dict[str, Any]) -> None:
     """Print one line per episode and carrier, then how many met the target."""
-    print(f"{'episode':>7}  {'motor':<24}{'carrier':<8}{'bscp':>5}{'views':>6}{'bound':>6}"
+    print(f"{'episode':>7}  {'part':<24}{'carrier':<8}{'bscp':>5}{'views':>6}{'bound':>6}"
           f"{'gap':>5}{'proven':>7}{'solves':>7}{'all':>4}{'solve s':>9}{'plan s':>8}  target")
     for row in results["episodes"]:
         gap = "-" if row["gap_views"] is None else row["gap_views"]
         bound = "-" if row["bound"] is None else row["bound"]
-        print(f"{row['episode']:>7}  {Path(row['motor']).name:<24}{row['carrier']:<8}"
+        print(f"{row['episode']:>7}  {Path(row['part']).name:<24}{row['carrier']:<8}"
               f"{row['bscp_views']:>5}{row['views']:>6}{bound:>6}{gap:>5}"
               f"{'yes' if row['proven'] else 'no':>7}"
               f"{row['rounds']:>7}{'yes' if row['measured_all'] else 'no':>4}"
