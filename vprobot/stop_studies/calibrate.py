@@ -33,7 +33,6 @@ from vprobot.stop_studies.dataset import (
     rollout_recipe,
 )
 from vprobot.stopping.confidence import (
-    THRESHOLDS,
     Calibrated,
     GoalConfidence,
     calibration_table,
@@ -68,6 +67,13 @@ def calibration_jobs(config: Config, count: int, seed: int,
              planners[number % len(planners)]) for number, pose in enumerate(poses)]
 
 
+def _episode_rows(data: Dataset, rows: np.ndarray) -> list[np.ndarray]:
+    """The indices of the rows a mask keeps, episode by episode, each in view order."""
+    episodes = [np.flatnonzero(rows & (data.episodes == number))
+                for number in np.unique(data.episodes[rows])]
+    return [one[np.argsort(data.views[one])] for one in episodes]
+
+
 def stated_estimates(config: Config, estimator: Path, data: Dataset
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per row, the estimate's mean and std as `--stop estimate` states them view by view
@@ -75,9 +81,7 @@ def stated_estimates(config: Config, estimator: Path, data: Dataset
     model = load_estimator(estimator, config.sensor)
     mean, std = np.full(len(data.coverage), np.nan), np.full(len(data.coverage), np.nan)
     usable = np.zeros(len(data.coverage), bool)
-    for episode in np.unique(data.episodes):
-        rows = np.flatnonzero(data.episodes == episode)
-        rows = rows[np.argsort(data.views[rows])]
+    for rows in _episode_rows(data, np.ones(len(data.coverage), bool)):
         tracker = EstimateTracker(model, config, str(data.planners[rows[0]]))
         for row in rows:
             stated = tracker.update(data.features[row])
@@ -89,9 +93,7 @@ def stated_estimates(config: Config, estimator: Path, data: Dataset
 def _episodes(data: Dataset, probability: np.ndarray, rows: np.ndarray
               ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
     """The selected rows' probabilities, coverages and view counts, episode by episode."""
-    episodes = [np.flatnonzero(rows & (data.episodes == number))
-                for number in np.unique(data.episodes[rows])]
-    ordered = [one[np.argsort(data.views[one])] for one in episodes]
+    ordered = _episode_rows(data, rows)
     return ([probability[one] for one in ordered], [data.coverage[one] for one in ordered],
             [data.views[one] for one in ordered])
 
@@ -165,10 +167,10 @@ def _figures(confidence: GoalConfidence, probabilities: list[np.ndarray],
         "threshold_episodes": len(probabilities),
         "table": calibration_table(claimed, reached)}
     if confidence.threshold is not None:
-        column = int(np.flatnonzero(THRESHOLDS == confidence.threshold)[0])
-        false = false_stops(probabilities, coverages, goal)[:, column]
-        crossing = [int(first_crossings(p, THRESHOLDS[column:column + 1])[0])
-                    for p in probabilities]
+        # Only the certified threshold: Learn-then-Test scored them all.
+        threshold = np.array([confidence.threshold])
+        false = false_stops(probabilities, coverages, goal, threshold)[:, 0]
+        crossing = [int(first_crossings(p, threshold)[0]) for p in probabilities]
         stopped = np.array([index < len(p) for index, p in zip(crossing, probabilities,
                                                                strict=True)])
         at_goal = [int(np.argmax(c >= goal)) if (c >= goal).any() else None for c in coverages]

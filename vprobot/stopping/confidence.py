@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import hashlib
 import itertools
 import json
 import zipfile
@@ -37,7 +36,8 @@ import numpy as np
 import numpy.typing as npt
 
 from vprobot.config import Config
-from vprobot.files.atomic import write_arrays
+from vprobot.files.atomic import file_sha256, write_arrays
+from vprobot.stopping.estimator import sensor_geometry
 
 VIEW_CATEGORIES = (3, 6)
 """Upper ends of the Mondrian categories by views taken: 1-3, 4-6, 7 and more."""
@@ -62,14 +62,12 @@ class Calibrated:
     sensing: str
     sensor: tuple[float, ...]
     goal: float
-    estimator: str
+    estimator: str | None
 
     @classmethod
     def of(cls, config: Config, estimator: Path) -> Calibrated:
-        sensor = config.sensor
-        return cls(config.cell.robot, sensor.sensing,
-                   (*sensor.fov_deg, sensor.near_m, sensor.far_m, sensor.working_distance_m),
-                   float(config.env.coverage_goal), file_digest(estimator))
+        return cls(config.cell.robot, config.sensor.sensing, sensor_geometry(config.sensor),
+                   float(config.env.coverage_goal), file_sha256(estimator))
 
     def mismatch(self, other: Calibrated) -> str | None:
         """What of `other` differs from this, in words; None: nothing."""
@@ -78,11 +76,6 @@ class Calibrated:
                        for field in dataclasses.fields(self)
                        if getattr(other, field.name) != getattr(self, field.name)]
         return "; ".join(differences) or None
-
-
-def file_digest(path: Path) -> str:
-    """The SHA-256 of a file's bytes, in hex."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def first_crossings(probabilities: np.ndarray, thresholds: np.ndarray = THRESHOLDS) -> np.ndarray:
