@@ -33,7 +33,7 @@ from vprobot.coverage.occupancy import (
     GridSettings,
     OccupancyGrid,
 )
-from vprobot.coverage.view_gains import UNKNOWN_PASS, ViewGains
+from vprobot.coverage.view_gains import UNKNOWN_PASS, ViewGains, _codes
 from vprobot.env.grid_state import FEATURES as GRID_FEATURES
 from vprobot.env.grid_state import candidate_count
 from vprobot.env.observations import observation_space
@@ -433,6 +433,28 @@ def test_scores_of_all_gains_at_once_are_score_of_each_sample_by_sample_on_rando
         expected = np.stack([gains.score(grid, gain) for gain in GAINS], axis=1)
         assert expected[:, 0].min() > 0.0
         np.testing.assert_allclose(gains.camera_scores(grid), expected, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("threshold", [1e-2, 0.3])
+def test_the_runs_walked_to_their_last_relevant_one_are_those_the_whole_table_selects(
+        threshold: float) -> None:
+    # The reference: every run's visibility over the whole table (what `camera_scores` sums,
+    # checked sample by sample above), then the runs of a gain seen at `threshold` or better,
+    # run by run; the walk drops rays as it goes and must find the same runs, values and order.
+    gains = band_candidates(CONFIG, VOXEL_M).gains
+    runs = gains._runs
+    grid = OccupancyGrid.for_cell(CONFIG)
+    rng = np.random.default_rng(2)
+    for shares in ((1.0, 0.0, 0.0), (0.1, 0.88, 0.02), (0.3, 0.6, 0.1)):
+        grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
+        codes = _codes(grid)
+        keys, visible = runs.visibility(codes)
+        rows, columns = np.nonzero((runs.kinds(keys[1:]) != 0) & (visible[:-1] >= threshold))
+        walked = runs.relevant(codes, threshold)
+        assert len(rows) > 0
+        for found, expected in zip(walked, (keys[1:][rows, columns], runs.voxels[1:][rows, columns],
+                                            columns, visible[:-1][rows, columns]), strict=True):
+            np.testing.assert_array_equal(found, expected)
 
 
 def test_flat_index_finds_the_voxel_of_points_inside_it_and_minus_one_outside() -> None:

@@ -52,6 +52,8 @@ occupied voxels leaves no holes in it)."""
 _KIND_BITS = len(GAINS)
 _CODES = (OCCUPIED + 1) << _KIND_BITS
 _KIND_MASK = (1 << _KIND_BITS) - 1
+_CHUNK_RUNS = 6
+"""Runs walked at a time by `_SampleRuns.relevant` before it drops the rays it is done with."""
 _AROUND = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                     if (dx, dy, dz) != (0, 0, 0)])
 """The offsets to a voxel's 26 neighbours."""
@@ -190,12 +192,15 @@ class _Projectors:
     def __init__(self, grid: OccupancyGrid, sensor: SensorModel, poses: list[Pose],
                  light: StructuredLight):
         self._rotations = np.stack([pose.rotation for pose in poses]).astype(np.float32)
-        self._cameras = np.stack([pose.position for pose in poses]).astype(np.float32)
-        self._projectors = self._cameras + light.baseline_m * self._rotations[:, :, 0]
-        # R[j, i] of every candidate at row 3 j + i (9, count), and each projector's position in
-        # its own frame: what moving points into the projectors' frames reads.
+        cameras = np.stack([pose.position for pose in poses]).astype(np.float32)
+        projectors = cameras + light.baseline_m * self._rotations[:, :, 0]
+        # Positions by axis (3, count), so that gathering them by candidate reads rows. R[j, i]
+        # of every candidate at row 3 j + i (9, count), and each projector's position in its
+        # own frame: what moving points into the projectors' frames reads.
+        self._cameras = np.ascontiguousarray(cameras.T)
+        self._projectors = np.ascontiguousarray(projectors.T)
         self._axes = self._rotations.reshape(len(self._rotations), 9).T
-        self._projectors_local = np.einsum("cji,cj->ci", self._rotations, self._projectors)
+        self._projectors_local = np.einsum("cji,cj->ci", self._rotations, projectors)
         self._min_cos = light.min_cos_incidence
         self._voxel = grid.voxel_m
         # The depth map spans every direction in which the projector can light a point the
@@ -228,7 +233,7 @@ class _Projectors:
         """Per candidate, the distance from its projector to the nearest occupied voxel centre
         in each pixel of its depth map (candidates, pixels); inf where none."""
         occupied = np.flatnonzero(grid.state.reshape(-1) == OCCUPIED)
-        count, pixels = len(self._projectors), int(np.prod(self._size))
+        count, pixels = len(self._rotations), int(np.prod(self._size))
         maps = np.full(count * pixels, np.inf, dtype=np.float32)
         if len(occupied):
             centres = np.take(grid.centres, occupied, axis=1)  # (3, k)
@@ -259,37 +264,50 @@ class _Projectors:
                  candidates: np.ndarray) -> np.ndarray:
         """Whether the candidate's sensor would measure a surface in each voxel (1 or 0,
         float32): lit by its projector and within both incidence limits."""
-        # The distinct voxels, in order (a mark per voxel: cheaper than sorting them).
-        marked = np.zeros(grid.state.size + 1, dtype=np.int32)
-        marked[voxels] = 1
+        measured = np.zeros(len(voxels), dtype=np.float32)
+        # The distinct voxels, in order, and each entry's slot among them (marks per voxel:
+        # cheaper than sorting them).
+        marked = np.zeros(grid.state.size + 1, dtype=bool)
+        marked[voxels] = True
         unique = np.flatnonzero(marked)
-        slot = np.cumsum(marked)[voxels] - 1
+        slots = np.empty(len(marked), dtype=np.int32)
+        slots[unique] = np.arange(len(unique), dtype=np.int32)
+        slot = slots[voxels]
         normals = self._normals(grid, unique)
         length = np.sqrt((normals * normals).sum(axis=0))
         has_normal = length > 0.0
-        normals[:, has_normal] /= length[has_normal]
-        normal = normals[:, slot]
-        centres = np.take(grid.centres, voxels, axis=1)
-        view = centres - self._cameras[candidates].T
-        light = centres - self._projectors[candidates].T
-        light_distance = np.sqrt((light * light).sum(axis=0))
+        np.divide(normals, length, out=normals, where=has_normal)
+        # Each test below is worked out only for the entries that passed the ones before: a
+        # voxel without a normal holds no surface, a surface turned away is not measured.
+        entries = np.flatnonzero(has_normal[slot])
+        slot, candidates = slot[entries], candidates[entries]
+        normal = np.take(normals, slot, axis=1)
+        centres = np.take(np.take(grid.centres, unique, axis=1), slot, axis=1)
+        view = centres - np.take(self._cameras, candidates, axis=1)
+        light = centres - np.take(self._projectors, candidates, axis=1)
         cos_camera = -(view * normal).sum(axis=0) / np.sqrt((view * view).sum(axis=0))
+        light_distance = np.sqrt((light * light).sum(axis=0))
         cos_projector = -(light * normal).sum(axis=0) / light_distance
         min_camera, min_projector = self._min_cos
-        facing = (has_normal[slot] & (cos_camera > 0.0) & (cos_camera >= min_camera)
-                  & (cos_projector > 0.0) & (cos_projector >= min_projector))
-        local = np.stack([sum(self._axes[3 * j + i][candidates] * light[j] for j in range(3))
-                          for i in range(3)])
+        facing = np.flatnonzero((cos_camera > 0.0) & (cos_camera >= min_camera)
+                                & (cos_projector > 0.0) & (cos_projector >= min_projector))
+        entries, candidates = entries[facing], candidates[facing]
+        light, light_distance = light[:, facing], light_distance[facing]
+        cos_projector = cos_projector[facing]
+        axes = np.take(self._axes, candidates, axis=1)
+        local = axes[0:3] * light[0]
+        local += axes[3:6] * light[1]
+        local += axes[6:9] * light[2]
         pixel, inside = self._pixels(local)
         maps = self._depth_maps(grid)
         # Shadow where an occupied voxel lies in front by more than a voxel and the slope of
         # the surface across a pixel (a surface does not shadow itself).
         across = self._pitch * local[2]
-        slope = np.where(has_normal[slot],
-                         np.sqrt(np.maximum(1.0 - cos_projector ** 2, 0.0))
-                         / np.maximum(cos_projector, 0.2), 1.0)
+        slope = (np.sqrt(np.maximum(1.0 - cos_projector ** 2, 0.0))
+                 / np.maximum(cos_projector, 0.2))
         lit = ~inside | (light_distance <= maps[candidates, pixel] + self._voxel + across * slope)
-        return (facing & lit).astype(np.float32)
+        measured[entries[lit]] = 1.0
+        return measured
 
 
 class _SampleRuns:
@@ -323,6 +341,10 @@ class _SampleRuns:
         column = np.broadcast_to(np.arange(len(flat))[:, None], flat.shape)
         self.voxels = np.full((run.max() + 1, len(flat)), outside, dtype=np.int32)
         self.voxels[run, column] = flat
+        inside = self.voxels != outside
+        # The last run of every ray inside the grid (0 for a ray that misses it).
+        self._last = np.where(inside.any(axis=0),
+                              len(inside) - 1 - np.argmax(inside[::-1], axis=0), 0)
         lengths = np.zeros(self.voxels.shape, dtype=np.int64)
         np.add.at(lengths, (run, column), 1)
         # Outside the grid a run passes everything and counts nothing, however long it is.
@@ -361,11 +383,35 @@ class _SampleRuns:
     def relevant(self, codes: np.ndarray, threshold: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The runs a gain counts (of a voxel with a gain bit) seen with a visibility of at
-        least `threshold`: their keys, voxels, columns and the visibility before them."""
-        keys, visible = self.visibility(codes)
-        keys, seen = keys[1:], visible[:-1]
-        rows, columns = np.nonzero((self.kinds(keys) != 0) & (seen >= threshold))
-        return keys[rows, columns], self.voxels[1:][rows, columns], columns, seen[rows, columns]
+        least `threshold`: their keys, voxels, columns and the visibility before them, run by
+        run (as `visibility`'s rows, the same products).
+
+        Visibility only falls along a ray, and a ray never comes back into the grid, so the
+        runs are walked `_CHUNK_RUNS` at a time over the rays still seen that well and still
+        to cross the grid: most rays are done within a few dozen runs."""
+        live = np.arange(self.voxels.shape[1])
+        before = np.ones(len(live))
+        found = []
+        for start in range(1, len(self.voxels), _CHUNK_RUNS):
+            stop = min(start + _CHUNK_RUNS, len(self.voxels))
+            voxels = np.take(self.voxels[start:stop], live, axis=1)
+            keys = np.take(codes, voxels).astype(self._key_offsets.dtype, copy=False)
+            keys += np.take(self._key_offsets[start:stop], live, axis=1)
+            passes = np.take(self._pass, keys)
+            seen = np.empty_like(passes)
+            seen[0] = before
+            for run in range(1, len(seen)):
+                np.multiply(passes[run - 1], seen[run - 1], out=seen[run])
+            flat = np.flatnonzero((self.kinds(keys) != 0) & (seen >= threshold))
+            found.append((keys.reshape(-1)[flat], voxels.reshape(-1)[flat],
+                          live[flat % len(live)], seen.reshape(-1)[flat]))
+            after = passes[-1] * seen[-1]
+            keep = (after >= threshold) & (self._last[live] >= stop)
+            live, before = live[keep], after[keep]
+            if not len(live):
+                break
+        keys, voxels, columns, seen = (np.concatenate(part) for part in zip(*found, strict=True))
+        return keys, voxels, columns, seen
 
     def sums_at(self, keys: np.ndarray, candidates: np.ndarray,
                 weights: np.ndarray) -> np.ndarray:
