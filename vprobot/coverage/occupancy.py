@@ -158,9 +158,16 @@ class OccupancyGrid:
             near |= padded[1 + dx:1 + dx + nx, 1 + dy:1 + dy + ny, 1 + dz:1 + dz + nz]
         return near
 
-    def kind_mask(self, gain: Gain) -> np.ndarray:
-        """The voxels a gain counts (bool, grid shape)."""
+    def kind_masks(self) -> list[np.ndarray]:
+        """The voxels each gain of `GAINS` counts, in its order (bool, grid shape)."""
         unknown = self.state == UNKNOWN
+        return [self.kind_mask(gain, unknown) for gain in GAINS]
+
+    def kind_mask(self, gain: Gain, unknown: np.ndarray | None = None) -> np.ndarray:
+        """The voxels a gain counts (bool, grid shape); `unknown`: the unknown voxels, if
+        already at hand."""
+        if unknown is None:
+            unknown = self.state == UNKNOWN
         if gain == "unknown":
             return unknown
         if gain == "frontier":

@@ -174,8 +174,8 @@ class ViewGains:
 def _codes(grid: OccupancyGrid) -> np.ndarray:
     """Every voxel's code (state << 3 | one bit per gain), the outside element (free) last."""
     code = grid.state.astype(np.uint8) << _KIND_BITS
-    for bit, gain in enumerate(GAINS):
-        code |= grid.kind_mask(gain).astype(np.uint8) << bit
+    for bit, mask in enumerate(grid.kind_masks()):
+        code |= mask.view(np.uint8) << bit
     return np.append(code.reshape(-1), np.uint8(FREE << _KIND_BITS))
 
 
@@ -252,7 +252,7 @@ class _Projectors:
         padded = np.ravel_multi_index(cells, self._padded_shape)
         sums = np.zeros((3, len(voxels)), dtype=np.int16)
         for offset, flat in zip(_AROUND, self._padded_offsets, strict=True):
-            near = free[padded + flat]
+            near = np.take(free, padded + flat)
             for axis in np.flatnonzero(offset):
                 if offset[axis] > 0:
                     sums[axis] += near
