@@ -20,22 +20,30 @@ from vprobot.stop_studies import dataset
 from vprobot.stop_studies.calibrate import _calibrate, calibration_jobs, stated_estimates
 from vprobot.stop_studies.dataset import COLUMNS, read_dataset
 from vprobot.stopping.confidence import (
+    GIVE_UP_SHARES,
     MIN_PER_CATEGORY,
     THRESHOLDS,
     Calibrated,
     GoalConfidence,
     calibration_table,
+    false_give_ups,
     false_stops,
+    give_up_share,
+    give_ups,
+    quiet_share,
     stop_threshold,
     view_category,
 )
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, Stated
+from vprobot.stopping.features import FEATURES
 from vprobot.stopping.rules import make_stop_rule
-from vprobot.stopping.rules.confident import ConfidentStop, confidence_path
+from vprobot.stopping.rules.confident import GAVE_UP, ConfidentStop, confidence_path
 
 ROOT = Path(__file__).resolve().parents[1]
 GOAL = 0.9
 CALIBRATED = Calibrated("ur5", "ideal", (60.0, 45.0, 0.1, 1.0, 0.4), GOAL, "0" * 64)
+GROWING = np.ones(len(FEATURES))
+"""Features of a view after which the seen surface still grows (no quiet share below 1)."""
 
 
 def confidence(count: int, views: np.ndarray | None = None, seed: int = 0,
@@ -126,6 +134,73 @@ def test_learn_then_test_certifies_nothing_when_even_the_highest_threshold_stops
         stop_threshold(probabilities, coverages, GOAL, 0.0, 0.1)
 
 
+def test_a_run_gives_up_at_its_first_quiet_view_before_it_claims_the_goal_falsely_if_below_it(
+) -> None:
+    rng = np.random.default_rng(4)
+    shares = np.array([0.005, 0.02, 0.05])
+    for _ in range(200):
+        views = int(rng.integers(1, 9))
+        probability, quiet = rng.uniform(0, 1, views), rng.uniform(0, 0.08, views)
+        coverage = rng.uniform(0.8, 1.0, views)
+        expected_at, expected_false = [], []
+        for share in shares:
+            at = views
+            for view in range(views):
+                if probability[view] >= 0.7:
+                    break
+                if quiet[view] < share:
+                    at = view
+                    break
+            expected_at.append(at)
+            expected_false.append(at < views and coverage[at] < GOAL
+                                  and bool((coverage[at + 1:] >= GOAL).any()))
+        np.testing.assert_array_equal(give_ups(probability, quiet, 0.7, shares), expected_at)
+        np.testing.assert_array_equal(
+            false_give_ups([probability], [quiet], [coverage], GOAL, 0.7, shares)[0],
+            expected_false)
+
+
+def test_the_quiet_share_is_the_larger_growth_of_the_latest_two_acquisitions() -> None:
+    features = np.zeros((2, len(FEATURES)))
+    features[0, FEATURES.index("added_last")] = 0.03
+    features[0, FEATURES.index("added_before")] = 0.01
+    features[1, FEATURES.index("added_before")] = 0.02
+    np.testing.assert_array_equal(quiet_share(features), [0.03, 0.02])
+
+
+def _stalling(count: int, rng: np.random.Generator
+              ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    """Synthetic episodes of 10 views that never claim the goal (probability 0). Half reach the
+    goal at their 7th view, each view growing the surface by a share drawn above the episode's
+    floor (0-4 %); the other half never do, their growth halving from 10 % a view. Giving up on
+    a reaching episode before its 7th view is false (it reaches the goal later), so the risk of a
+    quiet share rises with it, from about nothing, and is known by simulation."""
+    reaches = rng.uniform(0.0, 1.0, (count, 1)) < 0.5
+    floor = rng.uniform(0.0, 0.04, (count, 1))
+    growth = np.where(reaches, rng.uniform(floor, 0.1, (count, 10)), 0.1 * 0.5 ** np.arange(10))
+    coverage = np.where(reaches & (np.arange(10) >= 6), GOAL + 0.01, GOAL - 0.01)
+    return [np.zeros(10)] * count, list(growth), list(coverage)
+
+
+def test_learn_then_test_bounds_false_give_ups_in_all_but_delta_of_the_calibration_draws(
+) -> None:
+    """The give-up's guarantee: the true risk of the certified share (measured on 100 000 fresh
+    episodes) exceeds the risk asked for in at most delta of 200 calibration draws."""
+    rng = np.random.default_rng(1)
+    probabilities, quiet, coverage = _stalling(100_000, rng)
+    true_risk = false_give_ups(probabilities, quiet, coverage, GOAL, 0.9).mean(axis=0)
+    assert np.all(np.diff(true_risk) >= 0) and true_risk[0] < 0.01 and true_risk[-1] > 0.2
+    risk, delta = 0.05, 0.1
+    certified = []
+    for _ in range(200):
+        share = give_up_share(*_stalling(300, rng), GOAL, 0.9, risk, delta)
+        assert share is not None
+        certified.append(true_risk[np.flatnonzero(GIVE_UP_SHARES == share)[0]])
+    assert np.mean(np.array(certified) > risk) <= delta
+    # Not vacuous: the certified shares give up, at a risk not far below the asked.
+    assert np.mean(certified) > 0.01
+
+
 def test_a_calibration_reads_back_as_written(tmp_path: Path) -> None:
     model = confidence(50)
     loaded = GoalConfidence.load(model.save(tmp_path / "confidence.npz"))
@@ -178,7 +253,7 @@ def test_the_rule_stops_once_the_probability_reaches_its_threshold(
     everything = np.ones(50, bool)
     for mean in np.linspace(0.85, 1.0, 31):
         expected = by_hand(rule.calibration, mean, 0.01, everything) >= 0.95
-        reason = rule.decide(Stated(mean, 0.01), 4)
+        reason = rule.decide(Stated(mean, 0.01), GROWING, 4)
         assert (reason is not None) == expected
         if reason is not None:
             assert reason.startswith("P(coverage ≥ 90 %) = ") and "certified" in reason
@@ -186,25 +261,54 @@ def test_the_rule_stops_once_the_probability_reaches_its_threshold(
     assert isinstance(chosen, ConfidentStop) and chosen.threshold == 0.5
 
 
-def test_calibrating_on_rollouts_fits_the_probability_on_even_episodes_and_tests_the_odd(
+def test_the_rule_gives_up_where_the_surface_stops_growing_below_its_threshold(
+        calibrated_estimator: Path) -> None:
+    config = load_config()
+    path = confidence_path(calibrated_estimator)
+    dataclasses.replace(GoalConfidence.load(path), give_up=0.01).save(path)
+    rule = make_stop_rule("confident", config, calibrated_estimator)
+    assert isinstance(rule, ConfidentStop)
+    quiet = np.zeros(len(FEATURES))
+    quiet[[FEATURES.index("added_last"), FEATURES.index("added_before")]] = 0.009
+    low = Stated(0.5, 0.01)
+    reason = rule.decide(low, quiet, 6)
+    assert reason is not None and reason.startswith(f"{GAVE_UP}: P(coverage ≥ 90 %) = ")
+    assert "less than 1 % to the seen surface" in reason and "false give-ups" in reason
+    # Growing by the share or more, or a threshold other than the certified one: no give-up.
+    quiet[FEATURES.index("added_before")] = 0.01
+    assert rule.decide(low, quiet, 6) is None
+    quiet[FEATURES.index("added_before")] = 0.0
+    assert make_stop_rule("confident:0.9", config, calibrated_estimator).decide(
+        low, quiet, 6) is None
+    # A calibration that certified no share never gives up.
+    dataclasses.replace(GoalConfidence.load(path), give_up=None).save(path)
+    assert make_stop_rule("confident", config, calibrated_estimator).decide(
+        low, quiet, 6) is None
+
+
+def test_calibrating_on_rollouts_fits_the_probability_on_half_of_each_planners_episodes(
         tmp_path: Path) -> None:
     """On committed rollouts of the paper cell (the estimate's validation list): the conformal
-    scores are the even-numbered episodes' usable views, the threshold's episodes the odd ones,
-    and the calibration lands beside the estimator's copy, which the rule then accepts."""
+    scores are the usable views of each planner's first, third, ... episode, the threshold's
+    episodes the others, and the calibration lands beside the estimator's copy, which the rule
+    then accepts."""
     config = load_config()
     data = read_dataset(ROOT / "results" / "stop_estimate" / "validation.csv")
     estimator = tmp_path / "estimator.npz"
     shutil.copyfile(BUNDLED_ESTIMATOR, estimator)
     figures = _calibrate(config, tmp_path, estimator, data, 0.05, 0.1)
     mean, std, usable = stated_estimates(config, estimator, data)
-    even = usable & (data.episodes % 2 == 0)
+    fit = np.zeros(len(usable), bool)
+    for planner in set(data.planners):
+        numbers = sorted(set(data.episodes[data.planners == planner]))
+        fit |= np.isin(data.episodes, numbers[::2])
+    assert len(set(data.planners[fit])) == len(set(data.planners[~fit])) > 1
     model = GoalConfidence.load(confidence_path(estimator))
-    np.testing.assert_array_equal(model.residuals, data.coverage[even] - mean[even])
-    np.testing.assert_array_equal(model.sigmas, std[even])
-    assert figures["threshold_episodes"] == model.episodes == len(
-        np.unique(data.episodes[data.episodes % 2 == 1]))
-    assert sum(row["views"] for row in figures["table"]) == np.sum(
-        usable & (data.episodes % 2 == 1))
+    np.testing.assert_array_equal(model.residuals, data.coverage[usable & fit]
+                                  - mean[usable & fit])
+    np.testing.assert_array_equal(model.sigmas, std[usable & fit])
+    assert figures["threshold_episodes"] == model.episodes == len(np.unique(data.episodes[~fit]))
+    assert sum(row["views"] for row in figures["table"]) == np.sum(usable & ~fit)
     assert "# Calibrated stop" in (tmp_path / "calibration.md").read_text()
     if model.threshold is not None:
         assert isinstance(make_stop_rule("confident", config, estimator), ConfidentStop)
@@ -271,8 +375,9 @@ def test_a_held_back_estimate_stops_confident_but_not_estimate(calibrated_estima
     calibration measured the errors on such views too."""
     config = load_config()
     held = Stated(0.999, 0.001, held="held back from a stop: unknown above 0.1")
-    assert make_stop_rule("estimate", config, calibrated_estimator).decide(held, 6) is None
+    assert make_stop_rule("estimate", config, calibrated_estimator).decide(
+        held, GROWING, 6) is None
     assert dataclasses.replace(held, held=None).mean - 3 * held.std >= GOAL
     confident = make_stop_rule("confident", config, calibrated_estimator)
     assert isinstance(confident, ConfidentStop)
-    assert confident.decide(held, 6) is not None
+    assert confident.decide(held, GROWING, 6) is not None

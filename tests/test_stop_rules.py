@@ -263,24 +263,31 @@ def test_study_row_counts_the_goal_share_wasted_views_and_false_stops_by_hand() 
         "at_goal_pct": pytest.approx(100 / 3), "coverage_pct": pytest.approx(257 / 3),
         "requested": pytest.approx(26 / 3), "acquisitions": pytest.approx(25 / 3),
         "wasted": pytest.approx(2 / 3), "extra_vs_goal": None, "stopped": 2,
-        "false_stops": 1, "median_extra_vs_goal": None, "by_episode": {0: 6, 1: 9, 2: 11}}
+        "false_stops": 1, "median_extra_vs_goal": None, "out_of_reach_stops": None,
+        "by_episode": {0: 6, 1: 9, 2: 11}, "below_goal": {1}, "missed": {1, 2}}
 
 
-def test_the_median_extra_views_are_per_episode_against_the_same_planner_at_the_goal(
+def test_extra_views_and_out_of_reach_stops_are_per_episode_against_the_planner_at_goal(
         tmp_path: Path) -> None:
+    # At the goal, episode 2 misses it within the budget; under the rule episodes 1 and 2 stop
+    # below it: 1 is a false stop, 2 out of reach.
     goal = {"episodes": "a", "planner": "nbv", "stop": "goal", "requested": 5.0,
-            "by_episode": {0: 4, 1: 5, 2: 6}}
+            "by_episode": {0: 4, 1: 5, 2: 6}, "below_goal": set(), "missed": {2}}
     rule = {"episodes": "a", "planner": "nbv", "stop": "grid", "requested": 7.0,
-            "by_episode": {0: 4, 1: 9, 2: 8}}
+            "by_episode": {0: 4, 1: 9, 2: 8}, "below_goal": {1, 2}, "missed": {1, 2}}
     other = {**rule, "planner": "agent"}
     table = [{**row, "count": 3, "at_goal_pct": 0.0, "coverage_pct": 0.0, "acquisitions": 0.0,
-              "wasted": 0.0, "extra_vs_goal": None, "stopped": 0, "false_stops": 0,
-              "median_extra_vs_goal": None} for row in (goal, rule, other)]
+              "wasted": 0.0, "extra_vs_goal": None, "stopped": 2, "false_stops": 2,
+              "median_extra_vs_goal": None, "out_of_reach_stops": None}
+             for row in (goal, rule, other)]
     _write_study(tmp_path, table, CONFIG)
     assert (table[1]["extra_vs_goal"], table[1]["median_extra_vs_goal"]) == (2.0, 2)
+    assert (table[1]["false_stops"], table[1]["out_of_reach_stops"]) == (1, 1)
     assert (table[2]["extra_vs_goal"], table[2]["median_extra_vs_goal"]) == (None, None)
-    assert "| nbv | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | 2.00 | 2.0 | 0 | 0 |" in (
-        tmp_path / "study.md").read_text()
+    assert (table[2]["false_stops"], table[2]["out_of_reach_stops"]) == (2, None)
+    study = (tmp_path / "study.md").read_text()
+    assert "| nbv | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | 2.00 | 2.0 | 2 | 1 | 1 |" in study
+    assert "| agent | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | - | - | 2 | 2 | - |" in study
 
 
 def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:

@@ -4,9 +4,10 @@
 Model-free planners run with the robot in the loop, no coverage goal, on the split's
 calibration objects (new motors and new instances of the training families), one planner each
 in turn. The estimate is stated on every view as `--stop estimate` states it; the episodes are
-then split in two: those of even number calibrate the probability (the conformal predictive
-system), the odd ones choose the threshold (Learn-then-Test), so that neither sees the data of
-the other, and the report scores the probability on the odd ones too.
+then split in two, each planner's episodes in turn (`fit_rows`): the first, third, ... of each
+planner calibrate the probability (the conformal predictive system), the others choose the
+threshold and when to give up (Learn-then-Test), so that neither sees the data of the other and
+both hold every planner, and the report scores the probability on the second half too.
 """
 
 from __future__ import annotations
@@ -36,8 +37,12 @@ from vprobot.stopping.confidence import (
     Calibrated,
     GoalConfidence,
     calibration_table,
+    false_give_ups,
     false_stops,
     first_crossings,
+    give_up_share,
+    give_ups,
+    quiet_share,
     stop_threshold,
 )
 from vprobot.stopping.estimator import EstimateTracker, bundled_estimator, load_estimator
@@ -46,6 +51,8 @@ from vprobot.stopping.rules.confident import confidence_path
 DEFAULT_RISK = 0.05
 DEFAULT_DELTA = 0.1
 TABLE = "calibration.csv"
+PLATEAU = 0.01
+"""An episode's plateau: its first view within this of its highest coverage."""
 
 
 def calibration_jobs(config: Config, count: int, seed: int,
@@ -90,12 +97,24 @@ def stated_estimates(config: Config, estimator: Path, data: Dataset
     return mean, std, usable
 
 
+def fit_rows(data: Dataset) -> np.ndarray:
+    """Whether each row belongs to the probability's half of the episodes: the first, third,
+    ... episode of its planner (by episode number); the others are Learn-then-Test's."""
+    fit = np.zeros(len(data.episodes), dtype=bool)
+    for planner in np.unique(data.planners):
+        episodes = np.unique(data.episodes[data.planners == planner])
+        fit |= np.isin(data.episodes, episodes[::2]) & (data.planners == planner)
+    return fit
+
+
 def _episodes(data: Dataset, probability: np.ndarray, rows: np.ndarray
-              ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
-    """The selected rows' probabilities, coverages and view counts, episode by episode."""
+              ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    """The selected rows' probabilities, coverages, view counts and quiet shares, episode by
+    episode."""
     ordered = _episode_rows(data, rows)
+    quiet = quiet_share(data.features)
     return ([probability[one] for one in ordered], [data.coverage[one] for one in ordered],
-            [data.views[one] for one in ordered])
+            [data.views[one] for one in ordered], [quiet[one] for one in ordered])
 
 
 def calibrate_stop(config: Config, out_dir: str | Path, estimator: str | Path | None = None,
@@ -136,7 +155,7 @@ def calibrate_stop(config: Config, out_dir: str | Path, estimator: str | Path | 
 def _calibrate(config: Config, out: Path, estimator: Path, data: Dataset, risk: float,
                delta: float) -> dict[str, Any]:
     mean, std, usable = stated_estimates(config, estimator, data)
-    fit = data.episodes % 2 == 0
+    fit = fit_rows(data)
     kept = fit & usable
     if not kept.any():
         raise ValueError(f"the estimate {estimator} was refused on every view of the calibration "
@@ -146,26 +165,43 @@ def _calibrate(config: Config, out: Path, estimator: Path, data: Dataset, risk: 
                              None, risk, delta, 0, Calibrated.of(config, estimator))
     probability = np.zeros(len(data.coverage))
     probability[usable] = partial.probability(mean[usable], std[usable], data.views[usable])
-    tested, coverage, views = _episodes(data, probability, ~fit)
+    tested, coverage, views, quiet = _episodes(data, probability, ~fit)
     threshold = stop_threshold(tested, coverage, goal, risk, delta)
+    give_up = (None if threshold is None else
+               give_up_share(tested, quiet, coverage, goal, threshold, risk, delta))
     confidence = GoalConfidence(partial.residuals, partial.sigmas, partial.views, threshold,
-                                risk, delta, len(tested), partial.calibrated)
+                                risk, delta, len(tested), partial.calibrated, give_up)
     confidence.save(confidence_path(estimator))
-    figures = _figures(confidence, tested, coverage, views, probability[~fit & usable],
+    figures = _figures(confidence, tested, coverage, views, quiet, probability[~fit & usable],
                        data.coverage[~fit & usable] >= goal)
     write_text(out / "calibration.md", _markdown(figures, config))
     return figures
 
 
 def _figures(confidence: GoalConfidence, probabilities: list[np.ndarray],
-             coverages: list[np.ndarray], views: list[np.ndarray], claimed: np.ndarray,
-             reached: np.ndarray) -> dict[str, Any]:
+             coverages: list[np.ndarray], views: list[np.ndarray], quiet: list[np.ndarray],
+             claimed: np.ndarray, reached: np.ndarray) -> dict[str, Any]:
     goal = confidence.calibrated.goal
     figures: dict[str, Any] = {
         "threshold": confidence.threshold, "risk": confidence.risk, "delta": confidence.delta,
         "calibration_views": len(confidence.residuals), "mondrian": confidence.mondrian,
-        "threshold_episodes": len(probabilities),
+        "threshold_episodes": len(probabilities), "give_up": confidence.give_up,
+        "out_of_reach": sum(bool((c < goal).all()) for c in coverages),
         "table": calibration_table(claimed, reached)}
+    if confidence.threshold is not None and confidence.give_up is not None:
+        share = np.array([confidence.give_up])
+        given = [int(give_ups(p, q, confidence.threshold, share)[0])
+                 for p, q in zip(probabilities, quiet, strict=True)]
+        # Where the goal is out of reach: the views between giving up and the plateau.
+        gaps = [index - int(np.argmax(c >= c.max() - PLATEAU))
+                for index, c in zip(given, coverages, strict=True)
+                if index < len(c) and (c < goal).all()]
+        figures |= {
+            "gave_up": sum(index < len(c) for index, c in zip(given, coverages, strict=True)),
+            "false_give_ups": int(false_give_ups(probabilities, quiet, coverages, goal,
+                                                 confidence.threshold, share)[:, 0].sum()),
+            "gave_up_out_of_reach": len(gaps),
+            "plateau_gaps": sorted(gaps)}
     if confidence.threshold is not None:
         # Only the certified threshold: Learn-then-Test scored them all.
         threshold = np.array([confidence.threshold])
@@ -188,10 +224,10 @@ def _markdown(figures: dict[str, Any], config: Config) -> str:
         "# Calibrated stop", "",
         f"Robot {config.cell.robot}, sensor sensing `{config.sensor.sensing}`, coverage goal "
         f"{goal:g} %. The probability P(coverage ≥ goal) is calibrated on "
-        f"{figures['calibration_views']} views of the even-numbered episodes "
+        f"{figures['calibration_views']} views of half of each planner's episodes "
         f"({'Mondrian by views taken' if figures['mondrian'] else 'pooled'}); the threshold is "
-        f"chosen by Learn-then-Test on the {figures['threshold_episodes']} odd-numbered "
-        f"episodes, for false stops at most {100 * figures['risk']:g} % with "
+        f"chosen by Learn-then-Test on the other {figures['threshold_episodes']} "
+        f"(the threshold episodes), for false stops at most {100 * figures['risk']:g} % with "
         f"{100 * (1 - figures['delta']):g} % confidence.", ""]
     if figures["threshold"] is None:
         lines += ["No threshold was certified: even the highest stops below the goal too often "
@@ -202,6 +238,18 @@ def _markdown(figures: dict[str, Any], config: Config) -> str:
                   f"{figures['stopped']} of {figures['threshold_episodes']}, "
                   f"{figures['false_stops']} of them below the goal; median views beyond the "
                   f"goal's: {'-' if extra is None else f'{extra:g}'}.", ""]
+    if figures.get("gave_up") is not None:
+        gaps = figures["plateau_gaps"]
+        lines += [f"Giving up: under a quiet share of {100 * figures['give_up']:g} % (each of the "
+                  f"latest 2 acquisitions added less to the occupied voxels). On the threshold "
+                  f"episodes it gives up on {figures['gave_up']}, {figures['false_give_ups']} of "
+                  f"them from where the goal was still reached; of the "
+                  f"{figures['out_of_reach']} episodes whose goal was out of reach it gave up on "
+                  f"{figures['gave_up_out_of_reach']}, at views from their plateau (the first "
+                  f"view within {100 * PLATEAU:g} pp of their highest coverage): "
+                  f"{'-' if not gaps else ', '.join(f'{gap:+d}' for gap in gaps)}.", ""]
+    elif figures["threshold"] is not None:
+        lines += ["Giving up: no quiet share was certified; the rule never gives up.", ""]
     lines += ["Claimed P against the observed share at the goal, on the views of the threshold "
               "episodes where a stop may use the estimate:", "",
               "| claimed P in | views | mean claimed P | observed share at goal |",

@@ -32,7 +32,7 @@ DEFAULT_PLANNERS = ("agent", "nbv", "agent:cpu-stop")
 action."""
 COLUMNS = ("episodes", "planner", "stop", "count", "at_goal_pct", "coverage_pct", "requested",
            "acquisitions", "wasted", "extra_vs_goal", "stopped", "false_stops",
-           "median_extra_vs_goal")
+           "median_extra_vs_goal", "out_of_reach_stops")
 
 
 def list_names(lists: Sequence[str]) -> list[str]:
@@ -95,11 +95,16 @@ def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop:
                                    else 0 for row in rows),
         "extra_vs_goal": None,
         # Ended before the view budget (by the rule, or the planner itself), and of those,
-        # below the goal: the false stops.
+        # below the goal: the false stops (`_write_study` takes out those whose goal was out
+        # of reach).
         "stopped": sum(row["requested"] < budget for row in rows),
         "false_stops": sum(row["requested"] < budget and not row["success"] for row in rows),
         "median_extra_vs_goal": None,
+        "out_of_reach_stops": None,
         "by_episode": {row["episode"]: row["requested"] for row in rows},
+        "below_goal": {row["episode"] for row in rows
+                       if row["requested"] < budget and not row["success"]},
+        "missed": {row["episode"] for row in rows if not row["success"]},
     }
 
 
@@ -153,8 +158,10 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
 
 
 def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None:
-    """The study's tables and plot from its rows (`extra_vs_goal` and `median_extra_vs_goal`
-    filled in here, against the same planner's episodes stopped at the goal)."""
+    """The study's tables and plot from its rows (`extra_vs_goal`, `median_extra_vs_goal`
+    and `out_of_reach_stops` filled in here, against the same planner's episodes stopped at the
+    goal: a stop below the goal of an episode that planner misses even there, within the view
+    budget, is out of reach, not false)."""
     at_goal = {(row["episodes"], row["planner"]): row for row in table if row["stop"] == "goal"}
     for row in table:
         reference = at_goal.get((row["episodes"], row["planner"]))
@@ -164,6 +171,9 @@ def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None
                      for episode, requested in row["by_episode"].items()
                      if episode in reference["by_episode"]]
             row["median_extra_vs_goal"] = statistics.median(extra) if extra else None
+            out_of_reach = row["below_goal"] & reference["missed"]
+            row["out_of_reach_stops"] = len(out_of_reach)
+            row["false_stops"] = len(row["below_goal"] - out_of_reach)
     write_text(out / "study.csv", csv_text(COLUMNS, table))
     write_text(out / "study.md", markdown(table, config))
     plot_study(table, config, out / "study.png")
@@ -187,20 +197,22 @@ def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
         f"beyond the same planner stopped at the goal (`goal`: the simulator's stop, run only "
         f"for planners it stops), on the mean and per episode on the median; the episodes "
         f"that ended before the view budget (by the rule, or the planner itself) and of those "
-        f"the false stops, below the goal. Each rule's evaluation is in `LIST/RULE/`.",
+        f"the false stops, below the goal where the same planner reaches it at `goal`, and the "
+        f"stops where the goal was out of reach (below it, and the same planner misses it at "
+        f"`goal` too, within the budget). Each rule's evaluation is in `LIST/RULE/`.",
     ]
     for episodes in dict.fromkeys(row["episodes"] for row in table):
         lines += ["", f"## {episodes}", "",
                   f"| planner | stop | episodes | at or above {goal} % | coverage at stop % "
                   f"| views | acquisitions | wasted views | views vs goal | median vs goal "
-                  f"| stopped before the budget | false stops |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  f"| stopped before the budget | false stops | out of reach |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         lines += [f"| {row['planner']} | {row['stop']} | {row['count']} | "
                   f"{row['at_goal_pct']:.0f} | {row['coverage_pct']:.2f} | "
                   f"{row['requested']:.2f} | {row['acquisitions']:.2f} | {row['wasted']:.2f} | "
                   f"{_cell(row['extra_vs_goal'], 2)} | "
                   f"{_cell(row['median_extra_vs_goal'], 1)} | {row['stopped']} | "
-                  f"{row['false_stops']} |"
+                  f"{row['false_stops']} | {_cell(row['out_of_reach_stops'], 0)} |"
                   for row in table if row["episodes"] == episodes]
     return "\n".join(lines) + "\n"
 

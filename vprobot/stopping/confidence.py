@@ -17,7 +17,18 @@ P(coverage >= goal) after each view, and the threshold on it that bounds false s
   probability at least 1 - `delta` over the calibration draw, a run drawn like the calibration
   episodes ends in a false stop with probability at most `risk`.
 
-Both hold for parts drawn as the calibration episodes were, in the cell, sensing model and
+- **Giving up.** Where the goal is out of reach, the probability stays low and a run would go
+  on to the view budget. The rule gives up instead once the probability is below the threshold
+  and the seen surface has stopped growing: each of the latest two acquisitions added less than
+  a share of the occupied voxels (`quiet_share`, the `grid` rule's test). The share is chosen
+  by Learn-then-Test too, on the same episodes and after the threshold: every share of
+  `GIVE_UP_SHARES`, the smallest first, is tested for a risk of false give-ups (a run that gives
+  up below the goal at a view from which it still reaches it) above `risk`; the largest share
+  whose test and those of every smaller one reject is kept. A run that gives up may be at the
+  goal already (the probability is not sure enough to say so): the surface has stopped growing
+  either way, and further views are unlikely to change that.
+
+These hold for parts drawn as the calibration episodes were, in the cell, sensing model and
 estimate they were calibrated with (`Calibrated`); `GoalConfidence.mismatch` names any other.
 """
 
@@ -38,6 +49,7 @@ import numpy.typing as npt
 from vprobot.config import Config
 from vprobot.files.atomic import file_sha256, write_arrays
 from vprobot.stopping.estimator import sensor_geometry
+from vprobot.stopping.features import FEATURES
 
 VIEW_CATEGORIES = (3, 6)
 """Upper ends of the Mondrian categories by views taken: 1-3, 4-6, 7 and more."""
@@ -45,6 +57,9 @@ MIN_PER_CATEGORY = 100
 """Calibration views a category needs to be calibrated on its own."""
 THRESHOLDS = np.round(np.arange(0.999, 0.4995, -0.001), 3)
 """The thresholds Learn-then-Test tries, highest (fewest false stops) first."""
+GIVE_UP_SHARES = np.round(np.arange(0.0025, 0.1001, 0.0025), 4)
+"""The shares of new occupied voxels under which Learn-then-Test tries giving up, smallest
+(fewest give-ups) first."""
 FORMAT = 1
 
 
@@ -97,11 +112,45 @@ def false_stops(probabilities: Sequence[np.ndarray], coverages: Sequence[np.ndar
     return np.array(rows, dtype=bool).reshape(len(rows), len(thresholds))
 
 
-def stop_threshold(probabilities: Sequence[np.ndarray], coverages: Sequence[np.ndarray],
-                   goal: float, risk: float, delta: float,
-                   thresholds: np.ndarray = THRESHOLDS) -> float | None:
-    """The lowest threshold Learn-then-Test certifies: false stops at most `risk` with
-    probability 1 - `delta` (see the module docstring); None: not even the highest.
+def quiet_share(features: np.ndarray) -> np.ndarray:
+    """How much the latest two acquisitions grew the seen surface, from feature vectors
+    (..., len(FEATURES)): the larger share of the occupied voxels either added (1 before two
+    acquisitions)."""
+    features = np.asarray(features, dtype=float)
+    return np.maximum(features[..., FEATURES.index("added_last")],
+                      features[..., FEATURES.index("added_before")])
+
+
+def give_ups(probabilities: np.ndarray, quiet: np.ndarray, threshold: float,
+             shares: np.ndarray = GIVE_UP_SHARES) -> np.ndarray:
+    """For each share, the index of the view at which a run gives up: the first whose quiet
+    share is below it, before the probability reaches `threshold` (len(probabilities): it never
+    gives up)."""
+    claim = int(first_crossings(probabilities, np.array([threshold]))[0])
+    quietest = np.minimum.accumulate(np.asarray(quiet, float)[:claim])
+    # The first view whose running minimum falls below each share.
+    return np.where(shares > (quietest[-1] if claim else np.inf),
+                    np.searchsorted(-quietest, -shares, side="right"), len(probabilities))
+
+
+def false_give_ups(probabilities: Sequence[np.ndarray], quiet: Sequence[np.ndarray],
+                   coverages: Sequence[np.ndarray], goal: float, threshold: float,
+                   shares: np.ndarray = GIVE_UP_SHARES) -> np.ndarray:
+    """(episodes, shares): whether the episode gives up (`give_ups`) below the goal at a
+    view from which its coverage still reaches it."""
+    rows = []
+    for probability, still, coverage in zip(probabilities, quiet, coverages, strict=True):
+        reached = np.asarray(coverage) >= goal
+        # Whether a later view reaches the goal; the index past the last view never gives up.
+        later = np.append(np.maximum.accumulate(reached[::-1])[::-1][1:], [False, False])
+        rows.append((~np.append(reached, True) & later)[give_ups(probability, still, threshold,
+                                                                  shares)])
+    return np.array(rows, dtype=bool).reshape(len(rows), len(shares))
+
+
+def _learn_then_test(losses: np.ndarray, risk: float, delta: float) -> int | None:
+    """The last of a sequence of settings (columns of `losses`, episodes x settings, the
+    safest first) whose risk test rejects with those of every one before it; None: none.
 
     Raises:
         ValueError: For risk or delta outside (0, 1) or no episode.
@@ -111,13 +160,41 @@ def stop_threshold(probabilities: Sequence[np.ndarray], coverages: Sequence[np.n
 
     if not 0.0 < risk < 1.0 or not 0.0 < delta < 1.0:
         raise ValueError(f"risk and delta must lie in (0, 1), got {risk} and {delta}")
-    if not len(probabilities):
+    if not len(losses):
         raise ValueError("Learn-then-Test needs calibration episodes, got none")
-    losses = false_stops(probabilities, coverages, goal, thresholds)
     p_values = compute_hoeffding_bentkus_p_value(losses.mean(axis=0), len(losses), risk,
                                                  binary=True)[:, 0]
     rejected = control_fwer(p_values, delta, "fixed_sequence")
-    return float(thresholds[int(np.max(rejected))]) if len(rejected) else None
+    return int(np.max(rejected)) if len(rejected) else None
+
+
+def stop_threshold(probabilities: Sequence[np.ndarray], coverages: Sequence[np.ndarray],
+                   goal: float, risk: float, delta: float,
+                   thresholds: np.ndarray = THRESHOLDS) -> float | None:
+    """The lowest threshold Learn-then-Test certifies: false stops at most `risk` with
+    probability 1 - `delta` (see the module docstring); None: not even the highest.
+
+    Raises:
+        ValueError: For risk or delta outside (0, 1) or no episode.
+    """
+    chosen = _learn_then_test(false_stops(probabilities, coverages, goal, thresholds), risk,
+                              delta)
+    return None if chosen is None else float(thresholds[chosen])
+
+
+def give_up_share(probabilities: Sequence[np.ndarray], quiet: Sequence[np.ndarray],
+                  coverages: Sequence[np.ndarray], goal: float, threshold: float, risk: float,
+                  delta: float, shares: np.ndarray = GIVE_UP_SHARES) -> float | None:
+    """The largest share Learn-then-Test certifies for giving up: false give-ups at most
+    `risk` with probability 1 - `delta` (see the module docstring); None: not even the
+    smallest.
+
+    Raises:
+        ValueError: For risk or delta outside (0, 1) or no episode.
+    """
+    chosen = _learn_then_test(false_give_ups(probabilities, quiet, coverages, goal, threshold,
+                                             shares), risk, delta)
+    return None if chosen is None else float(shares[chosen])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -133,6 +210,8 @@ class GoalConfidence:
         delta: The chance that the certificate is wrong.
         episodes: The calibration episodes Learn-then-Test ran on.
         calibrated: What the calibration holds for.
+        give_up: The quiet share under which a run gives up, certified for false give-ups at
+            most `risk` (None: it never gives up).
     """
 
     residuals: np.ndarray
@@ -143,6 +222,7 @@ class GoalConfidence:
     delta: float
     episodes: int
     calibrated: Calibrated
+    give_up: float | None = None
 
     @functools.cached_property
     def mondrian(self) -> bool:
@@ -174,7 +254,7 @@ class GoalConfidence:
                   "sigmas": self.sigmas, "views": self.views,
                   "certificate": np.array(json.dumps({
                       "threshold": self.threshold, "risk": self.risk, "delta": self.delta,
-                      "episodes": self.episodes,
+                      "episodes": self.episodes, "give_up": self.give_up,
                       "calibrated": dataclasses.asdict(self.calibrated)}))}
         return write_arrays(path, arrays)
 
@@ -195,7 +275,7 @@ class GoalConfidence:
                 return cls(data["residuals"], data["sigmas"], data["views"],
                            certificate["threshold"], float(certificate["risk"]),
                            float(certificate["delta"]), int(certificate["episodes"]),
-                           Calibrated(**calibrated))
+                           Calibrated(**calibrated), certificate.get("give_up"))
         except (OSError, EOFError, zipfile.BadZipFile, KeyError, TypeError,
                 ValueError) as error:
             raise ValueError(f"cannot read goal confidence {path}: {error}") from None

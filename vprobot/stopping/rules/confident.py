@@ -8,6 +8,12 @@ measured the errors on such views too (in the realistic cell the estimate never 
 in training, so `estimate` holds back every stop). The probability comes from the calibration
 beside the estimator file (`confidence.npz`, made by `vprobot stop calibrate`), which is refused
 for another cell, sensing model, goal or estimator than it was made with.
+
+Where the goal is out of reach the probability stays low; with its certified threshold the
+rule then gives up, saying so (`GAVE_UP`), once the latest two acquisitions each grew the seen
+surface less than the share the calibration certified for false give-ups (none: it never gives
+up). The probability stays low too where the goal is reached but the estimate is unsure of it,
+as in the realistic cell: giving up then ends a run the goal rule would have ended earlier.
 """
 
 from __future__ import annotations
@@ -18,11 +24,13 @@ from typing import Any
 import numpy as np
 
 from vprobot.config import Config
-from vprobot.stopping.confidence import Calibrated, GoalConfidence
+from vprobot.stopping.confidence import Calibrated, GoalConfidence, quiet_share
 from vprobot.stopping.estimator import CoverageEstimator, Stated, bundled_estimator, load_estimator
 from vprobot.stopping.rules.base import StopRule, fraction_option, register_stop
 from vprobot.stopping.rules.estimate import EstimateStop
 
+GAVE_UP = "gave up: the goal is out of reach here, or reached without the certainty to say so"
+"""How a give-up's reason begins."""
 CONFIDENCE_FILE = "confidence.npz"
 """The calibration's file name, beside the estimator file it calibrates."""
 
@@ -34,7 +42,8 @@ def confidence_path(estimator: Path) -> Path:
 
 @register_stop
 class ConfidentStop(EstimateStop):
-    """Stops once P(coverage >= goal) reaches the threshold.
+    """Stops once P(coverage >= goal) reaches the threshold, or gives up (the goal out of
+    reach) where the calibration certified a quiet share and the seen surface grows less.
 
     Args:
         config: The run's configuration.
@@ -94,13 +103,22 @@ class ConfidentStop(EstimateStop):
                 estimates[stated, 0], estimates[stated, 1], np.flatnonzero(stated) + 1)
         return probability
 
-    def decide(self, stated: Stated, views: int) -> str | None:
+    def decide(self, stated: Stated, features: np.ndarray, views: int) -> str | None:
         probability = float(self.calibration.probability(stated.mean, stated.std, views)[0])
-        if probability < self.threshold:
-            return None
-        certified = ("" if self.threshold != self.calibration.threshold else
-                     f" (certified: false stops at most {100 * self.calibration.risk:g} % with "
-                     f"{100 * (1 - self.calibration.delta):g} % confidence, "
-                     f"{self.calibration.episodes} calibration episodes)")
-        return (f"P(coverage ≥ {100 * self.goal:g} %) = {probability:.3f} ≥ "
-                f"{self.threshold:g}{certified}")
+        calibration = self.calibration
+        certificate = (f"with {100 * (1 - calibration.delta):g} % confidence, "
+                       f"{calibration.episodes} calibration episodes)")
+        goal = f"P(coverage ≥ {100 * self.goal:g} %) = {probability:.3f}"
+        if probability >= self.threshold:
+            certified = ("" if self.threshold != calibration.threshold else
+                         f" (certified: false stops at most {100 * calibration.risk:g} % "
+                         f"{certificate}")
+            return f"{goal} ≥ {self.threshold:g}{certified}"
+        # Giving up is certified with the certified threshold only.
+        if (calibration.give_up is not None and self.threshold == calibration.threshold
+                and float(quiet_share(features)) < calibration.give_up):
+            return (f"{GAVE_UP}: {goal} < {self.threshold:g} and each of the latest 2 "
+                    f"acquisitions added less than {100 * calibration.give_up:g} % to the seen "
+                    f"surface (certified: false give-ups, below the goal where more views reach "
+                    f"it, at most {100 * calibration.risk:g} % {certificate}")
+        return None

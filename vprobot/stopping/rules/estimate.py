@@ -87,16 +87,19 @@ class EstimateStop(StopRule):
         views = episode.views
         self.features.read(episode)
         stated: Stated | None = None
+        features = np.empty(0)
         # View by view, as `view_estimates` states them, however many came since the last check.
         for count in range(self._stated + 1, len(views) + 1):
-            stated = self.tracker.update(self.features.update(views[:count]))
+            features = self.features.update(views[:count])
+            stated = self.tracker.update(features)
         self._stated = len(views)
         if stated is None or stated.refused:
             return None
-        return self.decide(stated, len(views))
+        return self.decide(stated, features, len(views))
 
-    def decide(self, stated: Stated, views: int) -> str | None:
-        """Why to stop on the estimate `stated` after `views` views (None: go on)."""
+    def decide(self, stated: Stated, features: np.ndarray, views: int) -> str | None:
+        """Why to stop on the estimate `stated` from the latest view's `features`, after
+        `views` views (None: go on)."""
         if stated.held is None and stated.mean - self.z * stated.std >= self.goal:
             return (f"estimate {100 * stated.mean:.1f} ± {100 * stated.std:.1f} % ≥ "
                     f"{100 * self.goal:g} % at {100 * self.confidence:g} %")
