@@ -27,6 +27,7 @@ from vprobot.episode import (
     seeded_episode,
     write_episode_list,
 )
+from vprobot.evaluation import CURVE_COLUMNS
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, make_planner, run, run_episode
 from vprobot.planners.self_stopping import LearnedStop, stop_subject
@@ -252,42 +253,52 @@ def test_plan_with_the_estimate_rule_says_why_and_the_estimate_at_each_view(
 def test_study_row_counts_the_goal_share_wasted_views_and_false_stops_by_hand() -> None:
     # Budget 11: the second episode stopped before it, below the goal (a false stop); the
     # third ran to it.
+    curve = {key: 50.0 for key in CURVE_COLUMNS}
     rows = [{"episode": 0, "success": True, "coverage_pct": 92.0, "requested": 6,
-             "acquisitions": 6, "views_to_goal": 4},
+             "acquisitions": 6, "views_to_goal": 4, **curve},
             {"episode": 1, "success": False, "coverage_pct": 80.0, "requested": 9,
-             "acquisitions": 9, "views_to_goal": None},
+             "acquisitions": 9, "views_to_goal": None, **curve},
             {"episode": 2, "success": False, "coverage_pct": 85.0, "requested": 11,
-             "acquisitions": 10, "views_to_goal": None}]
+             "acquisitions": 10, "views_to_goal": None, **curve}]
     assert study_row(rows, "test-v1", "nbv", "grid", 11) == {
         "episodes": "test-v1", "planner": "nbv", "stop": "grid", "count": 3,
         "at_goal_pct": pytest.approx(100 / 3), "coverage_pct": pytest.approx(257 / 3),
         "requested": pytest.approx(26 / 3), "acquisitions": pytest.approx(25 / 3),
         "wasted": pytest.approx(2 / 3), "extra_vs_goal": None, "stopped": 2,
         "false_stops": 1, "median_extra_vs_goal": None, "out_of_reach_stops": None,
-        "by_episode": {0: 6, 1: 9, 2: 11}, "below_goal": {1}, "missed": {1, 2}}
+        "plateau_gap_median": None, "plateau_gap_min": None, "plateau_gap_max": None,
+        "by_episode": {0: 6, 1: 9, 2: 11}, "below_goal": {1}, "missed": {1, 2},
+        # The curve's columns hold 10 requests; the 11th is the coverage at the end.
+        "curves": {0: [0.5] * 6, 1: [0.5] * 9, 2: [0.5] * 10 + [0.85]}}
 
 
 def test_extra_views_and_out_of_reach_stops_are_per_episode_against_the_planner_at_goal(
         tmp_path: Path) -> None:
-    # At the goal, episode 2 misses it within the budget; under the rule episodes 1 and 2 stop
-    # below it: 1 is a false stop, 2 out of reach.
+    # At the goal, episode 2 misses it within the budget, its coverage within 1 pp of its
+    # highest from its 4th request; under the rule episodes 1 and 2 stop below the goal: 1 is a
+    # false stop, 2 out of reach, 8 requests in: 4 after that plateau.
     goal = {"episodes": "a", "planner": "nbv", "stop": "goal", "requested": 5.0,
-            "by_episode": {0: 4, 1: 5, 2: 6}, "below_goal": set(), "missed": {2}}
+            "by_episode": {0: 4, 1: 5, 2: 6}, "below_goal": set(), "missed": {2},
+            "curves": {0: None, 1: None, 2: [0.5, 0.7, 0.8, 0.85, 0.85, 0.855]}}
     rule = {"episodes": "a", "planner": "nbv", "stop": "grid", "requested": 7.0,
-            "by_episode": {0: 4, 1: 9, 2: 8}, "below_goal": {1, 2}, "missed": {1, 2}}
+            "by_episode": {0: 4, 1: 9, 2: 8}, "below_goal": {1, 2}, "missed": {1, 2},
+            "curves": {}}
     other = {**rule, "planner": "agent"}
     table = [{**row, "count": 3, "at_goal_pct": 0.0, "coverage_pct": 0.0, "acquisitions": 0.0,
               "wasted": 0.0, "extra_vs_goal": None, "stopped": 2, "false_stops": 2,
-              "median_extra_vs_goal": None, "out_of_reach_stops": None}
+              "median_extra_vs_goal": None, "out_of_reach_stops": None,
+              "plateau_gap_median": None, "plateau_gap_min": None, "plateau_gap_max": None}
              for row in (goal, rule, other)]
     _write_study(tmp_path, table, CONFIG)
     assert (table[1]["extra_vs_goal"], table[1]["median_extra_vs_goal"]) == (2.0, 2)
     assert (table[1]["false_stops"], table[1]["out_of_reach_stops"]) == (1, 1)
+    assert table[1]["plateau_gap_median"] == table[1]["plateau_gap_max"] == 4
     assert (table[2]["extra_vs_goal"], table[2]["median_extra_vs_goal"]) == (None, None)
     assert (table[2]["false_stops"], table[2]["out_of_reach_stops"]) == (2, None)
     study = (tmp_path / "study.md").read_text()
-    assert "| nbv | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | 2.00 | 2.0 | 2 | 1 | 1 |" in study
-    assert "| agent | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | - | - | 2 | 2 | - |" in study
+    assert ("| nbv | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | 2.00 | 2.0 | 2 | 1 | 1 | "
+            "+4 (+4 to +4) |") in study
+    assert "| agent | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | - | - | 2 | 2 | - | - |" in study
 
 
 def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:

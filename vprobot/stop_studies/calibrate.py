@@ -34,6 +34,7 @@ from vprobot.stop_studies.dataset import (
     rollout_recipe,
 )
 from vprobot.stopping.confidence import (
+    PLATEAU,
     Calibrated,
     GoalConfidence,
     calibration_table,
@@ -42,6 +43,7 @@ from vprobot.stopping.confidence import (
     first_crossings,
     give_up_share,
     give_ups,
+    plateau_view,
     quiet_share,
     stop_threshold,
 )
@@ -51,8 +53,6 @@ from vprobot.stopping.rules.confident import confidence_path
 DEFAULT_RISK = 0.05
 DEFAULT_DELTA = 0.1
 TABLE = "calibration.csv"
-PLATEAU = 0.01
-"""An episode's plateau: its first view within this of its highest coverage."""
 
 
 def calibration_jobs(config: Config, count: int, seed: int,
@@ -193,8 +193,7 @@ def _figures(confidence: GoalConfidence, probabilities: list[np.ndarray],
         given = [int(give_ups(p, q, confidence.threshold, share)[0])
                  for p, q in zip(probabilities, quiet, strict=True)]
         # Where the goal is out of reach: the views between giving up and the plateau.
-        gaps = [index - int(np.argmax(c >= c.max() - PLATEAU))
-                for index, c in zip(given, coverages, strict=True)
+        gaps = [index - plateau_view(c) for index, c in zip(given, coverages, strict=True)
                 if index < len(c) and (c < goal).all()]
         figures |= {
             "gave_up": sum(index < len(c) for index, c in zip(given, coverages, strict=True)),

@@ -18,11 +18,18 @@ from pathlib import Path
 from typing import Any
 
 from vprobot.config import Config
-from vprobot.evaluation import evaluate, evaluation_episodes, finished_rows, stop_label
+from vprobot.evaluation import (
+    CURVE_COLUMNS,
+    evaluate,
+    evaluation_episodes,
+    finished_rows,
+    stop_label,
+)
 from vprobot.files.atomic import csv_text, folder_lock, save_figure, write_text
 from vprobot.files.paths import PACKAGE_DIR
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.planners.self_stopping import stop_subject
+from vprobot.stopping.confidence import PLATEAU, plateau_view
 from vprobot.stopping.rules import make_stop_rule
 
 DEFAULT_LISTS = ("test-v1", "families-test-v1", "shapes-v1")
@@ -32,7 +39,8 @@ DEFAULT_PLANNERS = ("agent", "nbv", "agent:cpu-stop")
 action."""
 COLUMNS = ("episodes", "planner", "stop", "count", "at_goal_pct", "coverage_pct", "requested",
            "acquisitions", "wasted", "extra_vs_goal", "stopped", "false_stops",
-           "median_extra_vs_goal", "out_of_reach_stops")
+           "median_extra_vs_goal", "out_of_reach_stops", "plateau_gap_median", "plateau_gap_min",
+           "plateau_gap_max")
 
 
 def list_names(lists: Sequence[str]) -> list[str]:
@@ -80,6 +88,15 @@ def _shown(planner: str) -> str:
     return planner.replace(str(PACKAGE_DIR.parent) + "/", "")
 
 
+def _curve(row: dict[str, Any]) -> list[float] | None:
+    """An episode row's coverage after each request (fractions), where its table holds them
+    all: the curve's columns, and the coverage at the end for one request more."""
+    curve = [row[key] / 100.0 for key in CURVE_COLUMNS]
+    if row["requested"] <= len(curve):
+        return curve[:row["requested"]]
+    return curve + [row["coverage_pct"] / 100.0] if row["requested"] == len(curve) + 1 else None
+
+
 def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop: str,
               budget: int) -> dict[str, Any]:
     """The study's row of one list, planner and rule from its evaluation's episode rows;
@@ -101,7 +118,11 @@ def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop:
         "false_stops": sum(row["requested"] < budget and not row["success"] for row in rows),
         "median_extra_vs_goal": None,
         "out_of_reach_stops": None,
+        "plateau_gap_median": None,
+        "plateau_gap_min": None,
+        "plateau_gap_max": None,
         "by_episode": {row["episode"]: row["requested"] for row in rows},
+        "curves": {row["episode"]: _curve(row) for row in rows},
         "below_goal": {row["episode"] for row in rows
                        if row["requested"] < budget and not row["success"]},
         "missed": {row["episode"] for row in rows if not row["success"]},
@@ -174,6 +195,14 @@ def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None
             out_of_reach = row["below_goal"] & reference["missed"]
             row["out_of_reach_stops"] = len(out_of_reach)
             row["false_stops"] = len(row["below_goal"] - out_of_reach)
+            # Where the goal is out of reach: the requests from the plateau of the same
+            # planner's run at `goal` (to the budget) to this run's end.
+            gaps = [row["by_episode"][episode] - 1 - plateau_view(curve)
+                    for episode in reference["missed"] & row["by_episode"].keys()
+                    if (curve := reference["curves"][episode]) is not None]
+            if gaps:
+                row["plateau_gap_median"] = statistics.median(gaps)
+                row["plateau_gap_min"], row["plateau_gap_max"] = min(gaps), max(gaps)
     write_text(out / "study.csv", csv_text(COLUMNS, table))
     write_text(out / "study.md", markdown(table, config))
     plot_study(table, config, out / "study.png")
@@ -181,6 +210,13 @@ def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None
 
 def _cell(value: float | None, digits: int) -> str:
     return "-" if value is None else f"{value:.{digits}f}"
+
+
+def _gap(row: dict[str, Any]) -> str:
+    if row["plateau_gap_median"] is None:
+        return "-"
+    return (f"{row['plateau_gap_median']:+g} ({row['plateau_gap_min']:+d} to "
+            f"{row['plateau_gap_max']:+d})")
 
 
 def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
@@ -199,20 +235,26 @@ def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
         f"that ended before the view budget (by the rule, or the planner itself) and of those "
         f"the false stops, below the goal where the same planner reaches it at `goal`, and the "
         f"stops where the goal was out of reach (below it, and the same planner misses it at "
-        f"`goal` too, within the budget). Each rule's evaluation is in `LIST/RULE/`.",
+        f"`goal` too, within the budget), and for the episodes whose goal was out of reach the "
+        f"requests from the plateau of that run (its first request within "
+        f"{100 * PLATEAU:g} pp of its highest coverage) to this run's end, median (range), "
+        f"where its episodes table holds the whole curve. Each rule's evaluation is in "
+        f"`LIST/RULE/`.",
     ]
     for episodes in dict.fromkeys(row["episodes"] for row in table):
         lines += ["", f"## {episodes}", "",
                   f"| planner | stop | episodes | at or above {goal} % | coverage at stop % "
                   f"| views | acquisitions | wasted views | views vs goal | median vs goal "
-                  f"| stopped before the budget | false stops | out of reach |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  f"| stopped before the budget | false stops | out of reach | from the plateau "
+                  f"|",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         lines += [f"| {row['planner']} | {row['stop']} | {row['count']} | "
                   f"{row['at_goal_pct']:.0f} | {row['coverage_pct']:.2f} | "
                   f"{row['requested']:.2f} | {row['acquisitions']:.2f} | {row['wasted']:.2f} | "
                   f"{_cell(row['extra_vs_goal'], 2)} | "
                   f"{_cell(row['median_extra_vs_goal'], 1)} | {row['stopped']} | "
-                  f"{row['false_stops']} | {_cell(row['out_of_reach_stops'], 0)} |"
+                  f"{row['false_stops']} | {_cell(row['out_of_reach_stops'], 0)} | "
+                  f"{_gap(row)} |"
                   for row in table if row["episodes"] == episodes]
     return "\n".join(lines) + "\n"
 

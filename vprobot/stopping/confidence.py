@@ -57,6 +57,8 @@ MIN_PER_CATEGORY = 100
 """Calibration views a category needs to be calibrated on its own."""
 THRESHOLDS = np.round(np.arange(0.999, 0.4995, -0.001), 3)
 """The thresholds Learn-then-Test tries, highest (fewest false stops) first."""
+PLATEAU = 0.01
+"""An episode's plateau: its first view within this of its highest coverage."""
 GIVE_UP_SHARES = np.round(np.arange(0.0025, 0.1001, 0.0025), 4)
 """The shares of new occupied voxels under which Learn-then-Test tries giving up, smallest
 (fewest give-ups) first."""
@@ -110,6 +112,13 @@ def false_stops(probabilities: Sequence[np.ndarray], coverages: Sequence[np.ndar
         below = np.append(np.asarray(coverage, float) < goal, False)
         rows.append(below[crossing])
     return np.array(rows, dtype=bool).reshape(len(rows), len(thresholds))
+
+
+def plateau_view(coverage: npt.ArrayLike) -> int:
+    """The index of an episode's plateau: its first view within `PLATEAU` of its highest
+    coverage (fractions, view by view)."""
+    coverage = np.asarray(coverage, dtype=float)
+    return int(np.argmax(coverage >= coverage.max() - PLATEAU))
 
 
 def quiet_share(features: np.ndarray) -> np.ndarray:
