@@ -184,15 +184,15 @@ def _stalling(count: int, rng: np.random.Generator
 
 def test_learn_then_test_bounds_false_give_ups_in_all_but_delta_of_the_calibration_draws(
 ) -> None:
-    """The give-up's guarantee: the true risk of the certified share (measured on 100 000 fresh
-    episodes) exceeds the risk asked for in at most delta of 200 calibration draws."""
+    """The give-up's guarantee: the true risk of the certified share (measured on 30 000 fresh
+    episodes) exceeds the risk asked for in at most delta of 100 calibration draws."""
     rng = np.random.default_rng(1)
-    probabilities, quiet, coverage = _stalling(100_000, rng)
+    probabilities, quiet, coverage = _stalling(30_000, rng)
     true_risk = false_give_ups(probabilities, quiet, coverage, GOAL, 0.9).mean(axis=0)
     assert np.all(np.diff(true_risk) >= 0) and true_risk[0] < 0.01 and true_risk[-1] > 0.2
     risk, delta = 0.05, 0.1
     certified = []
-    for _ in range(200):
+    for _ in range(100):
         share = give_up_share(*_stalling(300, rng), GOAL, 0.9, risk, delta)
         assert share is not None
         certified.append(true_risk[np.flatnonzero(GIVE_UP_SHARES == share)[0]])
