@@ -242,7 +242,7 @@ def _markdown(figures: dict[str, Any], config: Config) -> str:
         lines += [f"Giving up: under a quiet share of {100 * figures['give_up']:g} % (each of the "
                   f"latest 2 acquisitions added less to the occupied voxels). On the threshold "
                   f"episodes it gives up on {figures['gave_up']}, {figures['false_give_ups']} of "
-                  f"them from where the goal was still reached; of the "
+                  f"them below the goal where more views reached it; of the "
                   f"{figures['out_of_reach']} episodes whose goal was out of reach it gave up on "
                   f"{figures['gave_up_out_of_reach']}, at views from their plateau (the first "
                   f"view within {100 * PLATEAU:g} pp of their highest coverage): "
