@@ -14,7 +14,9 @@ refused outside what the estimator was fit on) but stopping wherever its bound r
 `held`, the rule as it is now: `after`, and no stop while more space is unexplored than on the
 training views where the estimate claimed the goal (`Stated.held`). It writes
 `rollouts-stops.csv` and `rollouts-stops.md` (or NAME-stops.* beside any table of rollouts
-given, e.g. those of `vprobot stop error`).
+given, e.g. those of `vprobot stop error`). `list` writes the episodes of the parts and seeds as
+an episode list (`--out`, default FOLDER/FOLDER.json, named after its folder) for `vprobot stop
+study --episodes`.
 """
 
 from __future__ import annotations
@@ -27,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from vprobot.config import Config
+from vprobot.config import Config, load_config
 from vprobot.episode import seeded_episode
+from vprobot.episode.specs import write_episode_list
 from vprobot.files.atomic import append_line, csv_text, write_text
 from vprobot.stop_studies.dataset import COLUMNS, read_dataset, rollout
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, load_estimator
@@ -150,7 +153,7 @@ def table(rows: list[dict[str, Any]], goal: float) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("step", choices=("rollouts", "score"))
+    parser.add_argument("step", choices=("rollouts", "score", "list"))
     parser.add_argument("--folder", type=Path, default=FOLDER,
                         help="rollouts: the folder of the parts and of rollouts.csv")
     parser.add_argument("--rollouts", type=Path, nargs="+", default=None,
@@ -159,8 +162,17 @@ def main() -> None:
     parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
     parser.add_argument("--estimator", type=Path, default=None,
                         help="an estimator.npz (default: the bundled one)")
+    parser.add_argument("--config", default=None,
+                        help="list: the config whose episodes to draw (default: the default)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="list: the episode list (default: FOLDER/FOLDER.json)")
     args = parser.parse_args()
-    if args.step == "rollouts":
+    if args.step == "list":
+        config = load_config(args.config) if args.config else Config()
+        specs = [seeded_episode(config.env, part, seed, SCALE)
+                 for part in sorted(args.folder.glob("*.stl")) for seed in args.seeds]
+        print(write_episode_list(args.out or args.folder / f"{args.folder.name}.json", specs))
+    elif args.step == "rollouts":
         rollouts(args.folder, tuple(args.planners), tuple(args.seeds))
     else:
         for table_path in args.rollouts or [args.folder / "rollouts.csv"]:

@@ -1,5 +1,5 @@
-"""Make the foreign parts on which `--stop estimate` is measured (results/stop_estimate/foreign/,
-foreign-b/, foreign-c/).
+"""Make the foreign parts on which the stop rules are measured (results/stop_estimate/foreign/,
+foreign-b/, foreign-c/ for `--stop estimate`, foreign-d/ for `--stop confident`).
 
 Parts from outside the project, as a user would bring them: STL files in millimetres, loaded
 with `--scale 0.001`, unlike every part family (flange, housing, lever, spur gear, stepped
@@ -337,13 +337,109 @@ def ladder(rng: np.random.Generator) -> trimesh.Trimesh:
     return trimesh.boolean.union([*rails, *rungs])
 
 
+# The fourth set (`--set d`), made after the calibrated rule `confident` (issue 47) had been
+# frozen, with its calibration bundled: its figures are the ones no choice of that rule saw.
+
+
+def bellows(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A bellows: a tube of alternating wide and narrow rings, bored through."""
+    rings = [_cylinder(60.0 if k % 2 == 0 else 42.0, 16.0, (0.0, 0.0, -88.0 + 16.0 * k))
+             for k in range(12)]
+    return trimesh.boolean.difference([trimesh.boolean.union(rings),
+                                       _cylinder(30.0, 240.0)])
+
+
+def egg_crate(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A tray of square cells open above, each of a random depth."""
+    depths = rng.uniform(20.0, 45.0, size=(3, 4))
+    cells = [_box((32.0, 32.0, 2.0 * depths[i, j]), (-60.0 + 40.0 * j, -40.0 + 40.0 * i, 25.0))
+             for i in range(3) for j in range(4)]
+    return trimesh.boolean.difference([_box((168.0, 128.0, 50.0)), *cells])
+
+
+def windowed_sphere(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A hollow sphere with a round window along each axis, both ways."""
+    shell = trimesh.boolean.difference([trimesh.creation.icosphere(subdivisions=3, radius=80.0),
+                                        trimesh.creation.icosphere(subdivisions=3, radius=70.0)])
+    windows = [_cylinder(radius, 200.0, axis=axis)
+               for axis, radius in zip("xyz", rng.uniform(18.0, 30.0, size=3), strict=True)]
+    return trimesh.boolean.difference([shell, *windows])
+
+
+def funnel(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A funnel: a hollow cone open above, running into a narrow spout."""
+    outer = trimesh.creation.revolve(np.array([[0.0, -90.0], [12.0, -90.0], [12.0, -20.0],
+                                               [80.0, 60.0], [0.0, 60.0]]), sections=48)
+    inner = trimesh.creation.revolve(np.array([[0.0, -100.0], [7.0, -100.0], [7.0, -22.0],
+                                               [74.0, 62.0], [0.0, 62.0]]), sections=48)
+    return trimesh.boolean.difference([outer, inner])
+
+
+def chair(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A chair: a seat on four legs, a slatted back."""
+    legs = [_box((14.0, 14.0, 90.0), (x, y, -45.0)) for x in (-48.0, 48.0) for y in (-48.0, 48.0)]
+    back = [_box((10.0, 110.0, 12.0), (-52.0, 0.0, 30.0 + 25.0 * k)) for k in range(4)]
+    posts = [_box((10.0, 12.0, 100.0), (-52.0, y, 50.0)) for y in (-49.0, 49.0)]
+    return trimesh.boolean.union([_box((110.0, 110.0, 12.0)), *legs, *back, *posts])
+
+
+def horseshoe(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A horseshoe magnet: a thick U of square section, a narrow gap between its poles."""
+    ring = trimesh.boolean.difference([_cylinder(75.0, 40.0), _cylinder(35.0, 50.0)])
+    lower = _box((160.0, 80.0, 60.0), (0.0, -40.0, 0.0))
+    poles = [_box((40.0, 90.0, 40.0), (x, -45.0, 0.0)) for x in (-55.0, 55.0)]
+    return trimesh.boolean.union([trimesh.boolean.difference([ring, lower]), *poles])
+
+
+def ziggurat(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A stepped pyramid, each terrace of a random height, a stair cut into one face."""
+    heights = rng.uniform(15.0, 30.0, size=5)
+    base = np.concatenate([[0.0], np.cumsum(heights)])
+    terraces = [_box((220.0 - 40.0 * k, 220.0 - 40.0 * k, heights[k]),
+                     (0.0, 0.0, base[k] + heights[k] / 2.0)) for k in range(5)]
+    cut = _box((30.0, 140.0, 200.0), (0.0, -110.0, 100.0 + base[1]))
+    return trimesh.boolean.difference([trimesh.boolean.union(terraces), cut])
+
+
+def tripod(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A tripod: a hub on three splayed round legs."""
+    legs = []
+    for k in range(3):
+        leg = _cylinder(8.0, 170.0, sections=20)
+        leg.apply_transform(trimesh.transformations.rotation_matrix(0.5, [0, 1, 0]))
+        leg.apply_translation((40.0, 0.0, -60.0))
+        leg.apply_transform(trimesh.transformations.rotation_matrix(2 * np.pi * k / 3, [0, 0, 1]))
+        legs.append(leg)
+    return trimesh.boolean.union([_cylinder(30.0, 30.0, (0.0, 0.0, 15.0)), *legs])
+
+
+def cube_frame(rng: np.random.Generator) -> trimesh.Trimesh:
+    """The twelve edges of a cube as square bars: a frame to see through."""
+    return trimesh.boolean.difference([_box((150.0, 150.0, 150.0)),
+                                       _box((126.0, 126.0, 160.0)), _box((126.0, 160.0, 126.0)),
+                                       _box((160.0, 126.0, 126.0))])
+
+
+def cross_bushing(rng: np.random.Generator) -> trimesh.Trimesh:
+    """A thick bushing bored through, with radial holes into its bore at random angles."""
+    body = trimesh.boolean.difference([_cylinder(60.0, 120.0), _cylinder(30.0, 130.0)])
+    holes = []
+    for angle, height in zip(rng.uniform(0.0, np.pi, size=3), (-35.0, 0.0, 35.0), strict=True):
+        hole = _cylinder(8.0, 140.0, (0.0, 0.0, height), "x", sections=20)
+        hole.apply_transform(trimesh.transformations.rotation_matrix(angle, [0, 0, 1]))
+        holes.append(hole)
+    return trimesh.boolean.difference([body, *holes])
+
+
 SETS: dict[str, tuple[Callable[[np.random.Generator], trimesh.Trimesh], ...]] = {
     "a": (cup, hex_nut, star, staircase, window_box, holed_cone, dumbbell, t_slot, blob, jack,
           heat_sink, arch),
     "b": (u_channel, honeycomb, knob, bowl, rook, pegboard, caltrop, spool, egg_with_hole,
           slotted_ramp),
     "c": (mug, pocket_block, square_tube, cross_drilled, crate, dimpled_tetra, grooved_capsule,
-          comb, vase, ladder)}
+          comb, vase, ladder),
+    "d": (bellows, egg_crate, windowed_sphere, funnel, chair, horseshoe, ziggurat, tripod,
+          cube_frame, cross_bushing)}
 """The foreign parts of each set, one function each (in millimetres)."""
 
 
@@ -351,7 +447,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--set", choices=sorted(SETS), default="a",
                         help="a: the first 12 parts (into OUT), b: the second 10 (into OUT-b), "
-                             "c: the third 10 (into OUT-c)")
+                             "c: the third 10 (into OUT-c), d: the fourth 10 (into OUT-d)")
     parser.add_argument("--out", type=Path, default=None, help="default: " + str(OUT))
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
@@ -360,7 +456,7 @@ def main() -> None:
     for number, make in enumerate(SETS[args.set]):
         name = make.__name__
         # Set a's seeds as they were when it was made; the later sets' apart from them.
-        offset = {"a": 0, "b": 100, "c": 200}[args.set]
+        offset = {"a": 0, "b": 100, "c": 200, "d": 300}[args.set]
         mesh = make(np.random.default_rng([args.seed, offset + number]))
         mesh.apply_translation(-mesh.bounds.mean(axis=0))
         radius = float(np.linalg.norm(mesh.vertices, axis=1).max())

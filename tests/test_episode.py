@@ -270,3 +270,5 @@ def test_the_episodes_grid_after_each_view_and_its_features_are_those_integrated
         np.testing.assert_array_equal(rows[count - 1],
                                       CoverageFeatures(config).update(episode.views[:count]))
     assert 0.0 < novel < 1.0 and 0.0 < added[1] < 1.0
+    # The counts the episode's grid keeps frame by frame are those of a pass over the grid.
+    assert grid.counts() == reference.counts() != OccupancyGrid.for_cell(config).counts()

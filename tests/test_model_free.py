@@ -439,8 +439,9 @@ def test_scores_of_all_gains_at_once_are_score_of_each_sample_by_sample_on_rando
 def test_the_runs_walked_to_their_last_relevant_one_are_those_the_whole_table_selects(
         threshold: float) -> None:
     # The reference: every run's visibility over the whole table (what `camera_scores` sums,
-    # checked sample by sample above), then the runs of a gain seen at `threshold` or better,
-    # run by run; the walk drops rays as it goes and must find the same runs, values and order.
+    # checked sample by sample above; in single precision, as the walk multiplies), then the
+    # runs of a gain seen at `threshold` or better, run by run; the walk drops rays as it goes
+    # and must find the same runs, values and order.
     gains = band_candidates(CONFIG, VOXEL_M).gains
     runs = gains._runs
     grid = OccupancyGrid.for_cell(CONFIG)
@@ -448,13 +449,46 @@ def test_the_runs_walked_to_their_last_relevant_one_are_those_the_whole_table_se
     for shares in ((1.0, 0.0, 0.0), (0.1, 0.88, 0.02), (0.3, 0.6, 0.1)):
         grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
         codes = _codes(grid)
-        keys, visible = runs.visibility(codes)
+        keys, visible = runs.visibility(codes, single=True)
         rows, columns = np.nonzero((runs.kinds(keys[1:]) != 0) & (visible[:-1] >= threshold))
         walked = runs.relevant(codes, threshold)
         assert len(rows) > 0
         for found, expected in zip(walked, (keys[1:][rows, columns], runs.voxels[1:][rows, columns],
                                             columns, visible[:-1][rows, columns]), strict=True):
             np.testing.assert_array_equal(found, expected)
+
+
+def _next_to_by_hand(state: np.ndarray, kind: int) -> np.ndarray:
+    """Whether each voxel has a face neighbour of state `kind`, over the six neighbours of a
+    grid padded with a state that is none (a voxel on the border has fewer)."""
+    padded = np.pad(state, 1, constant_values=-1)
+    near = np.zeros(state.shape, dtype=bool)
+    for axis in range(3):
+        for step in (-1, 1):
+            start = [1, 1, 1]
+            start[axis] += step
+            near |= padded[tuple(slice(first, first + size)
+                                 for first, size in zip(start, state.shape, strict=True))] == kind
+    return near
+
+
+def test_voxel_codes_hold_each_state_and_gain_of_a_neighbour_by_neighbour_count() -> None:
+    grid = OccupancyGrid.for_cell(CONFIG)
+    rng = np.random.default_rng(3)
+    for shares in ((1.0, 0.0, 0.0), (0.3, 0.6, 0.1), (0.1, 0.2, 0.7)):
+        grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
+        unknown = grid.state == UNKNOWN
+        kinds = [unknown, unknown & _next_to_by_hand(grid.state, FREE),
+                 unknown & _next_to_by_hand(grid.state, OCCUPIED)]
+        for gain, expected in zip(GAINS, kinds, strict=True):
+            np.testing.assert_array_equal(grid.kind_mask(gain), expected)
+        expected_codes = grid.state.astype(np.uint8) << len(GAINS)
+        for bit, mask in enumerate(kinds):
+            expected_codes |= mask.astype(np.uint8) << bit
+        np.testing.assert_array_equal(
+            _codes(grid), np.append(expected_codes.reshape(-1), np.uint8(FREE << len(GAINS))))
+        for kind in (FREE, OCCUPIED):
+            np.testing.assert_array_equal(grid.next_to(kind), _next_to_by_hand(grid.state, kind))
 
 
 def test_flat_index_finds_the_voxel_of_points_inside_it_and_minus_one_outside() -> None:

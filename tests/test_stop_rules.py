@@ -267,7 +267,8 @@ def test_study_row_counts_the_goal_share_wasted_views_and_false_stops_by_hand() 
         "wasted": pytest.approx(2 / 3), "extra_vs_goal": None, "stopped": 2,
         "false_stops": 1, "median_extra_vs_goal": None, "out_of_reach_stops": None,
         "plateau_gap_median": None, "plateau_gap_min": None, "plateau_gap_max": None,
-        "by_episode": {0: 6, 1: 9, 2: 11}, "below_goal": {1}, "missed": {1, 2},
+        "by_episode": {0: 6, 1: 9, 2: 11}, "to_goal": {0: 4, 1: 9, 2: 11},
+        "below_goal": {1}, "missed": {1, 2},
         # The curve's columns hold 10 requests; the 11th is the coverage at the end.
         "curves": {0: [0.5] * 6, 1: [0.5] * 9, 2: [0.5] * 10 + [0.85]}}
 
@@ -278,7 +279,8 @@ def test_extra_views_and_out_of_reach_stops_are_per_episode_against_the_planner_
     # highest from its 4th request; under the rule episodes 1 and 2 stop below the goal: 1 is a
     # false stop, 2 out of reach, 8 requests in: 4 after that plateau.
     goal = {"episodes": "a", "planner": "nbv", "stop": "goal", "requested": 5.0,
-            "by_episode": {0: 4, 1: 5, 2: 6}, "below_goal": set(), "missed": {2},
+            "by_episode": {0: 4, 1: 5, 2: 6}, "to_goal": {0: 4, 1: 5, 2: 6},
+            "below_goal": set(), "missed": {2},
             "curves": {0: None, 1: None, 2: [0.5, 0.7, 0.8, 0.85, 0.85, 0.855]}}
     rule = {"episodes": "a", "planner": "nbv", "stop": "grid", "requested": 7.0,
             "by_episode": {0: 4, 1: 9, 2: 8}, "below_goal": {1, 2}, "missed": {1, 2},
@@ -301,9 +303,40 @@ def test_extra_views_and_out_of_reach_stops_are_per_episode_against_the_planner_
     assert "| agent | grid | 3 | 0 | 0.00 | 7.00 | 0.00 | 0.00 | - | - | 2 | 2 | - | - |" in study
 
 
+def test_a_fixed_plan_is_counted_to_the_request_after_which_it_reached_the_goal(
+        tmp_path: Path) -> None:
+    # uniform10 under `goal` runs its whole plan (11 requests) and reaches the goal after its
+    # 5th and 7th requests in episodes 0 and 1, never in episode 2 (its coverage within 1 pp of
+    # its highest from its 3rd request). Under the rule it stops after 6, 5 and 4 requests: one
+    # view late, a false stop two views early, and out of reach one view after the plateau.
+    curve = {key: 50.0 for key in CURVE_COLUMNS}
+    views = [5, 7, None]
+    rows = [{"episode": episode, "success": to_goal is not None, "coverage_pct": 91.0,
+             "requested": 11, "acquisitions": 11, "views_to_goal": to_goal, **curve}
+            for episode, to_goal in enumerate(views)]
+    rising = [50.0, 70.0, 85.0, 85.5, 85.6]
+    for number, key in enumerate(CURVE_COLUMNS):
+        rows[2][key] = rising[number] if number < len(rising) else 85.8
+    rows[2]["coverage_pct"] = 85.8
+    goal = study_row(rows, "a", "uniform10", "goal", 11)
+    stopped = [{**row, "requested": requested, "success": success, "views_to_goal": None}
+               for row, requested, success in zip(rows, [6, 5, 4], [True, False, False],
+                                                  strict=True)]
+    stopped[0]["views_to_goal"] = 5
+    rule = study_row(stopped, "a", "uniform10", "confident", 11)
+    table = [goal, rule]
+    _write_study(tmp_path, table, CONFIG)
+    assert rule["extra_vs_goal"] == pytest.approx(5.0 - (5 + 7 + 11) / 3)
+    assert rule["median_extra_vs_goal"] == -2
+    assert (rule["false_stops"], rule["out_of_reach_stops"]) == (1, 1)
+    assert rule["plateau_gap_median"] == 4 - 1 - 2
+
+
 def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:
+    # `goal` runs every planner that does not decide its own stop: a fixed plan (uniform4) to
+    # its end.
     assert combinations(CONFIG, ["uniform4", "random2"], ["goal", "agent", "views:2"]) == [
-        ("goal", ["random2"]), ("views:2", ["uniform4", "random2"])]
+        ("goal", ["uniform4", "random2"]), ("views:2", ["uniform4", "random2"])]
 
 
 def _low_resolution_and_one_episode(folder: Path) -> tuple[Path, Path]:

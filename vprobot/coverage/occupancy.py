@@ -64,7 +64,15 @@ CROSSING_SHARE = 0.25
 former integration, sampling every ray half a voxel apart, put a sample in it on average."""
 Gain = Literal["unknown", "frontier", "rear_side"]
 GAINS: tuple[Gain, ...] = ("unknown", "frontier", "rear_side")
-_NEIGHBOURS = np.concatenate([np.eye(3, dtype=int), -np.eye(3, dtype=int)])
+
+
+def gain_kinds(state: np.ndarray, neighbours: np.ndarray) -> list[np.ndarray]:
+    """Which voxels each gain of `GAINS` counts, in its order, from their states and their
+    neighbours' (`OccupancyGrid.neighbours`): the unknown, those of them next to a free voxel
+    (`frontier`) and those next to an occupied one (`rear_side`)."""
+    unknown = state == UNKNOWN
+    return [unknown, unknown & ((neighbours & (1 << FREE)) != 0),
+            unknown & ((neighbours & (1 << OCCUPIED)) != 0)]
 
 
 class MeasuredView(Protocol):
@@ -149,32 +157,33 @@ class OccupancyGrid:
         return {"unknown": int(values[UNKNOWN]), "free": int(values[FREE]),
                 "occupied": int(values[OCCUPIED])}
 
+    def neighbours(self) -> np.ndarray:
+        """Per voxel, the states among its six face neighbours: bit `1 << state` set for each
+        (uint8, grid shape)."""
+        state = np.left_shift(np.uint8(1), self.state.view(np.uint8))
+        near = np.zeros(self.shape, dtype=np.uint8)
+        # Each axis both ways: in place, with no padded copy of the grid.
+        near[1:] |= state[:-1]
+        near[:-1] |= state[1:]
+        near[:, 1:] |= state[:, :-1]
+        near[:, :-1] |= state[:, 1:]
+        near[:, :, 1:] |= state[:, :, :-1]
+        near[:, :, :-1] |= state[:, :, 1:]
+        return near
+
     def next_to(self, kind: int) -> np.ndarray:
         """Whether each voxel has a face neighbour of state `kind` (bool, grid shape)."""
-        padded = np.pad(self.state == kind, 1)
-        near = np.zeros(self.shape, dtype=bool)
-        nx, ny, nz = self.shape
-        for dx, dy, dz in _NEIGHBOURS:
-            near |= padded[1 + dx:1 + dx + nx, 1 + dy:1 + dy + ny, 1 + dz:1 + dz + nz]
-        return near
+        return (self.neighbours() & (1 << kind)) != 0
 
     def kind_masks(self) -> list[np.ndarray]:
         """The voxels each gain of `GAINS` counts, in its order (bool, grid shape)."""
-        unknown = self.state == UNKNOWN
-        return [self.kind_mask(gain, unknown) for gain in GAINS]
+        return gain_kinds(self.state, self.neighbours())
 
-    def kind_mask(self, gain: Gain, unknown: np.ndarray | None = None) -> np.ndarray:
-        """The voxels a gain counts (bool, grid shape); `unknown`: the unknown voxels, if
-        already at hand."""
-        if unknown is None:
-            unknown = self.state == UNKNOWN
-        if gain == "unknown":
-            return unknown
-        if gain == "frontier":
-            return unknown & self.next_to(FREE)
-        if gain == "rear_side":
-            return unknown & self.next_to(OCCUPIED)
-        raise ValueError(f"unknown gain {gain!r}; allowed: {', '.join(GAINS)}")
+    def kind_mask(self, gain: Gain) -> np.ndarray:
+        """The voxels a gain counts (bool, grid shape)."""
+        if gain not in GAINS:
+            raise ValueError(f"unknown gain {gain!r}; allowed: {', '.join(GAINS)}")
+        return self.kind_masks()[GAINS.index(gain)]
 
     @functools.cached_property
     def centres(self) -> np.ndarray:
@@ -331,6 +340,13 @@ class EpisodeGrid:
         self.settings = settings
         self.grid = settings.new_grid()
         self.changes: list[FrameChange | None] = []
+        self._counts = np.bincount(self.grid.state.reshape(-1), minlength=3)
+
+    def counts(self) -> dict[str, int]:
+        """`grid.counts()`, kept frame by frame from what each frame changed (no pass over the
+        grid)."""
+        return {"unknown": int(self._counts[UNKNOWN]), "free": int(self._counts[FREE]),
+                "occupied": int(self._counts[OCCUPIED])}
 
     @property
     def added(self) -> list[float]:
@@ -350,11 +366,12 @@ class EpisodeGrid:
             self.grid.integrate(self.settings.sensor, view.sensor_pose, view.points_world,
                                 view.pixels, view.blocked_pixels)
             changed = np.flatnonzero(before != flat)
+            previous, now = before[changed], flat[changed]
+            self._counts += np.bincount(now, minlength=3) - np.bincount(previous, minlength=3)
             # Only a frame's own points turn voxels occupied, and none is ever cleared.
             self.changes.append(FrameChange(
-                changed, before[changed], int(np.count_nonzero(flat[changed] == OCCUPIED)),
-                self.grid.counts()["occupied"],
-                len(view.blocked_pixels) < len(view.points_world)))
+                changed, previous, int(np.count_nonzero(now == OCCUPIED)),
+                int(self._counts[OCCUPIED]), len(view.blocked_pixels) < len(view.points_world)))
 
     def after(self, count: int) -> OccupancyGrid:
         """The grid after the first `count` views integrated (the grid itself after all).

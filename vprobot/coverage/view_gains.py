@@ -35,7 +35,15 @@ from __future__ import annotations
 import numpy as np
 
 from vprobot.config.sensor import SensorModel
-from vprobot.coverage.occupancy import FREE, GAINS, OCCUPIED, UNKNOWN, Gain, OccupancyGrid
+from vprobot.coverage.occupancy import (
+    FREE,
+    GAINS,
+    OCCUPIED,
+    UNKNOWN,
+    Gain,
+    OccupancyGrid,
+    gain_kinds,
+)
 from vprobot.geometry.poses import Pose
 from vprobot.sensing.base import SensingModel
 from vprobot.sensing.structured_light import StructuredLight
@@ -171,12 +179,31 @@ class ViewGains:
         return np.unique(voxels)
 
 
+_STATE_BITS = OCCUPIED + 1
+"""Bits of `OccupancyGrid.neighbours`: one per state."""
+
+
+def _code_table() -> np.ndarray:
+    """The code of a voxel (state << 3 | one bit per gain) by its state and its neighbours'
+    states (`OccupancyGrid.neighbours`): at `state << _STATE_BITS | neighbours`."""
+    state, neighbours = np.divmod(np.arange((OCCUPIED + 1) << _STATE_BITS), 1 << _STATE_BITS)
+    code = state << _KIND_BITS
+    for bit, mask in enumerate(gain_kinds(state, neighbours)):
+        code |= mask.astype(int) << bit
+    return code.astype(np.uint8)
+
+
+_CODE_TABLE = _code_table()
+
+
 def _codes(grid: OccupancyGrid) -> np.ndarray:
     """Every voxel's code (state << 3 | one bit per gain), the outside element (free) last."""
-    code = grid.state.astype(np.uint8) << _KIND_BITS
-    for bit, mask in enumerate(grid.kind_masks()):
-        code |= mask.view(np.uint8) << bit
-    return np.append(code.reshape(-1), np.uint8(FREE << _KIND_BITS))
+    codes = np.empty(grid.state.size + 1, dtype=np.uint8)
+    key = grid.neighbours()
+    key |= grid.state.view(np.uint8) << _STATE_BITS
+    np.take(_CODE_TABLE, key.reshape(-1), out=codes[:-1])
+    codes[-1] = FREE << _KIND_BITS
+    return codes
 
 
 class _Projectors:
@@ -357,6 +384,10 @@ class _SampleRuns:
         # By key: a run's chance to pass, and what it adds to each gain per unit of visibility
         # before it (1 + p + ... + p^(m-1); nothing for the empty runs).
         self._pass = powers.ravel()
+        # The sensed gains' walk (`relevant`) multiplies in single precision, reading half the
+        # bytes: each of its visibilities is a product of at most a few hundred factors, and
+        # only whether it reaches a threshold and what it weighs are read.
+        self._pass_single = self._pass.astype(np.float32)
         sums = np.concatenate([np.zeros((1, _CODES)), np.cumsum(powers, axis=0)[:-1]])
         self._counts = (sums[:, :, None] * counted).reshape(-1, _KIND_BITS)
         key_type = np.min_scalar_type(len(self._pass) - 1)
@@ -364,12 +395,14 @@ class _SampleRuns:
         self._bins = (np.arange(len(flat)) // rays * len(self._pass)).astype(np.int64)
         self._count = count
 
-    def visibility(self, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def visibility(self, codes: np.ndarray, single: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray]:
         """Every run's key and the visibility after it (runs, columns), for voxel codes `codes`
-        (flat, the extra outside element last)."""
+        (flat, the extra outside element last); in single precision, as `relevant` works it
+        out, if `single`."""
         keys = np.take(codes, self.voxels).astype(self._key_offsets.dtype, copy=False)
         keys += self._key_offsets
-        visible = np.take(self._pass, keys)
+        visible = np.take(self._pass_single if single else self._pass, keys)
         for run in range(1, len(visible)):
             np.multiply(visible[run], visible[run - 1], out=visible[run])
         return keys, visible
@@ -384,20 +417,20 @@ class _SampleRuns:
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The runs a gain counts (of a voxel with a gain bit) seen with a visibility of at
         least `threshold`: their keys, voxels, columns and the visibility before them, run by
-        run (as `visibility`'s rows, the same products).
+        run (as `visibility`'s rows in single precision, the same products).
 
         Visibility only falls along a ray, and a ray never comes back into the grid, so the
         runs are walked `_CHUNK_RUNS` at a time over the rays still seen that well and still
         to cross the grid: most rays are done within a few dozen runs."""
         live = np.arange(self.voxels.shape[1])
-        before = np.ones(len(live))
+        before = np.ones(len(live), dtype=self._pass_single.dtype)
         found = []
         for start in range(1, len(self.voxels), _CHUNK_RUNS):
             stop = min(start + _CHUNK_RUNS, len(self.voxels))
             voxels = np.take(self.voxels[start:stop], live, axis=1)
             keys = np.take(codes, voxels).astype(self._key_offsets.dtype, copy=False)
             keys += np.take(self._key_offsets[start:stop], live, axis=1)
-            passes = np.take(self._pass, keys)
+            passes = np.take(self._pass_single, keys)
             seen = np.empty_like(passes)
             seen[0] = before
             for run in range(1, len(seen)):

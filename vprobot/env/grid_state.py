@@ -121,7 +121,8 @@ class GridState:
     def observe(self, episode: Episode) -> dict[str, np.ndarray]:
         """The `candidates` and `mask` entries for the episode's views so far."""
         views = episode.views
-        grid = episode.occupancy(self.settings).grid
+        episode_grid = episode.occupancy(self.settings)
+        grid = episode_grid.grid
         directions = self.band.directions
         requested = request_directions(views, episode.center)
         cosines = directions @ requested.T
@@ -139,7 +140,7 @@ class GridState:
         best = scores[mask].max(axis=0, initial=0.0)
         relative = np.divide(scores, best, out=np.zeros_like(scores), where=best > 0.0)
         current_cos = directions @ self._sensor_direction(episode)
-        counts = grid.counts()
+        counts = episode_grid.counts()
         context = [min((len(views) - 1) / self.step_limit, 1.0),
                    *(counts[kind] / grid.state.size for kind in ("occupied", "free", "unknown"))]
         rows = np.column_stack([

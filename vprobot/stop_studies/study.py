@@ -1,7 +1,9 @@
 """The stop study (`vprobot stop study`): how each stop rule stops each planner, robot in the loop.
 
-Per episode list, every stop rule runs with every planner it applies to (`goal` only with the
-planners the simulator stops at the goal, `agent` only with an agent that has a stop action),
+Per episode list, every stop rule runs with every planner it applies to (`goal` with every
+planner that does not decide its own stop: a fixed plan runs to its end under it, and the
+request after which it reached the goal is its reference; `agent` only with an agent that has a
+stop action),
 as an ordinary evaluation in `OUT/LIST/RULE/` (`vprobot.evaluation.evaluate`: resumable,
 its own tables). The study table then gives per list, rule and planner: the share of episodes
 stopped at or above the coverage goal, the coverage at the stop, the views requested and
@@ -60,7 +62,7 @@ def list_names(lists: Sequence[str]) -> list[str]:
 
 def combinations(config: Config, planners: Sequence[str], rules: Sequence[str],
                  estimator: str | Path | None = None) -> list[tuple[str, list[str]]]:
-    """Per rule, the planners it applies to (`goal`: those it stops at the goal).
+    """Per rule, the planners it applies to (`goal`: those that do not decide their own stop).
 
     Raises:
         ValueError: For an unknown planner or rule, or an estimator that cannot be read.
@@ -72,7 +74,7 @@ def combinations(config: Config, planners: Sequence[str], rules: Sequence[str],
         for planner in planners:
             name, views = parse_planner(planner)
             made = stop_subject(make_planner(name, config, views))
-            if stop.applies_to(made) and (rule != "goal" or stop.governs(made)):
+            if stop.applies_to(made) and (rule != "goal" or not made.decides_stop):
                 applies.append(planner)
         if applies:
             chosen.append((rule, applies))
@@ -122,6 +124,10 @@ def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop:
         "plateau_gap_min": None,
         "plateau_gap_max": None,
         "by_episode": {row["episode"]: row["requested"] for row in rows},
+        # The request after which the goal was reached, else the last (the reference of the
+        # other rules: a run stopped at the goal ends there, a fixed plan goes on).
+        "to_goal": {row["episode"]: row["views_to_goal"] if row["success"] else row["requested"]
+                    for row in rows},
         "curves": {row["episode"]: _curve(row) for row in rows},
         "below_goal": {row["episode"] for row in rows
                        if row["requested"] < budget and not row["success"]},
@@ -187,10 +193,10 @@ def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None
     for row in table:
         reference = at_goal.get((row["episodes"], row["planner"]))
         if row["stop"] != "goal" and reference is not None:
-            row["extra_vs_goal"] = row["requested"] - reference["requested"]
-            extra = [requested - reference["by_episode"][episode]
-                     for episode, requested in row["by_episode"].items()
-                     if episode in reference["by_episode"]]
+            to_goal = reference["to_goal"]
+            row["extra_vs_goal"] = row["requested"] - statistics.fmean(to_goal.values())
+            extra = [requested - to_goal[episode]
+                     for episode, requested in row["by_episode"].items() if episode in to_goal]
             row["median_extra_vs_goal"] = statistics.median(extra) if extra else None
             out_of_reach = row["below_goal"] & reference["missed"]
             row["out_of_reach_stops"] = len(out_of_reach)
@@ -230,8 +236,10 @@ def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
         f"rule and planner: the episodes stopped at or above the goal, the mean coverage at "
         f"the stop, views requested and acquired, views wasted beyond the goal (requests after "
         f"the one that reached it, 0 for an episode that missed it) and views requested "
-        f"beyond the same planner stopped at the goal (`goal`: the simulator's stop, run only "
-        f"for planners it stops), on the mean and per episode on the median; the episodes "
+        f"beyond the same planner stopped at the goal (`goal`: the simulator's stop; a fixed "
+        f"plan runs to its end under it and is counted to the request after which it reached "
+        f"the goal; not run for a planner that decides its own stop), on the mean and per "
+        f"episode on the median; the episodes "
         f"that ended before the view budget (by the rule, or the planner itself) and of those "
         f"the false stops, below the goal where the same planner reaches it at `goal`, and the "
         f"stops where the goal was out of reach (below it, and the same planner misses it at "
