@@ -31,7 +31,7 @@ from vprobot.evaluation import CURVE_COLUMNS
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, make_planner, run, run_episode
 from vprobot.planners.self_stopping import LearnedStop, stop_subject
-from vprobot.stop_studies.study import _write_study, combinations, study_row
+from vprobot.stop_studies.study import _write_study, combinations, request_budget, study_row
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, EstimateTracker, load_estimator
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.rules import StopSubject, make_stop_rule, parse_stop, stop_names
@@ -268,7 +268,7 @@ def test_study_row_counts_the_goal_share_wasted_views_and_false_stops_by_hand() 
         "false_stops": 1, "median_extra_vs_goal": None, "out_of_reach_stops": None,
         "plateau_gap_median": None, "plateau_gap_min": None, "plateau_gap_max": None,
         "by_episode": {0: 6, 1: 9, 2: 11}, "to_goal": {0: 4, 1: 9, 2: 11},
-        "below_goal": {1}, "missed": {1, 2},
+        "below_goal": {1}, "missed": {1, 2}, "fixed_plan": False,
         # The curve's columns hold 10 requests; the 11th is the coverage at the end.
         "curves": {0: [0.5] * 6, 1: [0.5] * 9, 2: [0.5] * 10 + [0.85]}}
 
@@ -305,30 +305,36 @@ def test_extra_views_and_out_of_reach_stops_are_per_episode_against_the_planner_
 
 def test_a_fixed_plan_is_counted_to_the_request_after_which_it_reached_the_goal(
         tmp_path: Path) -> None:
-    # uniform10 under `goal` runs its whole plan (11 requests) and reaches the goal after its
-    # 5th and 7th requests in episodes 0 and 1, never in episode 2 (its coverage within 1 pp of
-    # its highest from its 3rd request). Under the rule it stops after 6, 5 and 4 requests: one
-    # view late, a false stop two views early, and out of reach one view after the plateau.
+    # uniform10 under `goal` runs its whole plan (10 requests; the view budget allows 11) and
+    # reaches the goal after its 5th and 7th requests in episodes 0 and 1, never in episode 2
+    # (its coverage within 1 pp of its highest from its 3rd request). Under the rule it stops
+    # after 6, 5 and 4 requests, each before the plan's end: one view late, a false stop two
+    # views early, and out of reach one view after the plateau.
+    assert (request_budget(CONFIG, "uniform10"), request_budget(CONFIG, "nbv")) == (None, 11)
     curve = {key: 50.0 for key in CURVE_COLUMNS}
     views = [5, 7, None]
     rows = [{"episode": episode, "success": to_goal is not None, "coverage_pct": 91.0,
-             "requested": 11, "acquisitions": 11, "views_to_goal": to_goal, **curve}
+             "requested": 10, "acquisitions": 10, "views_to_goal": to_goal, **curve}
             for episode, to_goal in enumerate(views)]
     rising = [50.0, 70.0, 85.0, 85.5, 85.6]
     for number, key in enumerate(CURVE_COLUMNS):
         rows[2][key] = rising[number] if number < len(rising) else 85.8
     rows[2]["coverage_pct"] = 85.8
-    goal = study_row(rows, "a", "uniform10", "goal", 11)
+    goal = study_row(rows, "a", "uniform10", "goal", None)
+    # The plan ran to its end: not stopped early, and no false stop.
+    assert (goal["stopped"], goal["false_stops"]) == (0, 0)
     stopped = [{**row, "requested": requested, "success": success, "views_to_goal": None}
                for row, requested, success in zip(rows, [6, 5, 4], [True, False, False],
                                                   strict=True)]
     stopped[0]["views_to_goal"] = 5
-    rule = study_row(stopped, "a", "uniform10", "confident", 11)
+    rule = study_row(stopped, "a", "uniform10", "confident", None)
+    # Its stops are known only against the plan's run at the goal.
+    assert (rule["stopped"], rule["false_stops"]) == (None, None)
     table = [goal, rule]
     _write_study(tmp_path, table, CONFIG)
-    assert rule["extra_vs_goal"] == pytest.approx(5.0 - (5 + 7 + 11) / 3)
+    assert rule["extra_vs_goal"] == pytest.approx(5.0 - (5 + 7 + 10) / 3)
     assert rule["median_extra_vs_goal"] == -2
-    assert (rule["false_stops"], rule["out_of_reach_stops"]) == (1, 1)
+    assert (rule["stopped"], rule["false_stops"], rule["out_of_reach_stops"]) == (3, 1, 1)
     assert rule["plateau_gap_median"] == 4 - 1 - 2
 
 

@@ -81,6 +81,16 @@ def combinations(config: Config, planners: Sequence[str], rules: Sequence[str],
     return chosen
 
 
+def request_budget(config: Config, planner: str) -> int | None:
+    """The most requests an episode of `planner` makes, the initial view's included: the view
+    budget's; None for a fixed plan, which ends where its plan does (its run at `goal`)."""
+    name, views = parse_planner(planner)
+    subject = stop_subject(make_planner(name, config, views))
+    if not subject.stops_at_goal and not subject.decides_stop:
+        return None
+    return config.env.max_acquisitions + 1
+
+
 def _folder(rule: str) -> str:
     return rule.replace(":", "-")
 
@@ -100,9 +110,15 @@ def _curve(row: dict[str, Any]) -> list[float] | None:
 
 
 def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop: str,
-              budget: int) -> dict[str, Any]:
+              budget: int | None) -> dict[str, Any]:
     """The study's row of one list, planner and rule from its evaluation's episode rows;
-    `budget` is the most requests an episode makes (the initial view's included)."""
+    `budget` is the most requests an episode makes (the initial view's included), None for a
+    fixed plan: under `goal` it runs to its end, under a rule its stops are counted against
+    that run, episode by episode (`_write_study`; unknown without it)."""
+    early: set[int] | None = (
+        {row["episode"] for row in rows if row["requested"] < budget} if budget is not None
+        else set() if stop == "goal" else None)
+    missed = {row["episode"] for row in rows if not row["success"]}
     return {
         "episodes": episodes, "planner": _shown(planner), "stop": stop, "count": len(rows),
         "at_goal_pct": 100.0 * statistics.fmean(row["success"] for row in rows),
@@ -116,8 +132,8 @@ def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop:
         # Ended before the view budget (by the rule, or the planner itself), and of those,
         # below the goal: the false stops (`_write_study` takes out those whose goal was out
         # of reach).
-        "stopped": sum(row["requested"] < budget for row in rows),
-        "false_stops": sum(row["requested"] < budget and not row["success"] for row in rows),
+        "stopped": None if early is None else len(early),
+        "false_stops": None if early is None else len(early & missed),
         "median_extra_vs_goal": None,
         "out_of_reach_stops": None,
         "plateau_gap_median": None,
@@ -129,9 +145,9 @@ def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop:
         "to_goal": {row["episode"]: row["views_to_goal"] if row["success"] else row["requested"]
                     for row in rows},
         "curves": {row["episode"]: _curve(row) for row in rows},
-        "below_goal": {row["episode"] for row in rows
-                       if row["requested"] < budget and not row["success"]},
-        "missed": {row["episode"] for row in rows if not row["success"]},
+        "below_goal": set() if early is None else early & missed,
+        "missed": missed,
+        "fixed_plan": budget is None,
     }
 
 
@@ -178,7 +194,7 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
                 rows = finished_rows(folder / "evaluation_episodes.csv")
                 table += [study_row([row for row in rows
                                      if row["planner"] == stop_label(planner, rule)],
-                                    name, planner, rule, config.env.max_acquisitions + 1)
+                                    name, planner, rule, request_budget(config, planner))
                           for planner in applies]
         _write_study(out, table, config)
     return table
@@ -193,6 +209,13 @@ def _write_study(out: Path, table: list[dict[str, Any]], config: Config) -> None
     for row in table:
         reference = at_goal.get((row["episodes"], row["planner"]))
         if row["stop"] != "goal" and reference is not None:
+            if row["fixed_plan"]:
+                # Stopped before the plan's end: that of the same episode's run at `goal`.
+                ends = reference["by_episode"]
+                early = {episode for episode, requested in row["by_episode"].items()
+                         if episode in ends and requested < ends[episode]}
+                row["stopped"] = len(early)
+                row["below_goal"] = early & row["missed"]
             to_goal = reference["to_goal"]
             row["extra_vs_goal"] = row["requested"] - statistics.fmean(to_goal.values())
             extra = [requested - to_goal[episode]
@@ -241,7 +264,8 @@ def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
         f"the goal; not run for a planner that decides its own stop), on the mean and per "
         f"episode on the median; the episodes "
         f"that ended before the view budget (by the rule, or the planner itself) and of those "
-        f"the false stops, below the goal where the same planner reaches it at `goal`, and the "
+        f"the false stops (a fixed plan: those that ended before its plan did), below the goal "
+        f"where the same planner reaches it at `goal`, and the "
         f"stops where the goal was out of reach (below it, and the same planner misses it at "
         f"`goal` too, within the budget), and for the episodes whose goal was out of reach the "
         f"requests from the plateau of that run (its first request within "
@@ -260,8 +284,8 @@ def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
                   f"{row['at_goal_pct']:.0f} | {row['coverage_pct']:.2f} | "
                   f"{row['requested']:.2f} | {row['acquisitions']:.2f} | {row['wasted']:.2f} | "
                   f"{_cell(row['extra_vs_goal'], 2)} | "
-                  f"{_cell(row['median_extra_vs_goal'], 1)} | {row['stopped']} | "
-                  f"{row['false_stops']} | {_cell(row['out_of_reach_stops'], 0)} | "
+                  f"{_cell(row['median_extra_vs_goal'], 1)} | {_cell(row['stopped'], 0)} | "
+                  f"{_cell(row['false_stops'], 0)} | {_cell(row['out_of_reach_stops'], 0)} | "
                   f"{_gap(row)} |"
                   for row in table if row["episodes"] == episodes]
     return "\n".join(lines) + "\n"
