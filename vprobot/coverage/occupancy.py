@@ -188,10 +188,14 @@ class OccupancyGrid:
     @functools.cached_property
     def centres(self) -> np.ndarray:
         """The centre of every voxel (3, voxels), flat order, world, float32; read-only."""
-        cells = np.indices(self.shape, dtype=np.float32).reshape(3, -1)
-        centres = (self.origin[:, None] + (cells + 0.5) * self.voxel_m).astype(np.float32)
+        centres = self.centres_of(np.indices(self.shape).reshape(3, -1))
         centres.setflags(write=False)
         return centres
+
+    def centres_of(self, cells: np.ndarray) -> np.ndarray:
+        """The centres (3, n) of the voxels at integer cells (3, n), world, float32."""
+        return (self.origin[:, None] + (cells.astype(np.float32) + 0.5) * self.voxel_m
+                ).astype(np.float32)
 
     def integrate(self, sensor: SensorModel, pose: Pose, points_world: np.ndarray,
                   pixels: np.ndarray, blocked_pixels: np.ndarray | None = None) -> None:

@@ -272,12 +272,12 @@ class _Projectors:
             np.minimum.at(maps, keys[inside], distance[inside])
         return maps.reshape(count, pixels)
 
-    def _normals(self, grid: OccupancyGrid, voxels: np.ndarray) -> np.ndarray:
-        """The surface normal (3, n) at each voxel from its free neighbours; zero without."""
+    def _normals(self, grid: OccupancyGrid, cells: np.ndarray) -> np.ndarray:
+        """The surface normal (3, n) at the voxels of cells (3, n) from their free neighbours;
+        zero without."""
         free = np.pad(grid.state == FREE, 1).reshape(-1).view(np.int8)
-        cells = np.array(np.unravel_index(voxels, grid.shape)) + 1
-        padded = np.ravel_multi_index(cells, self._padded_shape)
-        sums = np.zeros((3, len(voxels)), dtype=np.int16)
+        padded = np.ravel_multi_index(cells + 1, self._padded_shape)
+        sums = np.zeros(cells.shape, dtype=np.int16)
         for offset, flat in zip(_AROUND, self._padded_offsets, strict=True):
             near = np.take(free, padded + flat)
             for axis in np.flatnonzero(offset):
@@ -300,7 +300,8 @@ class _Projectors:
         slots = np.empty(len(marked), dtype=np.int32)
         slots[unique] = np.arange(len(unique), dtype=np.int32)
         slot = slots[voxels]
-        normals = self._normals(grid, unique)
+        cells = np.array(np.unravel_index(unique, grid.shape))
+        normals = self._normals(grid, cells)
         length = np.sqrt((normals * normals).sum(axis=0))
         has_normal = length > 0.0
         np.divide(normals, length, out=normals, where=has_normal)
@@ -309,7 +310,7 @@ class _Projectors:
         entries = np.flatnonzero(has_normal[slot])
         slot, candidates = slot[entries], candidates[entries]
         normal = np.take(normals, slot, axis=1)
-        centres = np.take(np.take(grid.centres, unique, axis=1), slot, axis=1)
+        centres = np.take(grid.centres_of(cells), slot, axis=1)
         view = centres - np.take(self._cameras, candidates, axis=1)
         light = centres - np.take(self._projectors, candidates, axis=1)
         cos_camera = -(view * normal).sum(axis=0) / np.sqrt((view * view).sum(axis=0))
