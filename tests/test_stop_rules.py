@@ -27,7 +27,7 @@ from vprobot.episode import (
     seeded_episode,
     write_episode_list,
 )
-from vprobot.evaluation import CURVE_COLUMNS
+from vprobot.evaluation import CURVE_COLUMNS, plan_path
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, make_planner, run, run_episode
 from vprobot.planners.self_stopping import LearnedStop, stop_subject
@@ -336,6 +336,21 @@ def test_a_fixed_plan_is_counted_to_the_request_after_which_it_reached_the_goal(
     assert rule["median_extra_vs_goal"] == -2
     assert (rule["stopped"], rule["false_stops"], rule["out_of_reach_stops"]) == (3, 1, 1)
     assert rule["plateau_gap_median"] == 4 - 1 - 2
+
+
+def test_a_curve_longer_than_the_episodes_table_is_read_from_the_episodes_plan(
+        tmp_path: Path) -> None:
+    # 13 requests: the table's columns hold 10, the coverage at the end an 11th; the plan JSON
+    # of the row, where the evaluation keeps it, holds every view.
+    coverage = [0.1 * number for number in range(1, 11)] + [0.95, 0.96, 0.97]
+    row = {"episode": 3, "carrier": "robot", "planner": "nbv", "success": True,
+           "coverage_pct": 97.0, "requested": 13, "acquisitions": 13, "views_to_goal": 11,
+           **{key: 100.0 * value for key, value in zip(CURVE_COLUMNS, coverage, strict=False)}}
+    assert study_row([row], "a", "nbv", "goal", 26)["curves"] == {3: None}
+    plan = plan_path(tmp_path, 3, "robot", "nbv")
+    plan.parent.mkdir(parents=True)
+    plan.write_text(json.dumps({"views": [{"coverage": value} for value in coverage]}))
+    assert study_row([row], "a", "nbv", "goal", 26, tmp_path)["curves"] == {3: coverage}
 
 
 def test_the_study_runs_a_rule_only_with_the_planners_it_applies_to() -> None:

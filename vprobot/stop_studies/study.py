@@ -14,6 +14,7 @@ views requested beyond the same planner stopped at the goal (`study.csv`, `study
 
 from __future__ import annotations
 
+import json
 import statistics
 from collections.abc import Sequence
 from pathlib import Path
@@ -25,6 +26,7 @@ from vprobot.evaluation import (
     evaluate,
     evaluation_episodes,
     finished_rows,
+    plan_path,
     stop_label,
 )
 from vprobot.files.atomic import csv_text, folder_lock, save_figure, write_text
@@ -100,21 +102,29 @@ def _shown(planner: str) -> str:
     return planner.replace(str(PACKAGE_DIR.parent) + "/", "")
 
 
-def _curve(row: dict[str, Any]) -> list[float] | None:
-    """An episode row's coverage after each request (fractions), where its table holds them
-    all: the curve's columns, and the coverage at the end for one request more."""
+def _curve(row: dict[str, Any], folder: Path | None) -> list[float] | None:
+    """An episode row's coverage after each request (fractions): the curve's columns, and the
+    coverage at the end for one request more; beyond that, the views of the row's plan JSON in
+    its evaluation `folder` (`plan_path`), where there is one."""
     curve = [row[key] / 100.0 for key in CURVE_COLUMNS]
     if row["requested"] <= len(curve):
         return curve[:row["requested"]]
-    return curve + [row["coverage_pct"] / 100.0] if row["requested"] == len(curve) + 1 else None
+    if row["requested"] == len(curve) + 1:
+        return curve + [row["coverage_pct"] / 100.0]
+    plan = (None if folder is None
+            else plan_path(folder, row["episode"], row["carrier"], row["planner"]))
+    if plan is None or not plan.is_file():
+        return None
+    return [float(view["coverage"]) for view in json.loads(plan.read_text())["views"]]
 
 
 def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop: str,
-              budget: int | None) -> dict[str, Any]:
+              budget: int | None, folder: Path | None = None) -> dict[str, Any]:
     """The study's row of one list, planner and rule from its evaluation's episode rows;
     `budget` is the most requests an episode makes (the initial view's included), None for a
     fixed plan: under `goal` it runs to its end, under a rule its stops are counted against
-    that run, episode by episode (`_write_study`; unknown without it)."""
+    that run, episode by episode (`_write_study`; unknown without it). `folder` is the
+    evaluation's, whose plans hold the curves longer than its table does."""
     early: set[int] | None = (
         {row["episode"] for row in rows if row["requested"] < budget} if budget is not None
         else set() if stop == "goal" else None)
@@ -144,7 +154,7 @@ def study_row(rows: Sequence[dict[str, Any]], episodes: str, planner: str, stop:
         # other rules: a run stopped at the goal ends there, a fixed plan goes on).
         "to_goal": {row["episode"]: row["views_to_goal"] if row["success"] else row["requested"]
                     for row in rows},
-        "curves": {row["episode"]: _curve(row) for row in rows},
+        "curves": {row["episode"]: _curve(row, folder) for row in rows},
         "below_goal": set() if early is None else early & missed,
         "missed": missed,
         "fixed_plan": budget is None,
@@ -194,7 +204,8 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
                 rows = finished_rows(folder / "evaluation_episodes.csv")
                 table += [study_row([row for row in rows
                                      if row["planner"] == stop_label(planner, rule)],
-                                    name, planner, rule, request_budget(config, planner))
+                                    name, planner, rule, request_budget(config, planner),
+                                    folder)
                           for planner in applies]
         _write_study(out, table, config)
     return table
@@ -270,7 +281,8 @@ def markdown(table: Sequence[dict[str, Any]], config: Config) -> str:
         f"`goal` too, within the budget), and for the episodes whose goal was out of reach the "
         f"requests from the plateau of that run (its first request within "
         f"{100 * PLATEAU:g} pp of its highest coverage) to this run's end, median (range), "
-        f"where its episodes table holds the whole curve. Each rule's evaluation is in "
+        f"where its episodes table or its plan JSON holds the whole curve. Each rule's "
+        f"evaluation is in "
         f"`LIST/RULE/`.",
     ]
     for episodes in dict.fromkeys(row["episodes"] for row in table):
