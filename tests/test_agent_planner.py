@@ -75,6 +75,34 @@ def test_agent_is_handed_acquired_points_only(run: Path,
         assert not rows & set(map(tuple, gt))
 
 
+def test_a_decision_runs_the_network_on_one_thread_and_leaves_torchs_threads_as_they_were(
+        run: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import torch
+
+    from vprobot.episode import Episode, PartScene
+    from vprobot.files.paths import DEFAULT_MOTOR
+
+    planner = AgentPlanner(run)
+    predict = planner.agent.model.predict
+    threads: list[int] = []
+
+    def counting(observation: np.ndarray, **kwargs: object) -> tuple:
+        threads.append(torch.get_num_threads())
+        return predict(observation, **kwargs)
+
+    monkeypatch.setattr(planner.agent.model, "predict", counting)
+    episode = Episode(PartScene.load(CONFIG, DEFAULT_MOTOR, resolution=(107, 75)), np.eye(3))
+    planner.reset(episode, np.random.default_rng(0))
+    episode.begin(planner_initial(episode))
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        episode.request(planner.next_view(episode))
+        assert (threads, torch.get_num_threads()) == ([1], 2)
+    finally:
+        torch.set_num_threads(before)
+
+
 def planner_initial(episode: object) -> list:
     from vprobot.episode import seeded_episode
     from vprobot.files.paths import DEFAULT_MOTOR

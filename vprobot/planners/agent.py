@@ -28,6 +28,8 @@ costs the least cycle time.
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -135,8 +137,9 @@ class AgentPlanner(InitialViewPlanner, LearnedStop):
             self.stop_reason = "max views"
             return None
         observation = self.observer.observe(episode, self._rng)
-        action = (self.agent.model.predict(observation, deterministic=True)[0]
-                  if self.nearest is None else np.array(self.nearest_of_best(observation)))
+        with one_thread():
+            action = (self.agent.model.predict(observation, deterministic=True)[0]
+                      if self.nearest is None else np.array(self.nearest_of_best(observation)))
         if self.decides_stop and self.views is None and self.mapping.stops(action):
             self.stop_reason = "stop action"
             return None
@@ -159,6 +162,22 @@ class AgentPlanner(InitialViewPlanner, LearnedStop):
         best = np.argsort(-scores.numpy(), kind="stable")[:self.nearest]
         moves = observation[CANDIDATES_KEY][best, FEATURES.index("joint_move")]
         return int(best[np.argmin(moves)])
+
+
+@contextlib.contextmanager
+def one_thread() -> Iterator[None]:
+    """Torch on one thread inside: a decision is a few small products, which one thread does in
+    about a millisecond, while handing them to two costs more than the work (several times more
+    where another process holds the other core); evaluation workers run one thread anyway."""
+    # Imported here, as in `__init__`: torch comes with the agent.
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
 
 
 def _describe_grid(settings: GridSettings) -> str:
