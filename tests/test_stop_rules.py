@@ -289,7 +289,8 @@ def test_extra_views_and_out_of_reach_stops_are_per_episode_against_the_planner_
     table = [{**row, "count": 3, "at_goal_pct": 0.0, "coverage_pct": 0.0, "acquisitions": 0.0,
               "wasted": 0.0, "extra_vs_goal": None, "stopped": 2, "false_stops": 2,
               "median_extra_vs_goal": None, "out_of_reach_stops": None,
-              "plateau_gap_median": None, "plateau_gap_min": None, "plateau_gap_max": None}
+              "plateau_gap_median": None, "plateau_gap_min": None, "plateau_gap_max": None,
+              "fixed_plan": False}
              for row in (goal, rule, other)]
     _write_study(tmp_path, table, CONFIG)
     assert (table[1]["extra_vs_goal"], table[1]["median_extra_vs_goal"]) == (2.0, 2)
