@@ -104,9 +104,10 @@ def test_sweep_stopped_by_sigterm_resumes_to_its_whole_table(
     """SIGTERM (exit 130, partial table), then a resume: finished trials are never rerun and
     the table and curves are whole. (kill -9 of a Ray driver and its rerun: the distributed
     evaluation's test below; of a training run and its resume: tests/test_agents.py.)"""
-    # 256 steps: four rollouts of PPO's n_steps (no step unused), and long enough (seconds) that
-    # the second trial cannot end while the SIGTERM sent at the first one's end is handled.
-    study, out = _study(tmp_path, 256), tmp_path / "out"
+    # 128 steps: two rollouts of PPO's n_steps (no step unused), and long enough (seconds: the
+    # trial also builds its env, evaluates and draws its curves) that the second trial cannot
+    # end while the SIGTERM sent at the first one's end is handled (about a second).
+    study, out = _study(tmp_path, 128), tmp_path / "out"
     trials = read_study(study).trials(out)
     code, stderr = _terminate(["sweep", str(study), "--out", str(out), "--workers", "1"],
                               lambda: trials[0].finished, tmp_path / "stderr.txt")
@@ -126,7 +127,7 @@ def test_sweep_stopped_by_sigterm_resumes_to_its_whole_table(
     assert all(row["seeds"] == 1 and 0 < row["coverage_pct"] <= 100 for row in table)
     text = (out / "study.md").read_text()
     assert "Partial" not in text
-    assert "1 seed(s) (0), 256 steps each. The paper: 75 000 steps, 3 runs" in text
+    assert "1 seed(s) (0), 128 steps each. The paper: 75 000 steps, 3 runs" in text
     assert len(list(out.glob("*/curves.png"))) == 2
 
 

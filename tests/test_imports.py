@@ -27,6 +27,7 @@ inside a function, executes a module of a higher layer than the importer's.
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -43,11 +44,18 @@ def _module_name(path: Path) -> str:
 MODULES = {_module_name(path): path for path in ROOT.rglob("*.py")}
 
 
+@functools.cache
+def _tree(name: str) -> ast.Module:
+    """Module `name`'s syntax tree, parsed once per test process (read only)."""
+    return ast.parse(MODULES[name].read_text())
+
+
+@functools.cache
 def _import_nodes(name: str, typing: bool = False) -> list[tuple[ast.stmt, set[str], bool]]:
     """Each import statement of module `name` with the vprobot modules it imports and whether
     it is inside a function (lazy). Imports under TYPE_CHECKING never run and are left out,
     unless `typing` (then they count as top-level ones). `from package import sub` counts as
-    importing the submodule."""
+    importing the submodule. Found once per test process (the callers only read it)."""
     path = MODULES[name]
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: list[tuple[ast.stmt, set[str], bool]] = []
@@ -76,7 +84,7 @@ def _import_nodes(name: str, typing: bool = False) -> list[tuple[ast.stmt, set[s
                 visit(child, lazy or isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef
                                                  | ast.Lambda))
 
-    visit(ast.parse(path.read_text()), False)
+    visit(_tree(name), False)
     return found
 
 
@@ -298,7 +306,7 @@ def _lazy_without_reason(name: str) -> list[int]:
     explains: one on the import's line or on the line above the first of a run of imports."""
     lines = MODULES[name].read_text().splitlines()
     starts = set()
-    for node in ast.walk(ast.parse("\n".join(lines))):
+    for node in ast.walk(_tree(name)):
         for field in ("body", "orelse", "finalbody"):
             statements = getattr(node, field, None)
             if isinstance(statements, list):
@@ -326,13 +334,12 @@ def test_every_import_inside_a_function_says_why_it_is_lazy() -> None:
 
 def test_only_the_benchmark_command_imports_benchmarks() -> None:
     """`vprobot cell` and every library module work without `vprobot.benchmarks`."""
-    for name, path in MODULES.items():
+    for name in MODULES:
         if name.startswith("vprobot.benchmarks"):
             continue
         assert not any(module.startswith("vprobot.benchmarks")
                        for module in _top_level_imports(name)), name
-        tree = ast.parse(path.read_text())
-        functions = [node for node in ast.walk(tree)
+        functions = [node for node in ast.walk(_tree(name))
                      if isinstance(node, ast.FunctionDef) and any(
                          isinstance(inner, ast.ImportFrom) and (inner.module or "").startswith(
                              "vprobot.benchmarks") for inner in ast.walk(node))]

@@ -35,7 +35,9 @@ def cache(session_cache: Path) -> Path:
 
 
 def names(objects: list) -> set[str]:
-    return {part_name(item) for item in objects}
+    # Each object once: a training list repeats every source to the size of the largest (5000
+    # procedural instances), and each name resolves the path.
+    return {part_name(item) for item in set(objects)}
 
 
 def episode_key(spec: EpisodeSpec) -> tuple:

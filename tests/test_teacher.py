@@ -287,7 +287,9 @@ def test_a_pretrained_run_evaluates_the_imitation_as_step_0(tmp_path: Path) -> N
 def test_teacher_shards_are_the_same_rolled_out_alone_or_in_two_processes_and_are_shared(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setattr("vprobot.training.pretrain.SHARD_EPISODES", 1)
-    cfg = replace(config("free", teacher_seed=7), "env", resolution=(64, 45))
+    # Episodes of 3 requests (not 10): each state's labels search the remaining cover, the
+    # test's cost, and 6 states of two episodes compare the shards as well as 20.
+    cfg = replace(config("free", teacher_seed=7), "env", resolution=(64, 45), max_acquisitions=3)
     alone = collect(cfg, episodes=2, seed=0, folder=tmp_path / "alone")
     parallel = collect(cfg, episodes=2, seed=1, folder=tmp_path / "two", workers=2)
     assert sorted(path.name for path in (tmp_path / "two").glob("shard-*")) == [
