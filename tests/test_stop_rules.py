@@ -31,7 +31,13 @@ from vprobot.evaluation import CURVE_COLUMNS, plan_path
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, make_planner, run, run_episode
 from vprobot.planners.self_stopping import LearnedStop, stop_subject
-from vprobot.stop_studies.study import _write_study, combinations, request_budget, study_row
+from vprobot.stop_studies.study import (
+    _write_study,
+    combinations,
+    planner_subjects,
+    request_budget,
+    study_row,
+)
 from vprobot.stopping.estimator import BUNDLED_ESTIMATOR, EstimateTracker, load_estimator
 from vprobot.stopping.features import FEATURES
 from vprobot.stopping.rules import StopSubject, make_stop_rule, parse_stop, stop_names
@@ -311,7 +317,8 @@ def test_a_fixed_plan_is_counted_to_the_request_after_which_it_reached_the_goal(
     # (its coverage within 1 pp of its highest from its 3rd request). Under the rule it stops
     # after 6, 5 and 4 requests, each before the plan's end: one view late, a false stop two
     # views early, and out of reach one view after the plateau.
-    assert (request_budget(CONFIG, "uniform10"), request_budget(CONFIG, "nbv")) == (None, 11)
+    subjects = planner_subjects(CONFIG, ["uniform10", "nbv"])
+    assert [request_budget(CONFIG, subject) for subject in subjects.values()] == [None, 11]
     curve = {key: 50.0 for key in CURVE_COLUMNS}
     views = [5, 7, None]
     rows = [{"episode": episode, "success": to_goal is not None, "coverage_pct": 91.0,

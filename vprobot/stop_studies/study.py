@@ -34,7 +34,7 @@ from vprobot.files.paths import PACKAGE_DIR
 from vprobot.planners.runner import make_planner, parse_planner
 from vprobot.planners.self_stopping import stop_subject
 from vprobot.stopping.confidence import PLATEAU, plateau_view
-from vprobot.stopping.rules import make_stop_rule
+from vprobot.stopping.rules import StopSubject, make_stop_rule
 
 DEFAULT_LISTS = ("test-v1", "families-test-v1", "shapes-v1")
 DEFAULT_RULES = ("goal", "estimate", "confident", "grid", "views:5", "agent")
@@ -62,32 +62,45 @@ def list_names(lists: Sequence[str]) -> list[str]:
     return names
 
 
+def planner_subjects(config: Config, planners: Sequence[str]) -> dict[str, StopSubject]:
+    """What a stop rule sees of each planner (`stop_subject`), each planner built once (an
+    agent's is loaded from disk).
+
+    Raises:
+        ValueError: For an unknown planner.
+    """
+    subjects = {}
+    for planner in planners:
+        name, views = parse_planner(planner)
+        subjects[planner] = stop_subject(make_planner(name, config, views))
+    return subjects
+
+
 def combinations(config: Config, planners: Sequence[str], rules: Sequence[str],
-                 estimator: str | Path | None = None) -> list[tuple[str, list[str]]]:
-    """Per rule, the planners it applies to (`goal`: those that do not decide their own stop).
+                 estimator: str | Path | None = None,
+                 subjects: dict[str, StopSubject] | None = None) -> list[tuple[str, list[str]]]:
+    """Per rule, the planners it applies to (`goal`: those that do not decide their own stop);
+    `subjects`: the planners' `planner_subjects`, if already at hand.
 
     Raises:
         ValueError: For an unknown planner or rule, or an estimator that cannot be read.
     """
+    subjects = subjects if subjects is not None else planner_subjects(config, planners)
     chosen = []
     for rule in rules:
         stop = make_stop_rule(rule, config, estimator)
-        applies = []
-        for planner in planners:
-            name, views = parse_planner(planner)
-            made = stop_subject(make_planner(name, config, views))
-            if stop.applies_to(made) and (rule != "goal" or not made.decides_stop):
-                applies.append(planner)
+        applies = [planner for planner in planners
+                   if stop.applies_to(subjects[planner])
+                   and (rule != "goal" or not subjects[planner].decides_stop)]
         if applies:
             chosen.append((rule, applies))
     return chosen
 
 
-def request_budget(config: Config, planner: str) -> int | None:
-    """The most requests an episode of `planner` makes, the initial view's included: the view
-    budget's; None for a fixed plan, which ends where its plan does (its run at `goal`)."""
-    name, views = parse_planner(planner)
-    subject = stop_subject(make_planner(name, config, views))
+def request_budget(config: Config, subject: StopSubject) -> int | None:
+    """The most requests an episode of a planner (its `stop_subject`) makes, the initial
+    view's included: the view budget's; None for a fixed plan, which ends where its plan does
+    (its run at `goal`)."""
     if not subject.stops_at_goal and not subject.decides_stop:
         return None
     return config.env.max_acquisitions + 1
@@ -186,7 +199,8 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
             process.
     """
     names = list_names(episodes)
-    chosen = combinations(config, planners, rules, estimator)
+    subjects = planner_subjects(config, planners)
+    chosen = combinations(config, planners, rules, estimator, subjects)
     if not chosen or not episodes:
         raise ValueError(f"no stop rule of {list(rules)} applies to a planner of "
                          f"{list(planners)}, or no episode list given")
@@ -202,10 +216,12 @@ def stop_study(config: Config, out_dir: str | Path, episodes: Sequence[str] = DE
                          carriers=("robot",), workers=workers, stops=(rule,),
                          estimator=estimator)
                 rows = finished_rows(folder / "evaluation_episodes.csv")
+                # Only the runs at `goal` are read for their curves (the plateau's reference).
                 table += [study_row([row for row in rows
                                      if row["planner"] == stop_label(planner, rule)],
-                                    name, planner, rule, request_budget(config, planner),
-                                    folder)
+                                    name, planner, rule,
+                                    request_budget(config, subjects[planner]),
+                                    folder if rule == "goal" else None)
                           for planner in applies]
         _write_study(out, table, config)
     return table
