@@ -31,7 +31,7 @@ import numpy as np
 
 from vprobot.config import Config, load_config
 from vprobot.episode import seeded_episode
-from vprobot.episode.specs import write_episode_list
+from vprobot.episode.specs import episode_list, write_episode_list
 from vprobot.files.atomic import append_line, csv_text, write_text
 from vprobot.stop_studies.dataset import COLUMNS, read_dataset, rollout
 from vprobot.stopping.estimator import CoverageEstimator, EstimateTracker, load_estimator
@@ -169,8 +169,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.step == "list":
         config = load_config(args.config) if args.config else Config()
-        specs = [seeded_episode(config.env, part, seed, SCALE)
-                 for part in sorted(args.folder.glob("*.stl")) for seed in args.seeds]
+        specs = episode_list(config, sorted(args.folder.glob("*.stl")), args.seeds, SCALE)
         print(write_episode_list(args.out or args.folder / f"{args.folder.name}.json", specs))
     elif args.step == "rollouts":
         rollouts(args.folder, tuple(args.planners), tuple(args.seeds))

@@ -245,8 +245,9 @@ def seeded_episode(env: EnvConfig, part: str | Path, seed: int,
 
 
 def episode_list(config: Config, parts: Sequence[str | Path],
-                 seeds: Sequence[int]) -> list[EpisodeSpec]:
-    """The episodes of every part and seed, part by part.
+                 seeds: Sequence[int], scale: float = 1.0) -> list[EpisodeSpec]:
+    """The episodes of every part and seed, part by part; `scale` multiplies the parts'
+    coordinates (0.001 for meshes in millimetres).
 
     Raises:
         ValueError: If there are no parts or seeds, or a seed is negative.
@@ -256,7 +257,7 @@ def episode_list(config: Config, parts: Sequence[str | Path],
     bad = [seed for seed in seeds if seed < 0]
     if bad:
         raise ValueError(f"seeds must be non-negative integers, got {bad[0]}")
-    return [seeded_episode(config.env, part, seed) for part in parts for seed in seeds]
+    return [seeded_episode(config.env, part, seed, scale) for part in parts for seed in seeds]
 
 
 def write_episode_list(path: str | Path, specs: Sequence[EpisodeSpec]) -> Path:
