@@ -264,11 +264,15 @@ def test_the_episodes_grid_after_each_view_and_its_features_are_those_integrated
             after = reference.counts()["occupied"]
             added = [added[1], (after - before) / max(after, 1)]
         np.testing.assert_array_equal(grid.after(count).state, reference.state)
+        np.testing.assert_array_equal(grid.after(count).measured_from, reference.measured_from)
         row = dict(zip(FEATURES, rows[count - 1], strict=True))
         assert row["occupied"] == reference.counts()["occupied"] / reference.state.size
         assert (row["added_before"], row["added_last"], row["novel_last"]) == (*added, novel)
         np.testing.assert_array_equal(rows[count - 1],
                                       CoverageFeatures(config).update(episode.views[:count]))
     assert 0.0 < novel < 1.0 and 0.0 < added[1] < 1.0
+    # Some voxel was measured from more than one direction, so the readback had bits to undo.
+    bits = reference.measured_from
+    assert (bits & (bits - 1) != 0).any()
     # The counts the episode's grid keeps frame by frame are those of a pass over the grid.
     assert grid.counts() == reference.counts() != OccupancyGrid.for_cell(config).counts()

@@ -11,8 +11,22 @@ import pytest
 
 from vprobot.config import load_config
 from vprobot.config.sensor import SensorModel
-from vprobot.coverage.occupancy import FREE, GAINS, OCCUPIED, UNKNOWN, VOXEL_M, OccupancyGrid
-from vprobot.coverage.view_gains import ViewGains
+from vprobot.coverage.occupancy import (
+    DIRECTIONS,
+    FREE,
+    GAINS,
+    OCCUPIED,
+    UNKNOWN,
+    VOXEL_M,
+    OccupancyGrid,
+)
+from vprobot.coverage.view_gains import (
+    RELEVANT_VISIBILITY,
+    REVISIT_DEG,
+    UNKNOWN_PASS,
+    ViewGains,
+    ray_samples,
+)
 from vprobot.episode.views import band_candidates
 from vprobot.geometry.poses import Pose
 from vprobot.sensing.ideal import IDEAL
@@ -109,3 +123,123 @@ def test_the_ideal_sensors_gains_are_the_cameras_on_random_grids() -> None:
         expected = np.stack([camera.score(grid, gain) for gain in GAINS], axis=1)
         np.testing.assert_allclose(ideal.scores(grid), expected, rtol=1e-12, atol=1e-12)
         np.testing.assert_array_equal(ideal.scores(grid), ideal.camera_scores(grid))
+
+
+def measured_plate(from_direction: np.ndarray | None) -> OccupancyGrid:
+    """The plate's top layer of voxels occupied (their normal +z, from the nine free neighbours
+    above), its points measured from `from_direction` (one of `DIRECTIONS`; None: never)."""
+    grid = plate()
+    z = grid.origin[2] + (np.arange(grid.shape[2]) + 0.5) * VOXEL
+    top = int(np.flatnonzero(z < 0.0)[-1])
+    grid.state[:, :, top] = OCCUPIED
+    if from_direction is not None:
+        index = np.flatnonzero((DIRECTIONS == from_direction).all(axis=1))[0]
+        grid.measured_from[:, :, top] = np.uint32(1) << np.uint32(index)
+    return grid
+
+
+def revisit_gains(grid: OccupancyGrid, pose: Pose, sensing: StructuredLight | None = LIGHT
+                  ) -> float:
+    """The revisit gain of one ray from `pose`, under structured light or the ideal sensor."""
+    gains = ViewGains(grid, SENSOR, [pose], rays=(1, 1),
+                      sensing=IDEAL if sensing is None else sensing)
+    scores, revisits = gains.revisits(grid)
+    np.testing.assert_array_equal(scores, gains.scores(grid))
+    return float(revisits[0])
+
+
+@pytest.mark.parametrize(("angle_deg", "sensed", "ideal"), [
+    (0.0, 0.0, 0.0),    # the direction the plate was measured from
+    (30.0, 0.0, 0.0),   # 30 degrees off: the bin of +z still, seen
+    (40.0, 0.0, 0.0),   # the bin of (1, 0, 1), next to +z's: within REVISIT_DEG, seen
+    (65.0, 0.0, 0.0),   # the bin of (1, 0, 1) still
+    (75.0, 0.0, 1.0),   # +x's bin, 90 degrees from +z: new; past both incidence limits
+])
+def test_a_plate_measured_from_above_gains_a_revisit_only_from_a_new_direction_it_can_measure(
+        angle_deg: float, sensed: float, ideal: float) -> None:
+    # The camera 0.4 m from the origin at angle_deg from the plate's normal; its one ray meets
+    # the first occupied voxel through free space (visibility 1): a revisit weighs 1 or 0.
+    angle = math.radians(angle_deg)
+    pose = looking_at(0.4 * np.array([math.sin(angle), 0.0, math.cos(angle)]), np.zeros(3))
+    grid = measured_plate(np.array([0.0, 0.0, 1.0]))
+    assert revisit_gains(grid, pose) == sensed
+    assert revisit_gains(grid, pose, sensing=None) == ideal
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 30.0, 60.0])
+def test_a_plate_never_measured_gains_a_revisit_of_one_ray_from_every_direction_within_the_limits(
+        angle_deg: float) -> None:
+    angle = math.radians(angle_deg)
+    pose = looking_at(0.4 * np.array([math.sin(angle), 0.0, math.cos(angle)]), np.zeros(3))
+    assert revisit_gains(measured_plate(None), pose) == pytest.approx(1.0)
+    # Measured from below (the plate's back, -z): every direction above is more than 50
+    # degrees from it, a new one.
+    assert revisit_gains(measured_plate(np.array([0.0, 0.0, -1.0])), pose) == pytest.approx(1.0)
+
+
+def test_the_revisit_gain_is_the_visibility_of_each_rays_first_occupied_sample_from_a_new_direction(
+) -> None:
+    """The ideal sensor's revisit gain against a sample-by-sample reference on random grids:
+    along each ray the first sample in an occupied voxel, seen with a visibility of at least
+    `RELEVANT_VISIBILITY` (the product of every earlier sample's chance to pass), counts that
+    visibility when none of the directions its voxel was measured from lies within
+    `REVISIT_DEG` of the direction from its centre to the camera."""
+    config = load_config()
+    grid = OccupancyGrid.for_cell(config)
+    sensor = SensorModel.from_config(config.sensor)
+    poses = [target.pose for target in band_candidates(config, VOXEL_M).targets[::8]]
+    gains = ViewGains(grid, sensor, poses, rays=(8, 6), sensing=IDEAL)
+    rng = np.random.default_rng(1)
+    limit = math.cos(math.radians(REVISIT_DEG))
+    checked = 0
+    for shares in ((0.5, 0.45, 0.05), (0.2, 0.7, 0.1)):
+        grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
+        grid.measured_from[:] = rng.integers(0, 1 << 26, size=grid.shape, dtype=np.uint32) & (
+            rng.integers(0, 1 << 26, size=grid.shape, dtype=np.uint32))
+        directions = sensor.at_resolution((8, 6)).ray_directions
+        expected = np.zeros(len(poses))
+        for candidate, pose in enumerate(poses):
+            _, points = ray_samples(pose, directions, sensor, VOXEL)
+            index = grid.flat_index(points)
+            for ray in range(len(index)):
+                visibility = 1.0
+                for voxel in index[ray]:
+                    state = FREE if voxel < 0 else grid.state.reshape(-1)[voxel]
+                    if state == OCCUPIED:
+                        if visibility >= RELEVANT_VISIBILITY:
+                            cell = np.array(np.unravel_index(voxel, grid.shape))
+                            toward = pose.position - (grid.origin + (cell + 0.5) * VOXEL)
+                            toward /= np.linalg.norm(toward)
+                            bits = int(grid.measured_from.reshape(-1)[voxel])
+                            seen = [DIRECTIONS[bit] for bit in range(26) if bits >> bit & 1]
+                            nearest = DIRECTIONS[np.argmax(DIRECTIONS @ toward)]
+                            if all(nearest @ direction < limit - 1e-9 for direction in seen):
+                                expected[candidate] += visibility
+                                checked += 1
+                        break
+                    visibility *= UNKNOWN_PASS ** 0.5 if state == UNKNOWN else 1.0
+        np.testing.assert_allclose(gains.revisits(grid)[1], expected, rtol=1e-5)
+    assert checked > 50
+
+
+def test_a_frame_marks_each_voxel_it_measured_with_the_direction_to_its_camera() -> None:
+    """`OccupancyGrid.measured_from` after two frames of points on a plane: each voxel holding
+    a point gets, per frame, the bit of the direction among its 26 neighbours' nearest to the
+    direction from its centre to that frame's camera; every other voxel none."""
+    grid = OccupancyGrid.around(np.zeros(3), 0.25, VOXEL)
+    rng = np.random.default_rng(2)
+    points = np.column_stack([rng.uniform(-0.1, 0.1, (200, 2)), np.full(200, -0.004)])
+    cameras = [np.array([0.0, 0.0, 0.4]), np.array([0.3, -0.1, 0.1])]
+    expected = np.zeros(grid.state.size, dtype=np.uint32)
+    for camera in cameras:
+        grid.integrate(SENSOR, looking_at(camera, np.zeros(3)), points,
+                       np.zeros(len(points), dtype=np.int64))
+        for voxel in np.unique(grid.flat_index(points)):
+            cell = np.array(np.unravel_index(voxel, grid.shape))
+            toward = camera - (grid.origin + (cell + 0.5) * VOXEL)
+            cosines = DIRECTIONS @ (toward / np.linalg.norm(toward))
+            expected[voxel] |= np.uint32(1) << np.uint32(np.argmax(cosines))
+    np.testing.assert_array_equal(grid.measured_from.reshape(-1), expected)
+    # The two cameras lie in different bins: every measured voxel holds two bits.
+    measured = expected[expected != 0]
+    assert len(measured) > 50 and (measured & (measured - 1) != 0).all()

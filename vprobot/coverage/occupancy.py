@@ -35,6 +35,13 @@ kinds of voxels they count (`OccupancyGrid.kind_mask`):
 - `frontier`: unknown voxels next to a free one (the border of the explored space);
 - `rear_side`: unknown voxels next to an occupied one (behind or beside seen surfaces).
 
+A grid also keeps, per voxel, the directions its points were measured from
+(`OccupancyGrid.measured_from`): one bit per direction of `DIRECTIONS` (a voxel's 26 neighbours),
+the one nearest the direction from the voxel's centre to the camera of each frame that measured a
+point in it. At a centimetre a voxel, an occupied voxel often holds surface that its first views
+did not measure (an edge, a fillet, a bore's wall seen at a slant); what a view from another
+direction would still measure there is `vprobot.coverage.view_gains`'s revisit gain.
+
 `EpisodeGrid` keeps the grid of one episode, integrating each acquired frame once; the episode
 owns it (`vprobot.episode.Episode.occupancy`), so that the `nbv` planner, the `s_grid` state, the
 `grid` stop rule and the coverage estimate's features read one grid wherever their
@@ -64,6 +71,18 @@ CROSSING_SHARE = 0.25
 former integration, sampling every ray half a voxel apart, put a sample in it on average."""
 Gain = Literal["unknown", "frontier", "rear_side"]
 GAINS: tuple[Gain, ...] = ("unknown", "frontier", "rear_side")
+NEIGHBOUR_OFFSETS = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1)
+                              for dz in (-1, 0, 1) if (dx, dy, dz) != (0, 0, 0)])
+"""The offsets to a voxel's 26 neighbours."""
+DIRECTIONS = NEIGHBOUR_OFFSETS / np.linalg.norm(NEIGHBOUR_OFFSETS, axis=1, keepdims=True)
+"""The directions a voxel's points are measured from, binned (`OccupancyGrid.measured_from`): to
+its 26 neighbours, 35-55 degrees apart."""
+
+
+def nearest_direction(directions: np.ndarray) -> np.ndarray:
+    """The index of the nearest of `DIRECTIONS` to each direction (n, 3; any length)."""
+    return np.argmax(np.asarray(directions, dtype=np.float32) @ DIRECTIONS.T.astype(np.float32),
+                     axis=1)
 
 
 def gain_kinds(state: np.ndarray, neighbours: np.ndarray) -> list[np.ndarray]:
@@ -100,11 +119,14 @@ class OccupancyGrid:
         origin: The cube's lowest corner (world, m).
         voxel_m: Voxel edge (m).
         state: Voxel states (nx, ny, nz), int8.
+        measured_from: Per voxel, a bit per direction of `DIRECTIONS` from which a frame
+            measured a point in it (nx, ny, nz), uint32; zero where none did.
     """
 
     origin: np.ndarray
     voxel_m: float
     state: np.ndarray
+    measured_from: np.ndarray
 
     @classmethod
     def around(cls, center: np.ndarray, half_size_m: float, voxel_m: float = VOXEL_M
@@ -122,7 +144,8 @@ class OccupancyGrid:
         count = math.ceil(2.0 * half_size_m / voxel_m - 1e-9)
         half = count * voxel_m / 2.0
         return cls(np.asarray(center, dtype=float) - half, float(voxel_m),
-                   np.full((count, count, count), UNKNOWN, dtype=np.int8))
+                   np.full((count, count, count), UNKNOWN, dtype=np.int8),
+                   np.zeros((count, count, count), dtype=np.uint32))
 
     @classmethod
     def for_cell(cls, config: Config, voxel_m: float = VOXEL_M) -> OccupancyGrid:
@@ -267,6 +290,14 @@ class OccupancyGrid:
         flat[unknown[crossed]] = FREE
         hits = self.flat_index(points_world)
         flat[hits[hits >= 0]] = OCCUPIED
+        # One direction per voxel and frame: across a voxel the camera's direction turns by
+        # about a degree. Marks instead of sorting the hits.
+        marked = np.zeros(flat.size + 1, dtype=bool)
+        marked[hits] = True  # -1, outside the grid, marks the extra last element
+        voxels = np.flatnonzero(marked[:-1])
+        toward = pose.position.astype(np.float32)[:, None] - np.take(self.centres, voxels, axis=1)
+        self.measured_from.reshape(-1)[voxels] |= np.left_shift(
+            np.uint32(1), nearest_direction(toward.T).astype(np.uint32))
 
 
 def _cell_cube(config: Config) -> tuple[tuple[float, float, float], float]:
@@ -315,6 +346,8 @@ class FrameChange:
     Attributes:
         changed: Flat indices of the voxels whose state it changed.
         previous: Their states before it (int8).
+        redirected: Flat indices of the voxels it measured from a new direction.
+        previous_from: Their `measured_from` before it (uint32).
         novel: Voxels it made occupied: its points' voxels that were not occupied before.
         occupied: Occupied voxels after it.
         informative: Whether the cell did not mostly hide it (fewer blocked pixels than
@@ -323,6 +356,8 @@ class FrameChange:
 
     changed: np.ndarray
     previous: np.ndarray
+    redirected: np.ndarray
+    previous_from: np.ndarray
     novel: int
     occupied: int
     informative: bool
@@ -362,19 +397,22 @@ class EpisodeGrid:
     def update(self, views: Sequence[MeasuredView]) -> None:
         """Integrate the frames of the views not integrated yet (the episode's views so far)."""
         flat = self.grid.state.reshape(-1)
+        directions = self.grid.measured_from.reshape(-1)
         for view in views[len(self.changes):]:
             if view.sensor_pose is None:
                 self.changes.append(None)
                 continue
-            before = flat.copy()
+            before, before_from = flat.copy(), directions.copy()
             self.grid.integrate(self.settings.sensor, view.sensor_pose, view.points_world,
                                 view.pixels, view.blocked_pixels)
             changed = np.flatnonzero(before != flat)
             previous, now = before[changed], flat[changed]
+            redirected = np.flatnonzero(before_from != directions)
             self._counts += np.bincount(now, minlength=3) - np.bincount(previous, minlength=3)
             # Only a frame's own points turn voxels occupied, and none is ever cleared.
             self.changes.append(FrameChange(
-                changed, previous, int(np.count_nonzero(now == OCCUPIED)),
+                changed, previous, redirected, before_from[redirected],
+                int(np.count_nonzero(now == OCCUPIED)),
                 int(self._counts[OCCUPIED]), len(view.blocked_pixels) < len(view.points_world)))
 
     def after(self, count: int) -> OccupancyGrid:
@@ -388,9 +426,10 @@ class EpisodeGrid:
                              f"were integrated")
         if count == len(self.changes):
             return self.grid
-        state = self.grid.state.copy()
-        flat = state.reshape(-1)
+        state, measured_from = self.grid.state.copy(), self.grid.measured_from.copy()
+        flat, directions = state.reshape(-1), measured_from.reshape(-1)
         for change in reversed(self.changes[count:]):
             if change is not None:
                 flat[change.changed] = change.previous
-        return dataclasses.replace(self.grid, state=state)
+                directions[change.redirected] = change.previous_from
+        return dataclasses.replace(self.grid, state=state, measured_from=measured_from)

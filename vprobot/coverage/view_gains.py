@@ -28,6 +28,13 @@ surface there, judged from the grid alone:
 Under structured light the gains sum the samples a candidate sees with a visibility of at least
 `RELEVANT_VISIBILITY`, weighed so (the others, seen less, would add a thirtieth of a ray at most);
 with the ideal sensor no weight applies and the gains are the camera's, the same numbers.
+
+The revisit gain (`ViewGains.revisits`) counts what the unknown does not: the occupied voxels a
+candidate sees (the first occupied voxel along each ray, with a visibility of at least
+`RELEVANT_VISIBILITY`, weighed by it) from a direction more than `REVISIT_DEG` from every
+direction their points were measured from (`OccupancyGrid.measured_from`), where its sensor would
+measure them (lit, within both incidence limits, their normal from the grid as above). A
+centimetre voxel seen once from one side often holds surface that view left unmeasured.
 """
 
 from __future__ import annotations
@@ -36,13 +43,16 @@ import numpy as np
 
 from vprobot.config.sensor import SensorModel
 from vprobot.coverage.occupancy import (
+    DIRECTIONS,
     FREE,
     GAINS,
+    NEIGHBOUR_OFFSETS,
     OCCUPIED,
     UNKNOWN,
     Gain,
     OccupancyGrid,
     gain_kinds,
+    nearest_direction,
 )
 from vprobot.geometry.poses import Pose
 from vprobot.sensing.base import SensingModel
@@ -57,14 +67,18 @@ tail)."""
 SHADOW_PIXEL_VOXELS = 2.0
 """The projector's depth map: voxels per pixel at the working distance (two: a surface of
 occupied voxels leaves no holes in it)."""
+REVISIT_DEG = 50.0
+"""A candidate revisits an occupied voxel when its direction from the voxel lies more than this
+from every direction the voxel's points were measured from: binned to `DIRECTIONS`, a bin and
+its neighbours 35 and 45 degrees off count as seen."""
+_SEEN_NEAR = ((DIRECTIONS @ DIRECTIONS.T >= np.cos(np.deg2rad(REVISIT_DEG)) - 1e-9)
+              @ (1 << np.arange(len(DIRECTIONS)))).astype(np.uint32)
+"""Per direction bin, the bits of the bins within `REVISIT_DEG` of it (itself included)."""
 _KIND_BITS = len(GAINS)
 _CODES = (OCCUPIED + 1) << _KIND_BITS
 _KIND_MASK = (1 << _KIND_BITS) - 1
 _CHUNK_RUNS = 6
 """Runs walked at a time by `_SampleRuns.relevant` before it drops the rays it is done with."""
-_AROUND = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
-                    if (dx, dy, dz) != (0, 0, 0)])
-"""The offsets to a voxel's 26 neighbours."""
 
 
 def sample_distances(sensor: SensorModel, voxel_m: float) -> np.ndarray:
@@ -117,6 +131,7 @@ class ViewGains:
         # Two samples per voxel: each passes an unknown voxel with the root of its chance.
         self._unknown_pass = UNKNOWN_PASS ** 0.5
         self._runs = _SampleRuns(self._index, grid.state.size, self._unknown_pass)
+        self._cameras = np.stack([pose.position for pose in poses]).astype(np.float32)
         self._light = (_Projectors(grid, sensor, poses, sensing)
                        if isinstance(sensing, StructuredLight) else None)
 
@@ -165,6 +180,26 @@ class ViewGains:
         candidates = columns // self.rays
         weights *= self._light.measured(grid, voxels, candidates)
         return self._runs.sums_at(keys, candidates, weights)
+
+    def revisits(self, grid: OccupancyGrid) -> tuple[np.ndarray, np.ndarray]:
+        """`scores`, and every candidate's revisit gain (count,): the visibility of the occupied
+        voxels its rays stop at that it sees from a direction none of their points was measured
+        from (`REVISIT_DEG`) and its sensor would measure. One walk of the rays for both."""
+        keys, voxels, columns, weights = self._runs.relevant(_codes(grid), RELEVANT_VISIBILITY,
+                                                             stops=True)
+        candidates = columns // self.rays
+        # The runs of occupied voxels carry no gain bit: the gains' sums read nothing of them.
+        stops = np.flatnonzero(self._runs.kinds(keys) == 0)
+        toward = (np.take(self._cameras, candidates[stops], axis=0)
+                  - grid.centres_of(np.array(np.unravel_index(voxels[stops], grid.shape))).T)
+        near = _SEEN_NEAR[nearest_direction(toward)]
+        seen_before = np.take(grid.measured_from.reshape(-1), voxels[stops]) & near
+        weights[stops[seen_before != 0]] = 0.0
+        if self._light is not None:
+            weights *= self._light.measured(grid, voxels, candidates)
+        revisit = np.bincount(candidates[stops], weights=weights[stops], minlength=len(self))
+        weights[stops] = 0.0
+        return self._runs.sums_at(keys, candidates, weights), revisit
 
     def measurable(self, grid: OccupancyGrid, candidates: np.ndarray, gain: Gain = "frontier",
                    min_visibility: float = 0.5) -> np.ndarray:
@@ -241,7 +276,8 @@ class _Projectors:
                              / self._pitch).astype(int)
         shape = np.array(grid.shape)
         self._padded_shape = tuple(shape + 2)
-        self._padded_offsets = np.ravel_multi_index((_AROUND + 1).T, self._padded_shape) - int(
+        self._padded_offsets = np.ravel_multi_index(
+            (NEIGHBOUR_OFFSETS + 1).T, self._padded_shape) - int(
             np.ravel_multi_index((1, 1, 1), self._padded_shape))
 
     def _pixels(self, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -278,7 +314,7 @@ class _Projectors:
         free = np.pad(grid.state == FREE, 1).reshape(-1).view(np.int8)
         padded = np.ravel_multi_index(cells + 1, self._padded_shape)
         sums = np.zeros(cells.shape, dtype=np.int16)
-        for offset, flat in zip(_AROUND, self._padded_offsets, strict=True):
+        for offset, flat in zip(NEIGHBOUR_OFFSETS, self._padded_offsets, strict=True):
             near = np.take(free, padded + flat)
             for axis in np.flatnonzero(offset):
                 if offset[axis] > 0:
@@ -414,11 +450,12 @@ class _SampleRuns:
         bits, as `_CODES` is a multiple of their range."""
         return keys & _KIND_MASK
 
-    def relevant(self, codes: np.ndarray, threshold: float
+    def relevant(self, codes: np.ndarray, threshold: float, stops: bool = False
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The runs a gain counts (of a voxel with a gain bit) seen with a visibility of at
         least `threshold`: their keys, voxels, columns and the visibility before them, run by
-        run (as `visibility`'s rows in single precision, the same products).
+        run (as `visibility`'s rows in single precision, the same products); with `stops`
+        also the runs of occupied voxels so seen, where their rays stop.
 
         Visibility only falls along a ray, and a ray never comes back into the grid, so the
         runs are walked `_CHUNK_RUNS` at a time over the rays still seen that well and still
@@ -436,7 +473,10 @@ class _SampleRuns:
             seen[0] = before
             for run in range(1, len(seen)):
                 np.multiply(passes[run - 1], seen[run - 1], out=seen[run])
-            flat = np.flatnonzero((self.kinds(keys) != 0) & (seen >= threshold))
+            counted = self.kinds(keys) != 0
+            if stops:
+                counted |= passes == 0.0  # only an occupied run lets nothing through
+            flat = np.flatnonzero(counted & (seen >= threshold))
             found.append((keys.reshape(-1)[flat], voxels.reshape(-1)[flat],
                           live[flat % len(live)], seen.reshape(-1)[flat]))
             after = passes[-1] * seen[-1]
