@@ -189,16 +189,21 @@ class ViewGains:
                                                              stops=True)
         candidates = columns // self.rays
         # The runs of occupied voxels carry no gain bit: the gains' sums read nothing of them.
-        stops = np.flatnonzero(self._runs.kinds(keys) == 0)
+        stop = self._runs.kinds(keys) == 0
+        stops = np.flatnonzero(stop)
         toward = (np.take(self._cameras, candidates[stops], axis=0)
                   - grid.centres_of(np.array(np.unravel_index(voxels[stops], grid.shape))).T)
         near = _SEEN_NEAR[nearest_direction(toward)]
-        seen_before = np.take(grid.measured_from.reshape(-1), voxels[stops]) & near
-        weights[stops[seen_before != 0]] = 0.0
+        # Stops seen from a direction already measured are dropped before their sensing is
+        # worked out: most of them, once a few views were taken.
+        stop[stops[(np.take(grid.measured_from.reshape(-1), voxels[stops]) & near) != 0]] = False
+        kept = np.flatnonzero((self._runs.kinds(keys) != 0) | stop)
+        keys, voxels, candidates, weights, stop = (keys[kept], voxels[kept], candidates[kept],
+                                                   weights[kept], stop[kept])
         if self._light is not None:
             weights *= self._light.measured(grid, voxels, candidates)
-        revisit = np.bincount(candidates[stops], weights=weights[stops], minlength=len(self))
-        weights[stops] = 0.0
+        revisit = np.bincount(candidates[stop], weights=weights[stop], minlength=len(self))
+        weights[stop] = 0.0
         return self._runs.sums_at(keys, candidates, weights), revisit
 
     def measurable(self, grid: OccupancyGrid, candidates: np.ndarray, gain: Gain = "frontier",
