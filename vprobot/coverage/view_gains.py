@@ -189,7 +189,8 @@ class ViewGains:
                                                              stops=True)
         candidates = columns // self.rays
         # The runs of occupied voxels carry no gain bit: the gains' sums read nothing of them.
-        stop = self._runs.kinds(keys) == 0
+        counted = self._runs.kinds(keys) != 0
+        stop = ~counted
         stops = np.flatnonzero(stop)
         toward = (np.take(self._cameras, candidates[stops], axis=0)
                   - grid.centres_of(np.array(np.unravel_index(voxels[stops], grid.shape))).T)
@@ -197,7 +198,7 @@ class ViewGains:
         # Stops seen from a direction already measured are dropped before their sensing is
         # worked out: most of them, once a few views were taken.
         stop[stops[(np.take(grid.measured_from.reshape(-1), voxels[stops]) & near) != 0]] = False
-        kept = np.flatnonzero((self._runs.kinds(keys) != 0) | stop)
+        kept = np.flatnonzero(counted | stop)
         keys, voxels, candidates, weights, stop = (keys[kept], voxels[kept], candidates[kept],
                                                    weights[kept], stop[kept])
         if self._light is not None:
