@@ -54,6 +54,27 @@ def serial_evaluation(session_cache: Path, tmp_path_factory: pytest.TempPathFact
 
 
 @pytest.fixture(scope="session")
+def default_plans(session_cache: Path, tmp_path_factory: pytest.TempPathFactory
+                  ) -> dict[str, Path]:
+    """`vprobot plan --carrier CARRIER --no-summary` of the bundled motor (the default planner
+    and seed) with the UR10 in the loop (`robot`) and with a free sensor (`free`), made once per
+    test run in a test process (the first worker to need them; the other waits for them), for
+    the viewer's tests. Read only."""
+    from vprobot.cli import main
+
+    folder = _run_folder(tmp_path_factory) / "default-plans"
+    made = {carrier: folder / f"{carrier}.json" for carrier in ("robot", "free")}
+    with waiting_lock(folder.parent / "default-plans.lock"):
+        # Each plan is written whole (atomically) while the lock is held: present means done.
+        for carrier, plan in made.items():
+            if not plan.is_file():
+                folder.mkdir(exist_ok=True)
+                assert main(["plan", "--out", str(plan), "--carrier", carrier,
+                             "--no-summary"]) == 0
+    return made
+
+
+@pytest.fixture(scope="session")
 def smoke_runs(session_cache: Path, tmp_path_factory: pytest.TempPathFactory) -> SmokeRuns:
     """Trains (once per session) 64 steps of the CPU profile with `TINY_TRAINING`, an
     algorithm, an encoder and a robot state, evaluating and checkpointing at the end; gives its
