@@ -16,8 +16,15 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
-from helpers import SERIAL_EVALUATION, TINY_TRAINING, SmokeRuns
+from helpers import (
+    SERIAL_EVALUATION,
+    TINY_TRAINING,
+    SmokeRuns,
+    held_out_test_objects,
+    shape_descriptor,
+)
 
 from vprobot.files.atomic import waiting_lock
 from vprobot.files.paths import CACHE_ENV_VAR
@@ -51,6 +58,46 @@ def serial_evaluation(session_cache: Path, tmp_path_factory: pytest.TempPathFact
         if not (folder / "evaluation.md").is_file():
             assert main([*SERIAL_EVALUATION, "--out", str(folder)]) == 0
     return folder
+
+
+@pytest.fixture(scope="session")
+def held_out_descriptors(tmp_path_factory: pytest.TempPathFactory
+                         ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """`shape_descriptor` of each of helpers' `held_out_test_objects()`, in order, computed
+    once per test run (building the 32 family instances takes seconds) in a test process (the
+    first worker to need them; the other waits for them) for tests/test_procedural.py and
+    tests/test_manifold.py. Stored as written (float64): the same numbers. Read only."""
+    path = _run_folder(tmp_path_factory) / "held-out-descriptors.npz"
+    with waiting_lock(path.with_suffix(".lock")):
+        # Written whole while the lock is held: present means done.
+        if not path.is_file():
+            descriptors = [shape_descriptor(mesh) for mesh in held_out_test_objects()]
+            with path.open("wb") as stream:
+                np.savez(stream, **{name: np.array([one[part] for one in descriptors])
+                                    for part, name in enumerate(("d2", "angles", "sizes"))})
+        with np.load(path) as stored:
+            return list(zip(stored["d2"], stored["angles"], stored["sizes"], strict=True))
+
+
+@pytest.fixture(scope="session")
+def default_plans(session_cache: Path, tmp_path_factory: pytest.TempPathFactory
+                  ) -> dict[str, Path]:
+    """`vprobot plan --carrier CARRIER --no-summary` of the bundled motor (the default planner
+    and seed) with the UR10 in the loop (`robot`) and with a free sensor (`free`), made once per
+    test run in a test process (the first worker to need them; the other waits for them), for
+    the viewer's tests. Read only."""
+    from vprobot.cli import main
+
+    folder = _run_folder(tmp_path_factory) / "default-plans"
+    made = {carrier: folder / f"{carrier}.json" for carrier in ("robot", "free")}
+    with waiting_lock(folder.parent / "default-plans.lock"):
+        # Each plan is written whole (atomically) while the lock is held: present means done.
+        for carrier, plan in made.items():
+            if not plan.is_file():
+                folder.mkdir(exist_ok=True)
+                assert main(["plan", "--out", str(plan), "--carrier", carrier,
+                             "--no-summary"]) == 0
+    return made
 
 
 @pytest.fixture(scope="session")

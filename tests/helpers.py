@@ -112,11 +112,15 @@ def likeness(a: tuple[np.ndarray, ...], b: tuple[np.ndarray, ...]) -> float:
                np.abs(a[2] - b[2]).max() / np.log(1.15))
 
 
+HELD_OUT_FAMILIES = ("bracket", "pipe_fitting", "pulley", "valve_body")
+HELD_OUT_SEEDS = range(20000, 20008)
+
+
 def held_out_test_objects() -> list[trimesh.Trimesh]:
     """The held-out test objects that no training part may nearly duplicate (`likeness`):
-    instances 20000-20007 of each test family and the three test shapes."""
+    instances 20000-20007 of each test family and the three test shapes (the first: instance
+    20000 of the first family). Their descriptors: conftest's `held_out_descriptors`."""
     tests = [FAMILIES[family].instance(seed).mesh
-             for family in ("bracket", "pipe_fitting", "pulley", "valve_body")
-             for seed in range(20000, 20008)]
+             for family in HELD_OUT_FAMILIES for seed in HELD_OUT_SEEDS]
     return tests + [trimesh.load(OBJECTS_DIR / f"{name}.stl")
                     for name in ("bracket", "pipe_tee", "torus")]

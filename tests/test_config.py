@@ -9,6 +9,7 @@ import pytest
 from vprobot.cli import main
 from vprobot.config import Config, ConfigError, from_mapping, load_config, replace
 from vprobot.files.paths import CONFIGS_DIR
+from vprobot.files.schema import read_yaml
 
 
 @pytest.mark.parametrize("path", sorted(CONFIGS_DIR.glob("*.yaml")), ids=lambda p: p.name)
@@ -107,3 +108,24 @@ def test_every_yaml_reader_names_the_file_and_line_of_a_syntax_error(tmp_path: P
             reader(tmp_path / name)
     with pytest.raises(ConfigError, match=r"override 'env\.mesh=\[a': not valid YAML"):
         parse_overrides(["env.mesh=[a"])
+
+
+def test_a_yaml_file_read_again_is_a_document_of_its_own_and_a_changed_one_is_read_anew(
+        tmp_path: Path) -> None:
+    """read_yaml parses a text once (its parse is shared): each read still gets a document
+    that no other read's change reaches, and the file's new text once it changes."""
+    path = tmp_path / "config.yaml"
+    path.write_text("env:\n  seed: 3\n  list: &l [1, 2]\n  again: *l\n")
+    first = read_yaml(path)
+    first["env"]["seed"] = 4
+    first["env"]["list"].append(3)
+    second = read_yaml(path)
+    assert second == {"env": {"seed": 3, "list": [1, 2], "again": [1, 2]}}
+    assert second["env"]["list"] is second["env"]["again"]  # an alias, as PyYAML reads it
+    path.write_text("env:\n  seed: 5\n")
+    assert read_yaml(path) == {"env": {"seed": 5}}
+    # An error is raised at every read, not only the first.
+    path.write_text("env: [\n")
+    for _ in range(2):
+        with pytest.raises(ConfigError, match="not valid YAML"):
+            read_yaml(path)

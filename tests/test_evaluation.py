@@ -21,6 +21,7 @@ from vprobot.config import Config, load_config
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import (
     BUNDLED_TEST_EPISODES,
+    Episode,
     EpisodeRecord,
     EpisodeSpec,
     ViewRecord,
@@ -48,8 +49,10 @@ from vprobot.evaluation import (
 from vprobot.files.paths import DEFAULT_MOTOR, OBJECTS_DIR
 from vprobot.geometry.poses import Pose
 from vprobot.kinematics.trajectory import CycleTime, TimedPlan
+from vprobot.planners import candidates as candidates_module
 from vprobot.planners.base import PLANNERS, Planner
 from vprobot.planners.bscp import SetCoverPlanner
+from vprobot.planners.candidates import CandidateViews
 from vprobot.planners.optimum import OptimumPlanner
 from vprobot.planners.proof import Proof
 from vprobot.planners.runner import EpisodeResult, make_planner, run
@@ -857,6 +860,24 @@ def test_each_planner_is_built_once_per_run_and_gives_the_rows_of_fresh_ones(
             return _original(config, views, **params)
 
         monkeypatch.setattr(PLANNERS[name], "from_name", counted)
+    # bscp's candidates (seconds of visibility rendering an episode) built once per episode for
+    # both runs: they are the episode's, not the planner's (`candidate_views` builds them per
+    # episode whether the planner is new or not), and the same episode gives the same ones.
+    built_candidates: dict[tuple[object, ...], CandidateViews] = {}
+    build_candidates = candidates_module._build_candidates
+
+    def candidates_once(episode: Episode, count: int, resolution: tuple[int, int],
+                        screened: Any) -> CandidateViews:
+        assert screened is None
+        pose = episode.object_pose
+        key = (str(episode.scene.mesh.path), pose.position.tobytes(), pose.rotation.tobytes(),
+               episode.q.tobytes(), episode.uses_robot, count, tuple(resolution))
+        if key not in built_candidates:
+            built_candidates[key] = build_candidates(episode, count, resolution, screened)
+        # As built: no acquisition simulated yet.
+        return dataclasses.replace(built_candidates[key], previews={})
+
+    monkeypatch.setattr(candidates_module, "_build_candidates", candidates_once)
     specs = evaluation_episodes(CONFIG, parts=[DEFAULT_MOTOR], seeds=[0, 1])
     evaluate(CONFIG, names, specs, tmp_path / "once", progress=False, carriers=["free"])
     assert built == dict.fromkeys(names, 1)
@@ -873,3 +894,4 @@ def test_each_planner_is_built_once_per_run_and_gives_the_rows_of_fresh_ones(
                    for folder in ("once", "fresh"))
     assert len(once) == len(names) * len(specs)
     assert moved_cells(again, once, ("episode", "planner", "carrier"))[0] == []
+    assert len(built_candidates) == len(specs)

@@ -431,12 +431,25 @@ def test_the_robots_view_band_is_screened_once_per_cell_and_read_back_from_the_c
         uniform.view_band.cache_clear()
 
 
-def test_uniform_targets_beyond_the_usable_band_name_the_count_and_the_way_out() -> None:
+def test_uniform_targets_beyond_the_usable_band_name_the_count_and_the_way_out(
+        monkeypatch: pytest.MonkeyPatch) -> None:
     """The Panda cannot hold the PhoXi M at its working distance (0.79 m) around the motor:
     neither around the largest object the cell fits nor around the part itself does the band
     leave 4 views, and the error says how many are usable and what to do, not an index range."""
-    from vprobot.planners.uniform import episode_band, uniform_targets, view_band
+    from vprobot.planners import uniform
+    from vprobot.planners.uniform import uniform_targets, view_band
 
+    # The episode's band screened once (seconds of inverse kinematics), here and again in
+    # uniform_targets: the same episode in the same configuration, so the same band.
+    screened: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    original = uniform.episode_band
+
+    def episode_band(config: Config, episode: Episode) -> tuple[np.ndarray, np.ndarray]:
+        if id(episode) not in screened:
+            screened[id(episode)] = original(config, episode)
+        return screened[id(episode)]
+
+    monkeypatch.setattr(uniform, "episode_band", episode_band)
     config = replace(with_sensing(with_sensor(CONFIG, "phoxi_m"), "ideal"), "cell",
                      robot="panda")
     episode = Episode.from_spec(PartScene.load(config, DEFAULT_MOTOR, resolution=(43, 30)),

@@ -22,13 +22,17 @@ from vprobot.render import episode_from_plan
 RESOLUTION = (107, 75)
 
 
-@pytest.fixture
-def zivid(tmp_path: Path) -> Path:
-    """A config with the Zivid preset (structured light by default) at a low resolution."""
-    config = tmp_path / "zivid.yaml"
+def _zivid_config(folder: Path) -> Path:
+    config = folder / "zivid.yaml"
     config.write_text(f"sensor:\n  preset: zivid2plus_mr60\n  resolution: [{RESOLUTION[0]}, "
                       f"{RESOLUTION[1]}]\n")
     return config
+
+
+@pytest.fixture
+def zivid(tmp_path: Path) -> Path:
+    """A config with the Zivid preset (structured light by default) at a low resolution."""
+    return _zivid_config(tmp_path)
 
 
 def _plan(config: Path, out: Path, *sensing: str) -> dict:
@@ -38,9 +42,18 @@ def _plan(config: Path, out: Path, *sensing: str) -> dict:
     return json.loads(out.read_text())
 
 
-def test_plan_takes_the_presets_model_and_sensing_replaces_it(zivid: Path,
-                                                              tmp_path: Path) -> None:
-    structured = _plan(zivid, tmp_path / "structured.json")
+@pytest.fixture(scope="module")
+def zivid_plan(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    """`_plan` with the `zivid` config (its preset's structured light), made once for the
+    module's tests that read it: the plan file and its document. Read only."""
+    folder = tmp_path_factory.mktemp("zivid")
+    plan = folder / "structured.json"
+    return plan, _plan(_zivid_config(folder), plan)
+
+
+def test_plan_takes_the_presets_model_and_sensing_replaces_it(
+        zivid: Path, zivid_plan: tuple[Path, dict], tmp_path: Path) -> None:
+    structured = zivid_plan[1]
     ideal = _plan(zivid, tmp_path / "ideal.json", "--sensing", "ideal")
     assert structured["sensor"]["sensing"] == "structured_light"
     assert structured["sensor"]["structured_light"]["baseline_m"] == 0.15
@@ -53,10 +66,9 @@ def test_plan_takes_the_presets_model_and_sensing_replaces_it(zivid: Path,
 
 
 def test_render_replays_a_plan_with_the_model_it_was_made_with(
-        zivid: Path, tmp_path: Path, capsys: pytest.CaptureFixture,
+        zivid_plan: tuple[Path, dict], tmp_path: Path, capsys: pytest.CaptureFixture,
         monkeypatch: pytest.MonkeyPatch) -> None:
-    plan = tmp_path / "plan.json"
-    document = _plan(zivid, plan)
+    plan, document = zivid_plan
     replayed: list[EpisodeRecord] = []
 
     def recording_replay(*args: Any, **kwargs: Any) -> tuple[PartScene, EpisodeRecord]:

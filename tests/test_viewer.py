@@ -53,15 +53,10 @@ def test_each_geom_is_drawn_as_a_closed_surface_of_its_volume_where_mujoco_puts_
 
 
 @pytest.fixture(scope="module")
-def plans(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """A plan of the bundled motor with the UR10 in the loop, and one with a free sensor."""
-    folder = tmp_path_factory.mktemp("plans")
-    made = {}
-    for carrier in ("robot", "free"):
-        made[carrier] = folder / f"{carrier}.json"
-        assert main(["plan", "--out", str(made[carrier]), "--carrier", carrier,
-                     "--no-summary"]) == 0
-    return made
+def plans(default_plans: dict[str, Path]) -> dict[str, Path]:
+    """A plan of the bundled motor with the UR10 in the loop, and one with a free sensor
+    (conftest's `default_plans`, shared with tests/test_viewer_browser.py)."""
+    return default_plans
 
 
 def test_the_page_records_the_robots_timed_cycle(plans: dict[str, Path]) -> None:

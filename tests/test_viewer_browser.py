@@ -44,13 +44,14 @@ def browser() -> Iterator[object]:
 
 
 @pytest.fixture(scope="module")
-def pages(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """Plans of the bundled motor (the UR10 in the loop; a free sensor) and their pages."""
+def pages(tmp_path_factory: pytest.TempPathFactory, default_plans: dict[str, Path]
+          ) -> dict[str, Path]:
+    """Plans of the bundled motor (the UR10 in the loop; a free sensor: conftest's
+    `default_plans`, shared with tests/test_viewer.py) and their pages."""
     folder = tmp_path_factory.mktemp("pages")
     made = {}
     for carrier in ("robot", "free"):
-        plan = folder / f"{carrier}.json"
-        assert main(["plan", "--out", str(plan), "--carrier", carrier, "--no-summary"]) == 0
+        plan = default_plans[carrier]
         assert main(["view", str(plan), "--html", str(folder / f"{carrier}.html")]) == 0
         made[carrier], made[f"{carrier}.html"] = plan, folder / f"{carrier}.html"
     return made

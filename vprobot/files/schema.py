@@ -7,7 +7,9 @@ importing the config.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 import math
 import reprlib
 import types
@@ -162,7 +164,16 @@ def read_yaml(path: str | Path) -> Any:
         text = Path(path).read_text()
     except UnicodeDecodeError:
         raise ConfigError(f"{path}: not valid YAML: not UTF-8 text") from None
-    return parse_yaml(text, str(path))
+    # A document of the caller's own: the parse is shared by every read of the same text.
+    return copy.deepcopy(_parsed_yaml(text, str(path)))
+
+
+@functools.lru_cache(maxsize=32)
+def _parsed_yaml(text: str, source: str) -> Any:
+    """`parse_yaml`, once per text and source: a process reads the same configs again and again
+    (each `load_config` reads its file and the default config; PyYAML takes tens of ms a
+    config). Errors are not kept: they are raised anew each time."""
+    return parse_yaml(text, source)
 
 
 def check_within(key: str, value: float, low: float, high: float, unit: str) -> None:
