@@ -423,7 +423,7 @@ def test_first_hits_are_trimeshs() -> None:
 def test_projective_integration_classifies_as_the_sampled_reference_within_one_percent() -> None:
     """The grid's integration (each unknown voxel projected into the frame) against the
     reference it replaced (`sampled_integration`: every ray sampled half a voxel apart), on a
-    box on a plate seen by a 120 x 100 sensor from five poses around it, part of one frame
+    box on a plate seen by a 240 x 200 sensor from five poses around it, part of one frame
     blocked (1 cm voxels, as the cells' grids): the same voxels occupied, and at most 1.5 % of
     the voxels classified otherwise (1.23 %: the frustum's borders cut more of this small grid
     than of the cells', where `vprobot benchmark grid` measures 0.7-0.9 % on the test lists)."""
