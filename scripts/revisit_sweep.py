@@ -23,7 +23,6 @@ import numpy as np
 
 from vprobot.config import load_config
 from vprobot.coverage import view_gains
-from vprobot.coverage.occupancy import DIRECTIONS
 from vprobot.episode import PartScene
 from vprobot.evaluation import evaluation_episodes
 from vprobot.planners import nbv
@@ -38,8 +37,7 @@ def _setting(config_path: str, episodes: str, weight: float, angle_deg: float
              ) -> list[dict[str, object]]:
     """Every episode of the list under one setting."""
     nbv.REVISIT_WEIGHT = weight
-    view_gains._SEEN_NEAR = ((DIRECTIONS @ DIRECTIONS.T >= np.cos(np.deg2rad(angle_deg)) - 1e-9)
-                             @ (1 << np.arange(len(DIRECTIONS)))).astype(np.uint32)
+    view_gains._SEEN_NEAR = view_gains.seen_near(angle_deg)
     config = load_config(config_path)
     rows = []
     for index, spec in enumerate(evaluation_episodes(config, episodes=episodes)):

@@ -71,9 +71,16 @@ REVISIT_DEG = 50.0
 """A candidate revisits an occupied voxel when its direction from the voxel lies more than this
 from every direction the voxel's points were measured from: binned to `DIRECTIONS`, a bin and
 its neighbours 35 and 45 degrees off count as seen."""
-_SEEN_NEAR = ((DIRECTIONS @ DIRECTIONS.T >= np.cos(np.deg2rad(REVISIT_DEG)) - 1e-9)
-              @ (1 << np.arange(len(DIRECTIONS)))).astype(np.uint32)
-"""Per direction bin, the bits of the bins within `REVISIT_DEG` of it (itself included)."""
+
+
+def seen_near(angle_deg: float) -> np.ndarray:
+    """Per direction bin of `DIRECTIONS`, the bits of the bins within `angle_deg` of it (itself
+    included): uint32."""
+    near = DIRECTIONS @ DIRECTIONS.T >= np.cos(np.deg2rad(angle_deg)) - 1e-9
+    return (near @ (1 << np.arange(len(DIRECTIONS)))).astype(np.uint32)
+
+
+_SEEN_NEAR = seen_near(REVISIT_DEG)
 _KIND_BITS = len(GAINS)
 _CODES = (OCCUPIED + 1) << _KIND_BITS
 _KIND_MASK = (1 << _KIND_BITS) - 1
