@@ -36,8 +36,8 @@ from vprobot.episode import PartScene
 from vprobot.episode.views import band_candidates
 from vprobot.evaluation import evaluation_episodes
 from vprobot.geometry.poses import Pose
+from vprobot.planners.nbv import VolumetricPlanner
 from vprobot.planners.runner import run
-from vprobot.sensing.structured_light import StructuredLight
 
 LISTS = ("test-v1", "families-test-v1", "shapes-v1")
 TARGET_DIFFER_PCT = 1.0
@@ -98,7 +98,7 @@ def run_grid_benchmark(config: Config, lists: tuple[str, ...] = LISTS,
     later_ms: dict[str, list[float]] = {"projected": [], "sampled": []}
     decision_ms: dict[str, list[float]] = {"integrate": [], "sensed": [], "revisits": [],
                                            "camera": [], "sampled": [], "sample_by_sample": []}
-    revisits = isinstance(config.sensor.sensing_model, StructuredLight)
+    revisits = VolumetricPlanner(config).revisits  # what nbv scores by
     gains = band_candidates(config, VOXEL_M).gains
     for name in lists:
         specs = evaluation_episodes(config, episodes=name)

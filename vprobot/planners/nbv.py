@@ -72,6 +72,8 @@ class VolumetricPlanner(InitialViewPlanner, SelfStopping):
     Attributes:
         settings: The settings of the episode's grid it reads (`Episode.occupancy`).
         stop_rule: The rule it stops itself by; None under `goal`.
+        revisits: Whether it adds the revisit gain (`REVISIT_WEIGHT`): it scores what the sensor
+            measures, and the sensor is a structured-light one.
     """
 
     name = "nbv"
@@ -96,6 +98,7 @@ class VolumetricPlanner(InitialViewPlanner, SelfStopping):
                 raise ValueError(f"nbv@{stop}: {error}") from None
         self.voxel_m = voxel_m
         self.settings = GridSettings.of(config, voxel_m=voxel_m)
+        self.revisits = self.sensed and isinstance(config.sensor.sensing_model, StructuredLight)
         self._begin()
 
     @classmethod
@@ -131,7 +134,7 @@ class VolumetricPlanner(InitialViewPlanner, SelfStopping):
         column = GAINS.index(self.gain)
         if not self.sensed:
             gains = band.gains.score(grid, self.gain)
-        elif isinstance(self.config.sensor.sensing_model, StructuredLight):
+        elif self.revisits:
             scores, revisits = band.gains.revisits(grid)
             gains = scores[:, column] + REVISIT_WEIGHT * revisits
         else:
