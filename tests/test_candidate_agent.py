@@ -114,7 +114,8 @@ def candidate_config(robot: bool, **changes: Any) -> Config:
 
 
 REAL_ROWS = (128, 19)
-"""The inspect env's candidate rows: the 128 band candidates, 19 features each."""
+"""The inspect env's candidate rows with the paper's sensor: the 128 band candidates, 19 features
+each (`grid_state.FEATURES`)."""
 
 
 @pytest.fixture(scope="module")

@@ -143,7 +143,7 @@ def revisit_gains(grid: OccupancyGrid, pose: Pose, sensing: StructuredLight | No
     """The revisit gain of one ray from `pose`, under structured light or the ideal sensor."""
     gains = ViewGains(grid, SENSOR, [pose], rays=(1, 1),
                       sensing=IDEAL if sensing is None else sensing)
-    scores, revisits = gains.revisits(grid)
+    scores, revisits, _ = gains.revisits(grid)
     np.testing.assert_array_equal(scores, gains.scores(grid))
     return float(revisits[0])
 

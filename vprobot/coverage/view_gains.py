@@ -35,9 +35,18 @@ candidate sees (the first occupied voxel along each ray, with a visibility of at
 direction their points were measured from (`OccupancyGrid.measured_from`), where its sensor would
 measure them (lit, within both incidence limits, their normal from the grid as above). A
 centimetre voxel seen once from one side often holds surface that view left unmeasured.
+
+The same walk bounds what is left (`SensedGains.measurable`): the distinct voxels that some of a
+given set of candidates (the reachable ones) would measure, unknown ones or occupied ones seen from
+a new direction, each seen with a visibility of at least `MEASURABLE_VISIBILITY` and inside the
+box that bounds the occupied voxels (about the part seen, not the cell's empty corners). Counted
+against the occupied voxels, it says how much of the surface known so far is still to measure
+(`measurable_share`); where it is near zero, no candidate would add much.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -78,6 +87,31 @@ def seen_near(angle_deg: float) -> np.ndarray:
     included): uint32."""
     near = DIRECTIONS @ DIRECTIONS.T >= np.cos(np.deg2rad(angle_deg)) - 1e-9
     return (near @ (1 << np.arange(len(DIRECTIONS)))).astype(np.uint32)
+
+
+MEASURABLE_VISIBILITY = 0.5
+"""The bound (`SensedGains.measurable`) counts the voxels a candidate sees at least this well:
+through free space and at most one unknown voxel."""
+
+
+class SensedGains(NamedTuple):
+    """What `ViewGains.revisits` works out in one walk of the rays.
+
+    Attributes:
+        scores: Every gain of every candidate (count, len(GAINS)) as its sensor would measure it.
+        revisit: Every candidate's revisit gain (count,).
+        measurable: How many distinct voxels the given candidates would measure (the bound).
+    """
+
+    scores: np.ndarray
+    revisit: np.ndarray
+    measurable: int
+
+
+def measurable_share(measurable: int, occupied: int) -> float:
+    """The share of the surface known so far (the occupied voxels and the measurable ones) that
+    is still to measure: in [0, 1), 0 when nothing is measurable."""
+    return measurable / (measurable + occupied) if measurable else 0.0
 
 
 _SEEN_NEAR = seen_near(REVISIT_DEG)
@@ -188,43 +222,53 @@ class ViewGains:
         weights *= self._light.measured(grid, voxels, candidates)
         return self._runs.sums_at(keys, candidates, weights)
 
-    def revisits(self, grid: OccupancyGrid) -> tuple[np.ndarray, np.ndarray]:
-        """`scores`, and every candidate's revisit gain (count,): the visibility of the occupied
+    def revisits(self, grid: OccupancyGrid, candidates: np.ndarray | None = None
+                 ) -> SensedGains:
+        """`scores`, every candidate's revisit gain (count,): the visibility of the occupied
         voxels its rays stop at that it sees from a direction none of their points was measured
-        from (`REVISIT_DEG`) and its sensor would measure. One walk of the rays for both."""
+        from (`REVISIT_DEG`) and its sensor would measure, and the bound over `candidates` (a
+        mask; None: all). One walk of the rays for all three."""
         keys, voxels, columns, weights = self._runs.relevant(_codes(grid), RELEVANT_VISIBILITY,
                                                              stops=True)
-        candidates = columns // self.rays
+        views = columns // self.rays
         # The runs of occupied voxels carry no gain bit: the gains' sums read nothing of them.
         counted = self._runs.kinds(keys) != 0
         stop = ~counted
         stops = np.flatnonzero(stop)
-        toward = (np.take(self._cameras, candidates[stops], axis=0)
+        toward = (np.take(self._cameras, views[stops], axis=0)
                   - grid.centres_of(np.array(np.unravel_index(voxels[stops], grid.shape))).T)
         near = _SEEN_NEAR[nearest_direction(toward)]
         # Stops seen from a direction already measured are dropped before their sensing is
         # worked out: most of them, once a few views were taken.
         stop[stops[(np.take(grid.measured_from.reshape(-1), voxels[stops]) & near) != 0]] = False
         kept = np.flatnonzero(counted | stop)
-        keys, voxels, candidates, weights, stop = (keys[kept], voxels[kept], candidates[kept],
-                                                   weights[kept], stop[kept])
+        keys, voxels, views, weights, stop = (keys[kept], voxels[kept], views[kept],
+                                              weights[kept], stop[kept])
         if self._light is not None:
-            weights *= self._light.measured(grid, voxels, candidates)
-        revisit = np.bincount(candidates[stop], weights=weights[stop], minlength=len(self))
+            weights *= self._light.measured(grid, voxels, views)
+        measurable = weights >= MEASURABLE_VISIBILITY
+        if candidates is not None:
+            measurable &= candidates[views]
+        revisit = np.bincount(views[stop], weights=weights[stop], minlength=len(self))
         weights[stop] = 0.0
-        return self._runs.sums_at(keys, candidates, weights), revisit
+        return SensedGains(self._runs.sums_at(keys, views, weights), revisit,
+                           _count_in_box(grid, voxels[measurable]))
 
-    def measurable(self, grid: OccupancyGrid, candidates: np.ndarray, gain: Gain = "frontier",
-                   min_visibility: float = 0.5) -> np.ndarray:
-        """The voxels of a gain that one of `candidates` (a mask) would see with a visibility of
-        at least `min_visibility` and its sensor measure: their flat indices, each once."""
-        keys, voxels, columns, _ = self._runs.relevant(_codes(grid), min_visibility)
-        counted = (((self._runs.kinds(keys) >> GAINS.index(gain)) & 1 == 1)
-                   & candidates[columns // self.rays])
-        voxels, columns = voxels[counted], columns[counted]
-        if self._light is not None:
-            voxels = voxels[self._light.measured(grid, voxels, columns // self.rays) > 0.0]
-        return np.unique(voxels)
+
+def _count_in_box(grid: OccupancyGrid, voxels: np.ndarray) -> int:
+    """How many distinct voxels of `voxels` (flat, repeats allowed) lie in the box that bounds
+    the grid's occupied voxels."""
+    occupied = grid.state == OCCUPIED
+    inside = np.zeros(grid.shape, dtype=bool)
+    spans = [np.flatnonzero(occupied.any(axis=tuple(other for other in range(3) if other != axis)))
+             for axis in range(3)]
+    if not all(len(span) for span in spans):
+        return 0
+    inside[spans[0][0]:spans[0][-1] + 1, spans[1][0]:spans[1][-1] + 1,
+           spans[2][0]:spans[2][-1] + 1] = True
+    marked = np.zeros(grid.state.size + 1, dtype=bool)
+    marked[voxels] = True
+    return int(np.count_nonzero(marked[:-1] & inside.reshape(-1)))
 
 
 _STATE_BITS = OCCUPIED + 1

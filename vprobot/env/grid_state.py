@@ -4,8 +4,9 @@ The state is built from the episode's occupancy grid (`Episode.occupancy`: each 
 once, for every reader of a grid of the same settings) and from where views were requested, as
 `nbv` plans: it reads the views' requested poses, sensor poses, points, pixels and blocked
 pixels and the object's centre, never the mesh, the ground truth or the coverage. Every row holds
-the same features (`FEATURES`), so a network can score each candidate with one shared function
-of its row; the episode-wide context is repeated on every row. With the robot, the candidates'
+the same features (`FEATURES`; under structured light `SENSED_FEATURES` after them), so a
+network can score each candidate with one shared function of its row; the episode-wide context is
+repeated on every row. With the robot, the candidates'
 reachability is screened once per episode (`screen_reachability`, from the configuration the
 episode starts in): a row says whether the candidate is reachable and how far the joints move to
 it. `mask` marks the candidates that may be requested (`offered`: not within `EXCLUDE_DEG` of an
@@ -25,6 +26,7 @@ from gymnasium import spaces
 
 from vprobot.config import Config
 from vprobot.coverage.occupancy import GAINS, VOXEL_M, GridSettings
+from vprobot.coverage.view_gains import measurable_share
 from vprobot.env.rewards import step_limit
 from vprobot.episode.views import (
     band_candidates,
@@ -33,6 +35,7 @@ from vprobot.episode.views import (
     request_directions,
     screen_reachability,
 )
+from vprobot.sensing.structured_light import StructuredLight
 
 if TYPE_CHECKING:
     from vprobot.episode import Episode
@@ -51,21 +54,33 @@ FEATURES: tuple[str, ...] = (
     "occupied_share", "free_share", "unknown_share",
 )
 """The columns of `candidates`, in order (see `InspectEnv`'s docstring for what each holds)."""
-VERSION = 2
-"""Raised when what a column holds changes (2: the gains are what the candidate's sensor would
-measure, issue 45; 1: what the camera sees): states stored under another version, a teacher's,
-are not this state's."""
+SENSED_FEATURES: tuple[str, ...] = ("gain_revisit", "gain_revisit_relative", "measurable_left")
+"""The columns that follow `FEATURES` under structured light, where `nbv` adds the revisit gain
+(`ViewGains.revisits`): that gain per ray, relative to the best offered, and the share of the
+surface known so far that the reachable candidates would still measure (`measurable_share`, the
+same on every row). With the ideal sensor the state keeps `FEATURES` alone, as the paper cell's
+agent was trained on."""
+VERSION = 3
+"""Raised when what a column holds changes (3: `SENSED_FEATURES` under structured light; 2: the
+gains are what the candidate's sensor would measure, issue 45; 1: what the camera sees): states
+stored under another version, a teacher's, are not this state's."""
 MATCH_DEG = 1.0
 """A direction this close to a candidate's is that candidate's."""
 _SIGNED = ("direction_x", "direction_y", "direction_z", "closest_request_cos", "current_cos")
 """The columns in [-1, 1]; the others lie in [0, 1]."""
 
 
-def grid_spaces(count: int) -> dict[str, spaces.Box]:
+def grid_features(config: Config) -> tuple[str, ...]:
+    """The columns of `candidates` for the cell's sensing model."""
+    sensed = isinstance(config.sensor.sensing_model, StructuredLight)
+    return (*FEATURES, *SENSED_FEATURES) if sensed else FEATURES
+
+
+def grid_spaces(count: int, features: tuple[str, ...]) -> dict[str, spaces.Box]:
     """The `candidates` (count, features) and `mask` (count,) entries of the state."""
-    low = np.array([-1.0 if name in _SIGNED else 0.0 for name in FEATURES], dtype=np.float32)
+    low = np.array([-1.0 if name in _SIGNED else 0.0 for name in features], dtype=np.float32)
     return {"candidates": spaces.Box(np.tile(low, (count, 1)),
-                                     np.ones((count, len(FEATURES)), dtype=np.float32),
+                                     np.ones((count, len(features)), dtype=np.float32),
                                      dtype=np.float32),
             "mask": spaces.Box(0.0, 1.0, (count,), dtype=np.float32)}
 
@@ -88,7 +103,8 @@ class GridState:
         self.settings = GridSettings.of(config, resolution)
         self.step_limit = step_limit(config.env)
         self._match = np.cos(np.deg2rad(MATCH_DEG))
-        self._low = grid_spaces(len(self.band))["candidates"].low[0]
+        self.features = grid_features(config)
+        self._low = grid_spaces(len(self.band), self.features)["candidates"].low[0]
         self._screening: tuple[np.ndarray, tuple[str | None, ...]] | None = None
 
     def reset(self) -> None:
@@ -136,16 +152,19 @@ class GridState:
         gains = self.band.gains
         # What each candidate's sensor would measure (under structured light, what its
         # projector lights within the incidence limits; else what the camera sees).
-        scores = gains.scores(grid) / (gains.rays * gains.ray_bound)
-        best = scores[mask].max(axis=0, initial=0.0)
-        relative = np.divide(scores, best, out=np.zeros_like(scores), where=best > 0.0)
+        sensed = len(self.features) > len(FEATURES)
+        if sensed:
+            scores, revisit, measurable = gains.revisits(grid, reachable & ~failed)
+        else:
+            scores = gains.scores(grid)
+        scores = scores / (gains.rays * gains.ray_bound)
         current_cos = directions @ self._sensor_direction(episode)
         counts = episode_grid.counts()
         context = [min((len(views) - 1) / self.step_limit, 1.0),
                    *(counts[kind] / grid.state.size for kind in ("occupied", "free", "unknown"))]
         rows = np.column_stack([
             scores,
-            relative,
+            _relative(scores, mask),
             directions,
             cosines.max(axis=1, initial=-1.0),
             current_cos,
@@ -155,6 +174,11 @@ class GridState:
             self._joint_moves(joints, episode),
             np.tile(context, (len(directions), 1)),
         ])
+        if sensed:
+            revisit = revisit[:, None] / gains.rays
+            rows = np.column_stack([
+                rows, revisit, _relative(revisit, mask),
+                np.full(len(rows), measurable_share(measurable, counts["occupied"]))])
         # Clipped to the declared bounds: an unoffered candidate may gain more than the best
         # offered one, and float32 may round a cosine past 1.
         return {"candidates": np.clip(rows, self._low, 1.0).astype(np.float32),
@@ -177,3 +201,10 @@ class GridState:
             return np.zeros(3)
         offset = acquired[-1].position - episode.center
         return offset / np.linalg.norm(offset)
+
+
+def _relative(scores: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Scores (count, columns) over the largest of an offered candidate, column by column (0
+    where that is 0)."""
+    best = scores[mask].max(axis=0, initial=0.0)
+    return np.divide(scores, best, out=np.zeros_like(scores), where=best > 0.0)

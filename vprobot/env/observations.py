@@ -15,7 +15,7 @@ import numpy as np
 from gymnasium import spaces
 
 from vprobot.config import Config, EnvConfig
-from vprobot.env.grid_state import GridState, candidate_count, grid_spaces
+from vprobot.env.grid_state import GridState, candidate_count, grid_features, grid_spaces
 from vprobot.episode.records import ViewRequest
 from vprobot.geometry.poses import Pose
 from vprobot.robots import load_robot
@@ -50,7 +50,8 @@ def observation_space(config: Config) -> spaces.Space:
     by the joints of the configured robot); for `s_grid` a Dict of candidates and mask (and the
     robot state)."""
     if config.env.state == "s_grid":
-        entries: dict[str, spaces.Space] = dict(grid_spaces(candidate_count()))
+        entries: dict[str, spaces.Space] = dict(grid_spaces(candidate_count(),
+                                                               grid_features(config)))
     elif not config.env.robot_state:
         return points_space(config.env)
     else:

@@ -135,8 +135,8 @@ class VolumetricPlanner(InitialViewPlanner, SelfStopping):
         if not self.sensed:
             gains = band.gains.score(grid, self.gain)
         elif self.revisits:
-            scores, revisits = band.gains.revisits(grid)
-            gains = scores[:, column] + REVISIT_WEIGHT * revisits
+            sensed = band.gains.revisits(grid)
+            gains = sensed.scores[:, column] + REVISIT_WEIGHT * sensed.revisit
         else:
             gains = band.gains.scores(grid)[:, column]
         scores = np.where(allowed, gains, 0.0)
