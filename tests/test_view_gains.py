@@ -1,6 +1,7 @@
 """The sensed gains of candidate views (`vprobot.coverage.view_gains`) against hand-built grids
 whose answer is known in closed form: a plate whose projector a step shadows, a plate seen past the
-incidence limit, and the ideal sensor, whose gains are the camera's."""
+incidence limit, and the ideal sensor, whose gains are the camera's; the revisit gain and the
+bound on what is left measurable, also against sample-by-sample references."""
 
 from __future__ import annotations
 
@@ -21,10 +22,12 @@ from vprobot.coverage.occupancy import (
     OccupancyGrid,
 )
 from vprobot.coverage.view_gains import (
+    MEASURABLE_VISIBILITY,
     RELEVANT_VISIBILITY,
     REVISIT_DEG,
     UNKNOWN_PASS,
     ViewGains,
+    measurable_share,
     ray_samples,
 )
 from vprobot.episode.views import band_candidates
@@ -177,13 +180,15 @@ def test_a_plate_never_measured_gains_a_revisit_of_one_ray_from_every_direction_
     assert revisit_gains(measured_plate(np.array([0.0, 0.0, -1.0])), pose) == pytest.approx(1.0)
 
 
-def test_the_revisit_gain_is_the_visibility_of_each_rays_first_occupied_sample_from_a_new_direction(
-) -> None:
-    """The ideal sensor's revisit gain against a sample-by-sample reference on random grids:
-    along each ray the first sample in an occupied voxel, seen with a visibility of at least
-    `RELEVANT_VISIBILITY` (the product of every earlier sample's chance to pass), counts that
-    visibility when none of the directions its voxel was measured from lies within
-    `REVISIT_DEG` of the direction from its centre to the camera."""
+def test_the_revisit_gain_and_the_bound_are_a_sample_by_sample_walk_of_the_rays() -> None:
+    """The ideal sensor's revisit gain and bound against a sample-by-sample reference on random
+    grids: along each ray the first sample in an occupied voxel, seen with a visibility of at
+    least `RELEVANT_VISIBILITY` (the product of every earlier sample's chance to pass), counts
+    that visibility when none of the directions its voxel was measured from lies within
+    `REVISIT_DEG` of the direction from its centre to the camera. The bound counts, once each,
+    the voxels of the chosen candidates' rays seen with a visibility of at least
+    `MEASURABLE_VISIBILITY` that are unknown or such a revisited occupied one, inside the box
+    that bounds the occupied voxels."""
     config = load_config()
     grid = OccupancyGrid.for_cell(config)
     sensor = SensorModel.from_config(config.sensor)
@@ -192,12 +197,19 @@ def test_the_revisit_gain_is_the_visibility_of_each_rays_first_occupied_sample_f
     rng = np.random.default_rng(1)
     limit = math.cos(math.radians(REVISIT_DEG))
     checked = 0
+    chosen = rng.random(len(poses)) < 0.6
     for shares in ((0.5, 0.45, 0.05), (0.2, 0.7, 0.1)):
         grid.state[:] = rng.choice([UNKNOWN, FREE, OCCUPIED], size=grid.shape, p=shares)
         grid.measured_from[:] = rng.integers(0, 1 << 26, size=grid.shape, dtype=np.uint32) & (
             rng.integers(0, 1 << 26, size=grid.shape, dtype=np.uint32))
         directions = sensor.at_resolution((8, 6)).ray_directions
+        # Occupied voxels only in the middle half of the grid along each axis, unknown
+        # elsewhere: the bound counts only inside the box about them.
+        middle = np.zeros(grid.shape, dtype=bool)
+        middle[tuple(slice(size // 4, size - size // 4) for size in grid.shape)] = True
+        grid.state[~middle & (grid.state == OCCUPIED)] = UNKNOWN
         expected = np.zeros(len(poses))
+        bound: set[int] = set()
         for candidate, pose in enumerate(poses):
             _, points = ray_samples(pose, directions, sensor, VOXEL)
             index = grid.flat_index(points)
@@ -205,6 +217,9 @@ def test_the_revisit_gain_is_the_visibility_of_each_rays_first_occupied_sample_f
                 visibility = 1.0
                 for voxel in index[ray]:
                     state = FREE if voxel < 0 else grid.state.reshape(-1)[voxel]
+                    if state == UNKNOWN and visibility >= MEASURABLE_VISIBILITY and (
+                            chosen[candidate]):
+                        bound.add(int(voxel))
                     if state == OCCUPIED:
                         if visibility >= RELEVANT_VISIBILITY:
                             cell = np.array(np.unravel_index(voxel, grid.shape))
@@ -216,9 +231,19 @@ def test_the_revisit_gain_is_the_visibility_of_each_rays_first_occupied_sample_f
                             if all(nearest @ direction < limit - 1e-9 for direction in seen):
                                 expected[candidate] += visibility
                                 checked += 1
+                                if visibility >= MEASURABLE_VISIBILITY and chosen[candidate]:
+                                    bound.add(int(voxel))
                         break
                     visibility *= UNKNOWN_PASS ** 0.5 if state == UNKNOWN else 1.0
-        np.testing.assert_allclose(gains.revisits(grid)[1], expected, rtol=1e-5)
+        sensed = gains.revisits(grid, chosen)
+        np.testing.assert_allclose(sensed.revisit, expected, rtol=1e-5)
+        cells = np.argwhere(grid.state == OCCUPIED)
+        low, high = cells.min(axis=0), cells.max(axis=0)
+        inside = [voxel for voxel in bound if ((np.array(np.unravel_index(voxel, grid.shape))
+                                                >= low) & (np.array(np.unravel_index(
+                                                    voxel, grid.shape)) <= high)).all()]
+        assert 10 < len(inside) < len(bound)
+        assert sensed.measurable == len(inside)
     assert checked > 50
 
 
@@ -243,3 +268,55 @@ def test_a_frame_marks_each_voxel_it_measured_with_the_direction_to_its_camera()
     # The two cameras lie in different bins: every measured voxel holds two bits.
     measured = expected[expected != 0]
     assert len(measured) > 50 and (measured & (measured - 1) != 0).all()
+
+
+def test_the_bound_counts_what_the_chosen_candidates_would_measure_about_the_part_once() -> None:
+    # The plate's top layer unknown but for two occupied voxels, never measured, four voxels
+    # apart along x: the box about them holds the three unknown voxels between them (and none
+    # below). One ray straight down per candidate, through free space to the top layer.
+    grid = plate()
+    z = grid.origin[2] + (np.arange(grid.shape[2]) + 0.5) * VOXEL
+    top = int(np.flatnonzero(z < 0.0)[-1])
+    middle = grid.shape[0] // 2
+    grid.state[[middle, middle + 4], middle, top] = OCCUPIED
+
+    def above(i: int) -> Pose:
+        centre = grid.origin + (np.array([i, middle, top]) + 0.5) * VOXEL
+        return Pose(centre + [0.0, 0.0, 0.4], np.diag([1.0, -1.0, -1.0]))
+
+    # Twice over the same unknown voxel, over an unknown one outside the box, over an occupied
+    # one never measured (a revisit).
+    poses = [above(middle + 2), above(middle + 2), above(middle + 7), above(middle)]
+    gains = ViewGains(grid, SENSOR, poses, rays=(1, 1), sensing=IDEAL)
+    # The voxel under the first unknown one is seen with a visibility of 0.5 (counted) but lies
+    # outside the box; the revisited voxel counts once.
+    assert gains.revisits(grid).measurable == 2
+    assert gains.revisits(grid, np.array([True, True, True, False])).measurable == 1
+    assert gains.revisits(grid, np.array([False, False, True, False])).measurable == 0
+    # Measured from above, the occupied voxel is no revisit from there.
+    grid.measured_from[middle, middle, top] = np.uint32(1) << np.uint32(
+        np.flatnonzero((DIRECTIONS == [0.0, 0.0, 1.0]).all(axis=1))[0])
+    assert gains.revisits(grid).measurable == 1
+    assert measurable_share(1, 2) == pytest.approx(1 / 3) and measurable_share(0, 2) == 0.0
+
+
+def test_the_bound_drops_a_voxel_whose_projector_a_step_shadows() -> None:
+    # The wall and the camera of the shadow test above; two rows of occupied voxels in the
+    # plate's top layer, at x = -0.065 and 0.015 (under the wall), stretch the box about the
+    # occupied voxels over the point.
+    target = np.array([-0.025, 0.0, 0.0])
+    pose = Pose(target + [0.0, 0.0, 0.4], np.diag([1.0, -1.0, -1.0]))
+    grid = plate()
+    x = grid.origin[0] + (np.arange(grid.shape[0]) + 0.5) * VOXEL
+    z = grid.origin[2] + (np.arange(grid.shape[2]) + 0.5) * VOXEL
+    for row in (-0.065, 0.015):
+        grid.state[np.argmin(np.abs(x - row)), :, np.flatnonzero(z < 0.0)[-1]] = OCCUPIED
+    for sensing in (IDEAL, LIGHT):
+        assert ViewGains(grid, SENSOR, [pose], rays=(1, 1),
+                         sensing=sensing).revisits(grid).measurable == 1
+    wall = ((x >= 0.01) & (x <= 0.05))[:, None, None] & ((z > 0.0) & (z <= 0.2))[None, None, :]
+    grid.state[np.broadcast_to(wall, grid.shape)] = OCCUPIED
+    assert ViewGains(grid, SENSOR, [pose], rays=(1, 1),
+                     sensing=IDEAL).revisits(grid).measurable == 1
+    assert ViewGains(grid, SENSOR, [pose], rays=(1, 1),
+                     sensing=LIGHT).revisits(grid).measurable == 0
