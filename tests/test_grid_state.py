@@ -15,9 +15,9 @@ from scipy import ndimage
 from vprobot.agents.trained import TrainedAgent
 from vprobot.config import Config, ConfigError, replace, with_sensor
 from vprobot.config.sensor import SensorModel
-from vprobot.coverage.occupancy import GAINS, EpisodeGrid, OccupancyGrid
+from vprobot.coverage.occupancy import GAINS, OCCUPIED, EpisodeGrid, OccupancyGrid
 from vprobot.coverage.view_gains import UNKNOWN_PASS
-from vprobot.env.grid_state import FEATURES, GridState
+from vprobot.env.grid_state import FEATURES, SENSED_FEATURES, GridState
 from vprobot.env.inspect_env import InspectEnv
 from vprobot.episode import Episode
 from vprobot.episode.views import band_directions, offered
@@ -171,7 +171,8 @@ def test_under_structured_light_the_gains_are_what_each_candidates_sensor_measur
     config = replace(with_sensor(CONFIG, "zivid2plus_mr60"), "sensor", resolution=RESOLUTION)
     env = InspectEnv(config)
     env.reset(seed=3)
-    rows = env.step(int(np.argmax(band_directions()[:, 2])))[0]["candidates"]
+    observation = env.step(int(np.argmax(band_directions()[:, 2])))[0]
+    rows = observation["candidates"]
     builder = env.observer.grid_state
     gains = builder.band.gains
     grid = env.episode.occupancy(builder.settings).grid
@@ -181,6 +182,23 @@ def test_under_structured_light_the_gains_are_what_each_candidates_sensor_measur
                                atol=1e-7)
     # The projector and the incidence limits keep less than the camera sees.
     assert (sensed <= camera + 1e-12).all() and (sensed < 0.9 * camera).any()
+    # After FEATURES, the revisit gain per ray, over the best offered, and the bound over the
+    # reachable candidates that did not fail, the same on every row, as a share of the occupied
+    # voxels and the measurable ones.
+    columns = {name: index for index, name in enumerate(builder.features)}
+    assert builder.features == (*FEATURES, *SENSED_FEATURES)
+    revisit = gains.revisits(grid).revisit / gains.rays
+    np.testing.assert_allclose(rows[:, columns["gain_revisit"]], revisit, rtol=1e-5)
+    best = revisit[observation["mask"] > 0].max()
+    assert best > 0.0
+    np.testing.assert_allclose(rows[:, columns["gain_revisit_relative"]],
+                               np.minimum(revisit / best, 1.0), rtol=1e-5)
+    usable = (rows[:, COLUMN["reachable"]] == 1) & (rows[:, COLUMN["failed"]] == 0)
+    assert 0 < usable.sum() < len(usable)
+    measurable = gains.revisits(grid, usable).measurable
+    occupied = int((grid.state == OCCUPIED).sum())
+    assert rows[:, columns["measurable_left"]] == pytest.approx(
+        measurable / (measurable + occupied))
 
 
 def test_offered_drops_directions_within_10_deg_of_a_request_and_failed_ones() -> None:

@@ -17,8 +17,8 @@ import pytest
 
 from vprobot.agents.trained import TrainedAgent
 from vprobot.cli import main
-from vprobot.config import Config, replace
-from vprobot.coverage.occupancy import OccupancyGrid
+from vprobot.config import Config, replace, with_sensor
+from vprobot.coverage.occupancy import OCCUPIED, VOXEL_M, EpisodeGrid, GridSettings, OccupancyGrid
 from vprobot.episode import (
     Episode,
     PartScene,
@@ -27,6 +27,7 @@ from vprobot.episode import (
     seeded_episode,
     write_episode_list,
 )
+from vprobot.episode.views import band_candidates
 from vprobot.evaluation import CURVE_COLUMNS, plan_path
 from vprobot.files.paths import DEFAULT_MOTOR
 from vprobot.planners.runner import PLAN_RAN_OUT, make_planner, run, run_episode
@@ -44,6 +45,11 @@ from vprobot.stopping.rules import StopSubject, make_stop_rule, parse_stop, stop
 from vprobot.stopping.rules.estimate import EstimateStop
 
 RESOLUTION = (107, 75)
+LIGHT_CONFIG = replace(with_sensor(Config(), "zivid2plus_mr60"), "sensor", resolution=(107, 90))
+"""The realistic cell's sensor and sensing model at a small resolution."""
+SHARE = 0.25
+"""The `measurable` rule's S in its test: reached in about seven views of the default motor
+under `LIGHT_CONFIG`."""
 CONFIG = replace(Config(), "sensor", resolution=RESOLUTION)
 
 
@@ -58,6 +64,7 @@ def motor() -> PartScene:
     ("views", "bad stop rule 'views': N must be an integer >= 1"),
     ("estimate:1.5", "bad stop rule 'estimate:1.5': C must be a number in (0, 1)"),
     ("estimate:0", "bad stop rule 'estimate:0': C must be a number in (0, 1)"),
+    ("measurable:1", "bad stop rule 'measurable:1': S must be a number in (0, 1)"),
 ])
 @pytest.mark.parametrize("command", [["plan", "--out", "plan.json"], ["evaluate"]])
 def test_a_bad_stop_value_is_one_line_naming_it_and_what_is_allowed(
@@ -75,8 +82,8 @@ def test_a_bad_stop_value_is_one_line_naming_it_and_what_is_allowed(
 
 def test_parse_stop_reads_each_form() -> None:
     assert [parse_stop(text)[1] for text in ("goal", "estimate", "estimate:0.9", "views:12",
-                                             "grid", "agent")] == [
-        {}, {}, {"confidence": 0.9}, {"count": 12}, {}, {}]
+                                             "grid", "agent", "measurable", "measurable:0.1")] == [
+        {}, {}, {"confidence": 0.9}, {"count": 12}, {}, {}, {}, {"share": 0.1}]
 
 
 def test_a_rule_sees_which_planners_stop_at_the_goal_and_which_decide_their_stop() -> None:
@@ -204,6 +211,26 @@ def test_nbv_at_grid_makes_the_requests_of_nbv_under_the_grid_rule(motor: PartSc
     assert self_stopped.stop_reason == governed.stop_reason
     assert self_stopped.stop_reason.startswith("grid: the latest 2 views")
     assert (self_stopped.planner_stopped, governed.planner_stopped) == (True, False)
+
+
+def test_the_measurable_rule_stops_at_the_first_view_where_at_most_s_is_left() -> None:
+    # The share worked out again after each view from a grid of the run's frames: the bound
+    # of every band candidate (free-flying, all reachable) against the occupied voxels.
+    spec = seeded_episode(LIGHT_CONFIG.env, DEFAULT_MOTOR, 0)
+    motor = PartScene.load(LIGHT_CONFIG, DEFAULT_MOTOR)
+    result = run(LIGHT_CONFIG, motor, "nbv", spec, "free", stop=f"measurable:{SHARE}")
+    assert result.stop_reason.startswith("measurable: the reachable candidates would measure")
+    views = result.record.views
+    grid = EpisodeGrid(GridSettings.of(LIGHT_CONFIG))
+    grid.update(views)
+    gains = band_candidates(LIGHT_CONFIG, VOXEL_M).gains
+    left = []
+    for count in range(1, len(views) + 1):
+        after = grid.after(count)
+        measurable = gains.revisits(after).measurable
+        left.append(measurable / (measurable + int((after.state == OCCUPIED).sum())))
+    assert 2 < len(views) < LIGHT_CONFIG.env.max_acquisitions
+    assert min(left[:-1]) > SHARE >= left[-1]
 
 
 def test_nbv_at_any_rule_stops_itself_by_that_rule(motor: PartScene) -> None:

@@ -33,7 +33,7 @@ from vprobot.episode.views import (
     band_directions,
     offered,
     request_directions,
-    screen_reachability,
+    screen_band,
 )
 from vprobot.sensing.structured_light import StructuredLight
 
@@ -118,12 +118,7 @@ class GridState:
         where it starts (the object's placement decides what collides), as B_SCP screens its
         candidates; nbv tries the IK per request instead."""
         if self._screening is None:
-            if episode.uses_robot:
-                self._screening = screen_reachability(
-                    episode.scene.arm, episode.robot.collisions, episode.q,
-                    self.band.directions, self.band.targets)
-            else:
-                self._screening = np.zeros((len(self.band), 0)), (None,) * len(self.band)
+            self._screening = screen_band(episode, self.band)
         return self._screening
 
     def joints_of(self, candidate: int) -> np.ndarray | None:

@@ -39,7 +39,7 @@ from vprobot.kinematics import RobotArm, SensorTarget
 from vprobot.kinematics.collision import CollisionChecker
 
 if TYPE_CHECKING:
-    from vprobot.episode import ViewRecord
+    from vprobot.episode import Episode, ViewRecord
 
 SCREEN_RESTARTS = 1
 """IK restarts (home) of the screening: 8 find the same reachable candidates (781 of 900 on the
@@ -107,6 +107,17 @@ def screen_reachability(arm: RobotArm, collisions: CollisionChecker, start_q: np
                         visited[neighbour] = True
                         queue.append(neighbour)
     return joints, tuple(reasons)
+
+
+def screen_band(episode: Episode, band: BandCandidates
+                ) -> tuple[np.ndarray, tuple[str | None, ...]]:
+    """`screen_reachability` of the band candidates from where the episode's robot is (its
+    object placement decides what collides); free-flying every candidate is taken, and the
+    configurations have no columns."""
+    if not episode.uses_robot:
+        return np.zeros((len(band), 0)), (None,) * len(band)
+    return screen_reachability(episode.scene.arm, episode.robot.collisions, episode.q,
+                               band.directions, band.targets)
 
 
 @dataclasses.dataclass(frozen=True)

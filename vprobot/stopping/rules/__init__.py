@@ -1,13 +1,14 @@
-"""Stop rules any planner can use (`--stop goal|estimate|confident|grid|views:N|agent`).
+"""Stop rules any planner can use (`--stop goal|estimate|confident|grid|measurable|views:N|agent`).
 
 `goal` is the simulator's stop at the coverage goal (the default); `estimate` stops when the
 model-free coverage estimate says the goal is reached with a chosen confidence; `confident` when
 the calibrated probability that it is reaches a threshold certified for false stops; `grid` when the
-surface seen stops growing; `views:N` after N acquisitions; `agent` leaves it to an agent's
-learned stop action. One module per rule, registered in `STOPS` (`base`), which declares the
-bundled ones and imports a rule's module on the first lookup of its name; the runner asks the
-rule before each request (`vprobot.planners.runner`), and `nbv@RULE` asks its rule itself
-before each view (`vprobot.planners.nbv`).
+surface seen stops growing; `measurable` when the reachable candidates would measure little more;
+`views:N` after N acquisitions; `agent` leaves it to an agent's learned stop action. One module
+per rule, registered in `STOPS` (`base`), which declares the bundled ones and imports a rule's
+module on the first lookup of its name; the runner asks the rule before each request
+(`vprobot.planners.runner`), and `nbv@RULE` asks its rule itself before each view
+(`vprobot.planners.nbv`).
 """
 
 from __future__ import annotations

@@ -125,6 +125,10 @@ STOPS: Registry[type[StopRule]] = Registry(
                         description="the simulator's stop at the coverage goal"),
         "grid": Bundled("vprobot.stopping.rules.grid:GridStop",
                         description="the seen surface stops growing"),
+        "measurable": Bundled(
+            "vprobot.stopping.rules.measurable:MeasurableStop", pattern=r"(?::(?P<share>.*))?",
+            usage="measurable[:S] (0 < S < 1, default 0.04)",
+            description="what the reachable candidates would still measure falls to a share S"),
         "views": Bundled("vprobot.stopping.rules.views:ViewsStop",
                          pattern=r"(?::(?P<count>.*))?", usage="views:N (N >= 1)",
                          description="after N acquisitions"),
