@@ -105,7 +105,7 @@ class InspectEnv(gym.Env):
     |---|---|
     | `s_cov` | (state_points, 3): the accumulated acquired cloud P_cov, resampled (model-free) |
     | `s_bin` | (state_points, 4): GT points plus a 0/1 "covered" column (needs the model) |
-    | `s_grid` | Dict `candidates` (K, 19), `mask` (K,); K = 128 band candidates (needs `A_view`) |
+    | `s_grid` | Dict `candidates` (K, 19; 22 under structured light), `mask` (K,); K = 128 (`A_view`) |
     | `robot_state` | adds a Dict entry `robot` (15,): sensor position, its x and z axes, joints |
 
     Coordinates are object-centred (world-aligned axes), divided by `state_scale_m`.
@@ -126,10 +126,13 @@ class InspectEnv(gym.Env):
     | 14 | largest joint move to its screened configuration / pi (0 free-flying) | [0, 1] |
     | 15 | requests used of the budget (the step limit) | [0, 1] |
     | 16-18 | shares of the grid's voxels occupied, free, unknown | [0, 1] |
+    | 19 | under structured light: the revisit gain (`ViewGains.revisits`) / rays | [0, 1] |
+    | 20 | the same / the largest of an offered candidate | [0, 1] |
+    | 21 | the share of the known surface the reachable candidates would still measure | [0, 1) |
 
     The gains are what the candidate's sensor would measure (`ViewGains.scores`): under
     structured light only what its projector lights within both incidence limits, otherwise
-    what the camera sees. Columns 15-18 are the same on every row. `mask` is 1 where the
+    what the camera sees. Columns 15-18 and 21 are the same on every row. `mask` is 1 where the
     candidate may be requested: reachable, not within 10 deg (`views.EXCLUDE_DEG`) of an
     earlier request, taken or failed, and not failed; if that leaves none, every candidate that
     did not fail is unmasked.
