@@ -231,6 +231,9 @@ def test_the_measurable_rule_stops_at_the_first_view_where_at_most_s_is_left() -
         left.append(measurable / (measurable + int((after.state == OCCUPIED).sum())))
     assert 2 < len(views) < LIGHT_CONFIG.env.max_acquisitions
     assert min(left[:-1]) > SHARE >= left[-1]
+    # Asked before a fixed plan's first view, with nothing seen, it lets the plan start.
+    fixed = run(LIGHT_CONFIG, motor, "uniform3", spec, "free", stop=f"measurable:{SHARE}")
+    assert (len(fixed.record.views), fixed.stop_reason) == (3, PLAN_RAN_OUT)
 
 
 def test_nbv_at_any_rule_stops_itself_by_that_rule(motor: PartScene) -> None:

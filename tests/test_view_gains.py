@@ -298,6 +298,8 @@ def test_the_bound_counts_what_the_chosen_candidates_would_measure_about_the_par
         np.flatnonzero((DIRECTIONS == [0.0, 0.0, 1.0]).all(axis=1))[0])
     assert gains.revisits(grid).measurable == 1
     assert measurable_share(1, 2) == pytest.approx(1 / 3) and measurable_share(0, 2) == 0.0
+    # Nothing seen, nothing known: all of it is still to measure.
+    assert measurable_share(0, 0) == 1.0 and measurable_share(3, 0) == 1.0
 
 
 def test_the_bound_drops_a_voxel_whose_projector_a_step_shadows() -> None:

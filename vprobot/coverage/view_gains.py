@@ -111,8 +111,9 @@ class SensedGains(NamedTuple):
 
 def measurable_share(measurable: int, occupied: int) -> float:
     """The share of the surface known so far (the occupied voxels and the measurable ones) that
-    is still to measure: in [0, 1), 0 when nothing is measurable."""
-    return measurable / (measurable + occupied) if measurable else 0.0
+    is still to measure: 0 when nothing is measurable, 1 before anything was seen."""
+    known = measurable + occupied
+    return measurable / known if known else 1.0
 
 
 _SEEN_NEAR = seen_near(REVISIT_DEG)
