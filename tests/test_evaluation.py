@@ -773,6 +773,30 @@ def test_a_setting_added_since_the_folder_was_made_resumes_at_its_default(
                  carriers=["free"])
 
 
+def test_a_folder_made_in_another_checkout_resumes_and_a_changed_mesh_is_still_refused(
+        tmp_path: Path) -> None:
+    """Mesh files are recorded under the episode list's names; a folder that recorded them by
+    the absolute paths of the checkout that made it (as before) resumes in another one, and a
+    mesh whose content differs is refused whatever its name."""
+    specs = episode_list(CONFIG, [DEFAULT_MOTOR], [0])
+    evaluate(CONFIG, ["hrec"], specs, tmp_path, progress=False, carriers=["free"])
+    path = tmp_path / "evaluation_settings.json"
+    settings = json.loads(path.read_text())
+    ((name, digest),) = settings["sha256"].items()
+    assert name == specs[0].part
+    elsewhere = f"/another/checkout/vprobot/assets/motors/{name}"
+    settings["sha256"] = {elsewhere: digest}
+    path.write_text(json.dumps(settings))
+    table = evaluate(CONFIG, ["hrec", "uniform2"], specs, tmp_path, progress=False,
+                     carriers=["free"])
+    assert [row["planner"] for row in table] == ["hrec", "uniform2"]
+    settings["sha256"] = {elsewhere: "0" * 64}
+    path.write_text(json.dumps(settings))
+    with pytest.raises(ValueError, match=f"{name} changed since the evaluation"):
+        evaluate(CONFIG, ["hrec", "uniform3"], specs, tmp_path, progress=False,
+                 carriers=["free"])
+
+
 def test_a_folder_recorded_under_keys_renamed_since_resumes_under_their_new_names(
         tmp_path: Path) -> None:
     """A folder made before `env.motors` became `env.parts`, the episodes table's `motor`

@@ -479,13 +479,31 @@ def _settings(config: Config, specs: Sequence[EpisodeSpec],
     """What an evaluation's rows depend on besides its episodes, planners and carriers, as
     JSON data: the config, the estimator file and the content of it and of the mesh files
     (a file overwritten between a kill and the resume would mix two parts in one table; a
-    generated object's content is named by its name)."""
-    files = [spec.part_path for spec in specs if not is_generated(spec.part)]
+    generated object's content is named by its name). Files are named as the episode list and
+    the command name them (a bundled motor by its name, a file by the path given), not by
+    where this checkout lies: a clone elsewhere resumes the folder."""
+    files = {spec.part: spec.part_path for spec in specs if not is_generated(spec.part)}
     if estimator is not None:
-        files.append(Path(estimator))
+        files[str(estimator)] = Path(estimator)
     return {"config": config_document(config),
-            "estimator": None if estimator is None else str(Path(estimator).resolve()),
-            "sha256": {str(file.resolve()): file_sha256(file) for file in dict.fromkeys(files)}}
+            "estimator": None if estimator is None else str(estimator),
+            "sha256": {name: file_sha256(file) for name, file in files.items()}}
+
+
+def _named_as_now(document: dict[str, Any], current: dict[str, Any]) -> dict[str, Any]:
+    """A record made when files were named by their absolute paths (tied to the checkout that
+    made it), with each such name replaced by the current name it ends with."""
+    names = [*current["sha256"], *([current["estimator"]] if current["estimator"] else [])]
+
+    def renamed(name: str) -> str:
+        if not Path(name).is_absolute() or name in names:
+            return name
+        return next((now for now in names if name.endswith("/" + now.lstrip("./"))), name)
+
+    estimator = document.get("estimator")
+    return {**document, "estimator": None if estimator is None else renamed(estimator),
+            **({"sha256": {renamed(name): digest for name, digest in document["sha256"].items()}}
+               if "sha256" in document else {})}
 
 
 def _flat_settings(settings: dict[str, Any]) -> dict[str, Any]:
@@ -523,7 +541,7 @@ def _start_settings(path: Path, settings: dict[str, Any], resumed: bool) -> None
                           stacklevel=3)
         write_text(path, json.dumps(settings, indent=1) + "\n")
         return
-    document = json.loads(path.read_text())
+    document = _named_as_now(json.loads(path.read_text()), settings)
     recorded = _flat_settings({**document, "config": _in_current_keys(document["config"])})
     current = _flat_settings(settings)
     # A setting added to vprobot after the folder was made left its rows as they were if it is
