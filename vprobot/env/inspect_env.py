@@ -105,7 +105,7 @@ class InspectEnv(gym.Env):
     |---|---|
     | `s_cov` | (state_points, 3): the accumulated acquired cloud P_cov, resampled (model-free) |
     | `s_bin` | (state_points, 4): GT points plus a 0/1 "covered" column (needs the model) |
-    | `s_grid` | Dict `candidates` (K, 19; 22 under structured light), `mask` (K,); K = 128 (`A_view`) |
+    | `s_grid` | Dict `candidates` (K, 19; 22 structured light), `mask` (K,); K = 128 (`A_view`) |
     | `robot_state` | adds a Dict entry `robot` (15,): sensor position, its x and z axes, joints |
 
     Coordinates are object-centred (world-aligned axes), divided by `state_scale_m`.
