@@ -98,7 +98,7 @@ def test_collecting_teacher_states_screens_each_episode_once(
         screenings.append(args)
         return screen_reachability(*args)
 
-    monkeypatch.setattr("vprobot.env.grid_state.screen_reachability", counted)
+    monkeypatch.setattr("vprobot.episode.views.screen_reachability", counted)
     monkeypatch.setattr("vprobot.planners.candidates.screen_reachability", counted)
     states = collect(config("robot"), episodes=1, seed=0, folder=tmp_path)
     assert len(screenings) == 1 and len(states) >= 1
