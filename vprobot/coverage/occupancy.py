@@ -194,6 +194,18 @@ class OccupancyGrid:
         near[:, :, :-1] |= state[:, :, 1:]
         return near
 
+    def occupied_box(self) -> tuple[slice, slice, slice] | None:
+        """The box of voxels that bounds the occupied ones, as slices of the grid; None before
+        any is occupied."""
+        occupied = self.state == OCCUPIED
+        spans = [np.flatnonzero(occupied.any(axis=tuple(other for other in range(3)
+                                                         if other != axis)))
+                 for axis in range(3)]
+        if not len(spans[0]):
+            return None
+        return (slice(spans[0][0], spans[0][-1] + 1), slice(spans[1][0], spans[1][-1] + 1),
+                slice(spans[2][0], spans[2][-1] + 1))
+
     def next_to(self, kind: int) -> np.ndarray:
         """Whether each voxel has a face neighbour of state `kind` (bool, grid shape)."""
         return (self.neighbours() & (1 << kind)) != 0

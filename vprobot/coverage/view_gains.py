@@ -259,18 +259,13 @@ class ViewGains:
 
 def _count_in_box(grid: OccupancyGrid, voxels: np.ndarray) -> int:
     """How many distinct voxels of `voxels` (flat, repeats allowed) lie in the box that bounds
-    the grid's occupied voxels."""
-    occupied = grid.state == OCCUPIED
-    inside = np.zeros(grid.shape, dtype=bool)
-    spans = [np.flatnonzero(occupied.any(axis=tuple(other for other in range(3) if other != axis)))
-             for axis in range(3)]
-    if not all(len(span) for span in spans):
+    the grid's occupied voxels (`OccupancyGrid.occupied_box`)."""
+    box = grid.occupied_box()
+    if box is None:
         return 0
-    inside[spans[0][0]:spans[0][-1] + 1, spans[1][0]:spans[1][-1] + 1,
-           spans[2][0]:spans[2][-1] + 1] = True
     marked = np.zeros(grid.state.size + 1, dtype=bool)
     marked[voxels] = True
-    return int(np.count_nonzero(marked[:-1] & inside.reshape(-1)))
+    return int(np.count_nonzero(marked[:-1].reshape(grid.shape)[box]))
 
 
 _STATE_BITS = OCCUPIED + 1

@@ -123,12 +123,11 @@ class CoverageFeatures:
         near_occupied = grid.next_to(OCCUPIED)
         rear_side = int((unknown & near_occupied).sum())
         open_surface = int((unknown & near_occupied & grid.next_to(FREE)).sum())
-        cells = np.argwhere(grid.state == OCCUPIED)
-        if len(cells):
-            low, high = cells.min(axis=0), cells.max(axis=0) + 1
-            extent = grid.voxel_m * float(np.linalg.norm(high - low))
-            hull = unknown[low[0]:high[0], low[1]:high[1], low[2]:high[2]]
-            hull_unknown = int(hull.sum())
+        box = grid.occupied_box()
+        if box is not None:
+            extent = grid.voxel_m * float(np.linalg.norm([span.stop - span.start
+                                                          for span in box]))
+            hull_unknown = int(unknown[box].sum())
         else:
             extent, hull_unknown = 0.0, 0
         frames = [(view, change) for view, change in
