@@ -35,7 +35,9 @@ def main() -> None:
     reached = (f"first at or above 90 % after {int(first['step']):,} steps, "
                f"{float(first['wall_s']) / 60:.1f} min" if first else "never at 90 %")
     command = (args.run / "command.txt").read_text().splitlines()
-    pretrained = (", the Q-network fitted to the teacher before any RL step"
+    fitted_to = {"values": "values", "cover": "remaining covers (membership in some smallest "
+                 "cover)", "views": "views to the goal"}[config.agent.pretrain_target]
+    pretrained = (f", the Q-network fitted to the teacher's {fitted_to} before any RL step"
                   if int(best["step"]) == 0 and config.agent.pretrain_episodes else "")
     decides = ", and decides itself when to stop" if config.env.stop_action else ""
     (args.out / "README.md").write_text(f"""# A bundled agent

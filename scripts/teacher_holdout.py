@@ -81,9 +81,13 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=100)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--targets", nargs="+", choices=TARGETS, default=list(TARGETS))
+    parser.add_argument("--net-arch", type=int, nargs="+",
+                        help="hidden widths of the network (default: the profile's)")
     parser.add_argument("--out", type=Path, required=True, help="CSV to write")
     args = parser.parse_args()
     config = load_config(args.profile)
+    if args.net_arch:
+        config = replace(config, "agent", net_arch=tuple(args.net_arch))
     if (config.agent.algorithm, config.agent.encoder) != ("dqn", "candidates"):
         parser.error(f"{args.profile} is not a candidate agent's profile (agent.algorithm dqn, "
                      f"agent.encoder candidates)")
@@ -106,6 +110,7 @@ def main() -> None:
             loss = fit(model, fitted, args.epochs, seed, target)[loss_column(target)]
             for name, states in (("fitted", fitted), ("held_out", held)):
                 rows.append({"target": target, "seed": seed, "epochs": args.epochs,
+                             "net_arch": " ".join(map(str, config.agent.net_arch)),
                              "states": name, "count": len(states), "final_loss": loss[-1],
                              **score(model, states, typical_left)})
                 print(", ".join(f"{key} {value:.4g}" if isinstance(value, float)
