@@ -308,6 +308,23 @@ def test_the_cover_profiles_are_the_realistic_one_fitted_to_the_labels_on_its_te
                    total_steps=values.agent.total_steps) == values
 
 
+def test_the_paper_cells_cover_profile_is_its_generalist_fitted_to_the_labels() -> None:
+    """cpu-cover.yaml differs from cpu-candidates.yaml only in what the imitation fits, the
+    teacher folder it fits (the paper cell's own: the realistic cell's states are another
+    sensor's), drawn once from its teacher seed, and a shorter RL run on one env, so that two
+    seeds train at once."""
+    values = profile_config(CONFIGS_DIR / "agents" / "cpu-candidates.yaml")
+    fitted = profile_config(CONFIGS_DIR / "agents" / "cpu-cover.yaml")
+    assert (values.agent.pretrain_target, fitted.agent.pretrain_target) == ("values", "cover")
+    assert fitted.agent.teacher_dir not in (
+        values.agent.teacher_dir, profile_config(CONFIGS_DIR / "agents" /
+                                                 "real-cover.yaml").agent.teacher_dir)
+    assert (fitted.agent.n_envs, fitted.agent.total_steps) < (values.agent.n_envs,
+                                                             values.agent.total_steps)
+    assert replace(fitted, "agent", pretrain_target="values", teacher_seed=None, teacher_dir=None,
+                   n_envs=values.agent.n_envs, total_steps=values.agent.total_steps) == values
+
+
 def test_the_candidate_profile_loads_pretrains_a_dqn_and_passes_the_memory_check() -> None:
     config = profile_config(CONFIGS_DIR / "agents" / "cpu-candidates.yaml")
     agent = config.agent
